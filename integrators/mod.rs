@@ -1,0 +1,117 @@
+//! The integrator registry: every algorithm by name, with a one-line summary and a
+//! constructor. The CLI's `--integrator`, a scene's `[render] integrator`, the EXR metadata
+//! and the tests all go through this table.
+
+pub mod pt;
+
+use crate::error::{Error, Result};
+use crate::render::Integrator;
+use std::cell::Cell;
+
+/// Settings every integrator receives: the depth limit plus `key=value` options
+/// (`-O key=value` on the command line), each checked by the integrator that reads it.
+pub struct IntegratorParams {
+    /// Maximum number of path segments.
+    pub max_depth: u32,
+    pub options: Options,
+}
+
+pub struct Entry {
+    pub name: &'static str,
+    pub summary: &'static str,
+    pub build: fn(&IntegratorParams) -> Result<Box<dyn Integrator>>,
+}
+
+pub static REGISTRY: &[Entry] = &[Entry {
+    name: "pt",
+    summary: "path tracing: next-event estimation and BSDF sampling combined by MIS, Russian roulette",
+    build: pt::build,
+}];
+
+/// Build an integrator by name; an unknown name lists the valid ones, and an option that
+/// the integrator does not read is an error.
+pub fn build(name: &str, params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
+    let Some(entry) = REGISTRY.iter().find(|e| e.name == name) else {
+        let names: Vec<&str> = REGISTRY.iter().map(|e| e.name).collect();
+        return Err(Error::new(format!(
+            "unknown integrator '{name}' (available: {})",
+            names.join(", ")
+        )));
+    };
+    let integrator = (entry.build)(params)?;
+    params.options.check_all_used(name)?;
+    Ok(integrator)
+}
+
+/// `key=value` options with typed access; keys nobody read are reported (pbrt's ReportUnused).
+#[derive(Debug, Default)]
+pub struct Options {
+    entries: Vec<(String, String, Cell<bool>)>,
+}
+
+impl Options {
+    /// Parse `key=value` strings.
+    pub fn parse(items: &[String]) -> Result<Options> {
+        let mut entries: Vec<(String, String, Cell<bool>)> = Vec::new();
+        for item in items {
+            let Some((k, v)) = item.split_once('=') else {
+                return Err(Error::new(format!(
+                    "option '{item}' must have the form key=value"
+                )));
+            };
+            let k = k.trim().to_string();
+            if entries.iter().any(|(e, _, _)| *e == k) {
+                return Err(Error::new(format!("option '{k}' is given twice")));
+            }
+            entries.push((k, v.trim().to_string(), Cell::new(false)));
+        }
+        Ok(Options { entries })
+    }
+
+    fn raw(&self, key: &str) -> Option<&str> {
+        self.entries
+            .iter()
+            .find(|(k, _, _)| k == key)
+            .map(|(_, v, used)| {
+                used.set(true);
+                v.as_str()
+            })
+    }
+
+    /// Typed value of `key`, or `default` when absent.
+    pub fn get<T: std::str::FromStr>(&self, key: &str, default: T, expected: &str) -> Result<T> {
+        match self.raw(key) {
+            None => Ok(default),
+            Some(v) => v
+                .parse()
+                .map_err(|_| Error::new(format!("option '{key}': expected {expected}, got '{v}'"))),
+        }
+    }
+
+    /// One of the given words.
+    pub fn choice(
+        &self,
+        key: &str,
+        default: &'static str,
+        allowed: &[&'static str],
+    ) -> Result<&'static str> {
+        match self.raw(key) {
+            None => Ok(default),
+            Some(v) => allowed.iter().copied().find(|a| *a == v).ok_or_else(|| {
+                Error::new(format!(
+                    "option '{key}': expected one of {}, got '{v}'",
+                    allowed.join(", ")
+                ))
+            }),
+        }
+    }
+
+    fn check_all_used(&self, integrator: &str) -> Result<()> {
+        match self.entries.iter().find(|(_, _, used)| !used.get()) {
+            Some((k, _, _)) => Err(Error::new(format!(
+                "option '{k}' is not a setting of integrator '{integrator}'"
+            ))),
+            None => Ok(()),
+        }
+    }
+}

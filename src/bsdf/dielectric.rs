@@ -1,0 +1,36 @@
+//! Smooth dielectric: Fresnel-weighted choice between specular reflection and refraction.
+
+use super::{LocalSample, TransportMode, fresnel};
+use crate::math::Spectrum;
+use glam::Vec3;
+
+pub(super) fn sample(eta: f32, wo: Vec3, u_lobe: f32, mode: TransportMode) -> Option<LocalSample> {
+    let (f_r, cos_t, eta_rel) = fresnel::dielectric(wo.z, eta);
+    if u_lobe < f_r {
+        let wi = Vec3::new(-wo.x, -wo.y, wo.z);
+        return Some(LocalSample {
+            wi,
+            f: Spectrum::splat(f_r / wi.z.abs()),
+            pdf: f_r,
+            delta: true,
+            transmission: false,
+            eta: 1.0,
+        });
+    }
+    // Refraction to the other side: wi = -wo / eta_rel + (cos_i / eta_rel - cos_t) n.
+    let sign = wo.z.signum();
+    let wi = Vec3::new(-wo.x / eta_rel, -wo.y / eta_rel, -sign * cos_t);
+    let t = 1.0 - f_r;
+    let mut f = t / wi.z.abs();
+    if mode == TransportMode::Radiance {
+        f /= eta_rel * eta_rel;
+    }
+    Some(LocalSample {
+        wi,
+        f: Spectrum::splat(f),
+        pdf: t,
+        delta: true,
+        transmission: true,
+        eta: eta_rel,
+    })
+}

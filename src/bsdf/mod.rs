@@ -1,0 +1,211 @@
+//! BSDFs: what a surface does to light.
+//!
+//! # Conventions (read before porting from pbrt or Mitsuba)
+//! * `wo` points from the surface back along the path being built (towards the camera for
+//!   camera paths, towards the light for light paths); `wi` is the direction being sampled or
+//!   evaluated. Both point away from the surface and are unit length. (This is pbrt's naming.)
+//! * `eval` returns the BSDF value `f(wo, wi)` without the cosine; `pdf` the solid-angle
+//!   density of `sample` choosing `wi` given `wo`. A [`BsdfSample`] also carries
+//!   `weight = f |cos(wi, ns)| / pdf`.
+//! * Delta (specular) lobes: `f` is the lobe's reflectance over `|cos|`, and `pdf` the discrete
+//!   probability of picking that lobe, so that `weight` is right; `eval` and `pdf` return zero
+//!   for them, as no direction is hit with non-zero density.
+//! * [`TransportMode`]: `Radiance` for paths from the camera, `Importance` for paths from
+//!   lights. Refraction scales radiance by `1/eta^2` in radiance mode only, and shading normals
+//!   get Veach's adjoint correction in importance mode, so BDPT can reuse these BSDFs.
+//! * Sidedness: diffuse and conductor surfaces are **two-sided** (they reflect on whichever side
+//!   `wo` is, like pbrt and unlike Mitsuba's default). A dielectric's outside is its front side
+//!   (the shape's geometric normal). Reflection requires `wo` and `wi` on the same side of both
+//!   the shading and the geometric normal; transmission on opposite sides of both. Directions
+//!   where the two normals disagree get zero (no light leaks), consistently in sample, eval and
+//!   pdf.
+
+mod dielectric;
+mod diffuse;
+pub mod fresnel;
+
+use crate::math::{Frame, Spectrum};
+use glam::{Vec2, Vec3};
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum TransportMode {
+    Radiance,
+    Importance,
+}
+
+/// The surface frame a BSDF is evaluated in.
+#[derive(Debug, Clone, Copy)]
+pub struct ShadingFrame {
+    /// Shading frame, `frame.n` is the shading normal.
+    pub frame: Frame,
+    /// Geometric normal (front side of the shape).
+    pub ng: Vec3,
+}
+
+impl ShadingFrame {
+    pub fn new(ns: Vec3, ng: Vec3) -> ShadingFrame {
+        ShadingFrame {
+            frame: Frame::from_z(ns),
+            ng,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy)]
+pub struct BsdfSample {
+    /// Sampled direction (world space).
+    pub wi: Vec3,
+    /// BSDF value (no cosine).
+    pub f: Spectrum,
+    /// Solid-angle density, or the lobe probability for delta lobes.
+    pub pdf: f32,
+    /// `f |cos(wi, ns)| / pdf`, including the importance-mode shading-normal correction.
+    pub weight: Spectrum,
+    pub delta: bool,
+    pub transmission: bool,
+    /// Relative index of refraction crossed (n_wi_side / n_wo_side); 1 for reflection.
+    pub eta: f32,
+}
+
+/// A BSDF. A closed set of models, dispatched by `match`.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Bsdf {
+    /// Absorbs everything (e.g. the back of an emitter).
+    Black,
+    /// Lambertian reflection with the given albedo.
+    Diffuse { albedo: Spectrum },
+    /// Smooth conductor: a perfect mirror with an RGB reflectance.
+    Conductor { reflectance: Spectrum },
+    /// Smooth dielectric interface; `eta` = index inside / index outside (front side).
+    Dielectric { eta: f32 },
+}
+
+impl Bsdf {
+    /// True if the BSDF only has delta lobes (no direction has a non-zero density).
+    pub fn is_delta(&self) -> bool {
+        matches!(self, Bsdf::Conductor { .. } | Bsdf::Dielectric { .. })
+    }
+
+    /// True if the BSDF scatters no light at all.
+    pub fn is_black(&self) -> bool {
+        matches!(self, Bsdf::Black)
+    }
+
+    /// Roughness in [0, 1]: 0 for specular lobes, 1 for diffuse.
+    pub fn roughness(&self) -> f32 {
+        match self {
+            Bsdf::Black | Bsdf::Diffuse { .. } => 1.0,
+            Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => 0.0,
+        }
+    }
+
+    /// Sample `wi` given `wo`. `u_lobe` picks a lobe, `u` the direction. `None` if the sample
+    /// carries no energy (absorbed, below the surface, or rejected by the normal checks).
+    pub fn sample(
+        &self,
+        sf: &ShadingFrame,
+        wo: Vec3,
+        u_lobe: f32,
+        u: Vec2,
+        mode: TransportMode,
+    ) -> Option<BsdfSample> {
+        let wo_l = sf.frame.to_local(wo);
+        if wo_l.z == 0.0 {
+            return None;
+        }
+        let s = match self {
+            Bsdf::Black => return None,
+            Bsdf::Diffuse { albedo } => diffuse::sample(*albedo, wo_l, u)?,
+            Bsdf::Conductor { reflectance } => {
+                let wi = Vec3::new(-wo_l.x, -wo_l.y, wo_l.z);
+                LocalSample {
+                    wi,
+                    f: *reflectance / wi.z.abs(),
+                    pdf: 1.0,
+                    delta: true,
+                    transmission: false,
+                    eta: 1.0,
+                }
+            }
+            Bsdf::Dielectric { eta } => dielectric::sample(*eta, wo_l, u_lobe, mode)?,
+        };
+        let wi = sf.frame.to_world(s.wi);
+        if !geometry_agrees(sf, wo, wi, s.transmission) {
+            return None;
+        }
+        let cos = s.wi.z.abs();
+        let f = s.f * shading_correction(sf, wo, wi, mode);
+        let weight = f * cos / s.pdf;
+        if !(weight.is_finite() && s.pdf > 0.0) || weight == Vec3::ZERO {
+            return None;
+        }
+        Some(BsdfSample {
+            wi,
+            f,
+            pdf: s.pdf,
+            weight,
+            delta: s.delta,
+            transmission: s.transmission,
+            eta: s.eta,
+        })
+    }
+
+    /// `f(wo, wi)` without the cosine. Zero for delta lobes.
+    pub fn eval(&self, sf: &ShadingFrame, wo: Vec3, wi: Vec3, mode: TransportMode) -> Spectrum {
+        let (wo_l, wi_l) = (sf.frame.to_local(wo), sf.frame.to_local(wi));
+        let transmission = wo_l.z * wi_l.z < 0.0;
+        if !geometry_agrees(sf, wo, wi, transmission) {
+            return Spectrum::ZERO;
+        }
+        let f = match self {
+            Bsdf::Diffuse { albedo } => diffuse::eval(*albedo, wo_l, wi_l),
+            _ => return Spectrum::ZERO,
+        };
+        f * shading_correction(sf, wo, wi, mode)
+    }
+
+    /// Solid-angle density of `sample` producing `wi` from `wo`. Zero for delta lobes.
+    pub fn pdf(&self, sf: &ShadingFrame, wo: Vec3, wi: Vec3, _mode: TransportMode) -> f32 {
+        let (wo_l, wi_l) = (sf.frame.to_local(wo), sf.frame.to_local(wi));
+        let transmission = wo_l.z * wi_l.z < 0.0;
+        if !geometry_agrees(sf, wo, wi, transmission) {
+            return 0.0;
+        }
+        match self {
+            Bsdf::Diffuse { .. } => diffuse::pdf(wo_l, wi_l),
+            _ => 0.0,
+        }
+    }
+}
+
+/// A sample in the local shading frame, before the checks and corrections of [`Bsdf::sample`].
+pub(crate) struct LocalSample {
+    pub wi: Vec3,
+    pub f: Spectrum,
+    pub pdf: f32,
+    pub delta: bool,
+    pub transmission: bool,
+    pub eta: f32,
+}
+
+/// Reflection needs `wo`, `wi` on one side of `ng`; transmission on opposite sides.
+#[inline]
+fn geometry_agrees(sf: &ShadingFrame, wo: Vec3, wi: Vec3, transmission: bool) -> bool {
+    let (a, b) = (wo.dot(sf.ng), wi.dot(sf.ng));
+    if a == 0.0 || b == 0.0 {
+        return false;
+    }
+    ((a * b) < 0.0) == transmission
+}
+
+/// Veach's adjoint BSDF correction for shading normals in importance mode (thesis eq. 5.19):
+/// `|wo.ns| |wi.ng| / (|wo.ng| |wi.ns|)`. 1 in radiance mode or when ns == ng.
+#[inline]
+fn shading_correction(sf: &ShadingFrame, wo: Vec3, wi: Vec3, mode: TransportMode) -> f32 {
+    if mode == TransportMode::Radiance || sf.frame.n == sf.ng {
+        return 1.0;
+    }
+    let num = wo.dot(sf.frame.n).abs() * wi.dot(sf.ng).abs();
+    let den = wo.dot(sf.ng).abs() * wi.dot(sf.frame.n).abs();
+    if den == 0.0 { 0.0 } else { num / den }
+}

@@ -1,0 +1,218 @@
+//! The pinhole camera: ray generation, importance `We`, its densities and the world-to-raster
+//! mapping.
+//!
+//! The image plane sits at distance 1 in front of the pinhole and has area `A_img`
+//! (`2 tan(fov/2)` high). Raster coordinates run from (0, 0) at the top-left corner to
+//! (width, height); pixel (x, y) covers [x, x+1) x [y, y+1).
+//!
+//! Densities are image-wide (DESIGN.md §3): a camera ray through a point chosen uniformly on the
+//! whole image has solid-angle density `pdf_we = 1 / (A_img cos^3 theta)`, and the importance
+//! is `We = 1 / (A_img cos^4 theta)`, so that `We cos / pdf_we = 1` for every camera ray and a
+//! path traced from pixel j averages to pixel j's measurement when multiplied by `N_pix`.
+//! The pinhole's position is a delta (its area density is a discrete 1).
+
+use crate::geometry::Ray;
+use glam::{UVec2, Vec2, Vec3};
+
+#[derive(Debug, Clone)]
+pub struct Camera {
+    pub position: Vec3,
+    /// Unit viewing direction.
+    pub forward: Vec3,
+    /// Unit vectors spanning the image plane (right, and up in the image).
+    pub right: Vec3,
+    pub up: Vec3,
+    pub resolution: UVec2,
+    /// Half the image plane's height and width at distance 1.
+    half_h: f32,
+    half_w: f32,
+    pub fov_y_degrees: f32,
+}
+
+/// A connection from a scene point to the camera (light tracing, BDPT t = 1).
+#[derive(Debug, Clone, Copy)]
+pub struct CameraSample {
+    /// Unit direction from the scene point towards the pinhole.
+    pub wi: Vec3,
+    pub dist: f32,
+    pub raster: Vec2,
+    /// `We` of the ray from the pinhole towards the point.
+    pub we: f32,
+    /// Solid-angle density (image-wide) of the camera generating that ray.
+    pub pdf_we: f32,
+}
+
+impl Camera {
+    /// `fov_y_degrees` in (0, 180); `up` must not be parallel to the viewing direction
+    /// (the scene loader checks both).
+    pub fn new(
+        position: Vec3,
+        look_at: Vec3,
+        up: Vec3,
+        fov_y_degrees: f32,
+        resolution: UVec2,
+    ) -> Camera {
+        let forward = (look_at - position).normalize();
+        let right = forward.cross(up).normalize();
+        let up = right.cross(forward);
+        let half_h = (0.5 * fov_y_degrees.to_radians()).tan();
+        let half_w = half_h * resolution.x as f32 / resolution.y as f32;
+        Camera {
+            position,
+            forward,
+            right,
+            up,
+            resolution,
+            half_h,
+            half_w,
+            fov_y_degrees,
+        }
+    }
+
+    pub fn pixel_count(&self) -> usize {
+        (self.resolution.x * self.resolution.y) as usize
+    }
+
+    /// Area of the image plane at distance 1.
+    pub fn image_area(&self) -> f32 {
+        4.0 * self.half_w * self.half_h
+    }
+
+    /// The ray through raster position `raster`.
+    pub fn generate_ray(&self, raster: Vec2) -> Ray {
+        let ndc_x = 2.0 * raster.x / self.resolution.x as f32 - 1.0;
+        let ndc_y = 1.0 - 2.0 * raster.y / self.resolution.y as f32;
+        let d = self.forward + self.right * (ndc_x * self.half_w) + self.up * (ndc_y * self.half_h);
+        Ray::new(self.position, d.normalize())
+    }
+
+    /// Raster position of the ray from the pinhole along unit `d`, if it is on the image.
+    pub fn raster_of_direction(&self, d: Vec3) -> Option<Vec2> {
+        let cos = d.dot(self.forward);
+        if cos <= 0.0 {
+            return None;
+        }
+        let x = d.dot(self.right) / (cos * self.half_w);
+        let y = d.dot(self.up) / (cos * self.half_h);
+        if !(-1.0..1.0).contains(&x) || !(-1.0..1.0).contains(&y) {
+            return None;
+        }
+        let r = Vec2::new(
+            (x + 1.0) * 0.5 * self.resolution.x as f32,
+            (1.0 - y) * 0.5 * self.resolution.y as f32,
+        );
+        // Guard the upper edge against rounding.
+        (r.x < self.resolution.x as f32
+            && r.y < self.resolution.y as f32
+            && r.x >= 0.0
+            && r.y >= 0.0)
+            .then_some(r)
+    }
+
+    /// Raster position of world point `p`, if it projects onto the image.
+    pub fn world_to_raster(&self, p: Vec3) -> Option<Vec2> {
+        let d = p - self.position;
+        let len = d.length();
+        if len == 0.0 {
+            return None;
+        }
+        self.raster_of_direction(d / len)
+    }
+
+    /// Pixel index of a raster position.
+    pub fn pixel_index(&self, raster: Vec2) -> usize {
+        let x = (raster.x as u32).min(self.resolution.x - 1);
+        let y = (raster.y as u32).min(self.resolution.y - 1);
+        (y * self.resolution.x + x) as usize
+    }
+
+    /// Importance `We` of the ray leaving the pinhole along unit `d` (0 off the image).
+    pub fn we(&self, d: Vec3) -> f32 {
+        if self.raster_of_direction(d).is_none() {
+            return 0.0;
+        }
+        let cos = d.dot(self.forward);
+        1.0 / (self.image_area() * cos * cos * cos * cos)
+    }
+
+    /// Image-wide solid-angle density of generating the ray along unit `d` (0 off the image).
+    pub fn pdf_we(&self, d: Vec3) -> f32 {
+        if self.raster_of_direction(d).is_none() {
+            return 0.0;
+        }
+        let cos = d.dot(self.forward);
+        1.0 / (self.image_area() * cos * cos * cos)
+    }
+
+    /// Connect scene point `p` to the pinhole.
+    pub fn sample_wi(&self, p: Vec3) -> Option<CameraSample> {
+        let v = self.position - p;
+        let dist = v.length();
+        if dist == 0.0 {
+            return None;
+        }
+        let wi = v / dist;
+        let raster = self.raster_of_direction(-wi)?;
+        Some(CameraSample {
+            wi,
+            dist,
+            raster,
+            we: self.we(-wi),
+            pdf_we: self.pdf_we(-wi),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn cam() -> Camera {
+        Camera::new(
+            Vec3::new(0.0, 0.0, 3.9),
+            Vec3::ZERO,
+            Vec3::Y,
+            39.3077,
+            UVec2::new(320, 240),
+        )
+    }
+
+    #[test]
+    fn raster_round_trip() {
+        let c = cam();
+        for raster in [
+            Vec2::new(0.5, 0.5),
+            Vec2::new(160.0, 120.0),
+            Vec2::new(319.5, 10.25),
+        ] {
+            let r = c.generate_ray(raster);
+            let back = c.raster_of_direction(r.d).unwrap();
+            assert!((back - raster).length() < 1e-3, "{raster} -> {back}");
+            let p = r.at(2.5);
+            assert!((c.world_to_raster(p).unwrap() - raster).length() < 1e-3);
+        }
+        assert!(c.world_to_raster(Vec3::new(0.0, 0.0, 10.0)).is_none());
+    }
+
+    /// The image-wide pdf integrates to one over the directions through the image.
+    #[test]
+    fn pdf_we_integrates_to_one() {
+        let c = cam();
+        let n = 400;
+        let mut sum = 0.0f64;
+        // Integrate over the image plane: dw = cos^3 dA.
+        let (w, h) = (2.0 * c.half_w, 2.0 * c.half_h);
+        for i in 0..n {
+            for j in 0..n {
+                let x = -c.half_w + (i as f32 + 0.5) / n as f32 * w;
+                let y = -c.half_h + (j as f32 + 0.5) / n as f32 * h;
+                let d = (c.forward + c.right * x + c.up * y).normalize();
+                let cos = d.dot(c.forward);
+                sum += (c.pdf_we(d) * cos * cos * cos) as f64 * (w * h) as f64 / (n * n) as f64;
+            }
+        }
+        assert!((sum - 1.0).abs() < 1e-3, "{sum}");
+        let d = c.generate_ray(Vec2::new(12.0, 200.0)).d;
+        assert!((c.we(d) * d.dot(c.forward) / c.pdf_we(d) - 1.0).abs() < 1e-5);
+    }
+}

@@ -1,0 +1,208 @@
+//! Triangle meshes in world space, and the built-in shapes that are made of them
+//! (quad, cube, disk).
+
+use super::Transform;
+use crate::math::{Distribution1D, warp};
+use glam::{Vec2, Vec3};
+
+#[derive(Debug, Clone, Default)]
+pub struct TriangleMesh {
+    pub positions: Vec<Vec3>,
+    /// Per-vertex shading normals (optional; same length as `positions`).
+    pub normals: Option<Vec<Vec3>>,
+    pub indices: Vec<[u32; 3]>,
+}
+
+impl TriangleMesh {
+    pub fn triangle(&self, i: usize) -> [Vec3; 3] {
+        let [a, b, c] = self.indices[i];
+        [
+            self.positions[a as usize],
+            self.positions[b as usize],
+            self.positions[c as usize],
+        ]
+    }
+
+    pub fn triangle_area(&self, i: usize) -> f32 {
+        let [a, b, c] = self.triangle(i);
+        0.5 * (b - a).cross(c - a).length()
+    }
+
+    pub fn area(&self) -> f32 {
+        (0..self.indices.len()).map(|i| self.triangle_area(i)).sum()
+    }
+
+    /// Geometric normal of triangle `i` from its winding, or from its vertex normals when the
+    /// mesh has them and they disagree with the winding (authored normals define the front).
+    pub fn geometric_normal(&self, i: usize) -> Vec3 {
+        let [a, b, c] = self.triangle(i);
+        let ng = (b - a).cross(c - a).normalize_or_zero();
+        match &self.normals {
+            Some(n) => {
+                let [ia, ib, ic] = self.indices[i];
+                let sum = n[ia as usize] + n[ib as usize] + n[ic as usize];
+                if sum.dot(ng) < 0.0 { -ng } else { ng }
+            }
+            None => ng,
+        }
+    }
+
+    /// Interpolated shading normal at barycentrics (b1, b2), or `None` without vertex normals.
+    pub fn shading_normal(&self, i: usize, b: Vec2) -> Option<Vec3> {
+        let n = self.normals.as_ref()?;
+        let [ia, ib, ic] = self.indices[i];
+        let v = n[ia as usize] * (1.0 - b.x - b.y) + n[ib as usize] * b.x + n[ic as usize] * b.y;
+        let v = v.normalize_or_zero();
+        (v != Vec3::ZERO).then_some(v)
+    }
+
+    pub fn transformed(mut self, t: &Transform) -> TriangleMesh {
+        for p in &mut self.positions {
+            *p = t.point(*p);
+        }
+        if let Some(ns) = &mut self.normals {
+            for n in ns.iter_mut() {
+                *n = t.normal(*n);
+            }
+        }
+        if t.flips_handedness() {
+            for tri in &mut self.indices {
+                tri.swap(1, 2);
+            }
+        }
+        self
+    }
+
+    /// Axis-aligned parallelogram `origin + s edge_u + t edge_v`, s, t in [0, 1]; front side
+    /// along `edge_u x edge_v`.
+    pub fn quad(origin: Vec3, edge_u: Vec3, edge_v: Vec3) -> TriangleMesh {
+        TriangleMesh {
+            positions: vec![
+                origin,
+                origin + edge_u,
+                origin + edge_u + edge_v,
+                origin + edge_v,
+            ],
+            normals: None,
+            indices: vec![[0, 1, 2], [0, 2, 3]],
+        }
+    }
+
+    /// The cube [-1, 1]^3 with outward-facing triangles.
+    pub fn cube() -> TriangleMesh {
+        let mut mesh = TriangleMesh::default();
+        for axis in 0..3 {
+            for sign in [-1.0f32, 1.0] {
+                let mut n = Vec3::ZERO;
+                n[axis] = sign;
+                let mut u = Vec3::ZERO;
+                u[(axis + 1) % 3] = 2.0;
+                let mut v = Vec3::ZERO;
+                v[(axis + 2) % 3] = 2.0;
+                // Orient so that u x v points along n.
+                let (u, v) = if u.cross(v).dot(n) > 0.0 {
+                    (u, v)
+                } else {
+                    (v, u)
+                };
+                let origin = n - 0.5 * u - 0.5 * v;
+                let q = TriangleMesh::quad(origin, u, v);
+                mesh.append(&q);
+            }
+        }
+        mesh
+    }
+
+    /// A disk of radius 1 in the xy plane, front side +z, as a fan of `segments` triangles.
+    pub fn disk(segments: u32) -> TriangleMesh {
+        let segments = segments.max(3);
+        let mut positions = vec![Vec3::ZERO];
+        for k in 0..segments {
+            let phi = 2.0 * std::f32::consts::PI * k as f32 / segments as f32;
+            positions.push(Vec3::new(phi.cos(), phi.sin(), 0.0));
+        }
+        let indices = (0..segments)
+            .map(|k| [0, 1 + k, 1 + (k + 1) % segments])
+            .collect();
+        TriangleMesh {
+            positions,
+            normals: None,
+            indices,
+        }
+    }
+
+    pub fn append(&mut self, other: &TriangleMesh) {
+        let base = self.positions.len() as u32;
+        self.positions.extend_from_slice(&other.positions);
+        self.indices.extend(
+            other
+                .indices
+                .iter()
+                .map(|t| [t[0] + base, t[1] + base, t[2] + base]),
+        );
+        match (&mut self.normals, &other.normals) {
+            (None, None) => {}
+            _ => {
+                // Mixed: keep none rather than invent normals.
+                self.normals = None;
+            }
+        }
+    }
+}
+
+/// Uniform-by-area point sampling over a mesh.
+#[derive(Debug, Clone)]
+pub struct MeshSampler {
+    pub tri_distribution: Distribution1D,
+    pub area: f32,
+}
+
+impl MeshSampler {
+    pub fn new(mesh: &TriangleMesh) -> MeshSampler {
+        let areas: Vec<f32> = (0..mesh.indices.len())
+            .map(|i| mesh.triangle_area(i))
+            .collect();
+        let area = areas.iter().sum();
+        MeshSampler {
+            tri_distribution: Distribution1D::new(&areas),
+            area,
+        }
+    }
+
+    /// A point uniform in area: (position, geometric normal, triangle index). Density 1/area.
+    pub fn sample(&self, mesh: &TriangleMesh, u: Vec2) -> (Vec3, Vec3, u32) {
+        let (tri, _, ux) = self.tri_distribution.sample(u.x);
+        let b = warp::square_to_uniform_triangle(Vec2::new(ux, u.y));
+        let [a, bb, c] = mesh.triangle(tri);
+        let p = a * (1.0 - b.x - b.y) + bb * b.x + c * b.y;
+        (p, mesh.geometric_normal(tri), tri as u32)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cube_is_closed_with_outward_normals() {
+        let m = TriangleMesh::cube();
+        assert_eq!(m.indices.len(), 12);
+        assert!((m.area() - 24.0).abs() < 1e-4);
+        for i in 0..12 {
+            let [a, b, c] = m.triangle(i);
+            let centroid = (a + b + c) / 3.0;
+            assert!(m.geometric_normal(i).dot(centroid) > 0.0);
+        }
+    }
+
+    #[test]
+    fn quad_front_is_u_cross_v() {
+        let q = TriangleMesh::quad(
+            Vec3::new(-1.0, -1.0, -1.0),
+            Vec3::new(0.0, 0.0, 2.0),
+            Vec3::new(2.0, 0.0, 0.0),
+        );
+        assert!((q.geometric_normal(0) - Vec3::Y).length() < 1e-6);
+        assert!((q.area() - 4.0).abs() < 1e-5);
+    }
+}

@@ -1,0 +1,109 @@
+//! Rays, shapes and the acceleration structure.
+//!
+//! Every shape is either a triangle mesh or an analytic sphere. All of them go into one obvhs
+//! `CwBvh` (see [`bvh::Accel`]). A hit reports the geometric normal `ng` (the shape's front side:
+//! triangle winding, or authored vertex normals when present; outward for spheres and cubes) and
+//! a shading normal `ns` on the same side as `ng`.
+//!
+//! Self-intersection is avoided without a scene-dependent epsilon: each hit carries a bound on
+//! the floating-point error of its position (`p_err`, in the style of pbrt's error analysis),
+//! and rays leave a surface from a point pushed along `ng` just past that bound. The bound is
+//! relative to the magnitudes involved, so it holds at any scene scale.
+
+pub mod bvh;
+pub mod mesh;
+pub mod sphere;
+pub mod transform;
+
+pub use bvh::Accel;
+pub use mesh::TriangleMesh;
+pub use sphere::Sphere;
+pub use transform::Transform;
+
+use glam::{Vec2, Vec3};
+
+/// A ray `o + t d` with `d` normalised and `t` in `(0, t_max)`.
+#[derive(Debug, Clone, Copy)]
+pub struct Ray {
+    pub o: Vec3,
+    pub d: Vec3,
+    pub t_max: f32,
+}
+
+impl Ray {
+    pub fn new(o: Vec3, d: Vec3) -> Ray {
+        Ray {
+            o,
+            d,
+            t_max: f32::INFINITY,
+        }
+    }
+
+    pub fn at(&self, t: f32) -> Vec3 {
+        self.o + self.d * t
+    }
+}
+
+/// A ray-surface intersection.
+#[derive(Debug, Clone, Copy)]
+pub struct Hit {
+    pub t: f32,
+    pub p: Vec3,
+    /// Absolute error bound of `p`, per axis.
+    pub p_err: Vec3,
+    /// Geometric normal, unit length, on the shape's front side.
+    pub ng: Vec3,
+    /// Shading normal, unit length, `dot(ns, ng) > 0`.
+    pub ns: Vec3,
+    pub uv: Vec2,
+    /// Index of the shape in the scene.
+    pub shape: u32,
+    /// Triangle index within the shape's mesh (0 for spheres).
+    pub prim: u32,
+}
+
+/// Unit roundoff of f32 arithmetic.
+pub const MACHINE_EPS: f32 = f32::EPSILON * 0.5;
+
+/// pbrt's gamma(n) = n u / (1 - n u): the error bound of n chained floating-point operations.
+#[inline]
+pub const fn gamma(n: i32) -> f32 {
+    (n as f32 * MACHINE_EPS) / (1.0 - n as f32 * MACHINE_EPS)
+}
+
+/// Move `p` off its surface (normal `n`, error bound `p_err`) to the side `w` points to, so a
+/// ray from the result towards `w` cannot hit the surface it starts on.
+#[inline]
+pub fn offset_origin(p: Vec3, p_err: Vec3, n: Vec3, w: Vec3) -> Vec3 {
+    // Distance along n that clears the error box, doubled for the rounding of the addition.
+    let d = n.abs().dot(p_err) * 2.0 + f32::MIN_POSITIVE;
+    let offset = if w.dot(n) < 0.0 { -d * n } else { d * n };
+    let q = p + offset;
+    // Round away from p so the offset is never lost to rounding.
+    Vec3::new(
+        next_away(q.x, offset.x),
+        next_away(q.y, offset.y),
+        next_away(q.z, offset.z),
+    )
+}
+
+#[inline]
+fn next_away(x: f32, dir: f32) -> f32 {
+    if dir > 0.0 {
+        x.next_up()
+    } else if dir < 0.0 {
+        x.next_down()
+    } else {
+        x
+    }
+}
+
+/// Shadow-ray tolerance: a fraction of the segment left out at its far end.
+pub const SHADOW_EPS: f32 = 1e-4;
+
+impl Hit {
+    /// Ray leaving this hit in direction `d` (unit).
+    pub fn spawn(&self, d: Vec3) -> Ray {
+        Ray::new(offset_origin(self.p, self.p_err, self.ng, d), d)
+    }
+}

@@ -1,0 +1,51 @@
+//! Analytic spheres.
+
+use super::{Ray, gamma};
+use glam::Vec3;
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Sphere {
+    pub center: Vec3,
+    pub radius: f32,
+}
+
+impl Sphere {
+    /// Nearest `t` in `(0, ray.t_max)`, or `f32::INFINITY`.
+    ///
+    /// Uses the numerically robust form of Ray Tracing Gems ch. 7 (Haines et al.): the
+    /// discriminant from `|f - (f.d) d|^2`, and the smaller root from `c / q`.
+    #[inline]
+    pub fn intersect(&self, o: Vec3, d: Vec3, t_max: f32) -> f32 {
+        let f = o - self.center;
+        let b = -f.dot(d);
+        let r2 = self.radius * self.radius;
+        let l = f + b * d;
+        let disc = r2 - l.length_squared();
+        if disc < 0.0 {
+            return f32::INFINITY;
+        }
+        let c = f.length_squared() - r2;
+        let q = b + b.signum() * disc.sqrt();
+        let (t0, t1) = if q == 0.0 { (0.0, 0.0) } else { (c / q, q) };
+        let (t0, t1) = if t0 <= t1 { (t0, t1) } else { (t1, t0) };
+        if t0 > 0.0 && t0 < t_max {
+            t0
+        } else if t1 > 0.0 && t1 < t_max {
+            t1
+        } else {
+            f32::INFINITY
+        }
+    }
+
+    /// Hit point re-projected onto the sphere, its outward normal and position error bound.
+    pub fn surface_at(&self, ray: &Ray, t: f32) -> (Vec3, Vec3, Vec3) {
+        let n = (ray.at(t) - self.center).normalize();
+        let p = self.center + self.radius * n;
+        let err = gamma(6) * (self.center.abs() + self.radius * n.abs()) + gamma(5) * p.abs();
+        (p, n, err)
+    }
+
+    pub fn area(&self) -> f32 {
+        4.0 * std::f32::consts::PI * self.radius * self.radius
+    }
+}

@@ -1,0 +1,80 @@
+//! Affine transforms of scene shapes: scale, then rotate about an axis, then translate.
+
+use glam::{Affine3A, Mat3, Quat, Vec3};
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Transform {
+    pub m: Affine3A,
+    /// Inverse transpose of the linear part, for normals.
+    pub normal_m: Mat3,
+}
+
+impl Default for Transform {
+    fn default() -> Self {
+        Transform::IDENTITY
+    }
+}
+
+impl Transform {
+    pub const IDENTITY: Transform = Transform {
+        m: Affine3A::IDENTITY,
+        normal_m: Mat3::IDENTITY,
+    };
+
+    /// `translate * rotate(axis, degrees) * scale`.
+    pub fn new(scale: Vec3, axis: Vec3, degrees: f32, translate: Vec3) -> Transform {
+        let rot = if degrees != 0.0 {
+            Quat::from_axis_angle(axis.normalize(), degrees.to_radians())
+        } else {
+            Quat::IDENTITY
+        };
+        let m = Affine3A::from_scale_rotation_translation(scale, rot, translate);
+        let normal_m = Mat3::from(m.matrix3).inverse().transpose();
+        Transform { m, normal_m }
+    }
+
+    pub fn point(&self, p: Vec3) -> Vec3 {
+        self.m.transform_point3(p)
+    }
+
+    pub fn vector(&self, v: Vec3) -> Vec3 {
+        self.m.transform_vector3(v)
+    }
+
+    pub fn normal(&self, n: Vec3) -> Vec3 {
+        (self.normal_m * n).normalize()
+    }
+
+    /// Whether the linear part flips handedness (then triangle winding must be flipped).
+    pub fn flips_handedness(&self) -> bool {
+        self.m.matrix3.determinant() < 0.0
+    }
+
+    /// The uniform scale factor, if the linear part is a similarity (rotation times a scalar).
+    pub fn uniform_scale(&self) -> Option<f32> {
+        let m = Mat3::from(self.m.matrix3);
+        let (a, b, c) = (m.x_axis.length(), m.y_axis.length(), m.z_axis.length());
+        let s = (a + b + c) / 3.0;
+        let tol = 1e-4 * s.max(1e-30);
+        ((a - s).abs() < tol && (b - s).abs() < tol && (c - s).abs() < tol).then_some(s)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn scale_then_rotate_then_translate() {
+        let t = Transform::new(
+            Vec3::new(2.0, 1.0, 1.0),
+            Vec3::Y,
+            90.0,
+            Vec3::new(0.0, 0.0, 5.0),
+        );
+        // (1,0,0) -> scaled (2,0,0) -> rotated 90 deg about +y -> (0,0,-2) -> translated (0,0,3)
+        let p = t.point(Vec3::X);
+        assert!((p - Vec3::new(0.0, 0.0, 3.0)).length() < 1e-5, "{p}");
+        assert!(t.uniform_scale().is_none());
+    }
+}

@@ -1,0 +1,23 @@
+//! lodestar: a research renderer for selective guided sampling with complete light transport
+//! paths (Reibold et al. 2018) and the unbiased estimators it is measured against.
+//!
+//! The framework lives in `src/` (scene, geometry, BSDFs, lights, camera, film, the pass
+//! driver); integrators live in `integrators/`, one module each, registered by name in
+//! `integrators/mod.rs`. See `DESIGN.md` in the project's shared notes for the map.
+
+pub mod bsdf;
+pub mod camera;
+pub mod error;
+pub mod film;
+pub mod geometry;
+pub mod light;
+pub mod math;
+pub mod metrics;
+pub mod path;
+pub mod render;
+pub mod scene;
+
+#[path = "../integrators/mod.rs"]
+pub mod integrators;
+
+pub use error::{Error, Result};

@@ -1,0 +1,188 @@
+//! Area lights: emissive shapes with constant radiance on their front side. Meshes are
+//! sampled uniformly by area; spheres by the cone of directions they subtend (uniform area
+//! sampling from inside).
+
+use super::{EmissionSample, LightSample};
+use crate::geometry::{Sphere, TriangleMesh, mesh::MeshSampler};
+use crate::math::{Frame, PI, Spectrum, luminance, warp};
+use glam::{Vec2, Vec3};
+
+#[derive(Debug, Clone)]
+pub enum AreaShape {
+    Mesh {
+        mesh: TriangleMesh,
+        sampler: MeshSampler,
+    },
+    Sphere(Sphere),
+}
+
+#[derive(Debug, Clone)]
+pub struct AreaLight {
+    /// Scene shape that emits.
+    pub shape: u32,
+    pub radiance: Spectrum,
+    pub geometry: AreaShape,
+}
+
+impl AreaLight {
+    pub fn new(shape: u32, radiance: Spectrum, geometry: AreaShape) -> AreaLight {
+        AreaLight {
+            shape,
+            radiance,
+            geometry,
+        }
+    }
+
+    pub fn area(&self) -> f32 {
+        match &self.geometry {
+            AreaShape::Mesh { sampler, .. } => sampler.area,
+            AreaShape::Sphere(s) => s.area(),
+        }
+    }
+
+    pub fn power(&self) -> f32 {
+        PI * self.area() * luminance(self.radiance)
+    }
+
+    pub fn le(&self, n: Vec3, w: Vec3) -> Spectrum {
+        if n.dot(w) > 0.0 {
+            self.radiance
+        } else {
+            Spectrum::ZERO
+        }
+    }
+
+    pub fn sample_li(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
+        let (p_l, n_l, pdf) = match &self.geometry {
+            AreaShape::Mesh { mesh, sampler } => {
+                let (p_l, n_l, _) = sampler.sample(mesh, u);
+                let v = p_l - p;
+                let d2 = v.length_squared();
+                let cos_l = n_l.dot(-v) / d2.sqrt();
+                if cos_l <= 0.0 {
+                    return None;
+                }
+                (p_l, n_l, d2 / (cos_l * sampler.area))
+            }
+            AreaShape::Sphere(s) => sphere_sample_li(s, p, u)?,
+        };
+        let v = p_l - p;
+        let dist = v.length();
+        if dist == 0.0 || !pdf.is_finite() || pdf <= 0.0 {
+            return None;
+        }
+        let wi = v / dist;
+        let li = self.le(n_l, -wi);
+        if li == Spectrum::ZERO {
+            return None;
+        }
+        Some(LightSample {
+            wi,
+            dist,
+            p: p_l,
+            n: n_l,
+            li,
+            pdf,
+            delta: false,
+        })
+    }
+
+    pub fn pdf_li(&self, p: Vec3, p_l: Vec3, n_l: Vec3, wi: Vec3) -> f32 {
+        match &self.geometry {
+            AreaShape::Mesh { sampler, .. } => {
+                let d2 = (p_l - p).length_squared();
+                let cos_l = n_l.dot(wi).abs();
+                if cos_l == 0.0 {
+                    0.0
+                } else {
+                    d2 / (cos_l * sampler.area)
+                }
+            }
+            AreaShape::Sphere(s) => sphere_pdf_li(s, p, p_l, n_l, wi),
+        }
+    }
+
+    pub fn sample_le(&self, u_pos: Vec2, u_dir: Vec2) -> Option<EmissionSample> {
+        let (p, n, pdf_pos) = match &self.geometry {
+            AreaShape::Mesh { mesh, sampler } => {
+                let (p, n, _) = sampler.sample(mesh, u_pos);
+                (p, n, 1.0 / sampler.area)
+            }
+            AreaShape::Sphere(s) => {
+                let n = warp::square_to_uniform_sphere(u_pos);
+                (s.center + s.radius * n, n, 1.0 / s.area())
+            }
+        };
+        let local = warp::square_to_cosine_hemisphere(u_dir);
+        let pdf_dir = warp::cosine_hemisphere_pdf(local.z);
+        if pdf_dir <= 0.0 {
+            return None;
+        }
+        let dir = Frame::from_z(n).to_world(local);
+        Some(EmissionSample {
+            p,
+            n,
+            dir,
+            le: self.radiance,
+            pdf_pos,
+            pdf_dir,
+        })
+    }
+
+    pub fn pdf_le(&self, n: Vec3, dir: Vec3) -> (f32, f32) {
+        (1.0 / self.area(), warp::cosine_hemisphere_pdf(n.dot(dir)))
+    }
+}
+
+/// 1 - cos(theta_max) and cos(theta_max) of the cone a sphere subtends from distance^2 `dc2`,
+/// computed without cancellation for distant spheres.
+fn cone_of(s: &Sphere, dc2: f32) -> (f32, f32) {
+    let sin2 = (s.radius * s.radius / dc2).min(1.0);
+    let cos = (1.0 - sin2).max(0.0).sqrt();
+    (sin2 / (1.0 + cos), cos)
+}
+
+fn sphere_sample_li(s: &Sphere, p: Vec3, u: Vec2) -> Option<(Vec3, Vec3, f32)> {
+    let dc2 = (s.center - p).length_squared();
+    if dc2 <= s.radius * s.radius {
+        // Inside: uniform area sampling, converted to solid angle.
+        let n = warp::square_to_uniform_sphere(u);
+        let p_l = s.center + s.radius * n;
+        let v = p_l - p;
+        let d2 = v.length_squared();
+        let cos = n.dot(v).abs() / d2.sqrt();
+        return (cos > 0.0).then(|| (p_l, n, d2 / (cos * s.area())));
+    }
+    let (one_minus_cos, cos_max) = cone_of(s, dc2);
+    let dc = dc2.sqrt();
+    let axis = (s.center - p) / dc;
+    // Uniform in the cone; written with 1 - cos to stay accurate for tiny cones.
+    let cos_theta = 1.0 - u.x * one_minus_cos;
+    let sin_theta = (u.x * one_minus_cos * (2.0 - u.x * one_minus_cos))
+        .max(0.0)
+        .sqrt();
+    let phi = 2.0 * PI * u.y;
+    let local = Vec3::new(sin_theta * phi.cos(), sin_theta * phi.sin(), cos_theta);
+    let wi = Frame::from_z(axis).to_world(local);
+    // The point on the sphere seen along wi (nearest intersection; tangent point on a miss).
+    let t = s.intersect(p, wi, f32::INFINITY);
+    let t = if t.is_finite() { t } else { dc * cos_max };
+    let n = (p + t * wi - s.center).normalize();
+    let p_l = s.center + s.radius * n;
+    Some((p_l, n, 1.0 / (2.0 * PI * one_minus_cos)))
+}
+
+fn sphere_pdf_li(s: &Sphere, p: Vec3, p_l: Vec3, n_l: Vec3, wi: Vec3) -> f32 {
+    let dc2 = (s.center - p).length_squared();
+    if dc2 <= s.radius * s.radius {
+        let d2 = (p_l - p).length_squared();
+        let cos = n_l.dot(wi).abs();
+        return if cos == 0.0 {
+            0.0
+        } else {
+            d2 / (cos * s.area())
+        };
+    }
+    let (one_minus_cos, _) = cone_of(s, dc2);
+    1.0 / (2.0 * PI * one_minus_cos)
+}

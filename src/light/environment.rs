@@ -1,0 +1,61 @@
+//! Constant environment: uniform radiance from every direction at infinity. Emission sampling
+//! starts rays on a disk of the scene's bounding-sphere radius facing the chosen direction.
+
+use super::{EmissionSample, LightSample};
+use crate::math::{Frame, PI, Spectrum, luminance, warp};
+use glam::{Vec2, Vec3};
+
+#[derive(Debug, Clone)]
+pub struct EnvironmentLight {
+    pub radiance: Spectrum,
+    /// Bounding sphere of the scene (set when the scene is built).
+    pub center: Vec3,
+    pub radius: f32,
+}
+
+pub(super) fn pdf_li() -> f32 {
+    warp::uniform_sphere_pdf()
+}
+
+impl EnvironmentLight {
+    pub fn power(&self) -> f32 {
+        4.0 * PI * PI * self.radius * self.radius * luminance(self.radiance)
+    }
+
+    pub fn sample_li(&self, u: Vec2) -> Option<LightSample> {
+        let wi = warp::square_to_uniform_sphere(u);
+        Some(LightSample {
+            wi,
+            dist: f32::INFINITY,
+            p: Vec3::ZERO,
+            n: Vec3::ZERO,
+            li: self.radiance,
+            pdf: pdf_li(),
+            delta: false,
+        })
+    }
+
+    pub fn sample_le(&self, u_pos: Vec2, u_dir: Vec2) -> EmissionSample {
+        // Direction of travel is -w where w is the direction towards the environment.
+        let w = warp::square_to_uniform_sphere(u_dir);
+        let frame = Frame::from_z(w);
+        let d = warp::square_to_disk_concentric(u_pos) * self.radius;
+        let p = self.center + self.radius * w + frame.s * d.x + frame.t * d.y;
+        let (pdf_pos, pdf_dir) = self.pdf_le();
+        EmissionSample {
+            p,
+            n: -w,
+            dir: -w,
+            le: self.radiance,
+            pdf_pos,
+            pdf_dir,
+        }
+    }
+
+    pub fn pdf_le(&self) -> (f32, f32) {
+        (
+            1.0 / (PI * self.radius * self.radius),
+            warp::uniform_sphere_pdf(),
+        )
+    }
+}

@@ -1,0 +1,96 @@
+//! Discrete distribution over `n` items proportional to non-negative weights (light power,
+//! triangle area), sampled by binary search over the CDF.
+
+#[derive(Debug, Clone)]
+pub struct Distribution1D {
+    /// cdf[i] = sum of pmf over items < i; cdf.len() == n + 1, cdf[n] == 1.
+    cdf: Vec<f32>,
+    pmf: Vec<f32>,
+    total: f64,
+}
+
+impl Distribution1D {
+    /// Weights must be finite and >= 0. If all are zero, the distribution is uniform.
+    pub fn new(weights: &[f32]) -> Distribution1D {
+        let n = weights.len();
+        let total: f64 = weights.iter().map(|&w| w.max(0.0) as f64).sum();
+        let pmf: Vec<f32> = if total > 0.0 {
+            weights
+                .iter()
+                .map(|&w| (w.max(0.0) as f64 / total) as f32)
+                .collect()
+        } else {
+            vec![1.0 / n.max(1) as f32; n]
+        };
+        let mut cdf = Vec::with_capacity(n + 1);
+        let mut acc = 0.0f64;
+        cdf.push(0.0);
+        for &p in &pmf {
+            acc += p as f64;
+            cdf.push(acc as f32);
+        }
+        if let Some(last) = cdf.last_mut() {
+            *last = 1.0;
+        }
+        Distribution1D { cdf, pmf, total }
+    }
+
+    pub fn len(&self) -> usize {
+        self.pmf.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.pmf.is_empty()
+    }
+
+    /// Sum of the weights the distribution was built from.
+    pub fn total(&self) -> f64 {
+        self.total
+    }
+
+    pub fn pmf(&self, i: usize) -> f32 {
+        self.pmf[i]
+    }
+
+    /// Sample an item; returns (index, pmf, u remapped to [0,1) within the item's interval).
+    pub fn sample(&self, u: f32) -> (usize, f32, f32) {
+        let n = self.pmf.len();
+        // First index whose cdf exceeds u, minus one; skip zero-probability items.
+        let mut i = self
+            .cdf
+            .partition_point(|&c| c <= u)
+            .saturating_sub(1)
+            .min(n - 1);
+        while self.pmf[i] == 0.0 && i + 1 < n {
+            i += 1;
+        }
+        while self.pmf[i] == 0.0 && i > 0 {
+            i -= 1;
+        }
+        let p = self.pmf[i];
+        let u_re = if p > 0.0 {
+            ((u - self.cdf[i]) / p).clamp(0.0, 1.0 - f32::EPSILON)
+        } else {
+            0.0
+        };
+        (i, p, u_re)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sampling_follows_the_weights() {
+        let d = Distribution1D::new(&[1.0, 0.0, 3.0]);
+        assert_eq!(d.sample(0.0).0, 0);
+        assert_eq!(d.sample(0.24).0, 0);
+        assert_eq!(d.sample(0.26).0, 2);
+        assert_eq!(d.sample(0.999_999).0, 2);
+        assert!((d.pmf(2) - 0.75).abs() < 1e-6);
+        assert_eq!(d.pmf(1), 0.0);
+        let (_, _, ur) = d.sample(0.625);
+        assert!((ur - 0.5).abs() < 1e-5);
+    }
+}

@@ -1,0 +1,96 @@
+//! Sampling warps from the unit square, each next to its density. Densities are in solid angle
+//! (directions) or area (points) as the name says.
+
+use super::{INV_4PI, INV_PI, PI};
+use glam::{Vec2, Vec3};
+
+/// Shirley-Chiu concentric map of the unit square onto the unit disk.
+pub fn square_to_disk_concentric(u: Vec2) -> Vec2 {
+    let o = 2.0 * u - Vec2::ONE;
+    if o.x == 0.0 && o.y == 0.0 {
+        return Vec2::ZERO;
+    }
+    let (r, theta) = if o.x.abs() > o.y.abs() {
+        (o.x, (PI / 4.0) * (o.y / o.x))
+    } else {
+        (o.y, PI / 2.0 - (PI / 4.0) * (o.x / o.y))
+    };
+    r * Vec2::new(theta.cos(), theta.sin())
+}
+
+/// Cosine-weighted hemisphere around +z.
+pub fn square_to_cosine_hemisphere(u: Vec2) -> Vec3 {
+    let d = square_to_disk_concentric(u);
+    let z = (1.0 - d.length_squared()).max(0.0).sqrt();
+    Vec3::new(d.x, d.y, z)
+}
+
+pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
+    if cos_theta > 0.0 {
+        cos_theta * INV_PI
+    } else {
+        0.0
+    }
+}
+
+pub fn square_to_uniform_sphere(u: Vec2) -> Vec3 {
+    let z = 1.0 - 2.0 * u.x;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = 2.0 * PI * u.y;
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+pub const fn uniform_sphere_pdf() -> f32 {
+    INV_4PI
+}
+
+/// Uniform direction in the cone of half-angle `acos(cos_max)` around +z.
+pub fn square_to_uniform_cone(u: Vec2, cos_max: f32) -> Vec3 {
+    let cos_theta = (1.0 - u.x) + u.x * cos_max;
+    let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
+    let phi = 2.0 * PI * u.y;
+    Vec3::new(sin_theta * phi.cos(), sin_theta * phi.sin(), cos_theta)
+}
+
+pub fn uniform_cone_pdf(cos_max: f32) -> f32 {
+    1.0 / (2.0 * PI * (1.0 - cos_max))
+}
+
+/// Uniform barycentrics (b1, b2) on a triangle; the point is (1-b1-b2) p0 + b1 p1 + b2 p2.
+pub fn square_to_uniform_triangle(u: Vec2) -> Vec2 {
+    // Heitz 2019's low-distortion map keeps strata compact.
+    let (b0, b1);
+    if u.x < u.y {
+        b0 = u.x / 2.0;
+        b1 = u.y - b0;
+    } else {
+        b1 = u.y / 2.0;
+        b0 = u.x - b1;
+    }
+    Vec2::new(b1, 1.0 - b0 - b1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn concentric_disk_stays_inside() {
+        for i in 0..=16 {
+            for j in 0..=16 {
+                let d = square_to_disk_concentric(Vec2::new(i as f32 / 16.0, j as f32 / 16.0));
+                assert!(d.length() <= 1.0 + 1e-6);
+            }
+        }
+    }
+
+    #[test]
+    fn triangle_barycentrics_are_valid() {
+        for i in 0..=16 {
+            for j in 0..=16 {
+                let b = square_to_uniform_triangle(Vec2::new(i as f32 / 16.0, j as f32 / 16.0));
+                assert!(b.x >= 0.0 && b.y >= 0.0 && b.x + b.y <= 1.0 + 1e-6);
+            }
+        }
+    }
+}

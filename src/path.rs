@@ -1,0 +1,107 @@
+//! Complete light transport paths: the currency between integrators and the guider.
+//!
+//! A path runs from the camera `x_0` to an emitter `x_k`; it has `k` segments. Vertices are
+//! stored inline (at most [`MAX_VERTICES`]), so building a path never allocates. Directions
+//! and densities are not stored: any technique recomputes them from the positions, normals and
+//! vertex kinds (DESIGN.md §2-3).
+
+use crate::math::Spectrum;
+use glam::Vec3;
+
+/// Maximum number of vertices of a path (so `max_depth` is at most `MAX_VERTICES - 1`).
+pub const MAX_VERTICES: usize = 64;
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum VertexKind {
+    /// The pinhole.
+    Camera,
+    /// A scattering surface; `delta` if its BSDF is specular.
+    Surface { material: u32, delta: bool },
+    /// A scattering point inside a medium.
+    Medium { medium: u32 },
+    /// The emitter the path ends on; `delta` for point lights.
+    Emitter { light: u32, delta: bool },
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Vertex {
+    pub p: Vec3,
+    /// Geometric normal; zero for medium vertices, point lights and the camera.
+    pub n: Vec3,
+    pub kind: VertexKind,
+}
+
+impl Vertex {
+    pub const EMPTY: Vertex = Vertex {
+        p: Vec3::ZERO,
+        n: Vec3::ZERO,
+        kind: VertexKind::Camera,
+    };
+}
+
+#[derive(Debug, Clone)]
+pub struct Path {
+    vertices: [Vertex; MAX_VERTICES],
+    len: usize,
+    /// RGB contribution f(X), including We.
+    pub f: Spectrum,
+    /// Pixel (row-major index) that x_1 projects to.
+    pub pixel: u32,
+}
+
+impl Default for Path {
+    fn default() -> Self {
+        Path {
+            vertices: [Vertex::EMPTY; MAX_VERTICES],
+            len: 0,
+            f: Spectrum::ZERO,
+            pixel: 0,
+        }
+    }
+}
+
+impl Path {
+    pub fn clear(&mut self) {
+        self.len = 0;
+        self.f = Spectrum::ZERO;
+    }
+
+    /// Append a vertex; returns false (and leaves the path unchanged) when full.
+    pub fn push(&mut self, v: Vertex) -> bool {
+        if self.len == MAX_VERTICES {
+            return false;
+        }
+        self.vertices[self.len] = v;
+        self.len += 1;
+        true
+    }
+
+    pub fn vertices(&self) -> &[Vertex] {
+        &self.vertices[..self.len]
+    }
+
+    /// Number of segments (vertices - 1).
+    pub fn segments(&self) -> usize {
+        self.len.saturating_sub(1)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn push_until_full() {
+        let mut p = Path::default();
+        for i in 0..MAX_VERTICES {
+            assert!(p.push(Vertex {
+                p: Vec3::splat(i as f32),
+                ..Vertex::EMPTY
+            }));
+        }
+        assert!(!p.push(Vertex::EMPTY));
+        assert_eq!(p.segments(), MAX_VERTICES - 1);
+        p.clear();
+        assert_eq!(p.vertices().len(), 0);
+    }
+}

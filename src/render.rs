@@ -1,0 +1,144 @@
+//! The integrator interface and the shared pass driver.
+//!
+//! An [`Integrator`] renders passes into a film until a [`Budget`] is spent. The driver
+//! ([`run_passes`]) owns the loop, the budget and the progress bar; integrators that estimate
+//! one value per pixel implement [`PixelEstimator`] and get the whole render from
+//! [`render_pixel_estimator`]. Randomness comes from one counter-based stream per
+//! (seed, pass, pixel), and each pixel is accumulated by exactly one task, so the image is
+//! bit-identical for any number of threads.
+
+use crate::film::{Film, Image};
+use crate::math::{IndependentSampler, Spectrum, is_finite3};
+use crate::scene::Scene;
+use glam::{UVec2, Vec2};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use rayon::prelude::*;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Instant;
+
+/// How much work a render may do.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Budget {
+    /// This many passes (for per-pixel estimators: samples per pixel).
+    Spp(u64),
+    /// Passes until this many wall-clock seconds have elapsed (the pass under way finishes).
+    Seconds(f64),
+}
+
+/// What every integrator gets to render with.
+pub struct RenderContext<'a> {
+    pub scene: &'a Scene,
+    pub seed: u64,
+    /// Draw a progress bar on stderr (hidden when stderr is not a terminal).
+    pub progress: bool,
+}
+
+/// The outcome of a render.
+#[derive(Debug, Clone)]
+pub struct RenderResult {
+    pub image: Image,
+    /// Samples per pixel (camera paths per pixel for per-pixel estimators).
+    pub spp: u64,
+    pub passes: u64,
+    pub seconds: f64,
+    /// Named counters and settings, also written into the EXR header.
+    pub stats: Vec<(String, String)>,
+}
+
+/// A rendering algorithm, registered by name in `integrators/mod.rs`.
+pub trait Integrator: Send {
+    /// Registry name (`pt`, `bdpt`, ...).
+    fn name(&self) -> &'static str;
+    /// Settings in a human-readable form, for logs and EXR metadata.
+    fn settings(&self) -> String;
+    fn render(&mut self, ctx: &RenderContext, budget: Budget) -> RenderResult;
+}
+
+/// Estimates the measurement of one pixel from one sample stream (a camera path).
+pub trait PixelEstimator: Sync {
+    /// One sample of pixel `pixel`'s value; `raster` is the jittered raster position.
+    fn estimate(&self, scene: &Scene, raster: Vec2, sampler: &mut IndependentSampler) -> Spectrum;
+}
+
+/// Run `pass(i)` for i = 0, 1, ... until the budget is spent; returns (passes, seconds).
+pub fn run_passes(progress: bool, budget: Budget, mut pass: impl FnMut(u64)) -> (u64, f64) {
+    let start = Instant::now();
+    let bar = progress_bar(progress, budget);
+    let mut passes = 0u64;
+    loop {
+        let done = match budget {
+            Budget::Spp(n) => passes >= n,
+            Budget::Seconds(s) => passes > 0 && start.elapsed().as_secs_f64() >= s,
+        };
+        if done {
+            break;
+        }
+        pass(passes);
+        passes += 1;
+        match budget {
+            Budget::Spp(_) => bar.set_position(passes),
+            Budget::Seconds(s) => {
+                bar.set_position((start.elapsed().as_secs_f64() / s * 1000.0).min(1000.0) as u64)
+            }
+        }
+    }
+    bar.finish_and_clear();
+    (passes, start.elapsed().as_secs_f64())
+}
+
+fn progress_bar(progress: bool, budget: Budget) -> ProgressBar {
+    if !progress {
+        return ProgressBar::with_draw_target(None, ProgressDrawTarget::hidden());
+    }
+    let (len, template) = match budget {
+        Budget::Spp(n) => (n, "{elapsed_precise} [{bar:40}] {pos}/{len} spp, eta {eta}"),
+        Budget::Seconds(_) => (
+            1000,
+            "{elapsed_precise} [{bar:40}] {percent}% of the time budget",
+        ),
+    };
+    let bar = ProgressBar::with_draw_target(Some(len), ProgressDrawTarget::stderr());
+    if let Ok(style) = ProgressStyle::with_template(template) {
+        bar.set_style(style.progress_chars("=> "));
+    }
+    bar
+}
+
+/// Render with a per-pixel estimator: each pass adds one jittered sample to every pixel.
+pub fn render_pixel_estimator<E: PixelEstimator>(
+    ctx: &RenderContext,
+    budget: Budget,
+    estimator: &E,
+) -> RenderResult {
+    let scene = ctx.scene;
+    let UVec2 { x: w, y: h } = scene.camera.resolution;
+    let mut film = Film::new(w, h);
+    let invalid = AtomicU64::new(0);
+    let (passes, seconds) = run_passes(ctx.progress, budget, |pass| {
+        film.par_rows_mut().enumerate().for_each(|(y, row)| {
+            for (x, acc) in row.iter_mut().enumerate() {
+                let index = y as u64 * w as u64 + x as u64;
+                let mut sampler = IndependentSampler::new(ctx.seed, pass, index);
+                let jitter = crate::math::Sampler::next_2d(&mut sampler);
+                let raster = Vec2::new(x as f32, y as f32) + jitter;
+                let l = estimator.estimate(scene, raster, &mut sampler);
+                if is_finite3(l) && l.min_element() >= 0.0 {
+                    *acc += l.as_dvec3();
+                } else {
+                    invalid.fetch_add(1, Ordering::Relaxed);
+                }
+            }
+        });
+    });
+    let image = film.to_image(passes as f64, 0.0);
+    RenderResult {
+        image,
+        spp: passes,
+        passes,
+        seconds,
+        stats: vec![(
+            "invalid_samples".to_string(),
+            invalid.load(Ordering::Relaxed).to_string(),
+        )],
+    }
+}

@@ -1,0 +1,805 @@
+//! Scene files: TOML, strict. Unknown keys, wrong types, dangling references and out-of-range
+//! numbers are errors of the form `FILE:LINE: what is wrong, and what was expected`.
+//!
+//! ```toml
+//! [camera]                 # pinhole
+//! position = [0, 0, 3.9]
+//! look_at = [0, 0, 0]
+//! up = [0, 1, 0]
+//! fov = 39.3077            # degrees, vertical axis, in (0, 180)
+//! resolution = [256, 256]
+//!
+//! [render]                 # defaults; the command line overrides them
+//! max_depth = 8            # maximum number of path segments
+//! spp = 16
+//! integrator = "pt"
+//!
+//! [[material]]
+//! name = "white"
+//! type = "diffuse"         # diffuse (albedo), conductor (reflectance), dielectric (ior), black
+//! albedo = [0.73, 0.73, 0.73]
+//!
+//! [[shape]]
+//! type = "quad"            # quad (origin, edge_u, edge_v), cube, sphere (center, radius),
+//!                          # disk (center, normal, radius, segments), obj (file)
+//! origin = [-1, -1, -1]
+//! edge_u = [0, 0, 2]       # front side along edge_u x edge_v
+//! edge_v = [2, 0, 0]
+//! material = "white"
+//! emission = [17, 12, 4]   # optional: makes the shape an area light (front side only)
+//! transform = { scale = [1, 1, 1], rotate = { axis = [0, 1, 0], degrees = 0 }, translate = [0, 0, 0] }
+//!
+//! [[light]]
+//! type = "point"           # point (position, intensity), environment (radiance)
+//! position = [0, 0.9, 0]
+//! intensity = [1, 1, 1]
+//! ```
+//! Transforms apply scale, then rotation, then translation. Paths are relative to the scene file.
+
+use super::{Material, RenderDefaults, Scene, SceneFeatures, ShapeInfo};
+use crate::bsdf::Bsdf;
+use crate::camera::Camera;
+use crate::error::{Error, Result};
+use crate::geometry::bvh::ShapeGeometry;
+use crate::geometry::mesh::MeshSampler;
+use crate::geometry::{Accel, Sphere, Transform, TriangleMesh};
+use crate::light::{AreaLight, AreaShape, EnvironmentLight, Light, LightSampler, PointLight};
+use crate::math::Frame;
+use crate::path::MAX_VERTICES;
+use glam::{UVec2, Vec3};
+use serde::Deserialize;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use toml::Spanned;
+
+type V3 = Spanned<[f32; 3]>;
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct SceneDesc {
+    camera: Spanned<CameraDesc>,
+    #[serde(default)]
+    render: Option<RenderDesc>,
+    #[serde(default)]
+    material: Vec<Spanned<MaterialDesc>>,
+    #[serde(default)]
+    shape: Vec<Spanned<ShapeDesc>>,
+    #[serde(default)]
+    light: Vec<Spanned<LightDesc>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CameraDesc {
+    position: V3,
+    look_at: V3,
+    #[serde(default)]
+    up: Option<V3>,
+    fov: Spanned<f32>,
+    resolution: Spanned<[u32; 2]>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RenderDesc {
+    max_depth: Option<Spanned<u32>>,
+    spp: Option<Spanned<u32>>,
+    integrator: Option<Spanned<String>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct MaterialDesc {
+    name: Spanned<String>,
+    #[serde(rename = "type")]
+    kind: Spanned<String>,
+    albedo: Option<V3>,
+    reflectance: Option<V3>,
+    ior: Option<Spanned<f32>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ShapeDesc {
+    #[serde(rename = "type")]
+    kind: Spanned<String>,
+    name: Option<String>,
+    material: Option<Spanned<String>>,
+    emission: Option<V3>,
+    transform: Option<Spanned<TransformDesc>>,
+    origin: Option<V3>,
+    edge_u: Option<V3>,
+    edge_v: Option<V3>,
+    center: Option<V3>,
+    normal: Option<V3>,
+    radius: Option<Spanned<f32>>,
+    segments: Option<Spanned<u32>>,
+    file: Option<Spanned<String>>,
+}
+
+#[derive(Deserialize)]
+#[serde(untagged)]
+enum ScaleDesc {
+    Uniform(f32),
+    PerAxis([f32; 3]),
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RotateDesc {
+    axis: [f32; 3],
+    degrees: f32,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TransformDesc {
+    scale: Option<Spanned<ScaleDesc>>,
+    rotate: Option<Spanned<RotateDesc>>,
+    translate: Option<V3>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct LightDesc {
+    #[serde(rename = "type")]
+    kind: Spanned<String>,
+    position: Option<V3>,
+    intensity: Option<V3>,
+    radiance: Option<V3>,
+}
+
+/// Line numbers from byte offsets, and the file name errors are reported against.
+struct Source<'a> {
+    name: &'a str,
+    text: &'a str,
+}
+
+impl Source<'_> {
+    fn line(&self, offset: usize) -> usize {
+        self.text[..offset.min(self.text.len())]
+            .bytes()
+            .filter(|&b| b == b'\n')
+            .count()
+            + 1
+    }
+
+    fn err<T>(&self, span: std::ops::Range<usize>, msg: impl std::fmt::Display) -> Result<T> {
+        Err(Error::new(format!(
+            "{}:{}: {}",
+            self.name,
+            self.line(span.start),
+            msg
+        )))
+    }
+
+    fn finite3(&self, v: &V3, key: &str) -> Result<Vec3> {
+        let a = *v.get_ref();
+        if a.iter().any(|x| !x.is_finite()) {
+            return self.err(
+                v.span(),
+                format!("'{key}' must be three finite numbers, got {a:?}"),
+            );
+        }
+        Ok(Vec3::from(a))
+    }
+
+    fn in_unit_range(&self, v: &V3, key: &str) -> Result<Vec3> {
+        let c = self.finite3(v, key)?;
+        if c.min_element() < 0.0 || c.max_element() > 1.0 {
+            return self.err(
+                v.span(),
+                format!(
+                    "'{key}' must lie in [0, 1] per channel, got {:?}",
+                    v.get_ref()
+                ),
+            );
+        }
+        Ok(c)
+    }
+
+    fn non_negative3(&self, v: &V3, key: &str) -> Result<Vec3> {
+        let c = self.finite3(v, key)?;
+        if c.min_element() < 0.0 {
+            return self.err(
+                v.span(),
+                format!("'{key}' must be >= 0 per channel, got {:?}", v.get_ref()),
+            );
+        }
+        Ok(c)
+    }
+
+    fn required<'b, T>(
+        &self,
+        v: &'b Option<T>,
+        span: std::ops::Range<usize>,
+        key: &str,
+        what: &str,
+    ) -> Result<&'b T> {
+        match v {
+            Some(v) => Ok(v),
+            None => self.err(span, format!("{what} needs the key '{key}'")),
+        }
+    }
+}
+
+/// Load a scene file.
+pub fn load_file(path: &Path) -> Result<Scene> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| Error::new(format!("{}: cannot read scene file: {e}", path.display())))?;
+    let name = path.display().to_string();
+    load_str(&text, &name, path.parent())
+}
+
+/// Load a scene from TOML text; `name` is used in error messages, `dir` resolves mesh paths.
+pub fn load_str(text: &str, name: &str, dir: Option<&Path>) -> Result<Scene> {
+    let src = Source { name, text };
+    let desc: SceneDesc = toml::from_str(text).map_err(|e| {
+        let line = e.span().map(|s| src.line(s.start));
+        let msg = e.message().trim().replace('\n', " ");
+        match line {
+            Some(l) => Error::new(format!("{name}:{l}: {msg}")),
+            None => Error::new(format!("{name}: {msg}")),
+        }
+    })?;
+    Builder {
+        src: &src,
+        dir: dir.map(Path::to_path_buf),
+    }
+    .build(desc)
+}
+
+struct Builder<'a> {
+    src: &'a Source<'a>,
+    dir: Option<PathBuf>,
+}
+
+impl Builder<'_> {
+    fn build(&self, desc: SceneDesc) -> Result<Scene> {
+        let src = self.src;
+        let camera = self.camera(&desc.camera)?;
+        let render = self.render(desc.render.as_ref())?;
+
+        // Materials, by name.
+        let mut materials = Vec::new();
+        let mut by_name: HashMap<String, u32> = HashMap::new();
+        for m in &desc.material {
+            let name = m.get_ref().name.get_ref().clone();
+            if by_name.contains_key(&name) {
+                return src.err(
+                    m.get_ref().name.span(),
+                    format!("material '{name}' is defined twice"),
+                );
+            }
+            let bsdf = self.material(m)?;
+            by_name.insert(name.clone(), materials.len() as u32);
+            materials.push(Material { name, bsdf });
+        }
+        let mut black = None;
+
+        // Shapes, and area lights for emissive ones.
+        let mut shapes = Vec::new();
+        let mut shape_info = Vec::new();
+        let mut lights = Vec::new();
+        for (i, s) in desc.shape.iter().enumerate() {
+            let d = s.get_ref();
+            let geometry = self.shape(s)?;
+            let label = d
+                .name
+                .clone()
+                .unwrap_or_else(|| format!("shape #{} ({})", i + 1, d.kind.get_ref()));
+            let emission = match &d.emission {
+                Some(e) => Some((self.src.non_negative3(e, "emission")?, e.span())),
+                None => None,
+            };
+            let material = match &d.material {
+                Some(m) => match by_name.get(m.get_ref()) {
+                    Some(&id) => id,
+                    None => {
+                        let known: Vec<&str> = materials.iter().map(|m| m.name.as_str()).collect();
+                        return src.err(
+                            m.span(),
+                            format!(
+                                "unknown material '{}' (defined: {})",
+                                m.get_ref(),
+                                if known.is_empty() {
+                                    "none".to_string()
+                                } else {
+                                    known.join(", ")
+                                }
+                            ),
+                        );
+                    }
+                },
+                None if emission.is_some() => *black.get_or_insert_with(|| {
+                    materials.push(Material {
+                        name: "<black>".into(),
+                        bsdf: Bsdf::Black,
+                    });
+                    materials.len() as u32 - 1
+                }),
+                None => {
+                    return src.err(
+                        s.span(),
+                        format!("{label} needs a 'material' (or an 'emission')"),
+                    );
+                }
+            };
+            let shape_id = shapes.len() as u32;
+            let light = match emission {
+                Some((le, _)) if le != Vec3::ZERO => {
+                    let area = match &geometry {
+                        ShapeGeometry::Mesh(m) => AreaShape::Mesh {
+                            sampler: MeshSampler::new(m),
+                            mesh: m.clone(),
+                        },
+                        ShapeGeometry::Sphere(sp) => AreaShape::Sphere(*sp),
+                    };
+                    lights.push(Light::Area(AreaLight::new(shape_id, le, area)));
+                    Some(lights.len() as u32 - 1)
+                }
+                _ => None,
+            };
+            shapes.push(geometry);
+            shape_info.push(ShapeInfo {
+                name: label,
+                material,
+                light,
+            });
+        }
+
+        let mut environment = None;
+        for l in &desc.light {
+            let d = l.get_ref();
+            let what = format!("light of type '{}'", d.kind.get_ref());
+            let light = match d.kind.get_ref().as_str() {
+                "point" => {
+                    self.only(l.span(), &what, &[("radiance", d.radiance.is_some())])?;
+                    let p = src.finite3(
+                        src.required(&d.position, l.span(), "position", &what)?,
+                        "position",
+                    )?;
+                    let i = src.non_negative3(
+                        src.required(&d.intensity, l.span(), "intensity", &what)?,
+                        "intensity",
+                    )?;
+                    Light::Point(PointLight {
+                        position: p,
+                        intensity: i,
+                    })
+                }
+                "environment" => {
+                    self.only(
+                        l.span(),
+                        &what,
+                        &[
+                            ("position", d.position.is_some()),
+                            ("intensity", d.intensity.is_some()),
+                        ],
+                    )?;
+                    if environment.is_some() {
+                        return src.err(l.span(), "only one environment light is allowed");
+                    }
+                    let r = src.non_negative3(
+                        src.required(&d.radiance, l.span(), "radiance", &what)?,
+                        "radiance",
+                    )?;
+                    environment = Some(lights.len());
+                    Light::Environment(EnvironmentLight {
+                        radiance: r,
+                        center: Vec3::ZERO,
+                        radius: 1.0,
+                    })
+                }
+                other => {
+                    return src.err(
+                        d.kind.span(),
+                        format!("unknown light type '{other}' (expected point or environment)"),
+                    );
+                }
+            };
+            lights.push(light);
+        }
+
+        // Bounding sphere of the geometry (the camera if there is none).
+        let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+        for s in &shapes {
+            match s {
+                ShapeGeometry::Mesh(m) => {
+                    for p in &m.positions {
+                        lo = lo.min(*p);
+                        hi = hi.max(*p);
+                    }
+                }
+                ShapeGeometry::Sphere(sp) => {
+                    lo = lo.min(sp.center - sp.radius);
+                    hi = hi.max(sp.center + sp.radius);
+                }
+            }
+        }
+        let (center, radius) = if lo.x <= hi.x {
+            (0.5 * (lo + hi), (0.5 * (hi - lo).length()).max(1e-6))
+        } else {
+            (camera.position, 1.0)
+        };
+        for l in &mut lights {
+            if let Light::Environment(e) = l {
+                e.center = center;
+                e.radius = radius;
+            }
+        }
+
+        let features = SceneFeatures {
+            media: false,
+            delta_lights: lights.iter().any(|l| l.is_delta()),
+            specular_surfaces: shape_info
+                .iter()
+                .any(|s| materials[s.material as usize].bsdf.is_delta()),
+            environment: environment.is_some(),
+            emissive_geometry: lights.iter().any(|l| matches!(l, Light::Area(_))),
+        };
+        let accel = Accel::build(&shapes);
+        Ok(Scene {
+            source: src.name.to_string(),
+            light_sampler: LightSampler::new(&lights),
+            camera,
+            shapes,
+            shape_info,
+            materials,
+            lights,
+            environment,
+            accel,
+            features,
+            center,
+            radius,
+            render,
+        })
+    }
+
+    /// Reject keys that do not belong to this type.
+    fn only(
+        &self,
+        span: std::ops::Range<usize>,
+        what: &str,
+        present: &[(&str, bool)],
+    ) -> Result<()> {
+        for (key, is) in present {
+            if *is {
+                return self
+                    .src
+                    .err(span, format!("{what} does not take the key '{key}'"));
+            }
+        }
+        Ok(())
+    }
+
+    fn camera(&self, c: &Spanned<CameraDesc>) -> Result<Camera> {
+        let src = self.src;
+        let d = c.get_ref();
+        let position = src.finite3(&d.position, "position")?;
+        let look_at = src.finite3(&d.look_at, "look_at")?;
+        let up = match &d.up {
+            Some(u) => src.finite3(u, "up")?,
+            None => Vec3::Y,
+        };
+        let fov = *d.fov.get_ref();
+        if !(fov > 0.0 && fov < 180.0) {
+            return src.err(
+                d.fov.span(),
+                format!("'fov' must be in (0, 180) degrees, got {fov}"),
+            );
+        }
+        let [w, h] = *d.resolution.get_ref();
+        if w == 0 || h == 0 || w > 16384 || h > 16384 {
+            return src.err(
+                d.resolution.span(),
+                format!("'resolution' must be two integers in [1, 16384], got [{w}, {h}]"),
+            );
+        }
+        let forward = look_at - position;
+        if forward.length_squared() == 0.0 {
+            return src.err(d.look_at.span(), "'look_at' must differ from 'position'");
+        }
+        if forward
+            .normalize()
+            .cross(up.normalize_or_zero())
+            .length_squared()
+            < 1e-10
+        {
+            return src.err(
+                c.span(),
+                "'up' must not be zero or parallel to the viewing direction",
+            );
+        }
+        Ok(Camera::new(position, look_at, up, fov, UVec2::new(w, h)))
+    }
+
+    fn render(&self, r: Option<&RenderDesc>) -> Result<RenderDefaults> {
+        let mut out = RenderDefaults::default();
+        let Some(r) = r else { return Ok(out) };
+        if let Some(d) = &r.max_depth {
+            let v = *d.get_ref();
+            if v == 0 || v as usize >= MAX_VERTICES {
+                return self.src.err(
+                    d.span(),
+                    format!("'max_depth' must be in [1, {}], got {v}", MAX_VERTICES - 1),
+                );
+            }
+            out.max_depth = v;
+        }
+        if let Some(s) = &r.spp {
+            if *s.get_ref() == 0 {
+                return self.src.err(s.span(), "'spp' must be at least 1");
+            }
+            out.spp = *s.get_ref();
+        }
+        if let Some(i) = &r.integrator {
+            out.integrator = i.get_ref().clone();
+        }
+        Ok(out)
+    }
+
+    fn material(&self, m: &Spanned<MaterialDesc>) -> Result<Bsdf> {
+        let src = self.src;
+        let d = m.get_ref();
+        let what = format!(
+            "material '{}' of type '{}'",
+            d.name.get_ref(),
+            d.kind.get_ref()
+        );
+        let span = m.span();
+        Ok(match d.kind.get_ref().as_str() {
+            "diffuse" => {
+                self.only(span.clone(), &what, &[("reflectance", d.reflectance.is_some()), ("ior", d.ior.is_some())])?;
+                Bsdf::Diffuse { albedo: src.in_unit_range(src.required(&d.albedo, span, "albedo", &what)?, "albedo")? }
+            }
+            "conductor" => {
+                self.only(span.clone(), &what, &[("albedo", d.albedo.is_some()), ("ior", d.ior.is_some())])?;
+                Bsdf::Conductor { reflectance: src.in_unit_range(src.required(&d.reflectance, span, "reflectance", &what)?, "reflectance")? }
+            }
+            "dielectric" => {
+                self.only(span.clone(), &what, &[("albedo", d.albedo.is_some()), ("reflectance", d.reflectance.is_some())])?;
+                let ior = src.required(&d.ior, span, "ior", &what)?;
+                let eta = *ior.get_ref();
+                if !(eta.is_finite() && eta > 0.0) {
+                    return src.err(ior.span(), format!("'ior' must be a finite number > 0, got {eta}"));
+                }
+                Bsdf::Dielectric { eta }
+            }
+            "black" => {
+                self.only(span, &what, &[("albedo", d.albedo.is_some()), ("reflectance", d.reflectance.is_some()), ("ior", d.ior.is_some())])?;
+                Bsdf::Black
+            }
+            other => return src.err(d.kind.span(), format!("unknown material type '{other}' (expected diffuse, conductor, dielectric or black)")),
+        })
+    }
+
+    fn transform(&self, t: Option<&Spanned<TransformDesc>>) -> Result<Transform> {
+        let src = self.src;
+        let Some(t) = t else {
+            return Ok(Transform::IDENTITY);
+        };
+        let d = t.get_ref();
+        let scale = match &d.scale {
+            None => Vec3::ONE,
+            Some(s) => {
+                let v = match s.get_ref() {
+                    ScaleDesc::Uniform(x) => Vec3::splat(*x),
+                    ScaleDesc::PerAxis(a) => Vec3::from(*a),
+                };
+                if !v.is_finite() || v.x == 0.0 || v.y == 0.0 || v.z == 0.0 {
+                    return src.err(
+                        s.span(),
+                        "'scale' must be finite and non-zero in every axis",
+                    );
+                }
+                v
+            }
+        };
+        let (axis, degrees) = match &d.rotate {
+            None => (Vec3::Y, 0.0),
+            Some(r) => {
+                let a = Vec3::from(r.get_ref().axis);
+                let deg = r.get_ref().degrees;
+                if !a.is_finite() || a.length_squared() == 0.0 || !deg.is_finite() {
+                    return src.err(
+                        r.span(),
+                        "'rotate' needs a finite non-zero 'axis' and finite 'degrees'",
+                    );
+                }
+                (a, deg)
+            }
+        };
+        let translate = match &d.translate {
+            Some(v) => src.finite3(v, "translate")?,
+            None => Vec3::ZERO,
+        };
+        Ok(Transform::new(scale, axis, degrees, translate))
+    }
+
+    fn shape(&self, s: &Spanned<ShapeDesc>) -> Result<ShapeGeometry> {
+        let src = self.src;
+        let d = s.get_ref();
+        let span = s.span();
+        let kind = d.kind.get_ref().as_str();
+        let what = format!("shape of type '{kind}'");
+        let t = self.transform(d.transform.as_ref())?;
+        let keys = [
+            ("origin", d.origin.is_some()),
+            ("edge_u", d.edge_u.is_some()),
+            ("edge_v", d.edge_v.is_some()),
+            ("center", d.center.is_some()),
+            ("normal", d.normal.is_some()),
+            ("radius", d.radius.is_some()),
+            ("segments", d.segments.is_some()),
+            ("file", d.file.is_some()),
+        ];
+        let allowed: &[&str] =
+            match kind {
+                "quad" => &["origin", "edge_u", "edge_v"],
+                "cube" => &[],
+                "sphere" => &["center", "radius"],
+                "disk" => &["center", "normal", "radius", "segments"],
+                "obj" => &["file"],
+                other => return src.err(
+                    d.kind.span(),
+                    format!(
+                        "unknown shape type '{other}' (expected quad, cube, sphere, disk or obj)"
+                    ),
+                ),
+            };
+        let extra: Vec<(&str, bool)> = keys
+            .iter()
+            .copied()
+            .filter(|(k, _)| !allowed.contains(k))
+            .collect();
+        self.only(span.clone(), &what, &extra)?;
+        let radius = |default: f32| -> Result<f32> {
+            match &d.radius {
+                None => Ok(default),
+                Some(r) => {
+                    let v = *r.get_ref();
+                    if !(v.is_finite() && v > 0.0) {
+                        return src.err(
+                            r.span(),
+                            format!("'radius' must be a finite number > 0, got {v}"),
+                        );
+                    }
+                    Ok(v)
+                }
+            }
+        };
+        let opt3 = |v: &Option<V3>, key: &str, default: Vec3| -> Result<Vec3> {
+            match v {
+                Some(v) => src.finite3(v, key),
+                None => Ok(default),
+            }
+        };
+        Ok(match kind {
+            "quad" => {
+                let o = opt3(&d.origin, "origin", Vec3::new(-1.0, -1.0, 0.0))?;
+                let u = opt3(&d.edge_u, "edge_u", Vec3::new(2.0, 0.0, 0.0))?;
+                let v = opt3(&d.edge_v, "edge_v", Vec3::new(0.0, 2.0, 0.0))?;
+                if u.cross(v).length_squared() == 0.0 {
+                    return src.err(
+                        span,
+                        "'edge_u' and 'edge_v' of a quad must be non-zero and not parallel",
+                    );
+                }
+                ShapeGeometry::Mesh(TriangleMesh::quad(o, u, v).transformed(&t))
+            }
+            "cube" => ShapeGeometry::Mesh(TriangleMesh::cube().transformed(&t)),
+            "sphere" => {
+                let c = opt3(&d.center, "center", Vec3::ZERO)?;
+                let r = radius(1.0)?;
+                let Some(scale) = t.uniform_scale() else {
+                    return src.err(
+                        d.transform.as_ref().map_or(span, |t| t.span()),
+                        "an analytic sphere's transform must scale uniformly",
+                    );
+                };
+                ShapeGeometry::Sphere(Sphere {
+                    center: t.point(c),
+                    radius: r * scale,
+                })
+            }
+            "disk" => {
+                let c = opt3(&d.center, "center", Vec3::ZERO)?;
+                let n = opt3(&d.normal, "normal", Vec3::Z)?;
+                if n.length_squared() == 0.0 {
+                    return src.err(
+                        d.normal.as_ref().unwrap().span(),
+                        "'normal' must be non-zero",
+                    );
+                }
+                let r = radius(1.0)?;
+                let segments = d.segments.as_ref().map_or(64, |s| *s.get_ref());
+                if !(3..=100_000).contains(&segments) {
+                    return src.err(
+                        d.segments.as_ref().unwrap().span(),
+                        "'segments' must be in [3, 100000]",
+                    );
+                }
+                let f = Frame::from_z(n.normalize());
+                let mut m = TriangleMesh::disk(segments);
+                for p in &mut m.positions {
+                    *p = c + f.to_world(*p * r);
+                }
+                ShapeGeometry::Mesh(m.transformed(&t))
+            }
+            "obj" => {
+                let file = src.required(&d.file, span, "file", &what)?;
+                let path = match &self.dir {
+                    Some(dir) => dir.join(file.get_ref()),
+                    None => PathBuf::from(file.get_ref()),
+                };
+                let mesh = load_obj(&path).or_else(|e| {
+                    src.err(
+                        file.span(),
+                        format!("cannot load mesh '{}': {e}", path.display()),
+                    )
+                })?;
+                ShapeGeometry::Mesh(mesh.transformed(&t))
+            }
+            _ => unreachable!("shape types are checked above"),
+        })
+    }
+}
+
+/// Load every model of an OBJ file into one mesh, with vertex normals when all models have them.
+fn load_obj(path: &Path) -> std::result::Result<TriangleMesh, String> {
+    if !path.is_file() {
+        return Err("no such file".to_string());
+    }
+    let (models, _materials) =
+        tobj::load_obj(path, &tobj::GPU_LOAD_OPTIONS).map_err(|e| e.to_string())?;
+    let mut mesh = TriangleMesh {
+        normals: Some(Vec::new()),
+        ..Default::default()
+    };
+    for m in &models {
+        let m = &m.mesh;
+        let base = mesh.positions.len() as u32;
+        mesh.positions.extend(
+            m.positions
+                .chunks_exact(3)
+                .map(|c| Vec3::new(c[0], c[1], c[2])),
+        );
+        if m.normals.len() == m.positions.len() {
+            if let Some(ns) = &mut mesh.normals {
+                ns.extend(
+                    m.normals
+                        .chunks_exact(3)
+                        .map(|c| Vec3::new(c[0], c[1], c[2]).normalize_or_zero()),
+                );
+            }
+        } else {
+            mesh.normals = None;
+        }
+        mesh.indices.extend(
+            m.indices
+                .chunks_exact(3)
+                .map(|c| [c[0] + base, c[1] + base, c[2] + base]),
+        );
+    }
+    if mesh.indices.is_empty() {
+        return Err("the file has no triangles".to_string());
+    }
+    if mesh.positions.iter().any(|p| !p.is_finite()) {
+        return Err("the file has non-finite vertex positions".to_string());
+    }
+    if mesh
+        .indices
+        .iter()
+        .flatten()
+        .any(|&i| i as usize >= mesh.positions.len())
+    {
+        return Err("a face refers to a vertex that does not exist".to_string());
+    }
+    if let Some(ns) = &mesh.normals {
+        if ns.iter().any(|n| *n == Vec3::ZERO || !n.is_finite()) {
+            mesh.normals = None;
+        }
+    }
+    Ok(mesh)
+}

@@ -25,6 +25,17 @@ struct Prim {
 
 struct Bounds(Aabb);
 
+impl Bounds {
+    /// A box padded by a tiny relative margin, so no box has zero extent on any axis (an
+    /// axis-aligned quad alone) when obvhs quantises child boxes against their parent's.
+    fn padded(mut bb: Aabb) -> Bounds {
+        let pad = 1e-6 * bb.min.abs().max(bb.max.abs()).max_element() + 1e-30;
+        bb.min -= Vec3A::splat(pad);
+        bb.max += Vec3A::splat(pad);
+        Bounds(bb)
+    }
+}
+
 impl Boundable for Bounds {
     fn aabb(&self) -> Aabb {
         self.0
@@ -60,7 +71,7 @@ impl Accel {
                         }
                         let mut bb = Aabb::from_point(p0);
                         bb.extend(p1).extend(p2);
-                        bounds.push(Bounds(bb));
+                        bounds.push(Bounds::padded(bb));
                         prims.push(Prim {
                             a: p0,
                             b: p1 - p0,
@@ -73,7 +84,7 @@ impl Accel {
                 ShapeGeometry::Sphere(sp) => {
                     let c = Vec3A::from(sp.center);
                     let r = Vec3A::splat(sp.radius);
-                    bounds.push(Bounds(Aabb::new(c - r, c + r)));
+                    bounds.push(Bounds::padded(Aabb::new(c - r, c + r)));
                     prims.push(Prim {
                         a: c,
                         b: Vec3A::splat(sp.radius),
@@ -113,9 +124,7 @@ impl Accel {
     /// Closest hit along the ray; returns the hit and the barycentrics (b1, b2) for triangles.
     pub fn intersect(&self, ray: &Ray, shapes: &[ShapeGeometry]) -> Option<Hit> {
         let bvh = self.bvh.as_ref()?;
-        let o = Vec3A::from(ray.o);
-        let d = Vec3A::from(ray.d);
-        let r = obvhs::ray::Ray::new(o, d, 0.0, ray.t_max);
+        let r = obvhs::ray::Ray::new(Vec3A::from(ray.o), canonical_dir(ray.d), 0.0, ray.t_max);
         let mut hit = RayHit::none();
         let mut best_uv = Vec2::ZERO;
         let prims = &self.prims;
@@ -138,7 +147,7 @@ impl Accel {
         let Some(bvh) = self.bvh.as_ref() else {
             return true;
         };
-        let r = obvhs::ray::Ray::new(Vec3A::from(o), Vec3A::from(d), 0.0, dist);
+        let r = obvhs::ray::Ray::new(Vec3A::from(o), canonical_dir(d), 0.0, dist);
         let prims = &self.prims;
         bvh.ray_traverse_miss(r, |r, i| {
             intersect_prim(&prims[i], r.origin, r.direction, r.tmax).0
@@ -164,6 +173,14 @@ pub fn shadow_segment(
     let v = target - o;
     let len = v.length();
     (o, v / len, len * (1.0 - SHADOW_EPS))
+}
+
+/// obvhs picks the ray octant with `d < 0` (so -0.0 counts as positive) but inverts -0.0 to a
+/// large negative number; the two disagree and axis-parallel rays then miss everything.
+/// Adding +0.0 turns -0.0 into +0.0 and leaves every other value unchanged.
+#[inline]
+fn canonical_dir(d: Vec3) -> Vec3A {
+    Vec3A::from(d) + Vec3A::ZERO
 }
 
 #[inline]
@@ -275,6 +292,27 @@ mod tests {
         assert!((h2.ng - Vec3::Y).length() < 1e-6);
         assert!(!accel.unoccluded(Vec3::new(0.0, 5.0, 0.0), -Vec3::Y, 10.0));
         assert!(accel.unoccluded(Vec3::new(0.0, 5.0, 0.0), Vec3::Y, 10.0));
+    }
+
+    /// Axis-parallel rays with -0.0 components (e.g. `-Vec3::Y`) used to miss everything.
+    #[test]
+    fn axis_parallel_rays_with_negative_zero_hit() {
+        let q = TriangleMesh::quad(
+            Vec3::new(-1.0, 0.0, -1.0),
+            Vec3::new(0.0, 0.0, 2.0),
+            Vec3::new(2.0, 0.0, 0.0),
+        );
+        let shapes = vec![ShapeGeometry::Mesh(q)];
+        let accel = Accel::build(&shapes);
+        for d in [
+            -Vec3::Y,
+            Vec3::new(-0.0, -1.0, 0.0),
+            Vec3::new(0.0, -1.0, -0.0),
+        ] {
+            let h = accel.intersect(&Ray::new(Vec3::new(0.3, 5.0, -0.2), d), &shapes);
+            assert!(h.is_some_and(|h| (h.t - 5.0).abs() < 1e-5), "{d:?}");
+            assert!(!accel.unoccluded(Vec3::new(0.3, 5.0, -0.2), d, 10.0));
+        }
     }
 
     /// Bounce rays off the quad and out of the sphere at scales from 1e-4 to 1e4: the spawned

@@ -1,0 +1,162 @@
+//! Analytic scenes with known answers.
+//!
+//! * Closed furnace: inside a closed two-sided diffuse enclosure of albedo rho that emits Le
+//!   towards its inside, radiance is the same everywhere: with at most D segments,
+//!   L = Le (1 - rho^D) / (1 - rho), i.e. Le / (1 - rho) for long paths. The enclosure is a
+//!   tessellated sphere loaded from OBJ with inward-pointing normals, so the emission faces in.
+//! * White furnace: a convex diffuse object of albedo 1, or a glass sphere, in a constant
+//!   environment L looks exactly like the environment (energy conservation of both BSDFs).
+//!
+//! Each check is a z-test of the image mean (pixels are independent estimates of the same
+//! constant) at |z| < 4.5 per channel: false-failure rate below 1e-5 per check, seeds fixed.
+
+mod util;
+
+/// Relative resolution of the f32 image: a noiseless image (se = 0) can only match to this.
+const F32_RESOLUTION: f64 = 1e-6;
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+/// An icosphere of radius `r` as OBJ text, wound so that its front faces inwards. No vertex
+/// normals: smooth shading normals on facets cost a little energy (samples below the
+/// geometric horizon are rejected), so the furnace would no longer be exact.
+fn inward_icosphere_obj(r: f32, subdivisions: u32) -> String {
+    let t = (1.0 + 5f32.sqrt()) / 2.0;
+    let mut v: Vec<[f32; 3]> = vec![
+        [-1.0, t, 0.0], [1.0, t, 0.0], [-1.0, -t, 0.0], [1.0, -t, 0.0],
+        [0.0, -1.0, t], [0.0, 1.0, t], [0.0, -1.0, -t], [0.0, 1.0, -t],
+        [t, 0.0, -1.0], [t, 0.0, 1.0], [-t, 0.0, -1.0], [-t, 0.0, 1.0],
+    ];
+    let mut f: Vec<[usize; 3]> = vec![
+        [0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9], [5, 11, 4], [11, 10, 2], [10, 7, 6], [7, 1, 8],
+        [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8], [3, 8, 9], [4, 9, 5], [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1],
+    ];
+    let norm = |p: [f32; 3]| {
+        let l = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
+        [p[0] / l, p[1] / l, p[2] / l]
+    };
+    v = v.into_iter().map(norm).collect();
+    for _ in 0..subdivisions {
+        let mut cache = std::collections::HashMap::new();
+        let mut mid = |a: usize, b: usize, v: &mut Vec<[f32; 3]>| -> usize {
+            *cache.entry((a.min(b), a.max(b))).or_insert_with(|| {
+                let (p, q) = (v[a], v[b]);
+                v.push(norm([(p[0] + q[0]) / 2.0, (p[1] + q[1]) / 2.0, (p[2] + q[2]) / 2.0]));
+                v.len() - 1
+            })
+        };
+        let mut nf = Vec::new();
+        for [a, b, c] in f {
+            let (ab, bc, ca) = (mid(a, b, &mut v), mid(b, c, &mut v), mid(c, a, &mut v));
+            nf.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+        }
+        f = nf;
+    }
+    let mut s = String::new();
+    for p in &v {
+        writeln!(s, "v {} {} {}", p[0] * r, p[1] * r, p[2] * r).unwrap();
+    }
+    for [a, b, c] in &f {
+        // Outward winding reversed: the front side faces the inside.
+        writeln!(s, "f {} {} {}", a + 1, c + 1, b + 1).unwrap();
+    }
+    s
+}
+
+fn temp_dir(tag: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("lodestar-furnace-{tag}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn closed_furnace(rho: f32, le: f32, max_depth: u32, strategy: &str, seed: u64) {
+    let dir = temp_dir(&format!("{rho}-{strategy}-{max_depth}-{seed}"));
+    std::fs::write(dir.join("sphere.obj"), inward_icosphere_obj(2.0, 3)).unwrap();
+    let toml = format!(
+        r#"
+[camera]
+position = [0.3, -0.2, 0.5]
+look_at = [1, 0.4, -1]
+fov = 70
+resolution = [32, 32]
+[[material]]
+name = "wall"
+type = "diffuse"
+albedo = [{rho}, {rho}, {rho}]
+[[shape]]
+type = "obj"
+file = "sphere.obj"
+material = "wall"
+emission = [{le}, {le}, {le}]
+"#
+    );
+    std::fs::write(dir.join("furnace.toml"), &toml).unwrap();
+    let scene = lodestar::scene::loader::load_file(&dir.join("furnace.toml")).unwrap();
+    let img = util::render(&scene, "pt", max_depth, &[&format!("strategy={strategy}")], 64, seed, 2).image;
+    std::fs::remove_dir_all(&dir).unwrap();
+    let expected = le as f64 * (1.0 - (rho as f64).powi(max_depth as i32)) / (1.0 - rho as f64);
+    let (mean, se) = util::mean_and_stderr(&img);
+    for c in 0..3 {
+        let z = (mean[c] - expected) / (se[c] + F32_RESOLUTION * expected);
+        assert!(z.abs() < 4.5, "rho {rho}, {strategy}: channel {c} mean {} expected {expected} (se {}, z {z})", mean[c], se[c]);
+    }
+}
+
+#[test]
+fn closed_furnace_all_strategies() {
+    for strategy in ["mis", "bsdf", "nee"] {
+        closed_furnace(0.5, 1.0, 63, strategy, 1);
+    }
+    closed_furnace(0.8, 0.5, 63, "mis", 2);
+}
+
+/// With a short depth limit the truncated geometric series must be matched exactly, which
+/// checks that max_depth counts segments (1 = emitters seen directly).
+#[test]
+fn closed_furnace_depth_limit() {
+    closed_furnace(0.5, 1.0, 1, "mis", 3);
+    closed_furnace(0.5, 1.0, 2, "nee", 4);
+    closed_furnace(0.5, 1.0, 3, "mis", 5);
+}
+
+fn white_furnace(shape: &str, material: &str, strategy: &str) {
+    let toml = format!(
+        r#"
+[camera]
+position = [0, 0, 4]
+look_at = [0, 0, 0]
+fov = 30
+resolution = [32, 32]
+[[material]]
+{material}
+[[shape]]
+{shape}
+material = "m"
+[[light]]
+type = "environment"
+radiance = [0.7, 0.5, 0.3]
+"#
+    );
+    let scene = util::scene(&toml);
+    let img = util::render(&scene, "pt", 63, &[&format!("strategy={strategy}")], 64, 11, 2).image;
+    let (mean, se) = util::mean_and_stderr(&img);
+    for (c, expected) in [0.7, 0.5, 0.3].into_iter().enumerate() {
+        let z = (mean[c] - expected) / (se[c] + F32_RESOLUTION * expected);
+        assert!(z.abs() < 4.5, "{material} {strategy}: channel {c} mean {} expected {expected} (se {}, z {z})", mean[c], se[c]);
+    }
+}
+
+#[test]
+fn white_furnace_diffuse_sphere_and_cube() {
+    let diffuse = "name = \"m\"\ntype = \"diffuse\"\nalbedo = [1, 1, 1]";
+    for strategy in ["mis", "bsdf", "nee"] {
+        white_furnace("type = \"sphere\"\nradius = 1", diffuse, strategy);
+    }
+    white_furnace("type = \"cube\"\ntransform = { scale = 0.8, rotate = { axis = [1, 1, 0], degrees = 30 } }", diffuse, "mis");
+}
+
+#[test]
+fn white_furnace_glass_sphere() {
+    white_furnace("type = \"sphere\"\nradius = 1", "name = \"m\"\ntype = \"dielectric\"\nior = 1.5", "mis");
+}

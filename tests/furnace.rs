@@ -24,13 +24,40 @@ use std::path::PathBuf;
 fn inward_icosphere_obj(r: f32, subdivisions: u32) -> String {
     let t = (1.0 + 5f32.sqrt()) / 2.0;
     let mut v: Vec<[f32; 3]> = vec![
-        [-1.0, t, 0.0], [1.0, t, 0.0], [-1.0, -t, 0.0], [1.0, -t, 0.0],
-        [0.0, -1.0, t], [0.0, 1.0, t], [0.0, -1.0, -t], [0.0, 1.0, -t],
-        [t, 0.0, -1.0], [t, 0.0, 1.0], [-t, 0.0, -1.0], [-t, 0.0, 1.0],
+        [-1.0, t, 0.0],
+        [1.0, t, 0.0],
+        [-1.0, -t, 0.0],
+        [1.0, -t, 0.0],
+        [0.0, -1.0, t],
+        [0.0, 1.0, t],
+        [0.0, -1.0, -t],
+        [0.0, 1.0, -t],
+        [t, 0.0, -1.0],
+        [t, 0.0, 1.0],
+        [-t, 0.0, -1.0],
+        [-t, 0.0, 1.0],
     ];
     let mut f: Vec<[usize; 3]> = vec![
-        [0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9], [5, 11, 4], [11, 10, 2], [10, 7, 6], [7, 1, 8],
-        [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8], [3, 8, 9], [4, 9, 5], [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1],
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
     ];
     let norm = |p: [f32; 3]| {
         let l = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
@@ -42,7 +69,11 @@ fn inward_icosphere_obj(r: f32, subdivisions: u32) -> String {
         let mut mid = |a: usize, b: usize, v: &mut Vec<[f32; 3]>| -> usize {
             *cache.entry((a.min(b), a.max(b))).or_insert_with(|| {
                 let (p, q) = (v[a], v[b]);
-                v.push(norm([(p[0] + q[0]) / 2.0, (p[1] + q[1]) / 2.0, (p[2] + q[2]) / 2.0]));
+                v.push(norm([
+                    (p[0] + q[0]) / 2.0,
+                    (p[1] + q[1]) / 2.0,
+                    (p[2] + q[2]) / 2.0,
+                ]));
                 v.len() - 1
             })
         };
@@ -93,13 +124,27 @@ emission = [{le}, {le}, {le}]
     );
     std::fs::write(dir.join("furnace.toml"), &toml).unwrap();
     let scene = lodestar::scene::loader::load_file(&dir.join("furnace.toml")).unwrap();
-    let img = util::render(&scene, "pt", max_depth, &[&format!("strategy={strategy}")], 64, seed, 2).image;
+    let img = util::render(
+        &scene,
+        "pt",
+        max_depth,
+        &[&format!("strategy={strategy}")],
+        64,
+        seed,
+        2,
+    )
+    .image;
     std::fs::remove_dir_all(&dir).unwrap();
     let expected = le as f64 * (1.0 - (rho as f64).powi(max_depth as i32)) / (1.0 - rho as f64);
     let (mean, se) = util::mean_and_stderr(&img);
     for c in 0..3 {
         let z = (mean[c] - expected) / (se[c] + F32_RESOLUTION * expected);
-        assert!(z.abs() < 4.5, "rho {rho}, {strategy}: channel {c} mean {} expected {expected} (se {}, z {z})", mean[c], se[c]);
+        assert!(
+            z.abs() < 4.5,
+            "rho {rho}, {strategy}: channel {c} mean {} expected {expected} (se {}, z {z})",
+            mean[c],
+            se[c]
+        );
     }
 }
 
@@ -139,11 +184,25 @@ radiance = [0.7, 0.5, 0.3]
 "#
     );
     let scene = util::scene(&toml);
-    let img = util::render(&scene, "pt", 63, &[&format!("strategy={strategy}")], 64, 11, 2).image;
+    let img = util::render(
+        &scene,
+        "pt",
+        63,
+        &[&format!("strategy={strategy}")],
+        64,
+        11,
+        2,
+    )
+    .image;
     let (mean, se) = util::mean_and_stderr(&img);
     for (c, expected) in [0.7, 0.5, 0.3].into_iter().enumerate() {
         let z = (mean[c] - expected) / (se[c] + F32_RESOLUTION * expected);
-        assert!(z.abs() < 4.5, "{material} {strategy}: channel {c} mean {} expected {expected} (se {}, z {z})", mean[c], se[c]);
+        assert!(
+            z.abs() < 4.5,
+            "{material} {strategy}: channel {c} mean {} expected {expected} (se {}, z {z})",
+            mean[c],
+            se[c]
+        );
     }
 }
 
@@ -153,10 +212,18 @@ fn white_furnace_diffuse_sphere_and_cube() {
     for strategy in ["mis", "bsdf", "nee"] {
         white_furnace("type = \"sphere\"\nradius = 1", diffuse, strategy);
     }
-    white_furnace("type = \"cube\"\ntransform = { scale = 0.8, rotate = { axis = [1, 1, 0], degrees = 30 } }", diffuse, "mis");
+    white_furnace(
+        "type = \"cube\"\ntransform = { scale = 0.8, rotate = { axis = [1, 1, 0], degrees = 30 } }",
+        diffuse,
+        "mis",
+    );
 }
 
 #[test]
 fn white_furnace_glass_sphere() {
-    white_furnace("type = \"sphere\"\nradius = 1", "name = \"m\"\ntype = \"dielectric\"\nior = 1.5", "mis");
+    white_furnace(
+        "type = \"sphere\"\nradius = 1",
+        "name = \"m\"\ntype = \"dielectric\"\nior = 1.5",
+        "mis",
+    );
 }

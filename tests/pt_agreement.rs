@@ -15,7 +15,12 @@ fn mis_bsdf_and_nee_agree_on_the_cornell_box() {
         let nee = util::render(&scene, "pt", max_depth, &["strategy=nee"], 256, 3, 2).image;
         for (name, other) in [("bsdf", &bsdf), ("nee", &nee)] {
             let z = util::z_same_mean(&mis, other);
-            assert!(z.abs().max_element() < 4.5, "max_depth {max_depth}: mis vs {name}: z = {z}, means {} vs {}", mis.mean(), other.mean());
+            assert!(
+                z.abs().max_element() < 4.5,
+                "max_depth {max_depth}: mis vs {name}: z = {z}, means {} vs {}",
+                mis.mean(),
+                other.mean()
+            );
         }
     }
 }
@@ -47,5 +52,11 @@ fn max_depth_one_shows_only_directly_visible_emitters() {
     }
     assert!(lit > 0 && lit < img.pixels.len() / 20, "{lit} lit pixels");
     // Fully covered pixels show exactly Le.
-    assert!(img.pixels.iter().filter(|p| (**p - le).length() < 1e-4).count() > 10);
+    assert!(
+        img.pixels
+            .iter()
+            .filter(|p| (**p - le).length() < 1e-4)
+            .count()
+            > 10
+    );
 }

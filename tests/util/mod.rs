@@ -15,16 +15,36 @@ pub fn scene(toml: &str) -> Scene {
 
 /// The Cornell box at a reduced resolution.
 pub fn cornell(resolution: u32) -> Scene {
-    let text = lodestar::scene::CORNELL_BOX_TOML.replace("resolution = [256, 256]", &format!("resolution = [{resolution}, {resolution}]"));
+    let text = lodestar::scene::CORNELL_BOX_TOML.replace(
+        "resolution = [256, 256]",
+        &format!("resolution = [{resolution}, {resolution}]"),
+    );
     scene(&text)
 }
 
 /// Render with integrator `name`, options `key=value`, on a pool of `threads` threads.
-pub fn render(scene: &Scene, name: &str, max_depth: u32, options: &[&str], spp: u64, seed: u64, threads: usize) -> RenderResult {
-    let options = Options::parse(&options.iter().map(|s| s.to_string()).collect::<Vec<_>>()).unwrap();
-    let mut integrator = integrators::build(name, &IntegratorParams { max_depth, options }).unwrap();
-    let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-    let ctx = RenderContext { scene, seed, progress: false };
+pub fn render(
+    scene: &Scene,
+    name: &str,
+    max_depth: u32,
+    options: &[&str],
+    spp: u64,
+    seed: u64,
+    threads: usize,
+) -> RenderResult {
+    let options =
+        Options::parse(&options.iter().map(|s| s.to_string()).collect::<Vec<_>>()).unwrap();
+    let mut integrator =
+        integrators::build(name, &IntegratorParams { max_depth, options }).unwrap();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
+    let ctx = RenderContext {
+        scene,
+        seed,
+        progress: false,
+    };
     pool.install(|| integrator.render(&ctx, Budget::Spp(spp)))
 }
 
@@ -51,9 +71,14 @@ fn ratio(s: f64, s2: f64) -> f64 {
 pub fn mean_and_stderr(img: &Image) -> (DVec3, DVec3) {
     let n = img.pixels.len() as f64;
     let mean = img.mean();
-    let var = img.pixels.iter().map(|p| {
-        let d = p.as_dvec3() - mean;
-        d * d
-    }).sum::<DVec3>() / (n - 1.0);
+    let var = img
+        .pixels
+        .iter()
+        .map(|p| {
+            let d = p.as_dvec3() - mean;
+            d * d
+        })
+        .sum::<DVec3>()
+        / (n - 1.0);
     (mean, (var / n).map(f64::sqrt))
 }

@@ -1,1 +1,280 @@
-fn main() {}
+//! BVH throughput: build time, closest-hit and occlusion rays per second on a ~1M-triangle
+//! mesh with incoherent rays, for 1 and 2 threads.
+//!
+//! The mesh is a noisy sphere (6 cube faces, each an equi-angular 289 x 289 quad grid
+//! projected to the unit sphere, radius displaced by sums of sinusoid products: 1,002,252
+//! triangles); rays start uniformly in the mesh's bounding box with directions uniform on the
+//! sphere. The same mesh and rays are written to (or, if present, read from)
+//! `target/bench-data/` in the raw format of `benches/reference/embree_rays.py`, so Embree can
+//! trace exactly the same rays:
+//!
+//! ```text
+//! cargo bench --bench bvh                                   # writes target/bench-data/
+//! python3 benches/reference/embree_rays.py --data target/bench-data --threads 1
+//! ```
+//! Environment: `LODESTAR_BENCH_RAYS` (default 2,000,000), `LODESTAR_BENCH_DATA` (directory).
+
+use glam::Vec3;
+use lodestar::geometry::bvh::ShapeGeometry;
+use lodestar::geometry::{Accel, Ray, TriangleMesh};
+use lodestar::math::{IndependentSampler, Sampler, warp};
+use rayon::prelude::*;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+const GRID: usize = 289;
+
+fn displacement(p: Vec3) -> f32 {
+    let (x, y, z) = (p.x, p.y, p.z);
+    0.1125 * (5.0 * x + 0.3).sin() * (4.0 * y + 1.1).sin() * (6.0 * z + 0.7).sin()
+        + 0.0625 * (13.0 * x + 2.0).sin() * (11.0 * y + 0.4).sin() * (12.0 * z + 1.9).sin()
+        + 0.0375 * (31.0 * x + 0.9).sin() * (29.0 * y + 2.6).sin() * (27.0 * z + 0.2).sin()
+}
+
+fn noisy_sphere() -> TriangleMesh {
+    let n = GRID + 1;
+    let a: Vec<f32> = (0..n)
+        .map(|i| {
+            if i == 0 {
+                -1.0
+            } else if i == n - 1 {
+                1.0
+            } else {
+                (-std::f32::consts::FRAC_PI_4
+                    + std::f32::consts::FRAC_PI_2 * i as f32 / GRID as f32)
+                    .tan()
+            }
+        })
+        .collect();
+    let faces: [fn(f32, f32) -> Vec3; 6] = [
+        |u, v| Vec3::new(1.0, v, -u),
+        |u, v| Vec3::new(-1.0, v, u),
+        |u, v| Vec3::new(u, 1.0, -v),
+        |u, v| Vec3::new(u, -1.0, v),
+        |u, v| Vec3::new(u, v, 1.0),
+        |u, v| Vec3::new(-u, v, -1.0),
+    ];
+    let mut mesh = TriangleMesh::default();
+    for (f, face) in faces.iter().enumerate() {
+        let base = (f * n * n) as u32;
+        for row in 0..n {
+            for col in 0..n {
+                let p = face(a[col], a[row]).normalize();
+                mesh.positions.push(p * (1.0 + displacement(p)));
+            }
+        }
+        for row in 0..GRID {
+            for col in 0..GRID {
+                let i = |r: usize, c: usize| base + (r * n + c) as u32;
+                let (i00, i10, i01, i11) = (
+                    i(row, col),
+                    i(row, col + 1),
+                    i(row + 1, col),
+                    i(row + 1, col + 1),
+                );
+                mesh.indices.push([i00, i10, i11]);
+                mesh.indices.push([i00, i11, i01]);
+            }
+        }
+    }
+    mesh
+}
+
+fn generate_rays(mesh: &TriangleMesh, count: usize) -> Vec<[f32; 6]> {
+    let (lo, hi) = mesh
+        .positions
+        .iter()
+        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| {
+            (lo.min(*p), hi.max(*p))
+        });
+    let mut rng = IndependentSampler::from_u64(1);
+    (0..count)
+        .map(|_| {
+            let o = lo + (hi - lo) * Vec3::new(rng.next_1d(), rng.next_1d(), rng.next_1d());
+            let d = warp::square_to_uniform_sphere(rng.next_2d());
+            [o.x, o.y, o.z, d.x, d.y, d.z]
+        })
+        .collect()
+}
+
+fn write_f32(path: &Path, v: impl Iterator<Item = f32>) {
+    let bytes: Vec<u8> = v.flat_map(f32::to_le_bytes).collect();
+    std::fs::write(path, bytes).expect("write bench data");
+}
+
+fn read_f32(path: &Path) -> Option<Vec<f32>> {
+    let b = std::fs::read(path).ok()?;
+    Some(
+        b.chunks_exact(4)
+            .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+            .collect(),
+    )
+}
+
+/// Load the mesh and rays from `dir` if all three files exist, else generate and write them.
+fn data(dir: &Path, rays: usize) -> (TriangleMesh, Vec<[f32; 6]>) {
+    let (v, t, r) = (
+        dir.join("vertices.f32"),
+        dir.join("triangles.u32"),
+        dir.join("rays.f32"),
+    );
+    if let (Some(vs), Some(ts), Some(rs)) = (read_f32(&v), std::fs::read(&t).ok(), read_f32(&r))
+        && rs.len() / 6 == rays
+    {
+        let positions = vs
+            .chunks_exact(3)
+            .map(|c| Vec3::new(c[0], c[1], c[2]))
+            .collect();
+        let idx: Vec<u32> = ts
+            .chunks_exact(4)
+            .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+            .collect();
+        let indices = idx.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect();
+        let rays = rs
+            .chunks_exact(6)
+            .map(|c| [c[0], c[1], c[2], c[3], c[4], c[5]])
+            .collect();
+        println!("loaded mesh and rays from {}", dir.display());
+        return (
+            TriangleMesh {
+                positions,
+                normals: None,
+                indices,
+            },
+            rays,
+        );
+    }
+    let mesh = noisy_sphere();
+    let rays = generate_rays(&mesh, rays);
+    std::fs::create_dir_all(dir).expect("create bench data dir");
+    write_f32(&v, mesh.positions.iter().flat_map(|p| p.to_array()));
+    std::fs::write(
+        &t,
+        mesh.indices
+            .iter()
+            .flatten()
+            .flat_map(|i| i.to_le_bytes())
+            .collect::<Vec<u8>>(),
+    )
+    .expect("write triangles");
+    write_f32(&r, rays.iter().flatten().copied());
+    println!("generated mesh and rays into {}", dir.display());
+    (mesh, rays)
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// CPU seconds (user + system) this process has used, from /proc (Linux); None elsewhere.
+fn cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // Fields after the command name (in parentheses): utime is the 12th, stime the 13th.
+    let rest = &stat[stat.rfind(')')? + 2..];
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let ticks = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
+    Some(ticks / 100.0) // USER_HZ is 100 on Linux
+}
+
+/// Run `f` over all rays on `threads` threads; returns (Mrays per wall second, Mrays per CPU
+/// second, result count).
+fn trace(rays: &[[f32; 6]], threads: usize, f: impl Fn(&Ray) -> bool + Sync) -> (f64, f64, usize) {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .unwrap();
+    let cpu0 = cpu_seconds();
+    let start = Instant::now();
+    let hits: usize = pool.install(|| {
+        rays.par_chunks(4096)
+            .map(|chunk| {
+                chunk
+                    .iter()
+                    .filter(|r| {
+                        f(&Ray::new(
+                            Vec3::new(r[0], r[1], r[2]),
+                            Vec3::new(r[3], r[4], r[5]),
+                        ))
+                    })
+                    .count()
+            })
+            .sum()
+    });
+    let wall = start.elapsed().as_secs_f64();
+    let cpu = match (cpu0, cpu_seconds()) {
+        (Some(a), Some(b)) if b > a => b - a,
+        _ => wall * threads as f64,
+    };
+    let m = rays.len() as f64 / 1e6;
+    (m / wall, m / cpu, hits)
+}
+
+fn main() {
+    let rays_n: usize = std::env::var("LODESTAR_BENCH_RAYS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(2_000_000);
+    let dir = std::env::var_os("LODESTAR_BENCH_DATA").map_or_else(
+        || PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("target/bench-data"),
+        PathBuf::from,
+    );
+    let (mesh, rays) = data(&dir, rays_n);
+    let tris = mesh.indices.len();
+    let shapes = vec![ShapeGeometry::Mesh(mesh)];
+
+    let mut builds = Vec::new();
+    let mut accel = None;
+    for _ in 0..3 {
+        let a = Accel::build(&shapes);
+        builds.push(a.build_seconds);
+        accel = Some(a);
+    }
+    let accel = accel.unwrap();
+    println!(
+        "bvh build: {tris} triangles, median {:.3} s over 3 builds",
+        median(builds)
+    );
+
+    println!(
+        "{:<10} {:>7} {:>12} {:>14} {:>10}",
+        "query", "threads", "Mrays/s", "Mrays/CPU-s", "hit frac"
+    );
+    for threads in [1, 2] {
+        let (mut closest, mut closest_cpu) = (Vec::new(), Vec::new());
+        let (mut occl, mut occl_cpu) = (Vec::new(), Vec::new());
+        let (mut hc, mut ho) = (0, 0);
+        for _ in 0..3 {
+            let (m, c, h) = trace(&rays, threads, |r| accel.intersect(r, &shapes).is_some());
+            closest.push(m);
+            closest_cpu.push(c);
+            hc = h;
+            let (m, c, h) = trace(&rays, threads, |r| {
+                !accel.unoccluded(r.o, r.d, f32::INFINITY)
+            });
+            occl.push(m);
+            occl_cpu.push(c);
+            ho = h;
+        }
+        let n = rays.len() as f64;
+        println!(
+            "{:<10} {:>7} {:>12.3} {:>14.3} {:>10.6}",
+            "closest",
+            threads,
+            median(closest),
+            median(closest_cpu),
+            hc as f64 / n
+        );
+        println!(
+            "{:<10} {:>7} {:>12.3} {:>14.3} {:>10.6}",
+            "occlusion",
+            threads,
+            median(occl),
+            median(occl_cpu),
+            ho as f64 / n
+        );
+    }
+    println!(
+        "(medians of 3 runs; compare with benches/reference/embree_rays.py on the same files)"
+    );
+}

@@ -41,18 +41,18 @@ struct RenderArgs {
     #[arg(long)]
     integrator: Option<String>,
     /// Samples per pixel (passes); default: the scene's.
-    #[arg(long, conflicts_with = "time")]
+    #[arg(long, conflicts_with = "time", allow_negative_numbers = true)]
     spp: Option<u64>,
     /// Wall-clock budget in seconds instead of --spp.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     time: Option<f64>,
-    #[arg(long, default_value_t = 0)]
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
     seed: u64,
     /// Worker threads (default: all cores). The image does not depend on it.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     threads: Option<usize>,
     /// Maximum number of path segments; default: the scene's.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     max_depth: Option<u32>,
     /// Output EXR (default: <scene name>.exr).
     #[arg(short, long)]
@@ -92,13 +92,21 @@ fn main() -> ExitCode {
                     ExitCode::SUCCESS
                 };
             }
-            // One line: clap's first line, without its usage block.
+            // One line: clap's first paragraph (the message and e.g. the missing arguments
+            // listed under it), without its tips and usage block.
             let text = e.render().to_string();
-            let first = text
+            let first: Vec<&str> = text
                 .lines()
-                .next()
-                .unwrap_or("invalid arguments")
-                .trim_start_matches("error: ");
+                .map(str::trim)
+                .take_while(|l| !l.is_empty())
+                .collect();
+            let first = first.join(" ");
+            let first = first.trim_start_matches("error: ");
+            let first = if first.is_empty() {
+                "invalid arguments"
+            } else {
+                first
+            };
             eprintln!("lodestar: {first} (see lodestar --help)");
             return ExitCode::from(2);
         }
@@ -131,12 +139,12 @@ fn load_scene(path: Option<&Path>) -> Result<Scene> {
 }
 
 fn render(args: RenderArgs) -> Result<()> {
-    if let Some(t) = args.time {
-        if !(t.is_finite() && t > 0.0) {
-            return Err(Error::new(format!(
-                "--time must be a positive number of seconds, got {t}"
-            )));
-        }
+    if let Some(t) = args.time
+        && !(t.is_finite() && t > 0.0)
+    {
+        return Err(Error::new(format!(
+            "--time must be a positive number of seconds, got {t}"
+        )));
     }
     if args.spp == Some(0) {
         return Err(Error::new("--spp must be at least 1"));
@@ -144,13 +152,13 @@ fn render(args: RenderArgs) -> Result<()> {
     if args.threads == Some(0) {
         return Err(Error::new("--threads must be at least 1"));
     }
-    if let Some(d) = args.max_depth {
-        if d == 0 || d as usize >= MAX_VERTICES {
-            return Err(Error::new(format!(
-                "--max-depth must be in [1, {}], got {d}",
-                MAX_VERTICES - 1
-            )));
-        }
+    if let Some(d) = args.max_depth
+        && (d == 0 || d as usize >= MAX_VERTICES)
+    {
+        return Err(Error::new(format!(
+            "--max-depth must be in [1, {}], got {d}",
+            MAX_VERTICES - 1
+        )));
     }
     if !args.exposure.is_finite() {
         return Err(Error::new("--exposure must be a finite number"));
@@ -163,6 +171,20 @@ fn render(args: RenderArgs) -> Result<()> {
             .map_or("cornell-box".into(), |s| s.to_string_lossy().into_owned());
         PathBuf::from(format!("{stem}.exr"))
     });
+    // Fail before a long render, not after it.
+    for path in std::iter::once(&output).chain(&args.png) {
+        let dir = path
+            .parent()
+            .filter(|d| !d.as_os_str().is_empty())
+            .unwrap_or(Path::new("."));
+        if !dir.is_dir() {
+            return Err(Error::new(format!(
+                "{}: cannot write: directory '{}' does not exist",
+                path.display(),
+                dir.display()
+            )));
+        }
+    }
     let scene = load_scene(args.scene.as_deref())?;
     let name = args
         .integrator

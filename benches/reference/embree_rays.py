@@ -32,10 +32,13 @@ How to run
     default_rng(1).
 
 Output lines (one per measurement)
-    embree build threads=T build_s=X triangles=M
+    embree build threads=T build_s=X (upload_s=.. commit_s=..) cpu_s=.. triangles=M
     embree closest threads=T mrays_per_s=X wall_s=.. cpu_s=.. rays=R
     embree occlusion threads=T mrays_per_s=X wall_s=.. cpu_s=.. rays=R
-    embree hit_fraction closest=F occlusion=F
+    embree hit_fraction closest=F occlusion=F agreement=F
+    upload_s is embreex copying the numpy buffers into Embree; commit_s is
+    Embree's BVH build proper (compare lodestar's build with commit_s).
+    A WARNING goes to stderr when cpu_s/wall_s < 0.85*threads (busy machine).
 
 Notes
     --threads 1 pins the process to one CPU (os.sched_setaffinity) *before*
@@ -165,6 +168,13 @@ def run_batch(scene, org, dirs, query, threads):
     return np.concatenate(parts), wall, cpu
 
 
+def check_busy(what, wall, cpu, threads):
+    """Warn when the process got less CPU than it asked for (machine shared with a compile?)."""
+    if cpu < 0.85 * threads * wall:
+        print(f"WARNING: {what}: cpu_s/wall_s = {cpu / wall:.2f} < {threads} threads; "
+              f"the machine is probably busy, figures are not reliable", file=sys.stderr)
+
+
 def cmd_bench(args):
     if args.threads == 1 and hasattr(os, "sched_setaffinity"):
         # Before embreex (and its TBB pool) is imported: makes the build 1-threaded too.
@@ -200,6 +210,7 @@ def cmd_bench(args):
         if best is None or wall < best[0]:
             best = (wall, cpu)
     wall, cpu = best
+    check_busy("closest", wall, cpu, args.threads)
     print(f"embree closest threads={args.threads} mrays_per_s={n / wall / 1e6:.3f} "
           f"wall_s={wall:.3f} cpu_s={cpu:.3f} rays={n}")
 
@@ -209,6 +220,7 @@ def cmd_bench(args):
         if best is None or wall < best[0]:
             best = (wall, cpu)
     wall, cpu = best
+    check_busy("occlusion", wall, cpu, args.threads)
     print(f"embree occlusion threads={args.threads} mrays_per_s={n / wall / 1e6:.3f} "
           f"wall_s={wall:.3f} cpu_s={cpu:.3f} rays={n}")
 

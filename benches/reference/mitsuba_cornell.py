@@ -145,6 +145,9 @@ def measure(scene, threads, spp, seed=0):
     img = mi.render(scene, spp=spp, seed=seed)
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     mean = image_mean(img)
+    if cpu < 0.85 * threads * wall:
+        print(f"WARNING: cpu_s/wall_s = {cpu / wall:.2f} < {threads} threads; the machine is "
+              f"probably busy (wall-clock scaling not reliable)", file=sys.stderr)
     sps = RES * RES * spp / cpu
     print(f"mitsuba scalar_rgb path max_depth=8 threads={threads} spp={spp} "
           f"cpu_s={cpu:.3f} wall_s={wall:.3f} samples_per_cpu_s={sps:.0f} "

@@ -11,15 +11,19 @@ use obvhs::{Boundable, BvhBuildParams, aabb::Aabb, cwbvh::CwBvh, ray::RayHit};
 use std::time::Duration;
 
 const SPHERE_TAG: u32 = u32::MAX;
+/// Set in `Prim::tri` when the edges were swapped so that `e1 x e2` points to the front side.
+const SWAPPED: u32 = 1 << 31;
 
 /// A primitive in BVH order: a triangle (v0, e1, e2) or a sphere (center in `a`, radius in `b.x`).
+/// Triangle edges are ordered so that `e1 x e2` is the front-side normal, so a hit needs no
+/// access to the mesh unless it has vertex normals.
 #[derive(Debug, Clone, Copy)]
 struct Prim {
     a: Vec3A,
     b: Vec3A,
     c: Vec3A,
     shape: u32,
-    /// Triangle index within its mesh, or `SPHERE_TAG`.
+    /// Triangle index within its mesh (with `SWAPPED`), or `SPHERE_TAG`.
     tri: u32,
 }
 
@@ -72,12 +76,20 @@ impl Accel {
                         let mut bb = Aabb::from_point(p0);
                         bb.extend(p1).extend(p2);
                         bounds.push(Bounds::padded(bb));
+                        let (e1, e2) = (p1 - p0, p2 - p0);
+                        let front = Vec3A::from(m.geometric_normal(i));
+                        let (b, c, tri) = if e1.cross(e2).dot(front) >= 0.0 {
+                            (e1, e2, i as u32)
+                        } else {
+                            (e2, e1, i as u32 | SWAPPED)
+                        };
+                        let shape = s as u32;
                         prims.push(Prim {
                             a: p0,
-                            b: p1 - p0,
-                            c: p2 - p0,
-                            shape: s as u32,
-                            tri: i as u32,
+                            b,
+                            c,
+                            shape,
+                            tri,
                         });
                     }
                 }
@@ -233,13 +245,20 @@ fn surface_hit(prim: &Prim, ray: &Ray, t: f32, uv: Vec2, shapes: &[ShapeGeometry
             }
         }
         ShapeGeometry::Mesh(m) => {
-            let i = prim.tri as usize;
+            let i = prim.tri & !SWAPPED;
             let (v0, e1, e2) = (Vec3::from(prim.a), Vec3::from(prim.b), Vec3::from(prim.c));
             let p = v0 + uv.x * e1 + uv.y * e2;
             // Error of v0 + u e1 + v e2 (and of the edges themselves), generously bounded.
             let p_err = gamma(8) * (v0.abs() + (uv.x * e1).abs() + (uv.y * e2).abs() + v0.abs());
-            let ng = m.geometric_normal(i);
-            let ns = match m.shading_normal(i, uv) {
+            // Edges are ordered so that e1 x e2 faces the front side.
+            let ng = e1.cross(e2).normalize();
+            // Barycentrics (b1, b2) in the mesh's own vertex order.
+            let uv = if prim.tri & SWAPPED != 0 {
+                Vec2::new(uv.y, uv.x)
+            } else {
+                uv
+            };
+            let ns = match m.shading_normal(i as usize, uv) {
                 Some(ns) if ns.dot(ng) < 0.0 => -ns,
                 Some(ns) => ns,
                 None => ng,
@@ -252,7 +271,7 @@ fn surface_hit(prim: &Prim, ray: &Ray, t: f32, uv: Vec2, shapes: &[ShapeGeometry
                 ns,
                 uv,
                 shape: prim.shape,
-                prim: prim.tri,
+                prim: i,
             }
         }
     }
@@ -334,10 +353,10 @@ mod tests {
                 let w = crate::math::warp::square_to_cosine_hemisphere(rng.next_2d());
                 let w = Vec3::new(w.x, w.z, w.y);
                 let r = h.spawn(w);
-                if let Some(h2) = accel.intersect(&r, &shapes) {
-                    if h2.shape == h.shape {
-                        self_hits += 1;
-                    }
+                if let Some(h2) = accel.intersect(&r, &shapes)
+                    && h2.shape == h.shape
+                {
+                    self_hits += 1;
                 }
                 // Leave the sphere after refraction-like entry: start inside, go out.
                 let into = Ray::new(

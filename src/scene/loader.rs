@@ -118,7 +118,10 @@ struct ShapeDesc {
 }
 
 #[derive(Deserialize)]
-#[serde(untagged)]
+#[serde(
+    untagged,
+    expecting = "'scale' must be a number or an array of three numbers"
+)]
 enum ScaleDesc {
     Uniform(f32),
     PerAxis([f32; 3]),
@@ -162,6 +165,18 @@ impl Source<'_> {
             .filter(|&b| b == b'\n')
             .count()
             + 1
+    }
+
+    /// The key of the `key = value` whose value encloses `offset`, from the text before it on
+    /// its line: `fov` in `fov = "wide"`, `axis` in `rotate = { axis = [0, "y", 0] }`.
+    fn key_before(&self, offset: usize) -> Option<&str> {
+        let text = self.text.get(..offset)?;
+        let line = &text[text.rfind('\n').map_or(0, |i| i + 1)..];
+        let key = line[..line.rfind('=')?].trim_end();
+        let key = key
+            .rsplit(|c: char| c.is_whitespace() || c == '{' || c == ',')
+            .next()?;
+        (!key.is_empty()).then_some(key)
     }
 
     fn err<T>(&self, span: std::ops::Range<usize>, msg: impl std::fmt::Display) -> Result<T> {
@@ -235,10 +250,17 @@ pub fn load_file(path: &Path) -> Result<Scene> {
 pub fn load_str(text: &str, name: &str, dir: Option<&Path>) -> Result<Scene> {
     let src = Source { name, text };
     let desc: SceneDesc = toml::from_str(text).map_err(|e| {
-        let line = e.span().map(|s| src.line(s.start));
-        let msg = e.message().trim().replace('\n', " ");
-        match line {
-            Some(l) => Error::new(format!("{name}:{l}: {msg}")),
+        let mut msg = e.message().trim().replace('\n', " ");
+        // serde's value errors ("invalid type: ...", "invalid length 2, ...") omit the key.
+        if let Some(key) = e
+            .span()
+            .filter(|_| msg.starts_with("invalid "))
+            .and_then(|s| src.key_before(s.start))
+        {
+            msg = format!("'{key}': {msg}");
+        }
+        match e.span() {
+            Some(s) => Error::new(format!("{name}:{}: {msg}", src.line(s.start))),
             None => Error::new(format!("{name}: {msg}")),
         }
     })?;
@@ -354,7 +376,7 @@ impl Builder<'_> {
             let what = format!("light of type '{}'", d.kind.get_ref());
             let light = match d.kind.get_ref().as_str() {
                 "point" => {
-                    self.only(l.span(), &what, &[("radiance", d.radiance.is_some())])?;
+                    self.only(&what, &[("radiance", at(&d.radiance))])?;
                     let p = src.finite3(
                         src.required(&d.position, l.span(), "position", &what)?,
                         "position",
@@ -370,11 +392,10 @@ impl Builder<'_> {
                 }
                 "environment" => {
                     self.only(
-                        l.span(),
                         &what,
                         &[
-                            ("position", d.position.is_some()),
-                            ("intensity", d.intensity.is_some()),
+                            ("position", at(&d.position)),
+                            ("intensity", at(&d.intensity)),
                         ],
                     )?;
                     if environment.is_some() {
@@ -456,18 +477,14 @@ impl Builder<'_> {
         })
     }
 
-    /// Reject keys that do not belong to this type.
-    fn only(
-        &self,
-        span: std::ops::Range<usize>,
-        what: &str,
-        present: &[(&str, bool)],
-    ) -> Result<()> {
-        for (key, is) in present {
-            if *is {
-                return self
-                    .src
-                    .err(span, format!("{what} does not take the key '{key}'"));
+    /// Reject keys that do not belong to this type, at the line of the first one present.
+    fn only(&self, what: &str, present: &[(&str, Option<std::ops::Range<usize>>)]) -> Result<()> {
+        for (key, span) in present {
+            if let Some(span) = span {
+                return self.src.err(
+                    span.clone(),
+                    format!("{what} does not take the key '{key}'"),
+                );
             }
         }
         Ok(())
@@ -507,7 +524,7 @@ impl Builder<'_> {
             < 1e-10
         {
             return src.err(
-                c.span(),
+                d.up.as_ref().map_or(c.span(), |u| u.span()),
                 "'up' must not be zero or parallel to the viewing direction",
             );
         }
@@ -534,6 +551,18 @@ impl Builder<'_> {
             out.spp = *s.get_ref();
         }
         if let Some(i) = &r.integrator {
+            let registry = crate::integrators::REGISTRY;
+            if !registry.iter().any(|e| e.name == i.get_ref()) {
+                let names: Vec<&str> = registry.iter().map(|e| e.name).collect();
+                return self.src.err(
+                    i.span(),
+                    format!(
+                        "unknown integrator '{}' (available: {})",
+                        i.get_ref(),
+                        names.join(", ")
+                    ),
+                );
+            }
             out.integrator = i.get_ref().clone();
         }
         Ok(out)
@@ -550,15 +579,15 @@ impl Builder<'_> {
         let span = m.span();
         Ok(match d.kind.get_ref().as_str() {
             "diffuse" => {
-                self.only(span.clone(), &what, &[("reflectance", d.reflectance.is_some()), ("ior", d.ior.is_some())])?;
+                self.only(&what, &[("reflectance", at(&d.reflectance)), ("ior", at(&d.ior))])?;
                 Bsdf::Diffuse { albedo: src.in_unit_range(src.required(&d.albedo, span, "albedo", &what)?, "albedo")? }
             }
             "conductor" => {
-                self.only(span.clone(), &what, &[("albedo", d.albedo.is_some()), ("ior", d.ior.is_some())])?;
+                self.only(&what, &[("albedo", at(&d.albedo)), ("ior", at(&d.ior))])?;
                 Bsdf::Conductor { reflectance: src.in_unit_range(src.required(&d.reflectance, span, "reflectance", &what)?, "reflectance")? }
             }
             "dielectric" => {
-                self.only(span.clone(), &what, &[("albedo", d.albedo.is_some()), ("reflectance", d.reflectance.is_some())])?;
+                self.only(&what, &[("albedo", at(&d.albedo)), ("reflectance", at(&d.reflectance))])?;
                 let ior = src.required(&d.ior, span, "ior", &what)?;
                 let eta = *ior.get_ref();
                 if !(eta.is_finite() && eta > 0.0) {
@@ -567,7 +596,7 @@ impl Builder<'_> {
                 Bsdf::Dielectric { eta }
             }
             "black" => {
-                self.only(span, &what, &[("albedo", d.albedo.is_some()), ("reflectance", d.reflectance.is_some()), ("ior", d.ior.is_some())])?;
+                self.only(&what, &[("albedo", at(&d.albedo)), ("reflectance", at(&d.reflectance)), ("ior", at(&d.ior))])?;
                 Bsdf::Black
             }
             other => return src.err(d.kind.span(), format!("unknown material type '{other}' (expected diffuse, conductor, dielectric or black)")),
@@ -625,14 +654,14 @@ impl Builder<'_> {
         let what = format!("shape of type '{kind}'");
         let t = self.transform(d.transform.as_ref())?;
         let keys = [
-            ("origin", d.origin.is_some()),
-            ("edge_u", d.edge_u.is_some()),
-            ("edge_v", d.edge_v.is_some()),
-            ("center", d.center.is_some()),
-            ("normal", d.normal.is_some()),
-            ("radius", d.radius.is_some()),
-            ("segments", d.segments.is_some()),
-            ("file", d.file.is_some()),
+            ("origin", at(&d.origin)),
+            ("edge_u", at(&d.edge_u)),
+            ("edge_v", at(&d.edge_v)),
+            ("center", at(&d.center)),
+            ("normal", at(&d.normal)),
+            ("radius", at(&d.radius)),
+            ("segments", at(&d.segments)),
+            ("file", at(&d.file)),
         ];
         let allowed: &[&str] =
             match kind {
@@ -648,12 +677,11 @@ impl Builder<'_> {
                     ),
                 ),
             };
-        let extra: Vec<(&str, bool)> = keys
-            .iter()
-            .copied()
+        let extra: Vec<(&str, Option<std::ops::Range<usize>>)> = keys
+            .into_iter()
             .filter(|(k, _)| !allowed.contains(k))
             .collect();
-        self.only(span.clone(), &what, &extra)?;
+        self.only(&what, &extra)?;
         let radius = |default: f32| -> Result<f32> {
             match &d.radius {
                 None => Ok(default),
@@ -746,6 +774,11 @@ impl Builder<'_> {
     }
 }
 
+/// Where an optional key is, if it is present.
+fn at<T>(v: &Option<Spanned<T>>) -> Option<std::ops::Range<usize>> {
+    v.as_ref().map(Spanned::span)
+}
+
 /// Load every model of an OBJ file into one mesh, with vertex normals when all models have them.
 fn load_obj(path: &Path) -> std::result::Result<TriangleMesh, String> {
     if !path.is_file() {
@@ -796,10 +829,10 @@ fn load_obj(path: &Path) -> std::result::Result<TriangleMesh, String> {
     {
         return Err("a face refers to a vertex that does not exist".to_string());
     }
-    if let Some(ns) = &mesh.normals {
-        if ns.iter().any(|n| *n == Vec3::ZERO || !n.is_finite()) {
-            mesh.normals = None;
-        }
+    if let Some(ns) = &mesh.normals
+        && ns.iter().any(|n| *n == Vec3::ZERO || !n.is_finite())
+    {
+        mesh.normals = None;
     }
     Ok(mesh)
 }

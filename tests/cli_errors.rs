@@ -1,0 +1,485 @@
+//! The command line on bad input: one test per class. Each must exit non-zero — 2 when clap
+//! cannot parse the command line (unknown flag or subcommand, a value of the wrong type,
+//! conflicting flags), 1 for everything found after parsing (out-of-range values, bad
+//! options, unreadable or invalid files) — with exactly one line on stderr that starts with
+//! `lodestar:` and names the offending file, flag or value, never a panic, and must write
+//! nothing. Plus the positive paths: render, info, compare, integrators.
+
+use lodestar::film::Image;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+const TINY: &str = "tests/data/tiny.toml";
+
+/// A fresh, empty directory for one test's outputs, removed when dropped.
+struct TempDir(PathBuf);
+
+impl TempDir {
+    fn new() -> TempDir {
+        static N: AtomicUsize = AtomicUsize::new(0);
+        let dir = std::env::temp_dir().join(format!(
+            "lodestar-cli-errors-{}-{}",
+            std::process::id(),
+            N.fetch_add(1, Ordering::Relaxed)
+        ));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        TempDir(dir)
+    }
+
+    fn path(&self, name: &str) -> PathBuf {
+        self.0.join(name)
+    }
+
+    fn s(&self, name: &str) -> String {
+        self.path(name).display().to_string()
+    }
+
+    fn is_empty(&self) -> bool {
+        std::fs::read_dir(&self.0).unwrap().next().is_none()
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// Run lodestar in the package root.
+fn run(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_lodestar"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("cannot run lodestar")
+}
+
+/// The run failed with `code`, printed nothing on stdout and exactly one line on stderr that
+/// starts with `lodestar:` and contains every fact; returns that line.
+fn fails(out: &Output, code: i32, facts: &[&str]) -> String {
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let line = stderr.strip_suffix('\n').unwrap_or(&stderr);
+    assert_eq!(
+        out.status.code(),
+        Some(code),
+        "exit status; stderr: {stderr}"
+    );
+    assert!(
+        !line.contains('\n'),
+        "stderr should be one line: {stderr:?}"
+    );
+    assert!(line.starts_with("lodestar: "), "stderr: {stderr:?}");
+    assert!(!line.contains("panicked"), "stderr: {stderr:?}");
+    assert!(!line.contains("internal error"), "stderr: {stderr:?}");
+    for fact in facts {
+        assert!(
+            line.contains(fact),
+            "stderr should contain {fact:?}: {line}"
+        );
+    }
+    assert!(
+        out.stdout.is_empty(),
+        "stdout: {:?}",
+        String::from_utf8_lossy(&out.stdout)
+    );
+    line.to_string()
+}
+
+/// `lodestar render TINY -o T/x.exr --png T/x.png --quiet` plus `extra`: must fail with
+/// `code` and the facts, writing nothing into T.
+fn render_fails(extra: &[&str], code: i32, facts: &[&str]) -> String {
+    let t = TempDir::new();
+    let (exr, png) = (t.s("x.exr"), t.s("x.png"));
+    let mut args = vec!["render", TINY, "-o", &exr, "--png", &png, "--quiet"];
+    args.extend_from_slice(extra);
+    let line = fails(&run(&args), code, facts);
+    assert!(t.is_empty(), "nothing may be written on error");
+    line
+}
+
+// ---- render: bad values ----
+
+#[test]
+fn unknown_integrator() {
+    render_fails(
+        &["--integrator", "bogus"],
+        1,
+        &["unknown integrator 'bogus'", "available", "pt"],
+    );
+}
+
+#[test]
+fn spp_zero() {
+    render_fails(&["--spp", "0"], 1, &["--spp", "at least 1"]);
+}
+
+#[test]
+fn spp_negative() {
+    render_fails(&["--spp", "-3"], 2, &["--spp", "'-3'"]);
+}
+
+#[test]
+fn spp_not_a_number() {
+    render_fails(&["--spp", "abc"], 2, &["--spp", "'abc'"]);
+}
+
+#[test]
+fn time_zero() {
+    render_fails(&["--time", "0"], 1, &["--time", "got 0"]);
+}
+
+#[test]
+fn time_nan() {
+    render_fails(&["--time", "nan"], 1, &["--time", "NaN"]);
+}
+
+#[test]
+fn time_negative() {
+    render_fails(&["--time", "-1"], 1, &["--time", "got -1"]);
+}
+
+#[test]
+fn spp_and_time_together() {
+    render_fails(
+        &["--spp", "4", "--time", "1"],
+        2,
+        &["--spp", "--time", "cannot be used with"],
+    );
+}
+
+#[test]
+fn threads_zero() {
+    render_fails(&["--threads", "0"], 1, &["--threads", "at least 1"]);
+}
+
+#[test]
+fn max_depth_zero() {
+    render_fails(&["--max-depth", "0"], 1, &["--max-depth", "got 0"]);
+}
+
+#[test]
+fn max_depth_too_large() {
+    render_fails(&["--max-depth", "1000"], 1, &["--max-depth", "got 1000"]);
+}
+
+#[test]
+fn seed_negative() {
+    render_fails(&["--seed", "-1"], 2, &["--seed", "'-1'"]);
+}
+
+#[test]
+fn unknown_integrator_option() {
+    render_fails(&["-O", "foo=1"], 1, &["option 'foo'", "'pt'"]);
+}
+
+#[test]
+fn malformed_integrator_option() {
+    render_fails(&["-O", "foo"], 1, &["option 'foo'", "key=value"]);
+}
+
+#[test]
+fn bad_integrator_option_value() {
+    render_fails(
+        &["-O", "strategy=banana"],
+        1,
+        &["option 'strategy'", "'banana'", "mis"],
+    );
+}
+
+#[test]
+fn repeated_integrator_option() {
+    render_fails(
+        &["-O", "strategy=nee", "-O", "strategy=mis"],
+        1,
+        &["option 'strategy'", "twice"],
+    );
+}
+
+#[test]
+fn output_directory_does_not_exist() {
+    let out = run(&["render", TINY, "-o", "/nonexistent/dir/x.exr", "--quiet"]);
+    fails(&out, 1, &["/nonexistent/dir/x.exr", "does not exist"]);
+    assert!(!Path::new("/nonexistent/dir/x.exr").exists());
+}
+
+#[test]
+fn png_directory_does_not_exist() {
+    // Checked before rendering: the EXR is not written either.
+    let t = TempDir::new();
+    let out = run(&[
+        "render",
+        TINY,
+        "-o",
+        &t.s("x.exr"),
+        "--png",
+        "/nonexistent/dir/x.png",
+        "--quiet",
+    ]);
+    fails(&out, 1, &["/nonexistent/dir/x.png", "does not exist"]);
+    assert!(t.is_empty());
+}
+
+// ---- render: bad scene files ----
+
+#[test]
+fn nonexistent_scene_file() {
+    let t = TempDir::new();
+    let exr = t.s("x.exr");
+    let out = run(&[
+        "render",
+        "tests/data/no-such-scene.toml",
+        "-o",
+        &exr,
+        "--quiet",
+    ]);
+    fails(
+        &out,
+        1,
+        &["tests/data/no-such-scene.toml", "cannot read scene file"],
+    );
+    assert!(t.is_empty());
+}
+
+/// The line of the first line of `file` (relative to the package root) containing `needle`.
+fn line_in(file: &str, needle: &str) -> usize {
+    let text = std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join(file)).unwrap();
+    text.lines().position(|l| l.contains(needle)).unwrap() + 1
+}
+
+#[test]
+fn malformed_scene_names_file_and_line() {
+    let file = "tests/data/bad-material.toml";
+    let where_ = format!("{file}:{}:", line_in(file, r#"material = "missing""#));
+    let t = TempDir::new();
+    let exr = t.s("x.exr");
+    let out = run(&["render", file, "-o", &exr, "--quiet"]);
+    fails(&out, 1, &[&where_, "unknown material 'missing'"]);
+    assert!(t.is_empty());
+}
+
+#[test]
+fn scene_with_missing_mesh_names_file_and_line() {
+    let file = "tests/data/bad-mesh.toml";
+    let where_ = format!("{file}:{}:", line_in(file, "does-not-exist.obj"));
+    let t = TempDir::new();
+    let exr = t.s("x.exr");
+    let out = run(&["render", file, "-o", &exr, "--quiet"]);
+    fails(&out, 1, &[&where_, "tests/data/meshes/does-not-exist.obj"]);
+    assert!(t.is_empty());
+}
+
+#[test]
+fn scene_with_malformed_obj_names_file_and_line() {
+    let file = "tests/data/bad-obj.toml";
+    let where_ = format!("{file}:{}:", line_in(file, "broken.obj"));
+    fails(
+        &run(&["info", file]),
+        1,
+        &[&where_, "tests/data/meshes/broken.obj"],
+    );
+}
+
+// ---- compare ----
+
+fn write_exr(path: &Path, w: u32, h: u32) {
+    Image::new(w, h).write_exr(path, &[]).unwrap();
+}
+
+#[test]
+fn compare_missing_file() {
+    let t = TempDir::new();
+    let a = t.path("a.exr");
+    write_exr(&a, 4, 4);
+    let missing = t.s("missing.exr");
+    fails(
+        &run(&["compare", &a.display().to_string(), &missing]),
+        1,
+        &[&missing],
+    );
+    fails(
+        &run(&["compare", &missing, &a.display().to_string()]),
+        1,
+        &[&missing],
+    );
+}
+
+#[test]
+fn compare_non_exr_file() {
+    let t = TempDir::new();
+    let a = t.path("a.exr");
+    write_exr(&a, 4, 4);
+    let fake = t.path("fake.exr");
+    std::fs::write(&fake, "this is not an image\n").unwrap();
+    let fake = fake.display().to_string();
+    fails(
+        &run(&["compare", &a.display().to_string(), &fake]),
+        1,
+        &[&fake, "cannot read EXR"],
+    );
+    // A scene file is not an image either.
+    fails(
+        &run(&["compare", TINY, TINY]),
+        1,
+        &[TINY, "cannot read EXR"],
+    );
+}
+
+#[test]
+fn compare_different_sizes() {
+    let t = TempDir::new();
+    let (a, b) = (t.path("a.exr"), t.path("b.exr"));
+    write_exr(&a, 16, 16);
+    write_exr(&b, 8, 16);
+    let (a, b) = (a.display().to_string(), b.display().to_string());
+    fails(
+        &run(&["compare", &a, &b]),
+        1,
+        &[&a, &b, "differ in size", "16x16", "8x16"],
+    );
+}
+
+#[test]
+fn compare_missing_argument() {
+    fails(&run(&["compare", "a.exr"]), 2, &["required", "<B>"]);
+}
+
+// ---- info, subcommands, flags ----
+
+#[test]
+fn info_missing_file() {
+    fails(
+        &run(&["info", "tests/data/no-such-scene.toml"]),
+        1,
+        &["tests/data/no-such-scene.toml", "cannot read scene file"],
+    );
+}
+
+#[test]
+fn unknown_subcommand() {
+    fails(&run(&["frobnicate"]), 2, &["'frobnicate'", "subcommand"]);
+}
+
+#[test]
+fn unknown_flag() {
+    render_fails(&["--bogus"], 2, &["'--bogus'"]);
+    fails(&run(&["info", "--verbose", TINY]), 2, &["'--verbose'"]);
+}
+
+// ---- Positive paths ----
+
+#[test]
+fn render_writes_exr_and_png() {
+    let t = TempDir::new();
+    let (exr, png) = (t.path("x.exr"), t.path("x.png"));
+    let out = run(&[
+        "render",
+        TINY,
+        "--spp",
+        "1",
+        "--seed",
+        "7",
+        "--threads",
+        "2",
+        "-o",
+        &exr.display().to_string(),
+        "--png",
+        &png.display().to_string(),
+        "--quiet",
+    ]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "stderr: {stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    let (img, meta) = Image::read_exr(&exr).unwrap();
+    assert_eq!((img.width, img.height), (16, 16));
+    let get = |k: &str| {
+        meta.iter()
+            .find(|(key, _)| key == k)
+            .map(|(_, v)| v.as_str())
+            .unwrap_or_else(|| panic!("metadata key {k} missing: {meta:?}"))
+    };
+    assert_eq!(get("integrator"), "pt");
+    assert_eq!(get("spp"), "1");
+    assert_eq!(get("seed"), "7");
+    assert_eq!(get("scene"), TINY);
+    let seconds: f64 = get("seconds").parse().unwrap();
+    assert!(seconds >= 0.0 && seconds.is_finite());
+    let m = img.mean();
+    assert!(m.is_finite() && m.x > 0.0, "the lamp lights the scene: {m}");
+    let png_bytes = std::fs::read(&png).unwrap();
+    assert!(png_bytes.starts_with(b"\x89PNG\r\n\x1a\n"));
+    // Only the two outputs: no temporary files left behind.
+    let mut names: Vec<String> = std::fs::read_dir(&t.0)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["x.exr", "x.png"]);
+}
+
+#[test]
+fn info_prints_counts() {
+    let out = run(&["info", "scenes/cornell-box.toml"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let line = |key: &str| {
+        stdout
+            .lines()
+            .find(|l| l.starts_with(key))
+            .unwrap_or_else(|| panic!("no {key} line: {stdout}"))
+            .to_string()
+    };
+    let shapes = line("shapes");
+    assert!(shapes.contains(" 8 "), "{shapes}");
+    assert!(shapes.contains("24 triangles"), "{shapes}");
+    assert!(shapes.contains("1 sphere"), "{shapes}");
+    assert_eq!(line("lights").split_whitespace().nth(1), Some("1"));
+    assert!(line("scene").contains("scenes/cornell-box.toml"));
+}
+
+#[test]
+fn compare_identical_images() {
+    let t = TempDir::new();
+    let a = t.path("a.exr");
+    let mut img = Image::new(4, 3);
+    for (i, p) in img.pixels.iter_mut().enumerate() {
+        *p = glam::Vec3::splat(i as f32 * 0.1);
+    }
+    img.write_exr(&a, &[]).unwrap();
+    let a = a.display().to_string();
+    let out = run(&["compare", &a, &a]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let value = |key: &str| -> f64 {
+        let l = stdout
+            .lines()
+            .find(|l| l.split_whitespace().next() == Some(key))
+            .unwrap_or_else(|| panic!("no {key} line: {stdout}"));
+        l.split_whitespace().nth(1).unwrap().parse().unwrap()
+    };
+    assert_eq!(value("MSE"), 0.0);
+    assert_eq!(value("RMSE"), 0.0);
+    assert_eq!(value("relMSE"), 0.0);
+}
+
+#[test]
+fn integrators_lists_pt() {
+    let out = run(&["integrators"]);
+    assert!(out.status.success());
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        stdout
+            .lines()
+            .any(|l| l.split_whitespace().next() == Some("pt")),
+        "{stdout}"
+    );
+}

@@ -1,0 +1,635 @@
+//! Bad scene files, one test per class of error: each must be an error (never a panic) whose
+//! message is one line of the form `FILE:LINE: ...` and names the offending key or value.
+//!
+//! Most cases edit one line of a small valid scene (`BASE`) and mark the line the error must
+//! point at with the comment `# <-`; the expected line number is computed from that marker.
+
+use lodestar::geometry::bvh::ShapeGeometry;
+use lodestar::scene::Scene;
+use lodestar::scene::loader::{load_file, load_str};
+use std::path::{Path, PathBuf};
+
+/// A valid scene; every test breaks exactly one thing in it.
+const BASE: &str = r#"# A valid scene.
+[camera]
+position = [0, 0, 3.9]
+look_at = [0, 0, 0]
+up = [0, 1, 0]
+fov = 40
+resolution = [16, 16]
+
+[render]
+max_depth = 4
+
+[[material]]
+name = "white"
+type = "diffuse"
+albedo = [0.7, 0.7, 0.7]
+
+[[shape]]
+name = "floor"
+type = "quad"
+origin = [-1, -1, -1]
+material = "white"
+
+[[light]]
+type = "point"
+position = [0, 0.9, 0]
+intensity = [1, 1, 1]
+"#;
+
+const MARK: &str = "# <-";
+
+/// `BASE` with the one line `from` replaced by `to`.
+fn edit(from: &str, to: &str) -> String {
+    let lines: Vec<&str> = BASE.lines().filter(|l| *l == from).collect();
+    assert_eq!(lines.len(), 1, "BASE must contain the line {from:?} once");
+    BASE.replacen(from, to, 1)
+}
+
+/// `BASE` followed by more TOML.
+fn with(extra: &str) -> String {
+    format!("{BASE}{extra}")
+}
+
+/// The 1-based number of the only line of `text` that contains `marker`.
+fn line_of(text: &str, marker: &str) -> usize {
+    let hits: Vec<usize> = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| l.contains(marker))
+        .map(|(i, _)| i + 1)
+        .collect();
+    assert_eq!(
+        hits.len(),
+        1,
+        "{marker:?} must occur on one line of:\n{text}"
+    );
+    hits[0]
+}
+
+fn data(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data")
+        .join(name)
+}
+
+fn load_err(text: &str) -> String {
+    match load_str(text, "bad.toml", None) {
+        Ok(_) => panic!("expected an error for:\n{text}"),
+        Err(e) => e.to_string(),
+    }
+}
+
+/// The message is `bad.toml:LINE: ...` with LINE the marked line, on one line, containing
+/// every fact.
+fn check(text: &str, facts: &[&str]) -> String {
+    check_named(load_err(text), "bad.toml", line_of(text, MARK), facts)
+}
+
+fn check_named(msg: String, file: &str, line: usize, facts: &[&str]) -> String {
+    let prefix = format!("{file}:{line}: ");
+    assert!(
+        msg.starts_with(&prefix),
+        "message should start with {prefix:?}: {msg}"
+    );
+    assert!(!msg.contains('\n'), "message should be one line: {msg:?}");
+    for fact in facts {
+        assert!(msg.contains(fact), "message should contain {fact:?}: {msg}");
+    }
+    msg
+}
+
+#[test]
+fn base_scene_is_valid() {
+    let s = load_str(BASE, "base.toml", None).unwrap();
+    assert_eq!(s.shapes.len(), 1);
+    assert_eq!(s.lights.len(), 1);
+}
+
+// ---- Unknown keys ----
+
+#[test]
+fn unknown_top_level_key() {
+    let text = format!("bogus = 1 {MARK}\n{BASE}");
+    check(&text, &["unknown field `bogus`", "camera"]);
+}
+
+#[test]
+fn unknown_key_in_camera() {
+    let text = edit("fov = 40", &format!("fov = 40\nzoom = 2 {MARK}"));
+    check(&text, &["unknown field `zoom`", "fov"]);
+}
+
+#[test]
+fn unknown_key_in_render() {
+    let text = edit(
+        "max_depth = 4",
+        &format!("max_depth = 4\nsamples = 2 {MARK}"),
+    );
+    check(&text, &["unknown field `samples`", "spp"]);
+}
+
+#[test]
+fn unknown_key_in_material() {
+    let text = edit(
+        "albedo = [0.7, 0.7, 0.7]",
+        &format!("albedo = [0.7, 0.7, 0.7]\nshininess = 3 {MARK}"),
+    );
+    check(&text, &["unknown field `shininess`", "albedo"]);
+}
+
+#[test]
+fn unknown_key_in_shape() {
+    let text = edit(
+        r#"material = "white""#,
+        &format!("material = \"white\"\ncolour = [1, 0, 0] {MARK}"),
+    );
+    check(&text, &["unknown field `colour`", "material"]);
+}
+
+#[test]
+fn unknown_key_in_light() {
+    let text = edit(
+        "intensity = [1, 1, 1]",
+        &format!("intensity = [1, 1, 1]\npower = 3 {MARK}"),
+    );
+    check(&text, &["unknown field `power`", "intensity"]);
+}
+
+#[test]
+fn unknown_key_in_transform() {
+    // Inline table.
+    let text = edit(
+        r#"material = "white""#,
+        &format!("material = \"white\"\ntransform = {{ scale = 2, spin = 30 }} {MARK}"),
+    );
+    check(&text, &["unknown field `spin`", "translate"]);
+    // Nested inline table (rotate).
+    let text = edit(
+        r#"material = "white""#,
+        &format!(
+            "material = \"white\"\ntransform = {{ rotate = {{ axis = [0, 1, 0], degrees = 3, turns = 1 }} }} {MARK}"
+        ),
+    );
+    check(&text, &["unknown field `turns`", "degrees"]);
+    // Standard table [shape.transform].
+    let text = with(&format!(
+        "\n[[shape]]\ntype = \"cube\"\nmaterial = \"white\"\n[shape.transform]\nscale = 2\nshear = 1 {MARK}\n"
+    ));
+    check(&text, &["unknown field `shear`"]);
+}
+
+// ---- Wrong types ----
+
+#[test]
+fn string_where_a_number_is_expected() {
+    let text = edit("fov = 40", &format!("fov = \"wide\" {MARK}"));
+    check(&text, &["'fov'", "invalid type", "\"wide\""]);
+}
+
+#[test]
+fn two_array_where_a_three_array_is_expected() {
+    let text = edit(
+        "position = [0, 0, 3.9]",
+        &format!("position = [0, 3.9] {MARK}"),
+    );
+    check(&text, &["'position'", "length 2", "3"]);
+}
+
+#[test]
+fn string_inside_a_vector() {
+    let text = edit(
+        "albedo = [0.7, 0.7, 0.7]",
+        &format!("albedo = [0.7, \"grey\", 0.7] {MARK}"),
+    );
+    check(&text, &["'albedo'", "\"grey\""]);
+}
+
+#[test]
+fn negative_integer_where_a_count_is_expected() {
+    let text = edit(
+        "resolution = [16, 16]",
+        &format!("resolution = [16, -16] {MARK}"),
+    );
+    check(&text, &["'resolution'", "-16"]);
+}
+
+#[test]
+fn scale_of_the_wrong_shape() {
+    let text = edit(
+        r#"material = "white""#,
+        &format!("material = \"white\"\ntransform = {{ scale = [1, 2] }} {MARK}"),
+    );
+    check(&text, &["'scale'", "a number or an array of three numbers"]);
+    let text = edit(
+        r#"material = "white""#,
+        &format!("material = \"white\"\ntransform = {{ scale = \"big\" }} {MARK}"),
+    );
+    check(&text, &["'scale'", "a number or an array of three numbers"]);
+}
+
+#[test]
+fn toml_syntax_error() {
+    let text = edit("fov = 40", &format!("fov = {MARK}"));
+    check(&text, &[]);
+    let text = edit("[[material]]", &format!("[[material] {MARK}"));
+    check(&text, &[]);
+    let text = edit(r#"name = "white""#, &format!("name = \"white {MARK}"));
+    check(&text, &[]);
+}
+
+// ---- Missing required keys ----
+
+#[test]
+fn camera_needs_fov() {
+    let text = edit("fov = 40", "").replace("[camera]", &format!("[camera] {MARK}"));
+    check(&text, &["`fov`"]);
+}
+
+#[test]
+fn scene_needs_a_camera() {
+    let msg = load_err("[[material]]\nname = \"white\"\ntype = \"black\"\n");
+    check_named(msg, "bad.toml", 1, &["`camera`"]);
+}
+
+#[test]
+fn diffuse_material_needs_albedo() {
+    let text = edit("albedo = [0.7, 0.7, 0.7]", "")
+        .replace("[[material]]", &format!("[[material]] {MARK}"));
+    check(&text, &["'white'", "diffuse", "'albedo'"]);
+}
+
+#[test]
+fn sphere_needs_material() {
+    let text = with(&format!(
+        "\n[[shape]] {MARK}\nname = \"ball\"\ntype = \"sphere\"\nradius = 0.5\n"
+    ));
+    check(&text, &["ball", "'material'"]);
+}
+
+#[test]
+fn point_light_needs_intensity() {
+    let text = edit("intensity = [1, 1, 1]", "").replace("[[light]]", &format!("[[light]] {MARK}"));
+    check(&text, &["point", "'intensity'"]);
+}
+
+// ---- Dangling references ----
+
+#[test]
+fn dangling_material_name() {
+    let text = edit(
+        r#"material = "white""#,
+        &format!("material = \"whte\" {MARK}"),
+    );
+    check(&text, &["unknown material 'whte'", "white"]);
+}
+
+#[test]
+fn missing_mesh_file() {
+    let text = with(&format!(
+        "\n[[shape]]\ntype = \"obj\"\nmaterial = \"white\"\nfile = \"meshes/no-such-mesh.obj\" {MARK}\n"
+    ));
+    let msg = load_str(&text, "bad.toml", Some(&data(""))).err().unwrap();
+    let expected = data("meshes/no-such-mesh.obj").display().to_string();
+    check_named(
+        msg.to_string(),
+        "bad.toml",
+        line_of(&text, MARK),
+        &[&expected, "no such file"],
+    );
+}
+
+#[test]
+fn missing_mesh_file_through_load_file() {
+    let path = data("bad-mesh.toml");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let msg = load_file(&path).err().unwrap().to_string();
+    check_named(
+        msg,
+        &path.display().to_string(),
+        line_of(&text, "does-not-exist.obj"),
+        &["meshes/does-not-exist.obj", "no such file"],
+    );
+}
+
+#[test]
+fn malformed_obj_file() {
+    let path = data("bad-obj.toml");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let msg = load_file(&path).err().unwrap().to_string();
+    check_named(
+        msg,
+        &path.display().to_string(),
+        line_of(&text, "broken.obj"),
+        &["meshes/broken.obj", "out of bounds"],
+    );
+}
+
+#[test]
+fn missing_scene_file() {
+    let path = data("no-such-scene.toml");
+    let msg = load_file(&path).err().unwrap().to_string();
+    assert!(
+        msg.starts_with(&format!("{}: ", path.display())),
+        "should name the file: {msg}"
+    );
+    assert!(msg.contains("cannot read"), "{msg}");
+    assert!(!msg.contains('\n'), "{msg:?}");
+}
+
+// ---- Out-of-range and non-finite numbers ----
+
+#[test]
+fn albedo_below_zero() {
+    let text = edit(
+        "albedo = [0.7, 0.7, 0.7]",
+        &format!("albedo = [0.7, -0.1, 0.7] {MARK}"),
+    );
+    check(&text, &["'albedo'", "[0, 1]", "-0.1"]);
+}
+
+#[test]
+fn albedo_above_one() {
+    let text = edit(
+        "albedo = [0.7, 0.7, 0.7]",
+        &format!("albedo = [0.7, 0.7, 1.5] {MARK}"),
+    );
+    check(&text, &["'albedo'", "[0, 1]", "1.5"]);
+}
+
+#[test]
+fn albedo_nan() {
+    let text = edit(
+        "albedo = [0.7, 0.7, 0.7]",
+        &format!("albedo = [nan, 0.7, 0.7] {MARK}"),
+    );
+    check(&text, &["'albedo'", "finite", "NaN"]);
+}
+
+#[test]
+fn reflectance_outside_unit_range() {
+    let metal = |refl: &str| {
+        with(&format!(
+            "\n[[material]]\nname = \"gold\"\ntype = \"conductor\"\nreflectance = {refl} {MARK}\n"
+        ))
+    };
+    check(
+        &metal("[1.2, 0.8, 0.3]"),
+        &["'reflectance'", "[0, 1]", "1.2"],
+    );
+    check(
+        &metal("[0.9, -0.5, 0.3]"),
+        &["'reflectance'", "[0, 1]", "-0.5"],
+    );
+}
+
+#[test]
+fn ior_not_positive_or_not_finite() {
+    let glass = |ior: &str| {
+        with(&format!(
+            "\n[[material]]\nname = \"glass\"\ntype = \"dielectric\"\nior = {ior} {MARK}\n"
+        ))
+    };
+    check(&glass("0"), &["'ior'", "> 0", "got 0"]);
+    check(&glass("-1.5"), &["'ior'", "> 0", "-1.5"]);
+    check(&glass("nan"), &["'ior'", "finite", "NaN"]);
+    check(&glass("inf"), &["'ior'", "finite", "inf"]);
+}
+
+#[test]
+fn fov_zero() {
+    let text = edit("fov = 40", &format!("fov = 0 {MARK}"));
+    check(&text, &["'fov'", "(0, 180)", "got 0"]);
+}
+
+#[test]
+fn fov_180() {
+    let text = edit("fov = 40", &format!("fov = 180 {MARK}"));
+    check(&text, &["'fov'", "(0, 180)", "got 180"]);
+}
+
+#[test]
+fn fov_nan() {
+    let text = edit("fov = 40", &format!("fov = nan {MARK}"));
+    check(&text, &["'fov'", "(0, 180)", "NaN"]);
+}
+
+#[test]
+fn zero_resolution() {
+    let text = edit(
+        "resolution = [16, 16]",
+        &format!("resolution = [0, 256] {MARK}"),
+    );
+    check(&text, &["'resolution'", "[0, 256]"]);
+}
+
+#[test]
+fn non_finite_position() {
+    let text = edit(
+        "position = [0, 0, 3.9]",
+        &format!("position = [0, inf, 3.9] {MARK}"),
+    );
+    check(&text, &["'position'", "finite", "inf"]);
+    let text = edit(
+        "position = [0, 0.9, 0]",
+        &format!("position = [0, 0.9, -inf] {MARK}"),
+    );
+    check(&text, &["'position'", "finite", "-inf"]);
+}
+
+#[test]
+fn negative_emission() {
+    let text = edit(
+        r#"material = "white""#,
+        &format!("material = \"white\"\nemission = [1, -2, 1] {MARK}"),
+    );
+    check(&text, &["'emission'", ">= 0", "-2"]);
+}
+
+#[test]
+fn nonpositive_radius() {
+    let text = with(&format!(
+        "\n[[shape]]\ntype = \"sphere\"\nmaterial = \"white\"\nradius = -0.5 {MARK}\n"
+    ));
+    check(&text, &["'radius'", "> 0", "-0.5"]);
+}
+
+#[test]
+fn max_depth_zero() {
+    let text = edit("max_depth = 4", &format!("max_depth = 0 {MARK}"));
+    check(&text, &["'max_depth'", "got 0"]);
+}
+
+#[test]
+fn spp_zero() {
+    let text = edit("max_depth = 4", &format!("spp = 0 {MARK}"));
+    check(&text, &["'spp'", "at least 1"]);
+}
+
+#[test]
+fn unknown_integrator_in_render() {
+    let text = edit("max_depth = 4", &format!("integrator = \"ptt\" {MARK}"));
+    check(&text, &["unknown integrator 'ptt'", "available", "pt"]);
+}
+
+// ---- Unknown types and keys of another type ----
+
+#[test]
+fn unknown_material_type() {
+    let text = edit(r#"type = "diffuse""#, &format!("type = \"lambert\" {MARK}"));
+    check(&text, &["unknown material type 'lambert'", "diffuse"]);
+}
+
+#[test]
+fn unknown_shape_type() {
+    let text = edit(r#"type = "quad""#, &format!("type = \"torus\" {MARK}"));
+    check(&text, &["unknown shape type 'torus'", "sphere"]);
+}
+
+#[test]
+fn unknown_light_type() {
+    let text = edit(r#"type = "point""#, &format!("type = \"spot\" {MARK}"));
+    check(&text, &["unknown light type 'spot'", "environment"]);
+}
+
+#[test]
+fn key_of_another_shape_type() {
+    let text = edit(
+        r#"material = "white""#,
+        &format!("material = \"white\"\nradius = 3 {MARK}"),
+    );
+    check(&text, &["'quad'", "'radius'"]);
+}
+
+#[test]
+fn key_of_another_material_type() {
+    let text = with(&format!(
+        "\n[[material]]\nname = \"glass\"\ntype = \"dielectric\"\nior = 1.5\nalbedo = [1, 1, 1] {MARK}\n"
+    ));
+    check(&text, &["'glass'", "dielectric", "'albedo'"]);
+}
+
+#[test]
+fn key_of_another_light_type() {
+    let text = edit(
+        "intensity = [1, 1, 1]",
+        &format!("intensity = [1, 1, 1]\nradiance = [1, 1, 1] {MARK}"),
+    );
+    check(&text, &["'point'", "'radiance'"]);
+}
+
+// ---- Inconsistent scenes ----
+
+#[test]
+fn non_uniform_scale_on_analytic_sphere() {
+    let text = with(&format!(
+        "\n[[shape]]\ntype = \"sphere\"\nmaterial = \"white\"\ntransform = {{ scale = [1, 2, 1] }} {MARK}\n"
+    ));
+    check(&text, &["sphere", "scale uniformly"]);
+}
+
+#[test]
+fn two_environment_lights() {
+    let text = with(&format!(
+        "\n[[light]]\ntype = \"environment\"\nradiance = [1, 1, 1]\n\n[[light]] {MARK}\ntype = \"environment\"\nradiance = [0.5, 0.5, 0.5]\n"
+    ));
+    check(&text, &["only one environment light"]);
+}
+
+#[test]
+fn duplicate_material_names() {
+    let text = with(&format!(
+        "\n[[material]]\nname = \"white\" {MARK}\ntype = \"black\"\n"
+    ));
+    check(&text, &["material 'white'", "twice"]);
+}
+
+#[test]
+fn up_parallel_to_view_direction() {
+    let text = edit("up = [0, 1, 0]", &format!("up = [0, 0, -2] {MARK}"));
+    check(&text, &["'up'", "parallel"]);
+}
+
+#[test]
+fn look_at_equals_position() {
+    let text = edit(
+        "look_at = [0, 0, 0]",
+        &format!("look_at = [0, 0, 3.9] {MARK}"),
+    );
+    check(&text, &["'look_at'", "'position'"]);
+}
+
+// ---- Valid scenes with meshes ----
+
+fn mesh_normals(s: &Scene, name: &str) -> bool {
+    let i = s.shape_info.iter().position(|i| i.name == name).unwrap();
+    match &s.shapes[i] {
+        ShapeGeometry::Mesh(m) => m.normals.is_some(),
+        ShapeGeometry::Sphere(_) => panic!("{name} should be a mesh"),
+    }
+}
+
+#[test]
+fn valid_scene_with_obj_loads() {
+    let s = load_file(&data("tiny.toml")).unwrap();
+    assert_eq!(s.shapes.len(), 4);
+    // Two quads and the two-triangle OBJ.
+    assert_eq!(s.triangle_count(), 6);
+    assert_eq!(s.sphere_count(), 1);
+    assert_eq!(s.lights.len(), 1);
+    assert!(mesh_normals(&s, "floor mesh"), "the OBJ's normals are kept");
+    // scale 2, then translate down by 1: the square spans [-1, 1] in x and z at y = -1.
+    let i = s
+        .shape_info
+        .iter()
+        .position(|i| i.name == "floor mesh")
+        .unwrap();
+    let ShapeGeometry::Mesh(m) = &s.shapes[i] else {
+        unreachable!()
+    };
+    for p in &m.positions {
+        assert!(
+            (p.y + 1.0).abs() < 1e-6 && (p.x.abs() - 1.0).abs() < 1e-6,
+            "{p}"
+        );
+    }
+}
+
+#[test]
+fn relative_mesh_path_resolves_against_the_scene_directory() {
+    // The tests run in the package root, where "meshes/quad.obj" does not exist; the scene
+    // refers to it relative to its own directory.
+    assert!(!Path::new("meshes/quad.obj").exists());
+    let relative = Path::new("tests/data/tiny.toml");
+    assert!(relative.is_file(), "tests run in the package root");
+    let s = load_file(relative).unwrap();
+    assert_eq!(s.triangle_count(), 6);
+    assert_eq!(s.source, "tests/data/tiny.toml");
+    // Through load_str: resolved against `dir` when given, else against the current directory.
+    let text = std::fs::read_to_string(relative).unwrap();
+    assert!(load_str(&text, "tiny.toml", Some(&data(""))).is_ok());
+    let msg = load_str(&text, "tiny.toml", None)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(msg.contains("cannot load mesh 'meshes/quad.obj'"), "{msg}");
+}
+
+#[test]
+fn every_bad_fixture_fails_and_names_itself() {
+    let mut n = 0;
+    for entry in std::fs::read_dir(data("")).unwrap() {
+        let path = entry.unwrap().path();
+        let name = path.file_name().unwrap().to_string_lossy().into_owned();
+        if name.starts_with("bad-") && name.ends_with(".toml") {
+            let msg = load_file(&path).err().unwrap().to_string();
+            assert!(
+                msg.starts_with(&format!("{}:", path.display())),
+                "{name}: {msg}"
+            );
+            n += 1;
+        }
+    }
+    assert!(n >= 3);
+}

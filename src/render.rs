@@ -142,3 +142,35 @@ pub fn render_pixel_estimator<E: PixelEstimator>(
         )],
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn spp_budget_runs_exactly_that_many_passes() {
+        let mut seen = Vec::new();
+        let (passes, _) = run_passes(false, Budget::Spp(5), |p| seen.push(p));
+        assert_eq!(passes, 5);
+        assert_eq!(seen, vec![0, 1, 2, 3, 4]);
+    }
+
+    /// A time budget runs at least one pass, starts every pass before the budget is spent,
+    /// and stops at the first pass boundary after it (checked from recorded start times, so
+    /// the test does not depend on the machine's speed).
+    #[test]
+    fn time_budget_stops_after_the_pass_that_spends_it() {
+        let start = Instant::now();
+        let mut starts = Vec::new();
+        let budget = 0.03;
+        let (passes, seconds) = run_passes(false, Budget::Seconds(budget), |_| {
+            starts.push(start.elapsed().as_secs_f64());
+            std::thread::sleep(std::time::Duration::from_millis(5));
+        });
+        assert_eq!(passes as usize, starts.len());
+        assert!(passes >= 1 && seconds >= budget);
+        assert!(starts.iter().all(|&t| t < budget), "{starts:?}");
+        let (passes, _) = run_passes(false, Budget::Seconds(1e-9), |_| {});
+        assert_eq!(passes, 1);
+    }
+}

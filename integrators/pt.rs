@@ -13,7 +13,15 @@
 //!
 //! Roulette continues with probability `min(1, max(beta * eta_scale))`, where `eta_scale`
 //! undoes the radiance scaling of refraction (pbrt-v4's rule).
-//! Limits: no participating media yet (they arrive with the media issue).
+//!
+//! Media: in a homogeneous medium the path samples a free-flight distance (one RGB channel
+//! chosen uniformly, the channel-averaged density); a scattering point is a path vertex that
+//! does next-event estimation (transmittance computed analytically, through index-matched
+//! boundaries) and samples the phase function. Index-matched boundaries (shapes with media and
+//! no material) are crossed without a vertex. MIS compares the light's density with the
+//! continuation's density times the probability that free flight passes the connecting
+//! segment, which is what the continuation really samples. A scene without media never runs
+//! any of this (one branch per segment on the current medium, which is always `None`).
 //!
 //! ```text
 //! lodestar render scenes/cornell-box.toml --integrator pt --spp 64 -O strategy=mis
@@ -22,12 +30,13 @@
 use super::IntegratorParams;
 use crate::bsdf::TransportMode;
 use crate::error::{Error, Result};
-use crate::geometry::gamma;
+use crate::geometry::{Ray, gamma};
 use crate::math::{IndependentSampler, Sampler, Spectrum, power_heuristic};
+use crate::medium::HenyeyGreenstein;
 use crate::render::{
     Budget, Integrator, PixelEstimator, RenderContext, RenderResult, render_pixel_estimator,
 };
-use crate::scene::Scene;
+use crate::scene::{Endpoint, Scene, SurfacePoint};
 use glam::{Vec2, Vec3};
 
 /// How emitters are reached.
@@ -113,38 +122,87 @@ impl PathTracer {
         let s = &self.settings;
         let use_nee = s.strategy != Strategy::Bsdf;
         let mut ray = scene.camera.generate_ray(raster);
+        let mut medium = scene.camera_medium;
         let mut l = Spectrum::ZERO;
         let mut beta = Spectrum::ONE;
         let mut eta_scale = 1.0f32;
-        // State of the previous vertex, for MIS on emitter hits.
-        let mut prev_delta = true; // the pinhole is a delta vertex
-        let mut prev_pdf = 0.0f32; // solid-angle density of the last BSDF sample
-        let mut prev_p = ray.o;
+        // The last scattering vertex (the pinhole is a delta vertex), for MIS on emitters that
+        // the continuation finds, and the free-flight pass probability since then.
+        let mut prev = Scattered { delta: true, pdf: 0.0, p: ray.o };
+        let mut pass = 1.0f32;
+        // Number of segments of the path once `ray` reaches its next vertex.
+        let mut depth = 1u32;
+        let mut null_crossings = 0u32;
 
-        // `depth` = number of segments of the path once `ray` is traced.
-        for depth in 1..=s.max_depth {
-            let Some(sp) = scene.intersect(&ray) else {
-                // ---- Escaped: environment emission ----
-                if let Some(env) = scene.environment {
-                    let le = scene.lights[env].le(Vec3::ZERO, ray.d);
-                    let w = self.emission_weight(scene, env, prev_delta, prev_pdf, || {
-                        scene.lights[env].pdf_li(prev_p, Vec3::ZERO, Vec3::ZERO, ray.d)
-                    });
-                    l += beta * le * w;
+        loop {
+            let sp = scene.intersect(&ray);
+
+            // ---- Medium: scatter before the surface, or pass it ----
+            if let Some(m) = medium {
+                let m = &scene.media[m as usize];
+                let t_hit = sp.as_ref().map_or(f32::INFINITY, |sp| sp.hit.t);
+                let flight = m.sample_distance(t_hit, sampler.next_1d(), sampler.next_1d());
+                beta *= flight.weight;
+                if flight.scattered {
+                    if depth == s.max_depth {
+                        break;
+                    }
+                    let p = ray.at(flight.t);
+                    let wo = -ray.d;
+                    let here = Endpoint::point(p);
+                    if use_nee {
+                        let phase = Scatterer::Medium { phase: &m.phase, wo };
+                        l += beta * self.direct(scene, &here, medium, &phase, sampler);
+                    }
+                    let (wi, pdf) = m.phase.sample(wo, sampler.next_2d());
+                    prev = Scattered { delta: false, pdf, p };
+                    pass = 1.0;
+                    if !self.roulette(depth, &mut beta, eta_scale, sampler) {
+                        break;
+                    }
+                    ray = Ray::new(p, wi);
+                    depth += 1;
+                    continue;
+                }
+                pass *= flight.pdf;
+                if beta == Spectrum::ZERO {
+                    break;
+                }
+            }
+
+            let Some(sp) = sp else {
+                // ---- Escaped: lights at infinity ----
+                for &li in &scene.infinite_lights {
+                    let light = &scene.lights[li];
+                    let le = light.le(Vec3::ZERO, ray.d);
+                    if le != Spectrum::ZERO {
+                        let pdf_li = || light.pdf_li(prev.p, Vec3::ZERO, Vec3::ZERO, ray.d);
+                        l += beta * le * self.emission_weight(scene, li, &prev, pass, pdf_li);
+                    }
                 }
                 break;
             };
             let hit = sp.hit;
+
+            // ---- Index-matched boundary: straight through, still the same segment ----
+            if sp.null {
+                null_crossings += 1;
+                if null_crossings > 256 {
+                    break;
+                }
+                medium = scene.medium_after(&sp, ray.d, medium);
+                ray = hit.spawn(ray.d);
+                continue;
+            }
             let wo = -ray.d;
 
             // ---- Emission of a hit emitter ----
             if let Some(li) = sp.light {
-                let le = scene.lights[li].le(hit.ng, wo);
+                let light = &scene.lights[li];
+                let le = light.le(hit.ng, wo);
                 if le != Spectrum::ZERO {
-                    let w = self.emission_weight(scene, li, prev_delta, prev_pdf, || {
-                        scene.lights[li].pdf_li(prev_p, hit.p, hit.ng, ray.d)
-                    });
-                    l += beta * le * w;
+                    let pdf_li = || light.pdf_li(prev.p, hit.p, hit.ng, ray.d);
+                    l += beta * le * self.emission_weight(scene, li, &prev, pass, pdf_li);
                 }
             }
             if sp.bsdf.is_black() || depth == s.max_depth {
@@ -153,82 +211,118 @@ impl PathTracer {
 
             // ---- Next-event estimation (adds a path of depth + 1 segments) ----
             if use_nee && !sp.bsdf.is_delta() {
-                let u_light = sampler.next_1d();
-                let u = sampler.next_2d();
-                if let Some((light_id, pmf)) = scene.light_sampler.sample(u_light) {
-                    let light = &scene.lights[light_id];
-                    if let Some(ls) = light.sample_li(hit.p, u) {
-                        let f = sp.bsdf.eval(&sp.frame, wo, ls.wi, TransportMode::Radiance)
-                            * ls.wi.dot(hit.ns).abs();
-                        if f != Spectrum::ZERO {
-                            let visible = if ls.dist.is_infinite() {
-                                scene.escapes(&hit, ls.wi)
-                            } else {
-                                scene.visible(&hit, ls.p, ls.n, gamma(8) * ls.p.abs())
-                            };
-                            if visible {
-                                let p_light = pmf * ls.pdf;
-                                let w = if ls.delta || s.strategy == Strategy::Nee {
-                                    1.0
-                                } else {
-                                    power_heuristic(
-                                        p_light,
-                                        sp.bsdf.pdf(&sp.frame, wo, ls.wi, TransportMode::Radiance),
-                                    )
-                                };
-                                l += beta * f * ls.li * (w / p_light);
-                            }
-                        }
-                    }
-                }
+                let surface = Scatterer::Surface { sp: &sp, wo };
+                l += beta * self.direct(scene, &Endpoint::surface(&hit), medium, &surface, sampler);
             }
 
             // ---- BSDF sampling: extend the path ----
             let u_lobe = sampler.next_1d();
             let u = sampler.next_2d();
-            let Some(bs) = sp
-                .bsdf
-                .sample(&sp.frame, wo, u_lobe, u, TransportMode::Radiance)
-            else {
+            let Some(bs) = sp.bsdf.sample(&sp.frame, wo, u_lobe, u, TransportMode::Radiance) else {
                 break;
             };
             beta *= bs.weight;
             if bs.transmission {
                 eta_scale *= bs.eta * bs.eta;
+                medium = scene.medium_after(&sp, bs.wi, medium);
             }
-            prev_delta = bs.delta;
-            prev_pdf = bs.pdf;
-            prev_p = hit.p;
-
-            // ---- Russian roulette ----
-            if depth >= s.rr_depth {
-                let q = (beta * eta_scale).max_element().min(1.0);
-                if sampler.next_1d() >= q {
-                    break;
-                }
-                beta /= q;
+            prev = Scattered { delta: bs.delta, pdf: bs.pdf, p: hit.p };
+            pass = 1.0;
+            if !self.roulette(depth, &mut beta, eta_scale, sampler) {
+                break;
             }
             ray = hit.spawn(bs.wi);
+            depth += 1;
         }
         l
     }
 
-    /// MIS weight of emission found by BSDF sampling (or by the camera ray).
-    fn emission_weight(
-        &self,
-        scene: &Scene,
-        light: usize,
-        prev_delta: bool,
-        prev_pdf: f32,
-        pdf_li: impl FnOnce() -> f32,
-    ) -> f32 {
-        if prev_delta {
+    /// Russian roulette on paths of `rr_depth` segments or more; false terminates the path.
+    fn roulette(&self, depth: u32, beta: &mut Spectrum, eta_scale: f32, sampler: &mut impl Sampler) -> bool {
+        if depth < self.settings.rr_depth {
+            return true;
+        }
+        let q = (*beta * eta_scale).max_element().min(1.0);
+        if sampler.next_1d() >= q {
+            return false;
+        }
+        *beta /= q;
+        true
+    }
+
+    /// Next-event estimation from `from` (in `medium` on the scattering side): one light
+    /// chosen by power, one point on it, weighted against the continuation by MIS.
+    fn direct(&self, scene: &Scene, from: &Endpoint, medium: Option<u32>, at: &Scatterer, sampler: &mut impl Sampler) -> Spectrum {
+        let u_light = sampler.next_1d();
+        let u = sampler.next_2d();
+        let Some((light_id, pmf)) = scene.light_sampler.sample(u_light) else {
+            return Spectrum::ZERO;
+        };
+        let Some(ls) = scene.lights[light_id].sample_li(from.p, u) else {
+            return Spectrum::ZERO;
+        };
+        let (f, pdf_scatter) = at.eval(ls.wi);
+        if f == Spectrum::ZERO {
+            return Spectrum::ZERO;
+        }
+        // The shadow ray starts in the medium on the side it leaves towards.
+        let medium = match at {
+            Scatterer::Surface { sp, .. } => scene.medium_after(sp, ls.wi, medium),
+            Scatterer::Medium { .. } => medium,
+        };
+        let target = ls.dist.is_finite().then(|| Endpoint { p: ls.p, n: ls.n, err: gamma(8) * ls.p.abs() });
+        let Some(t) = scene.transmittance(from, target.as_ref(), ls.wi, medium) else {
+            return Spectrum::ZERO;
+        };
+        let p_light = pmf * ls.pdf;
+        let w = if ls.delta || self.settings.strategy == Strategy::Nee {
+            1.0
+        } else {
+            power_heuristic(p_light, pdf_scatter * t.pass)
+        };
+        f * t.tr * ls.li * (w / p_light)
+    }
+
+    /// MIS weight of emission found by continuing the path (or by the camera ray).
+    fn emission_weight(&self, scene: &Scene, light: usize, prev: &Scattered, pass: f32, pdf_li: impl FnOnce() -> f32) -> f32 {
+        if prev.delta {
             return 1.0; // no other strategy can produce this path
         }
         match self.settings.strategy {
             Strategy::Bsdf => 1.0,
             Strategy::Nee => 0.0,
-            Strategy::Mis => power_heuristic(prev_pdf, scene.light_sampler.pmf(light) * pdf_li()),
+            Strategy::Mis => power_heuristic(prev.pdf * pass, scene.light_sampler.pmf(light) * pdf_li()),
+        }
+    }
+}
+
+/// The last scattering vertex of the path.
+struct Scattered {
+    /// Delta BSDF (or the pinhole): no other strategy shares the next vertex.
+    delta: bool,
+    /// Solid-angle density (or lobe probability) of the sampled direction.
+    pdf: f32,
+    p: Vec3,
+}
+
+/// Where next-event estimation scatters: a surface or a point in a medium.
+enum Scatterer<'a, 'b> {
+    Surface { sp: &'b SurfacePoint<'a>, wo: Vec3 },
+    Medium { phase: &'b HenyeyGreenstein, wo: Vec3 },
+}
+
+impl Scatterer<'_, '_> {
+    /// (f |cos| or the phase function, solid-angle density of sampling `wi` by continuation).
+    fn eval(&self, wi: Vec3) -> (Spectrum, f32) {
+        match self {
+            Scatterer::Surface { sp, wo } => {
+                let f = sp.bsdf.eval(&sp.frame, *wo, wi, TransportMode::Radiance) * wi.dot(sp.hit.ns).abs();
+                (f, sp.bsdf.pdf(&sp.frame, *wo, wi, TransportMode::Radiance))
+            }
+            Scatterer::Medium { phase, wo } => {
+                let p = phase.eval(*wo, wi);
+                (Spectrum::splat(p), p)
+            }
         }
     }
 }

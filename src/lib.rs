@@ -12,6 +12,7 @@ pub mod film;
 pub mod geometry;
 pub mod light;
 pub mod math;
+pub mod medium;
 pub mod metrics;
 pub mod path;
 pub mod render;

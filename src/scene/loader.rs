@@ -45,8 +45,10 @@ use crate::geometry::mesh::MeshSampler;
 use crate::geometry::{Accel, Sphere, Transform, TriangleMesh};
 use crate::light::{AreaLight, AreaShape, EnvironmentLight, Light, LightSampler, PointLight};
 use crate::math::Frame;
+use crate::medium::{HomogeneousMedium, MediumInterface};
 use crate::path::MAX_VERTICES;
-use glam::{UVec2, Vec3};
+use crate::geometry::heightfield::{Wave, heightfield};
+use glam::{UVec2, Vec2, Vec3};
 use serde::Deserialize;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -57,11 +59,15 @@ type V3 = Spanned<[f32; 3]>;
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct SceneDesc {
+    /// Medium filling the world (and containing the camera).
+    world_medium: Option<Spanned<String>>,
     camera: Spanned<CameraDesc>,
     #[serde(default)]
     render: Option<RenderDesc>,
     #[serde(default)]
     material: Vec<Spanned<MaterialDesc>>,
+    #[serde(default)]
+    medium: Vec<Spanned<MediumDesc>>,
     #[serde(default)]
     shape: Vec<Spanned<ShapeDesc>>,
     #[serde(default)]
@@ -100,6 +106,25 @@ struct MaterialDesc {
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
+struct MediumDesc {
+    name: Spanned<String>,
+    sigma_a: V3,
+    sigma_s: V3,
+    g: Option<Spanned<f32>>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct WaveDesc {
+    amplitude: f32,
+    wavelength: f32,
+    direction: [f32; 2],
+    #[serde(default)]
+    phase: f32,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
 struct ShapeDesc {
     #[serde(rename = "type")]
     kind: Spanned<String>,
@@ -115,6 +140,11 @@ struct ShapeDesc {
     radius: Option<Spanned<f32>>,
     segments: Option<Spanned<u32>>,
     file: Option<Spanned<String>>,
+    size: Option<Spanned<[f32; 2]>>,
+    grid: Option<Spanned<[u32; 2]>>,
+    waves: Option<Spanned<Vec<WaveDesc>>>,
+    interior: Option<Spanned<String>>,
+    exterior: Option<Spanned<String>>,
 }
 
 #[derive(Deserialize)]
@@ -299,6 +329,40 @@ impl Builder<'_> {
         }
         let mut black = None;
 
+        // Media, by name.
+        let mut media: Vec<HomogeneousMedium> = Vec::new();
+        for m in &desc.medium {
+            let d = m.get_ref();
+            let name = d.name.get_ref().clone();
+            if media.iter().any(|x| x.name == name) {
+                return src.err(d.name.span(), format!("medium '{name}' is defined twice"));
+            }
+            let sigma_a = src.non_negative3(&d.sigma_a, "sigma_a")?;
+            let sigma_s = src.non_negative3(&d.sigma_s, "sigma_s")?;
+            let g = match &d.g {
+                Some(g) => {
+                    let v = *g.get_ref();
+                    if !(v > -1.0 && v < 1.0) {
+                        return src.err(g.span(), format!("'g' must be in (-1, 1), got {v}"));
+                    }
+                    v
+                }
+                None => 0.0,
+            };
+            media.push(HomogeneousMedium::new(name, sigma_a, sigma_s, g));
+        }
+        let medium_ref = |r: &Spanned<String>| -> Result<u32> {
+            match media.iter().position(|m| &m.name == r.get_ref()) {
+                Some(i) => Ok(i as u32),
+                None => {
+                    let known: Vec<&str> = media.iter().map(|m| m.name.as_str()).collect();
+                    let known = if known.is_empty() { "none".to_string() } else { known.join(", ") };
+                    src.err(r.span(), format!("unknown medium '{}' (defined: {known})", r.get_ref()))
+                }
+            }
+        };
+        let world_medium = desc.world_medium.as_ref().map(&medium_ref).transpose()?;
+
         // Shapes, and area lights for emissive ones.
         let mut shapes = Vec::new();
         let mut shape_info = Vec::new();
@@ -314,6 +378,15 @@ impl Builder<'_> {
                 Some(e) => Some((self.src.non_negative3(e, "emission")?, e.span())),
                 None => None,
             };
+            // Media on either side; an unnamed side is the world medium.
+            let interface = match (&d.interior, &d.exterior) {
+                (None, None) => None,
+                (inside, outside) => Some(MediumInterface {
+                    inside: inside.as_ref().map(&medium_ref).transpose()?.or(world_medium),
+                    outside: outside.as_ref().map(&medium_ref).transpose()?.or(world_medium),
+                }),
+            };
+            let null = d.material.is_none() && emission.is_none() && interface.is_some();
             let material = match &d.material {
                 Some(m) => match by_name.get(m.get_ref()) {
                     Some(&id) => id,
@@ -333,7 +406,7 @@ impl Builder<'_> {
                         );
                     }
                 },
-                None if emission.is_some() => *black.get_or_insert_with(|| {
+                None if emission.is_some() || null => *black.get_or_insert_with(|| {
                     materials.push(Material {
                         name: "<black>".into(),
                         bsdf: Bsdf::Black,
@@ -343,7 +416,7 @@ impl Builder<'_> {
                 None => {
                     return src.err(
                         s.span(),
-                        format!("{label} needs a 'material' (or an 'emission')"),
+                        format!("{label} needs a 'material' (or an 'emission', or 'interior'/'exterior' media for an index-matched boundary)"),
                     );
                 }
             };
@@ -367,10 +440,12 @@ impl Builder<'_> {
                 name: label,
                 material,
                 light,
+                interface,
+                null,
             });
         }
 
-        let mut environment = None;
+        let mut environment: Option<usize> = None;
         for l in &desc.light {
             let d = l.get_ref();
             let what = format!("light of type '{}'", d.kind.get_ref());
@@ -450,13 +525,15 @@ impl Builder<'_> {
             }
         }
 
+        let uses_media = world_medium.is_some() || shape_info.iter().any(|s| s.interface.is_some_and(|i| i.inside.is_some() || i.outside.is_some()));
+        let infinite_lights: Vec<usize> = (0..lights.len()).filter(|&i| lights[i].is_infinite()).collect();
         let features = SceneFeatures {
-            media: false,
+            media: uses_media,
             delta_lights: lights.iter().any(|l| l.is_delta()),
             specular_surfaces: shape_info
                 .iter()
                 .any(|s| materials[s.material as usize].bsdf.is_delta()),
-            environment: environment.is_some(),
+            environment: !infinite_lights.is_empty(),
             emissive_geometry: lights.iter().any(|l| matches!(l, Light::Area(_))),
         };
         let accel = Accel::build(&shapes);
@@ -468,7 +545,9 @@ impl Builder<'_> {
             shape_info,
             materials,
             lights,
-            environment,
+            infinite_lights,
+            media,
+            camera_medium: world_medium,
             accel,
             features,
             center,
@@ -662,6 +741,9 @@ impl Builder<'_> {
             ("radius", at(&d.radius)),
             ("segments", at(&d.segments)),
             ("file", at(&d.file)),
+            ("size", at(&d.size)),
+            ("grid", at(&d.grid)),
+            ("waves", at(&d.waves)),
         ];
         let allowed: &[&str] =
             match kind {
@@ -670,10 +752,11 @@ impl Builder<'_> {
                 "sphere" => &["center", "radius"],
                 "disk" => &["center", "normal", "radius", "segments"],
                 "obj" => &["file"],
+                "heightfield" => &["size", "grid", "waves"],
                 other => return src.err(
                     d.kind.span(),
                     format!(
-                        "unknown shape type '{other}' (expected quad, cube, sphere, disk or obj)"
+                        "unknown shape type '{other}' (expected quad, cube, sphere, disk, heightfield or obj)"
                     ),
                 ),
             };
@@ -768,6 +851,40 @@ impl Builder<'_> {
                     )
                 })?;
                 ShapeGeometry::Mesh(mesh.transformed(&t))
+            }
+            "heightfield" => {
+                let size = match &d.size {
+                    Some(sz) => {
+                        let [x, z] = *sz.get_ref();
+                        if !(x.is_finite() && z.is_finite() && x > 0.0 && z > 0.0) {
+                            return src.err(sz.span(), format!("'size' must be two finite numbers > 0, got [{x}, {z}]"));
+                        }
+                        Vec2::new(x, z)
+                    }
+                    None => Vec2::splat(2.0),
+                };
+                let grid = match &d.grid {
+                    Some(g) => {
+                        let [x, z] = *g.get_ref();
+                        if !(1..=4096).contains(&x) || !(1..=4096).contains(&z) {
+                            return src.err(g.span(), format!("'grid' must be two integers in [1, 4096], got [{x}, {z}]"));
+                        }
+                        UVec2::new(x, z)
+                    }
+                    None => UVec2::new(128, 128),
+                };
+                let mut waves = Vec::new();
+                if let Some(ws) = &d.waves {
+                    for (k, w) in ws.get_ref().iter().enumerate() {
+                        let dir = Vec2::from(w.direction);
+                        let ok = w.amplitude.is_finite() && w.phase.is_finite() && w.wavelength.is_finite() && w.wavelength > 0.0 && dir.is_finite() && dir.length_squared() > 0.0;
+                        if !ok {
+                            return src.err(ws.span(), format!("wave #{}: needs finite 'amplitude' and 'phase', 'wavelength' > 0 and a non-zero 'direction'", k + 1));
+                        }
+                        waves.push(Wave { amplitude: w.amplitude, wavelength: w.wavelength, direction: dir.normalize(), phase: w.phase });
+                    }
+                }
+                ShapeGeometry::Mesh(heightfield(size, grid, &waves).transformed(&t))
             }
             _ => unreachable!("shape types are checked above"),
         })

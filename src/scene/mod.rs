@@ -9,8 +9,10 @@ pub use features::SceneFeatures;
 use crate::bsdf::{Bsdf, ShadingFrame};
 use crate::camera::Camera;
 use crate::geometry::bvh::{ShapeGeometry, shadow_segment};
-use crate::geometry::{Accel, Hit, Ray};
+use crate::geometry::{Accel, Hit, Ray, offset_origin};
 use crate::light::{Light, LightSampler};
+use crate::math::Spectrum;
+use crate::medium::{HomogeneousMedium, MediumInterface};
 use glam::Vec3;
 
 /// The built-in default scene (the same text as `scenes/cornell-box.toml`).
@@ -29,6 +31,10 @@ pub struct ShapeInfo {
     pub material: u32,
     /// Index into `Scene::lights` when the shape emits.
     pub light: Option<u32>,
+    /// Media on either side, when the shape bounds a medium.
+    pub interface: Option<MediumInterface>,
+    /// An index-matched boundary: media and no material; rays pass straight through.
+    pub null: bool,
 }
 
 /// `[render]` defaults of a scene file; the command line overrides them.
@@ -58,8 +64,12 @@ pub struct Scene {
     pub materials: Vec<Material>,
     pub lights: Vec<Light>,
     pub light_sampler: LightSampler,
-    /// Index of the environment light, if any.
-    pub environment: Option<usize>,
+    /// Indices of the lights at infinity (environment, directional, sun): what an escaping
+    /// ray can see.
+    pub infinite_lights: Vec<usize>,
+    pub media: Vec<HomogeneousMedium>,
+    /// The world medium, which the camera is in.
+    pub camera_medium: Option<u32>,
     pub accel: Accel,
     pub features: SceneFeatures,
     /// Bounding sphere of the geometry.
@@ -75,6 +85,36 @@ pub struct SurfacePoint<'a> {
     pub frame: ShadingFrame,
     /// Emitting light of the shape, if any.
     pub light: Option<usize>,
+    pub interface: Option<MediumInterface>,
+    /// Index-matched boundary (no scattering; the ray continues straight through).
+    pub null: bool,
+}
+
+/// One end of a visibility test: a surface point (normal and position error bound) or a point
+/// without a surface (a medium vertex or a point light: zero normal and error).
+#[derive(Debug, Clone, Copy)]
+pub struct Endpoint {
+    pub p: Vec3,
+    pub n: Vec3,
+    pub err: Vec3,
+}
+
+impl Endpoint {
+    pub fn surface(hit: &Hit) -> Endpoint {
+        Endpoint { p: hit.p, n: hit.ng, err: hit.p_err }
+    }
+
+    pub fn point(p: Vec3) -> Endpoint {
+        Endpoint { p, n: Vec3::ZERO, err: Vec3::ZERO }
+    }
+}
+
+/// Transmittance of an unoccluded connection, and the probability that free-flight sampling
+/// passes it without scattering (1 without media; it enters MIS densities).
+#[derive(Debug, Clone, Copy)]
+pub struct Transmittance {
+    pub tr: Spectrum,
+    pub pass: f32,
 }
 
 impl Scene {
@@ -91,21 +131,63 @@ impl Scene {
             bsdf: &self.materials[info.material as usize].bsdf,
             frame: ShadingFrame::new(hit.ns, hit.ng),
             light: info.light.map(|l| l as usize),
+            interface: info.interface,
+            null: info.null,
             hit,
         })
     }
 
-    /// Whether the straight segment between surface point `hit` and `p1` (normal `n1`, zero for
-    /// a point without a surface, error bound `err1`) is free of occluders.
-    pub fn visible(&self, hit: &Hit, p1: Vec3, n1: Vec3, err1: Vec3) -> bool {
-        let (o, d, t_max) = shadow_segment(hit.p, hit.p_err, hit.ng, p1, err1, n1);
-        t_max <= 0.0 || self.accel.unoccluded(o, d, t_max)
+    /// Medium after leaving surface point `sp` along `d` (transmission or pass-through), given
+    /// the medium before.
+    #[inline]
+    pub fn medium_after(&self, sp: &SurfacePoint, d: Vec3, current: Option<u32>) -> Option<u32> {
+        match &sp.interface {
+            Some(mi) => mi.crossing(d, sp.hit.ng),
+            None => current,
+        }
     }
 
-    /// Whether a ray leaving surface point `hit` along unit `d` escapes to infinity.
-    pub fn escapes(&self, hit: &Hit, d: Vec3) -> bool {
-        let r = hit.spawn(d);
-        self.accel.unoccluded(r.o, r.d, f32::INFINITY)
+    /// Transmittance from `a` to `b` (or from `a` to infinity along unit `dir` when `b` is
+    /// `None`), starting in `medium`, through index-matched boundaries; `None` when a surface
+    /// blocks the way. Without media this is a single occlusion query.
+    pub fn transmittance(&self, a: &Endpoint, b: Option<&Endpoint>, dir: Vec3, medium: Option<u32>) -> Option<Transmittance> {
+        let (mut o, d, mut remaining) = match b {
+            Some(b) => shadow_segment(a.p, a.err, a.n, b.p, b.err, b.n),
+            None => (offset_origin(a.p, a.err, a.n, dir), dir, f32::INFINITY),
+        };
+        if !self.features.media {
+            let free = remaining <= 0.0 || self.accel.unoccluded(o, d, remaining);
+            return free.then_some(Transmittance { tr: Spectrum::ONE, pass: 1.0 });
+        }
+        let (mut tr, mut pass, mut medium) = (Spectrum::ONE, 1.0f32, medium);
+        // A bounded number of index-matched crossings (closed shapes give two each).
+        for _ in 0..64 {
+            if remaining <= 0.0 {
+                return Some(Transmittance { tr, pass });
+            }
+            let ray = Ray { o, d, t_max: remaining };
+            let Some(sp) = self.intersect(&ray) else {
+                if let Some(m) = medium {
+                    let m = &self.media[m as usize];
+                    tr *= m.tr(remaining);
+                    pass *= m.pass_probability(remaining);
+                }
+                return Some(Transmittance { tr, pass });
+            };
+            if !sp.null {
+                return None;
+            }
+            if let Some(m) = medium {
+                let m = &self.media[m as usize];
+                tr *= m.tr(sp.hit.t);
+                pass *= m.pass_probability(sp.hit.t);
+            }
+            medium = self.medium_after(&sp, d, medium);
+            let next = offset_origin(sp.hit.p, sp.hit.p_err, sp.hit.ng, d);
+            remaining -= (next - o).dot(d);
+            o = next;
+        }
+        None
     }
 
     pub fn triangle_count(&self) -> usize {

@@ -37,7 +37,9 @@ impl HenyeyGreenstein {
         let phi = 2.0 * PI * u.y;
         let local = Vec3::new(sin * phi.cos(), sin * phi.sin(), cos);
         let wi = Frame::from_z(-wo).to_world(local).normalize();
-        (wi, hg(cos, g))
+        // The density of the direction actually returned (after rounding), so that `sample`
+        // and `eval` agree exactly even for strongly peaked lobes.
+        (wi, self.eval(wo, wi))
     }
 }
 

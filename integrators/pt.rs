@@ -128,7 +128,11 @@ impl PathTracer {
         let mut eta_scale = 1.0f32;
         // The last scattering vertex (the pinhole is a delta vertex), for MIS on emitters that
         // the continuation finds, and the free-flight pass probability since then.
-        let mut prev = Scattered { delta: true, pdf: 0.0, p: ray.o };
+        let mut prev = Scattered {
+            delta: true,
+            pdf: 0.0,
+            p: ray.o,
+        };
         let mut pass = 1.0f32;
         // Number of segments of the path once `ray` reaches its next vertex.
         let mut depth = 1u32;
@@ -151,11 +155,18 @@ impl PathTracer {
                     let wo = -ray.d;
                     let here = Endpoint::point(p);
                     if use_nee {
-                        let phase = Scatterer::Medium { phase: &m.phase, wo };
+                        let phase = Scatterer::Medium {
+                            phase: &m.phase,
+                            wo,
+                        };
                         l += beta * self.direct(scene, &here, medium, &phase, sampler);
                     }
                     let (wi, pdf) = m.phase.sample(wo, sampler.next_2d());
-                    prev = Scattered { delta: false, pdf, p };
+                    prev = Scattered {
+                        delta: false,
+                        pdf,
+                        p,
+                    };
                     pass = 1.0;
                     if !self.roulette(depth, &mut beta, eta_scale, sampler) {
                         break;
@@ -218,7 +229,10 @@ impl PathTracer {
             // ---- BSDF sampling: extend the path ----
             let u_lobe = sampler.next_1d();
             let u = sampler.next_2d();
-            let Some(bs) = sp.bsdf.sample(&sp.frame, wo, u_lobe, u, TransportMode::Radiance) else {
+            let Some(bs) = sp
+                .bsdf
+                .sample(&sp.frame, wo, u_lobe, u, TransportMode::Radiance)
+            else {
                 break;
             };
             beta *= bs.weight;
@@ -226,7 +240,11 @@ impl PathTracer {
                 eta_scale *= bs.eta * bs.eta;
                 medium = scene.medium_after(&sp, bs.wi, medium);
             }
-            prev = Scattered { delta: bs.delta, pdf: bs.pdf, p: hit.p };
+            prev = Scattered {
+                delta: bs.delta,
+                pdf: bs.pdf,
+                p: hit.p,
+            };
             pass = 1.0;
             if !self.roulette(depth, &mut beta, eta_scale, sampler) {
                 break;
@@ -238,7 +256,13 @@ impl PathTracer {
     }
 
     /// Russian roulette on paths of `rr_depth` segments or more; false terminates the path.
-    fn roulette(&self, depth: u32, beta: &mut Spectrum, eta_scale: f32, sampler: &mut impl Sampler) -> bool {
+    fn roulette(
+        &self,
+        depth: u32,
+        beta: &mut Spectrum,
+        eta_scale: f32,
+        sampler: &mut impl Sampler,
+    ) -> bool {
         if depth < self.settings.rr_depth {
             return true;
         }
@@ -252,7 +276,14 @@ impl PathTracer {
 
     /// Next-event estimation from `from` (in `medium` on the scattering side): one light
     /// chosen by power, one point on it, weighted against the continuation by MIS.
-    fn direct(&self, scene: &Scene, from: &Endpoint, medium: Option<u32>, at: &Scatterer, sampler: &mut impl Sampler) -> Spectrum {
+    fn direct(
+        &self,
+        scene: &Scene,
+        from: &Endpoint,
+        medium: Option<u32>,
+        at: &Scatterer,
+        sampler: &mut impl Sampler,
+    ) -> Spectrum {
         let u_light = sampler.next_1d();
         let u = sampler.next_2d();
         let Some((light_id, pmf)) = scene.light_sampler.sample(u_light) else {
@@ -270,7 +301,11 @@ impl PathTracer {
             Scatterer::Surface { sp, .. } => scene.medium_after(sp, ls.wi, medium),
             Scatterer::Medium { .. } => medium,
         };
-        let target = ls.dist.is_finite().then(|| Endpoint { p: ls.p, n: ls.n, err: gamma(8) * ls.p.abs() });
+        let target = ls.dist.is_finite().then(|| Endpoint {
+            p: ls.p,
+            n: ls.n,
+            err: gamma(8) * ls.p.abs(),
+        });
         let Some(t) = scene.transmittance(from, target.as_ref(), ls.wi, medium) else {
             return Spectrum::ZERO;
         };
@@ -284,14 +319,23 @@ impl PathTracer {
     }
 
     /// MIS weight of emission found by continuing the path (or by the camera ray).
-    fn emission_weight(&self, scene: &Scene, light: usize, prev: &Scattered, pass: f32, pdf_li: impl FnOnce() -> f32) -> f32 {
+    fn emission_weight(
+        &self,
+        scene: &Scene,
+        light: usize,
+        prev: &Scattered,
+        pass: f32,
+        pdf_li: impl FnOnce() -> f32,
+    ) -> f32 {
         if prev.delta {
             return 1.0; // no other strategy can produce this path
         }
         match self.settings.strategy {
             Strategy::Bsdf => 1.0,
             Strategy::Nee => 0.0,
-            Strategy::Mis => power_heuristic(prev.pdf * pass, scene.light_sampler.pmf(light) * pdf_li()),
+            Strategy::Mis => {
+                power_heuristic(prev.pdf * pass, scene.light_sampler.pmf(light) * pdf_li())
+            }
         }
     }
 }
@@ -307,8 +351,14 @@ struct Scattered {
 
 /// Where next-event estimation scatters: a surface or a point in a medium.
 enum Scatterer<'a, 'b> {
-    Surface { sp: &'b SurfacePoint<'a>, wo: Vec3 },
-    Medium { phase: &'b HenyeyGreenstein, wo: Vec3 },
+    Surface {
+        sp: &'b SurfacePoint<'a>,
+        wo: Vec3,
+    },
+    Medium {
+        phase: &'b HenyeyGreenstein,
+        wo: Vec3,
+    },
 }
 
 impl Scatterer<'_, '_> {
@@ -316,7 +366,8 @@ impl Scatterer<'_, '_> {
     fn eval(&self, wi: Vec3) -> (Spectrum, f32) {
         match self {
             Scatterer::Surface { sp, wo } => {
-                let f = sp.bsdf.eval(&sp.frame, *wo, wi, TransportMode::Radiance) * wi.dot(sp.hit.ns).abs();
+                let f = sp.bsdf.eval(&sp.frame, *wo, wi, TransportMode::Radiance)
+                    * wi.dot(sp.hit.ns).abs();
                 (f, sp.bsdf.pdf(&sp.frame, *wo, wi, TransportMode::Radiance))
             }
             Scatterer::Medium { phase, wo } => {

@@ -46,8 +46,8 @@ fn transmittance_through_an_absorbing_slab_is_exp_of_minus_sigma_t_d() {
     let t = scene
         .transmittance(&a, Some(&b), Vec3::NEG_Z, None)
         .expect("only index-matched boundaries in between");
-    for c in 0..3 {
-        let expected = (-sigma[c] * 0.5f32).exp();
+    for (c, sigma_c) in sigma.iter().enumerate() {
+        let expected = (-sigma_c * 0.5f32).exp();
         assert!(
             (t.tr[c] - expected).abs() < 1e-3 * expected,
             "channel {c}: {} vs {expected}",

@@ -489,8 +489,8 @@ fn unknown_shape_type() {
 
 #[test]
 fn unknown_light_type() {
-    let text = edit(r#"type = "point""#, &format!("type = \"spot\" {MARK}"));
-    check(&text, &["unknown light type 'spot'", "environment"]);
+    let text = edit(r#"type = "point""#, &format!("type = \"laser\" {MARK}"));
+    check(&text, &["unknown light type 'laser'", "spot", "sun"]);
 }
 
 #[test]

@@ -19,10 +19,17 @@
 //!   the shading and the geometric normal; transmission on opposite sides of both. Directions
 //!   where the two normals disagree get zero (no light leaks), consistently in sample, eval and
 //!   pdf.
+//! * Rough (microfacet) BSDFs use GGX with visible-normal sampling (see [`microfacet`]);
+//!   their `eval`, `pdf` and `sample` share one function, so a sample's `f` and `pdf` are
+//!   what `eval` and `pdf` return for its direction. Samples that a lobe scatters to the wrong
+//!   side of the macro surface are dropped (`None`), and `eval`/`pdf` give them no density.
 
 mod dielectric;
 mod diffuse;
 pub mod fresnel;
+pub mod microfacet;
+mod rough_conductor;
+mod rough_dielectric;
 
 use crate::math::{Frame, Spectrum};
 use glam::{Vec2, Vec3};
@@ -78,9 +85,57 @@ pub enum Bsdf {
     Conductor { reflectance: Spectrum },
     /// Smooth dielectric interface; `eta` = index inside / index outside (front side).
     Dielectric { eta: f32 },
+    /// Rough conductor: GGX microfacet reflection of roughness `alpha` (clamped to at least
+    /// [`microfacet::MIN_ALPHA`] when evaluated), two-sided. Build with
+    /// [`Bsdf::rough_conductor`].
+    RoughConductor {
+        alpha: f32,
+        fresnel: ConductorFresnel,
+    },
+    /// Rough dielectric interface (Walter et al. 2007): GGX reflection and transmission of
+    /// roughness `alpha`; `eta` = index inside / index outside (front side), as for
+    /// [`Bsdf::Dielectric`]. Build with [`Bsdf::rough_dielectric`].
+    RoughDielectric { eta: f32, alpha: f32 },
+}
+
+/// The Fresnel reflectance of a (rough) conductor.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ConductorFresnel {
+    /// A constant RGB reflectance at every angle (no Fresnel falloff), like
+    /// [`Bsdf::Conductor`].
+    Constant(Spectrum),
+    /// The exact conductor Fresnel equations per channel, complex index `eta + i k` relative
+    /// to the outside medium (see [`fresnel::conductor`]).
+    Complex { eta: Spectrum, k: Spectrum },
+}
+
+impl ConductorFresnel {
+    /// Reflectance at the cosine `cos` between the incident direction and the microfacet.
+    pub fn eval(&self, cos: f32) -> Spectrum {
+        match self {
+            ConductorFresnel::Constant(r) => *r,
+            ConductorFresnel::Complex { eta, k } => fresnel::conductor(cos, *eta, *k),
+        }
+    }
 }
 
 impl Bsdf {
+    /// A rough conductor; `alpha` is clamped to at least [`microfacet::MIN_ALPHA`].
+    pub fn rough_conductor(alpha: f32, fresnel: ConductorFresnel) -> Bsdf {
+        Bsdf::RoughConductor {
+            alpha: microfacet::clamp_alpha(alpha),
+            fresnel,
+        }
+    }
+
+    /// A rough dielectric; `alpha` is clamped to at least [`microfacet::MIN_ALPHA`].
+    pub fn rough_dielectric(eta: f32, alpha: f32) -> Bsdf {
+        Bsdf::RoughDielectric {
+            eta,
+            alpha: microfacet::clamp_alpha(alpha),
+        }
+    }
+
     /// True if the BSDF only has delta lobes (no direction has a non-zero density).
     pub fn is_delta(&self) -> bool {
         matches!(self, Bsdf::Conductor { .. } | Bsdf::Dielectric { .. })
@@ -91,11 +146,17 @@ impl Bsdf {
         matches!(self, Bsdf::Black)
     }
 
-    /// Roughness in [0, 1]: 0 for specular lobes, 1 for diffuse.
+    /// Roughness in [0, 1]: 0 for specular lobes, 1 for diffuse. Microfacet BSDFs give the
+    /// "perceptual" roughness `sqrt(alpha)` (the inverse of the usual `alpha = r^2` mapping,
+    /// Burley 2012), capped at 1: 0.01 at the minimum alpha 1e-4, 0.32 at alpha 0.1, 1 for
+    /// alpha >= 1.
     pub fn roughness(&self) -> f32 {
         match self {
             Bsdf::Black | Bsdf::Diffuse { .. } => 1.0,
             Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => 0.0,
+            Bsdf::RoughConductor { alpha, .. } | Bsdf::RoughDielectric { alpha, .. } => {
+                microfacet::clamp_alpha(*alpha).sqrt().min(1.0)
+            }
         }
     }
 
@@ -128,6 +189,12 @@ impl Bsdf {
                 }
             }
             Bsdf::Dielectric { eta } => dielectric::sample(*eta, wo_l, u_lobe, mode)?,
+            Bsdf::RoughConductor { alpha, fresnel } => {
+                rough_conductor::sample(*alpha, fresnel, wo_l, u)?
+            }
+            Bsdf::RoughDielectric { eta, alpha } => {
+                rough_dielectric::sample(*eta, *alpha, wo_l, u_lobe, u, mode)?
+            }
         };
         let wi = sf.frame.to_world(s.wi);
         if !geometry_agrees(sf, wo, wi, s.transmission) {
@@ -159,13 +226,21 @@ impl Bsdf {
         }
         let f = match self {
             Bsdf::Diffuse { albedo } => diffuse::eval(*albedo, wo_l, wi_l),
-            _ => return Spectrum::ZERO,
+            Bsdf::RoughConductor { alpha, fresnel } => {
+                rough_conductor::eval_pdf(*alpha, Some(fresnel), wo_l, wi_l).0
+            }
+            Bsdf::RoughDielectric { eta, alpha } => {
+                Spectrum::splat(rough_dielectric::eval_pdf(*eta, *alpha, wo_l, wi_l, mode).0)
+            }
+            Bsdf::Black | Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => {
+                return Spectrum::ZERO;
+            }
         };
         f * shading_correction(sf, wo, wi, mode)
     }
 
     /// Solid-angle density of `sample` producing `wi` from `wo`. Zero for delta lobes.
-    pub fn pdf(&self, sf: &ShadingFrame, wo: Vec3, wi: Vec3, _mode: TransportMode) -> f32 {
+    pub fn pdf(&self, sf: &ShadingFrame, wo: Vec3, wi: Vec3, mode: TransportMode) -> f32 {
         let (wo_l, wi_l) = (sf.frame.to_local(wo), sf.frame.to_local(wi));
         let transmission = wo_l.z * wi_l.z < 0.0;
         if !geometry_agrees(sf, wo, wi, transmission) {
@@ -173,7 +248,13 @@ impl Bsdf {
         }
         match self {
             Bsdf::Diffuse { .. } => diffuse::pdf(wo_l, wi_l),
-            _ => 0.0,
+            Bsdf::RoughConductor { alpha, .. } => {
+                rough_conductor::eval_pdf(*alpha, None, wo_l, wi_l).1
+            }
+            Bsdf::RoughDielectric { eta, alpha } => {
+                rough_dielectric::eval_pdf(*eta, *alpha, wo_l, wi_l, mode).1
+            }
+            Bsdf::Black | Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => 0.0,
         }
     }
 }

@@ -51,7 +51,11 @@ pub fn heightfield(size: Vec2, resolution: UVec2, waves: &[Wave]) -> TriangleMes
             indices.push([v(i + 1, j), v(i, j + 1), v(i + 1, j + 1)]);
         }
     }
-    TriangleMesh { positions, normals: Some(normals), indices }
+    TriangleMesh {
+        positions,
+        normals: Some(normals),
+        indices,
+    }
 }
 
 #[cfg(test)]
@@ -60,7 +64,12 @@ mod tests {
 
     #[test]
     fn faces_up_and_follows_the_waves() {
-        let waves = [Wave { amplitude: 0.1, wavelength: 0.5, direction: Vec2::new(0.6, 0.8), phase: 0.3 }];
+        let waves = [Wave {
+            amplitude: 0.1,
+            wavelength: 0.5,
+            direction: Vec2::new(0.6, 0.8),
+            phase: 0.3,
+        }];
         let m = heightfield(Vec2::new(2.0, 1.0), UVec2::new(40, 20), &waves);
         assert_eq!(m.indices.len(), 2 * 40 * 20);
         for i in 0..m.indices.len() {
@@ -70,7 +79,10 @@ mod tests {
         // Normal from finite differences of the height.
         let (x, z, e) = (0.3, -0.2, 1e-3);
         let (_, g) = height(&waves, x, z);
-        let fd = Vec2::new((height(&waves, x + e, z).0 - height(&waves, x - e, z).0) / (2.0 * e), (height(&waves, x, z + e).0 - height(&waves, x, z - e).0) / (2.0 * e));
+        let fd = Vec2::new(
+            (height(&waves, x + e, z).0 - height(&waves, x - e, z).0) / (2.0 * e),
+            (height(&waves, x, z + e).0 - height(&waves, x, z - e).0) / (2.0 * e),
+        );
         assert!((g - fd).length() < 1e-2, "{g} vs {fd}");
         // Surface area against the integral of sqrt(1 + |grad h|^2) over the rectangle.
         let n = 400;
@@ -79,7 +91,8 @@ mod tests {
             for j in 0..n {
                 let x = ((i as f32 + 0.5) / n as f32 - 0.5) * 2.0;
                 let z = ((j as f32 + 0.5) / n as f32 - 0.5) * 1.0;
-                integral += (1.0 + height(&waves, x, z).1.length_squared() as f64).sqrt() * 2.0 / (n * n) as f64;
+                integral += (1.0 + height(&waves, x, z).1.length_squared() as f64).sqrt() * 2.0
+                    / (n * n) as f64;
             }
         }
         let rel = (m.area() as f64 - integral).abs() / integral;

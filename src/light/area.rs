@@ -1,8 +1,13 @@
 //! Area lights: emissive shapes with constant radiance on their front side. Meshes are
 //! sampled uniformly by area; spheres by the cone of directions they subtend (uniform area
 //! sampling from inside).
+//!
+//! A spot area light ([`AreaLight::with_spot`]) scales the radiance by a [`SpotProfile`] of
+//! the angle between the emitted direction and the geometric normal; its emitted rays are
+//! cosine-weighted within the profile's cone instead of over the hemisphere.
 
-use super::{EmissionSample, LightSample};
+use super::cone::one_minus_cos;
+use super::{EmissionSample, LightSample, SpotProfile};
 use crate::geometry::{Sphere, TriangleMesh, mesh::MeshSampler};
 use crate::math::{Frame, PI, Spectrum, luminance, warp};
 use glam::{Vec2, Vec3};
@@ -20,8 +25,11 @@ pub enum AreaShape {
 pub struct AreaLight {
     /// Scene shape that emits.
     pub shape: u32,
+    /// Radiance along the normal (everywhere on the front side without a spot profile).
     pub radiance: Spectrum,
     pub geometry: AreaShape,
+    /// Angular profile around the geometric normal; `None` for a plain (Lambertian) emitter.
+    pub spot: Option<SpotProfile>,
 }
 
 impl AreaLight {
@@ -30,6 +38,25 @@ impl AreaLight {
             shape,
             radiance,
             geometry,
+            spot: None,
+        }
+    }
+
+    /// A spot area light: `le(n, w) = radiance * profile(angle between n and w)` on the front
+    /// side. Panics unless the profile's `cone_angle` is at most 90 degrees (see
+    /// [`SpotProfile::check_area`]).
+    pub fn with_spot(
+        shape: u32,
+        radiance: Spectrum,
+        geometry: AreaShape,
+        profile: SpotProfile,
+    ) -> AreaLight {
+        if let Err(e) = SpotProfile::check_area(profile.cone_angle(), profile.cone_delta()) {
+            panic!("{e}");
+        }
+        AreaLight {
+            spot: Some(profile),
+            ..AreaLight::new(shape, radiance, geometry)
         }
     }
 
@@ -40,13 +67,22 @@ impl AreaLight {
         }
     }
 
+    /// `area * luminance(radiance) * ∫ profile(theta) cos(theta) dω` (`pi` without a profile).
     pub fn power(&self) -> f32 {
-        PI * self.area() * luminance(self.radiance)
+        match &self.spot {
+            None => PI * self.area() * luminance(self.radiance),
+            Some(s) => {
+                (self.area() as f64 * luminance(self.radiance) as f64 * s.cosine_integral()) as f32
+            }
+        }
     }
 
     pub fn le(&self, n: Vec3, w: Vec3) -> Spectrum {
         if n.dot(w) > 0.0 {
-            self.radiance
+            match &self.spot {
+                None => self.radiance,
+                Some(s) => self.radiance * s.falloff_dir(n, w.normalize()),
+            }
         } else {
             Spectrum::ZERO
         }
@@ -113,25 +149,64 @@ impl AreaLight {
                 (s.center + s.radius * n, n, 1.0 / s.area())
             }
         };
-        let local = warp::square_to_cosine_hemisphere(u_dir);
-        let pdf_dir = warp::cosine_hemisphere_pdf(local.z);
-        if pdf_dir <= 0.0 {
-            return None;
+        let Some(spot) = &self.spot else {
+            let local = warp::square_to_cosine_hemisphere(u_dir);
+            let pdf_dir = warp::cosine_hemisphere_pdf(local.z);
+            if pdf_dir <= 0.0 {
+                return None;
+            }
+            let dir = Frame::from_z(n).to_world(local);
+            return Some(EmissionSample {
+                p,
+                n,
+                dir,
+                le: self.radiance,
+                pdf_pos,
+                pdf_dir,
+            });
+        };
+        // Cosine-weighted within the cone: uniform on the disk of radius sin(cone_angle).
+        let sin2 = cone_sin2(spot);
+        let d = warp::square_to_disk_concentric(u_dir) * sin2.sqrt();
+        let cos = (1.0 - d.length_squared()).max(0.0).sqrt();
+        let dir = Frame::from_z(n).to_world(Vec3::new(d.x, d.y, cos));
+        let le = self.le(n, dir);
+        if cos <= 0.0 || le == Spectrum::ZERO {
+            return None; // only on the cone's edge
         }
-        let dir = Frame::from_z(n).to_world(local);
         Some(EmissionSample {
             p,
             n,
             dir,
-            le: self.radiance,
+            le,
             pdf_pos,
-            pdf_dir,
+            pdf_dir: cos / (PI * sin2),
         })
     }
 
+    /// (`1 / area`, solid-angle density of `dir` around the normal `n`): cosine-weighted over
+    /// the hemisphere, or within the cone for a spot area light.
     pub fn pdf_le(&self, n: Vec3, dir: Vec3) -> (f32, f32) {
-        (1.0 / self.area(), warp::cosine_hemisphere_pdf(n.dot(dir)))
+        let pdf_dir = match &self.spot {
+            None => warp::cosine_hemisphere_pdf(n.dot(dir)),
+            Some(spot) => {
+                let dir = dir.normalize();
+                let cos = n.dot(dir);
+                if cos > 0.0 && one_minus_cos(n, dir) <= spot.one_minus_cos_total() {
+                    cos / (PI * cone_sin2(spot))
+                } else {
+                    0.0
+                }
+            }
+        };
+        (1.0 / self.area(), pdf_dir)
     }
+}
+
+/// `sin^2(cone_angle)` of a profile, from `z = 1 - cos` (no cancellation).
+fn cone_sin2(spot: &SpotProfile) -> f32 {
+    let z = spot.one_minus_cos_total();
+    z * (2.0 - z)
 }
 
 /// 1 - cos(theta_max) and cos(theta_max) of the cone a sphere subtends from distance^2 `dc2`,

@@ -1,5 +1,9 @@
 //! Constant environment: uniform radiance from every direction at infinity. Emission sampling
 //! starts rays on a disk of the scene's bounding-sphere radius facing the chosen direction.
+//!
+//! Directions follow the convention of the lights at infinity (see `Light::le`): `w` points
+//! from the scene towards the sky (the escaping ray's direction, `sample_li`'s `wi`); light
+//! travels along `-w`.
 
 use super::{EmissionSample, LightSample};
 use crate::math::{Frame, PI, Spectrum, luminance, warp};

@@ -1,32 +1,54 @@
-//! Lights: emissive shapes (area lights on meshes and spheres), point lights and a constant
-//! environment. Each offers
+//! Lights: emissive shapes (area lights on meshes and spheres, optionally with a spot
+//! profile), point and spot lights, and lights at infinity: a constant environment, a
+//! directional light and a sun disk. Each offers
 //! * `sample_li` / `pdf_li`: a direction from a reference point towards the light (next-event
 //!   estimation), with the solid-angle density at the reference point (a discrete 1 for delta
 //!   lights);
 //! * `sample_le` / `pdf_le`: an emitted ray for light paths, with the area density of its
-//!   origin (a discrete 1 for point lights) and the solid-angle density of its direction;
-//! * `le`: radiance emitted from a point with normal `n` towards `w`.
+//!   origin (a discrete 1 for point and spot lights) and the solid-angle density of its
+//!   direction (a discrete 1 for the directional light);
+//! * `le`: radiance emitted from a point with normal `n` towards `w`; for lights at infinity,
+//!   the radiance seen by a ray leaving the scene along `w` (see [`Light::le`]).
 //!
-//! Area lights emit on their front side only (the shape's geometric normal). Lights are chosen
-//! in proportion to their power by [`LightSampler`]; the densities above do not include that
-//! choice.
+//! Area lights emit on their front side only (the shape's geometric normal). Lights at
+//! infinity (environment, directional, sun) start their emitted rays on a disk of the scene's
+//! bounding-sphere radius outside the scene, so they need the scene bounds
+//! ([`Light::set_scene_bounds`]) before use. Lights are chosen in proportion to their power by
+//! [`LightSampler`]; the densities above do not include that choice.
+//!
+//! Delta lights (`is_delta`): point, spot and directional; nothing can hit them, `le` is zero
+//! and `pdf_li` is zero.
 
 mod area;
+mod cone;
+mod directional;
 mod environment;
 mod point;
+mod spot;
+mod sun;
 
 pub use area::{AreaLight, AreaShape};
+pub use directional::DirectionalLight;
 pub use environment::EnvironmentLight;
 pub use point::PointLight;
+pub use spot::{SpotLight, SpotProfile};
+pub use sun::SunLight;
 
 use crate::math::{Distribution1D, Spectrum, luminance};
 use glam::{Vec2, Vec3};
 
 #[derive(Debug, Clone)]
 pub enum Light {
+    /// An emissive shape, plain or with a spot profile.
     Area(AreaLight),
     Point(PointLight),
+    /// A point light with a cone of emission (delta).
+    Spot(SpotLight),
     Environment(EnvironmentLight),
+    /// Parallel light from one direction at infinity (delta in direction).
+    Directional(DirectionalLight),
+    /// A disk of small angular radius at infinity (not delta).
+    Sun(SunLight),
 }
 
 /// A direction towards a light from a reference point.
@@ -34,13 +56,14 @@ pub enum Light {
 pub struct LightSample {
     /// Unit direction from the reference point towards the light.
     pub wi: Vec3,
-    /// Distance to the light point (infinite for the environment).
+    /// Distance to the light point (infinite for lights at infinity).
     pub dist: f32,
-    /// Point on the light (for a finite light).
+    /// Point on the light (for a finite light; zero for lights at infinity).
     pub p: Vec3,
-    /// Light surface normal at `p` (zero for point and environment lights).
+    /// Light surface normal at `p` (zero for point, spot and infinite lights).
     pub n: Vec3,
-    /// Incident radiance (or intensity / dist^2 for point lights).
+    /// Incident radiance (intensity / dist^2 for point and spot lights, irradiance for the
+    /// directional light).
     pub li: Spectrum,
     /// Solid-angle density at the reference point; 1 for delta lights.
     pub pdf: f32,
@@ -51,33 +74,61 @@ pub struct LightSample {
 #[derive(Debug, Clone, Copy)]
 pub struct EmissionSample {
     pub p: Vec3,
-    /// Normal at `p` (zero for point lights; the ray direction for the environment).
+    /// Normal at `p` (zero for point and spot lights; the ray direction for lights at
+    /// infinity).
     pub n: Vec3,
     /// Unit direction of travel.
     pub dir: Vec3,
-    /// Emitted radiance (intensity for point lights).
+    /// Emitted radiance (intensity along `dir` for point and spot lights, irradiance for the
+    /// directional light).
     pub le: Spectrum,
-    /// Area density of `p` (1 for point lights: a discrete choice).
+    /// Area density of `p` (1 for point and spot lights: a discrete choice).
     pub pdf_pos: f32,
-    /// Solid-angle density of `dir`.
+    /// Solid-angle density of `dir` (1 for the directional light: a discrete choice).
     pub pdf_dir: f32,
 }
 
 impl Light {
+    /// Point, spot (delta in position) and directional (delta in direction) lights: no ray
+    /// can hit them, `le` and `pdf_li` are zero and `sample_li` reports `delta`.
     pub fn is_delta(&self) -> bool {
-        matches!(self, Light::Point(_))
+        matches!(
+            self,
+            Light::Point(_) | Light::Spot(_) | Light::Directional(_)
+        )
     }
 
+    /// Lights at infinity: environment, directional and sun. Their `sample_li` distances are
+    /// infinite and they need the scene bounds ([`Light::set_scene_bounds`]).
     pub fn is_infinite(&self) -> bool {
-        matches!(self, Light::Environment(_))
+        matches!(
+            self,
+            Light::Environment(_) | Light::Directional(_) | Light::Sun(_)
+        )
     }
 
-    /// Emitted power (luminance of the RGB flux), used to choose lights.
+    /// Sets the bounding sphere of the scene of the lights at infinity (the disk their emitted
+    /// rays start on, and their power); does nothing for the others. Call it once the scene's
+    /// geometry is known, before building the [`LightSampler`].
+    pub fn set_scene_bounds(&mut self, center: Vec3, radius: f32) {
+        match self {
+            Light::Environment(l) => (l.center, l.radius) = (center, radius),
+            Light::Directional(l) => (l.center, l.radius) = (center, radius),
+            Light::Sun(l) => (l.center, l.radius) = (center, radius),
+            Light::Area(_) | Light::Point(_) | Light::Spot(_) => {}
+        }
+    }
+
+    /// Emitted power (luminance of the RGB flux), used to choose lights. For lights at
+    /// infinity, the flux through a disk of the scene's bounding-sphere radius.
     pub fn power(&self) -> f32 {
         match self {
             Light::Area(l) => l.power(),
             Light::Point(l) => 4.0 * crate::math::PI * luminance(l.intensity),
+            Light::Spot(l) => l.power(),
             Light::Environment(l) => l.power(),
+            Light::Directional(l) => l.power(),
+            Light::Sun(l) => l.power(),
         }
     }
 
@@ -85,27 +136,41 @@ impl Light {
         match self {
             Light::Area(l) => l.sample_li(p, u),
             Light::Point(l) => l.sample_li(p),
+            Light::Spot(l) => l.sample_li(p),
             Light::Environment(l) => l.sample_li(u),
+            Light::Directional(l) => Some(l.sample_li()),
+            Light::Sun(l) => Some(l.sample_li(u)),
         }
     }
 
     /// Density of `sample_li` from `p` choosing the light point `p_l` (normal `n_l`) seen along
-    /// unit `wi`. For the environment, only `wi` matters. Zero for delta lights.
+    /// unit `wi`. For lights at infinity only `wi` matters (the direction from `p` towards the
+    /// sky, as for [`Light::le`]). Zero for delta lights.
     pub fn pdf_li(&self, p: Vec3, p_l: Vec3, n_l: Vec3, wi: Vec3) -> f32 {
         match self {
             Light::Area(l) => l.pdf_li(p, p_l, n_l, wi),
-            Light::Point(_) => 0.0,
+            Light::Point(_) | Light::Spot(_) | Light::Directional(_) => 0.0,
             Light::Environment(_) => environment::pdf_li(),
+            Light::Sun(l) => l.pdf_li(wi),
         }
     }
 
-    /// Radiance leaving the light at a point with normal `n` in direction `w` (for the
-    /// environment: radiance arriving from direction `-w`, any `n`).
+    /// Radiance leaving the light at a point with normal `n` in direction `w` (from the light
+    /// towards the viewer, e.g. `-ray.d` for a ray that hit an area light).
+    ///
+    /// **Lights at infinity** (environment, sun; any `n`): `w` is the direction of the ray
+    /// that escapes the scene, pointing from the scene towards the sky (`ray.d` of the escaped
+    /// ray, the same `wi` that `sample_li` returns); the result is the radiance arriving at
+    /// the scene from direction `w`, i.e. travelling along `-w`. A sun in direction `s` is
+    /// seen by rays with `w` inside its cone around `s`.
+    ///
+    /// Zero for delta lights (point, spot, directional), which no ray can hit.
     pub fn le(&self, n: Vec3, w: Vec3) -> Spectrum {
         match self {
             Light::Area(l) => l.le(n, w),
-            Light::Point(_) => Spectrum::ZERO,
+            Light::Point(_) | Light::Spot(_) | Light::Directional(_) => Spectrum::ZERO,
             Light::Environment(l) => l.radiance,
+            Light::Sun(l) => l.le(w),
         }
     }
 
@@ -113,21 +178,32 @@ impl Light {
         match self {
             Light::Area(l) => l.sample_le(u_pos, u_dir),
             Light::Point(l) => Some(l.sample_le(u_dir)),
+            Light::Spot(l) => l.sample_le(u_dir),
             Light::Environment(l) => Some(l.sample_le(u_pos, u_dir)),
+            Light::Directional(l) => Some(l.sample_le(u_pos)),
+            Light::Sun(l) => Some(l.sample_le(u_pos, u_dir)),
         }
     }
 
-    /// (area density of the origin `p`, solid-angle density of `dir`) of `sample_le`.
+    /// (area density of the origin `p`, solid-angle density of the direction of travel
+    /// `dir`) of `sample_le`; `n` is the normal at the origin (used by area lights only).
+    /// The directional light's direction is a discrete choice: its `pdf_dir` is 1 (for its
+    /// own direction; other directions are never produced).
     pub fn pdf_le(&self, n: Vec3, dir: Vec3) -> (f32, f32) {
         match self {
             Light::Area(l) => l.pdf_le(n, dir),
             Light::Point(_) => (1.0, crate::math::warp::uniform_sphere_pdf()),
+            Light::Spot(l) => l.pdf_le(dir),
             Light::Environment(l) => l.pdf_le(),
+            Light::Directional(l) => l.pdf_le(),
+            Light::Sun(l) => l.pdf_le(dir),
         }
     }
 }
 
-/// Chooses a light in proportion to its power.
+/// Chooses a light in proportion to its power ([`Light::power`], every kind of light). The
+/// power of lights at infinity depends on the scene bounds: build the sampler after
+/// [`Light::set_scene_bounds`].
 #[derive(Debug, Clone)]
 pub struct LightSampler {
     distribution: Option<Distribution1D>,

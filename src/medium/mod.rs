@@ -31,7 +31,11 @@ impl MediumInterface {
     /// Medium entered by a ray leaving the surface along `d`.
     #[inline]
     pub fn crossing(&self, d: Vec3, ng: Vec3) -> Option<u32> {
-        if d.dot(ng) < 0.0 { self.inside } else { self.outside }
+        if d.dot(ng) < 0.0 {
+            self.inside
+        } else {
+            self.outside
+        }
     }
 }
 
@@ -59,14 +63,24 @@ pub struct FreeFlight {
 
 impl HomogeneousMedium {
     pub fn new(name: impl Into<String>, sigma_a: Spectrum, sigma_s: Spectrum, g: f32) -> Self {
-        HomogeneousMedium { name: name.into(), sigma_a, sigma_s, sigma_t: sigma_a + sigma_s, phase: HenyeyGreenstein::new(g) }
+        HomogeneousMedium {
+            name: name.into(),
+            sigma_a,
+            sigma_s,
+            sigma_t: sigma_a + sigma_s,
+            phase: HenyeyGreenstein::new(g),
+        }
     }
 
     /// Transmittance over distance `d`.
     #[inline]
     pub fn tr(&self, d: f32) -> Spectrum {
         if d.is_infinite() {
-            return Spectrum::select(self.sigma_t.cmpgt(Spectrum::ZERO), Spectrum::ZERO, Spectrum::ONE);
+            return Spectrum::select(
+                self.sigma_t.cmpgt(Spectrum::ZERO),
+                Spectrum::ZERO,
+                Spectrum::ONE,
+            );
         }
         (-self.sigma_t * d).exp()
     }
@@ -83,16 +97,30 @@ impl HomogeneousMedium {
     pub fn sample_distance(&self, t_max: f32, u_channel: f32, u: f32) -> FreeFlight {
         let c = ((u_channel * 3.0) as usize).min(2);
         let sigma = self.sigma_t[c];
-        let t = if sigma > 0.0 { -(1.0 - u).ln() / sigma } else { f32::INFINITY };
+        let t = if sigma > 0.0 {
+            -(1.0 - u).ln() / sigma
+        } else {
+            f32::INFINITY
+        };
         if t < t_max {
             let tr = self.tr(t);
             let pdf = mean(self.sigma_t * tr);
-            FreeFlight { t, scattered: true, weight: self.sigma_s * tr / pdf, pdf }
+            FreeFlight {
+                t,
+                scattered: true,
+                weight: self.sigma_s * tr / pdf,
+                pdf,
+            }
         } else {
             let tr = self.tr(t_max);
             let pdf = mean(tr);
             let weight = if pdf > 0.0 { tr / pdf } else { Spectrum::ZERO };
-            FreeFlight { t: t_max, scattered: false, weight, pdf }
+            FreeFlight {
+                t: t_max,
+                scattered: false,
+                weight,
+                pdf,
+            }
         }
     }
 }
@@ -111,7 +139,8 @@ mod tests {
     /// part integrates sigma_s Tr over (0, t_max), the passing part gives Tr(t_max).
     #[test]
     fn free_flight_is_unbiased_per_channel() {
-        let m = HomogeneousMedium::new("m", Vec3::new(0.1, 0.5, 0.0), Vec3::new(0.9, 0.2, 2.0), 0.0);
+        let m =
+            HomogeneousMedium::new("m", Vec3::new(0.1, 0.5, 0.0), Vec3::new(0.9, 0.2, 2.0), 0.0);
         let t_max = 1.3;
         let mut rng = IndependentSampler::new(5, 0, 0);
         let n = 400_000;
@@ -130,13 +159,22 @@ mod tests {
         let expect_pass = m.tr(t_max);
         // Weights are bounded (< 10 here), so the standard error is below 10 / sqrt(n) = 0.016;
         // 0.02 is over 4 of the much smaller actual standard errors.
-        assert!((scat - expect_scat).abs().max_element() < 0.02, "{scat} vs {expect_scat}");
-        assert!((pass - expect_pass).abs().max_element() < 0.02, "{pass} vs {expect_pass}");
+        assert!(
+            (scat - expect_scat).abs().max_element() < 0.02,
+            "{scat} vs {expect_scat}"
+        );
+        assert!(
+            (pass - expect_pass).abs().max_element() < 0.02,
+            "{pass} vs {expect_pass}"
+        );
     }
 
     #[test]
     fn interface_picks_the_side() {
-        let mi = MediumInterface { inside: Some(1), outside: None };
+        let mi = MediumInterface {
+            inside: Some(1),
+            outside: None,
+        };
         assert_eq!(mi.crossing(-Vec3::Y, Vec3::Y), Some(1));
         assert_eq!(mi.crossing(Vec3::Y, Vec3::Y), None);
     }

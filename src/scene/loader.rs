@@ -37,17 +37,20 @@
 //! Transforms apply scale, then rotation, then translation. Paths are relative to the scene file.
 
 use super::{Material, RenderDefaults, Scene, SceneFeatures, ShapeInfo};
-use crate::bsdf::Bsdf;
+use crate::bsdf::{Bsdf, ConductorFresnel};
 use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::geometry::bvh::ShapeGeometry;
+use crate::geometry::heightfield::{Wave, heightfield};
 use crate::geometry::mesh::MeshSampler;
 use crate::geometry::{Accel, Sphere, Transform, TriangleMesh};
-use crate::light::{AreaLight, AreaShape, EnvironmentLight, Light, LightSampler, PointLight};
+use crate::light::{
+    AreaLight, AreaShape, DirectionalLight, EnvironmentLight, Light, LightSampler, PointLight,
+    SpotLight, SpotProfile, SunLight,
+};
 use crate::math::Frame;
 use crate::medium::{HomogeneousMedium, MediumInterface};
 use crate::path::MAX_VERTICES;
-use crate::geometry::heightfield::{Wave, heightfield};
 use glam::{UVec2, Vec2, Vec3};
 use serde::Deserialize;
 use std::collections::HashMap;
@@ -102,6 +105,9 @@ struct MaterialDesc {
     albedo: Option<V3>,
     reflectance: Option<V3>,
     ior: Option<Spanned<f32>>,
+    alpha: Option<Spanned<f32>>,
+    eta: Option<V3>,
+    k: Option<V3>,
 }
 
 #[derive(Deserialize)]
@@ -145,6 +151,9 @@ struct ShapeDesc {
     waves: Option<Spanned<Vec<WaveDesc>>>,
     interior: Option<Spanned<String>>,
     exterior: Option<Spanned<String>>,
+    /// With `emission`: an area spot light whose radiance falls off with the angle to the normal.
+    cone_angle: Option<Spanned<f32>>,
+    cone_delta: Option<Spanned<f32>>,
 }
 
 #[derive(Deserialize)]
@@ -180,6 +189,11 @@ struct LightDesc {
     position: Option<V3>,
     intensity: Option<V3>,
     radiance: Option<V3>,
+    irradiance: Option<V3>,
+    direction: Option<V3>,
+    cone_angle: Option<Spanned<f32>>,
+    cone_delta: Option<Spanned<f32>>,
+    angle: Option<Spanned<f32>>,
 }
 
 /// Line numbers from byte offsets, and the file name errors are reported against.
@@ -356,8 +370,15 @@ impl Builder<'_> {
                 Some(i) => Ok(i as u32),
                 None => {
                     let known: Vec<&str> = media.iter().map(|m| m.name.as_str()).collect();
-                    let known = if known.is_empty() { "none".to_string() } else { known.join(", ") };
-                    src.err(r.span(), format!("unknown medium '{}' (defined: {known})", r.get_ref()))
+                    let known = if known.is_empty() {
+                        "none".to_string()
+                    } else {
+                        known.join(", ")
+                    };
+                    src.err(
+                        r.span(),
+                        format!("unknown medium '{}' (defined: {known})", r.get_ref()),
+                    )
                 }
             }
         };
@@ -382,11 +403,22 @@ impl Builder<'_> {
             let interface = match (&d.interior, &d.exterior) {
                 (None, None) => None,
                 (inside, outside) => Some(MediumInterface {
-                    inside: inside.as_ref().map(&medium_ref).transpose()?.or(world_medium),
-                    outside: outside.as_ref().map(&medium_ref).transpose()?.or(world_medium),
+                    inside: inside
+                        .as_ref()
+                        .map(&medium_ref)
+                        .transpose()?
+                        .or(world_medium),
+                    outside: outside
+                        .as_ref()
+                        .map(&medium_ref)
+                        .transpose()?
+                        .or(world_medium),
                 }),
             };
             let null = d.material.is_none() && emission.is_none() && interface.is_some();
+            if let (None, Some(c)) = (&emission, d.cone_angle.as_ref().or(d.cone_delta.as_ref())) {
+                return src.err(c.span(), "'cone_angle' and 'cone_delta' make an emissive shape a spot light; this shape has no 'emission'");
+            }
             let material = match &d.material {
                 Some(m) => match by_name.get(m.get_ref()) {
                     Some(&id) => id,
@@ -430,7 +462,14 @@ impl Builder<'_> {
                         },
                         ShapeGeometry::Sphere(sp) => AreaShape::Sphere(*sp),
                     };
-                    lights.push(Light::Area(AreaLight::new(shape_id, le, area)));
+                    let light = if d.cone_angle.is_some() || d.cone_delta.is_some() {
+                        let profile =
+                            self.spot_profile(&d.cone_angle, &d.cone_delta, s.span(), true)?;
+                        AreaLight::with_spot(shape_id, le, area, profile)
+                    } else {
+                        AreaLight::new(shape_id, le, area)
+                    };
+                    lights.push(Light::Area(light));
                     Some(lights.len() as u32 - 1)
                 }
                 _ => None,
@@ -445,55 +484,15 @@ impl Builder<'_> {
             });
         }
 
-        let mut environment: Option<usize> = None;
+        let mut environment = false;
         for l in &desc.light {
-            let d = l.get_ref();
-            let what = format!("light of type '{}'", d.kind.get_ref());
-            let light = match d.kind.get_ref().as_str() {
-                "point" => {
-                    self.only(&what, &[("radiance", at(&d.radiance))])?;
-                    let p = src.finite3(
-                        src.required(&d.position, l.span(), "position", &what)?,
-                        "position",
-                    )?;
-                    let i = src.non_negative3(
-                        src.required(&d.intensity, l.span(), "intensity", &what)?,
-                        "intensity",
-                    )?;
-                    Light::Point(PointLight {
-                        position: p,
-                        intensity: i,
-                    })
+            let light = self.light(l)?;
+            if matches!(light, Light::Environment(_)) {
+                if environment {
+                    return src.err(l.span(), "only one environment light is allowed");
                 }
-                "environment" => {
-                    self.only(
-                        &what,
-                        &[
-                            ("position", at(&d.position)),
-                            ("intensity", at(&d.intensity)),
-                        ],
-                    )?;
-                    if environment.is_some() {
-                        return src.err(l.span(), "only one environment light is allowed");
-                    }
-                    let r = src.non_negative3(
-                        src.required(&d.radiance, l.span(), "radiance", &what)?,
-                        "radiance",
-                    )?;
-                    environment = Some(lights.len());
-                    Light::Environment(EnvironmentLight {
-                        radiance: r,
-                        center: Vec3::ZERO,
-                        radius: 1.0,
-                    })
-                }
-                other => {
-                    return src.err(
-                        d.kind.span(),
-                        format!("unknown light type '{other}' (expected point or environment)"),
-                    );
-                }
-            };
+                environment = true;
+            }
             lights.push(light);
         }
 
@@ -519,14 +518,17 @@ impl Builder<'_> {
             (camera.position, 1.0)
         };
         for l in &mut lights {
-            if let Light::Environment(e) = l {
-                e.center = center;
-                e.radius = radius;
-            }
+            l.set_scene_bounds(center, radius);
         }
 
-        let uses_media = world_medium.is_some() || shape_info.iter().any(|s| s.interface.is_some_and(|i| i.inside.is_some() || i.outside.is_some()));
-        let infinite_lights: Vec<usize> = (0..lights.len()).filter(|&i| lights[i].is_infinite()).collect();
+        let uses_media = world_medium.is_some()
+            || shape_info.iter().any(|s| {
+                s.interface
+                    .is_some_and(|i| i.inside.is_some() || i.outside.is_some())
+            });
+        let infinite_lights: Vec<usize> = (0..lights.len())
+            .filter(|&i| lights[i].is_infinite())
+            .collect();
         let features = SceneFeatures {
             media: uses_media,
             delta_lights: lights.iter().any(|l| l.is_delta()),
@@ -567,6 +569,153 @@ impl Builder<'_> {
             }
         }
         Ok(())
+    }
+
+    fn light(&self, l: &Spanned<LightDesc>) -> Result<Light> {
+        let src = self.src;
+        let d = l.get_ref();
+        let span = l.span();
+        let kind = d.kind.get_ref().as_str();
+        let what = format!("light of type '{kind}'");
+        let keys = [
+            ("position", at(&d.position)),
+            ("intensity", at(&d.intensity)),
+            ("radiance", at(&d.radiance)),
+            ("irradiance", at(&d.irradiance)),
+            ("direction", at(&d.direction)),
+            ("cone_angle", at(&d.cone_angle)),
+            ("cone_delta", at(&d.cone_delta)),
+            ("angle", at(&d.angle)),
+        ];
+        let allowed: &[&str] = match kind {
+            "point" => &["position", "intensity"],
+            "spot" => &[
+                "position",
+                "intensity",
+                "direction",
+                "cone_angle",
+                "cone_delta",
+            ],
+            "environment" => &["radiance"],
+            "directional" => &["direction", "irradiance"],
+            "sun" => &["direction", "angle", "radiance", "irradiance"],
+            other => {
+                return src.err(d.kind.span(), format!("unknown light type '{other}' (expected point, spot, environment, directional or sun)"));
+            }
+        };
+        let extra: Vec<(&str, Option<std::ops::Range<usize>>)> = keys
+            .iter()
+            .filter(|(k, _)| !allowed.contains(k))
+            .cloned()
+            .collect();
+        self.only(&what, &extra)?;
+        let position = || {
+            src.finite3(
+                src.required(&d.position, span.clone(), "position", &what)?,
+                "position",
+            )
+        };
+        let direction = || -> Result<Vec3> {
+            let v = src.required(&d.direction, span.clone(), "direction", &what)?;
+            let dir = src.finite3(v, "direction")?;
+            if dir.length_squared() == 0.0 {
+                return src.err(v.span(), "'direction' must be non-zero");
+            }
+            Ok(dir.normalize())
+        };
+        Ok(match kind {
+            "point" => Light::Point(PointLight {
+                position: position()?,
+                intensity: src.non_negative3(
+                    src.required(&d.intensity, span.clone(), "intensity", &what)?,
+                    "intensity",
+                )?,
+            }),
+            "spot" => {
+                let intensity = src.non_negative3(
+                    src.required(&d.intensity, span.clone(), "intensity", &what)?,
+                    "intensity",
+                )?;
+                let profile =
+                    self.spot_profile(&d.cone_angle, &d.cone_delta, span.clone(), false)?;
+                Light::Spot(SpotLight::new(
+                    position()?,
+                    direction()?,
+                    intensity,
+                    profile,
+                ))
+            }
+            "environment" => Light::Environment(EnvironmentLight {
+                radiance: src.non_negative3(
+                    src.required(&d.radiance, span.clone(), "radiance", &what)?,
+                    "radiance",
+                )?,
+                center: Vec3::ZERO,
+                radius: 1.0,
+            }),
+            "directional" => Light::Directional(DirectionalLight::new(
+                direction()?,
+                src.non_negative3(
+                    src.required(&d.irradiance, span.clone(), "irradiance", &what)?,
+                    "irradiance",
+                )?,
+            )),
+            "sun" => {
+                let angle = match &d.angle {
+                    Some(a) => {
+                        SunLight::check_angle(*a.get_ref())
+                            .or_else(|e| src.err(a.span(), format!("'angle': {e}")))?;
+                        *a.get_ref()
+                    }
+                    None => SunLight::DEFAULT_ANGLE,
+                };
+                match (&d.radiance, &d.irradiance) {
+                    (Some(r), None) => Light::Sun(SunLight::new(
+                        direction()?,
+                        angle,
+                        src.non_negative3(r, "radiance")?,
+                    )),
+                    (None, Some(e)) => Light::Sun(SunLight::from_irradiance(
+                        direction()?,
+                        angle,
+                        src.non_negative3(e, "irradiance")?,
+                    )),
+                    _ => {
+                        return src.err(
+                            span,
+                            "a sun light needs exactly one of 'radiance' and 'irradiance'",
+                        );
+                    }
+                }
+            }
+            _ => unreachable!("light types are checked above"),
+        })
+    }
+
+    /// A spot profile from optional `cone_angle` / `cone_delta` keys (degrees).
+    fn spot_profile(
+        &self,
+        angle: &Option<Spanned<f32>>,
+        delta: &Option<Spanned<f32>>,
+        span: std::ops::Range<usize>,
+        area: bool,
+    ) -> Result<SpotProfile> {
+        let a = angle
+            .as_ref()
+            .map_or(SpotProfile::DEFAULT_CONE_ANGLE, |a| *a.get_ref());
+        let d = delta
+            .as_ref()
+            .map_or(SpotProfile::DEFAULT_CONE_DELTA.min(a), |d| *d.get_ref());
+        let check = if area {
+            SpotProfile::check_area(a, d)
+        } else {
+            SpotProfile::check(a, d)
+        };
+        if let Err(e) = check {
+            let at = angle.as_ref().or(delta.as_ref()).map_or(span, |s| s.span());
+            return self.src.err(at, format!("spot cone: {e}"));
+        }
+        Ok(SpotProfile::new(a, d))
     }
 
     fn camera(&self, c: &Spanned<CameraDesc>) -> Result<Camera> {
@@ -650,35 +799,92 @@ impl Builder<'_> {
     fn material(&self, m: &Spanned<MaterialDesc>) -> Result<Bsdf> {
         let src = self.src;
         let d = m.get_ref();
-        let what = format!(
-            "material '{}' of type '{}'",
-            d.name.get_ref(),
-            d.kind.get_ref()
-        );
+        let kind = d.kind.get_ref().as_str();
+        let what = format!("material '{}' of type '{kind}'", d.name.get_ref());
         let span = m.span();
-        Ok(match d.kind.get_ref().as_str() {
-            "diffuse" => {
-                self.only(&what, &[("reflectance", at(&d.reflectance)), ("ior", at(&d.ior))])?;
-                Bsdf::Diffuse { albedo: src.in_unit_range(src.required(&d.albedo, span, "albedo", &what)?, "albedo")? }
+        let keys = [
+            ("albedo", at(&d.albedo)),
+            ("reflectance", at(&d.reflectance)),
+            ("ior", at(&d.ior)),
+            ("alpha", at(&d.alpha)),
+            ("eta", at(&d.eta)),
+            ("k", at(&d.k)),
+        ];
+        let allowed: &[&str] = match kind {
+            "diffuse" => &["albedo"],
+            "conductor" => &["reflectance"],
+            "dielectric" => &["ior"],
+            "roughconductor" => &["alpha", "reflectance", "eta", "k"],
+            "roughdielectric" => &["alpha", "ior"],
+            "black" => &[],
+            other => {
+                return src.err(d.kind.span(), format!("unknown material type '{other}' (expected diffuse, conductor, dielectric, roughconductor, roughdielectric or black)"));
             }
-            "conductor" => {
-                self.only(&what, &[("albedo", at(&d.albedo)), ("ior", at(&d.ior))])?;
-                Bsdf::Conductor { reflectance: src.in_unit_range(src.required(&d.reflectance, span, "reflectance", &what)?, "reflectance")? }
+        };
+        let extra: Vec<(&str, Option<std::ops::Range<usize>>)> = keys
+            .iter()
+            .filter(|(k, _)| !allowed.contains(k))
+            .cloned()
+            .collect();
+        self.only(&what, &extra)?;
+        let ior = || -> Result<f32> {
+            let ior = src.required(&d.ior, span.clone(), "ior", &what)?;
+            let eta = *ior.get_ref();
+            if !(eta.is_finite() && eta > 0.0) {
+                return src.err(
+                    ior.span(),
+                    format!("'ior' must be a finite number > 0, got {eta}"),
+                );
             }
-            "dielectric" => {
-                self.only(&what, &[("albedo", at(&d.albedo)), ("reflectance", at(&d.reflectance))])?;
-                let ior = src.required(&d.ior, span, "ior", &what)?;
-                let eta = *ior.get_ref();
-                if !(eta.is_finite() && eta > 0.0) {
-                    return src.err(ior.span(), format!("'ior' must be a finite number > 0, got {eta}"));
+            Ok(eta)
+        };
+        let alpha = || -> Result<f32> {
+            let a = src.required(&d.alpha, span.clone(), "alpha", &what)?;
+            let v = *a.get_ref();
+            if !(v > 0.0 && v <= 1.0) {
+                return src.err(
+                    a.span(),
+                    format!("'alpha' (GGX roughness) must be in (0, 1], got {v}"),
+                );
+            }
+            Ok(v)
+        };
+        Ok(match kind {
+            "diffuse" => Bsdf::Diffuse {
+                albedo: src
+                    .in_unit_range(src.required(&d.albedo, span, "albedo", &what)?, "albedo")?,
+            },
+            "conductor" => Bsdf::Conductor {
+                reflectance: src.in_unit_range(
+                    src.required(&d.reflectance, span, "reflectance", &what)?,
+                    "reflectance",
+                )?,
+            },
+            "dielectric" => Bsdf::Dielectric { eta: ior()? },
+            "roughconductor" => {
+                let fresnel = match (&d.reflectance, &d.eta, &d.k) {
+                    (Some(r), None, None) => ConductorFresnel::Constant(src.in_unit_range(r, "reflectance")?),
+                    (None, Some(eta), Some(k)) => {
+                        let e = src.finite3(eta, "eta")?;
+                        if e.min_element() <= 0.0 {
+                            return src.err(eta.span(), "'eta' must be > 0 per channel");
+                        }
+                        ConductorFresnel::Complex { eta: e, k: src.non_negative3(k, "k")? }
+                    }
+                    _ => return src.err(span, format!("{what} needs either 'reflectance' (constant) or both 'eta' and 'k' (complex ior)")),
+                };
+                Bsdf::rough_conductor(alpha()?, fresnel)
+            }
+            "roughdielectric" => {
+                let eta = ior()?;
+                if eta == 1.0 {
+                    let at = d.ior.as_ref().map_or(span, |i| i.span());
+                    return src.err(at, "'ior' = 1 is no interface at all; use a shape with media and no material (an index-matched boundary) instead");
                 }
-                Bsdf::Dielectric { eta }
+                Bsdf::rough_dielectric(eta, alpha()?)
             }
-            "black" => {
-                self.only(&what, &[("albedo", at(&d.albedo)), ("reflectance", at(&d.reflectance)), ("ior", at(&d.ior))])?;
-                Bsdf::Black
-            }
-            other => return src.err(d.kind.span(), format!("unknown material type '{other}' (expected diffuse, conductor, dielectric or black)")),
+            "black" => Bsdf::Black,
+            _ => unreachable!("material types are checked above"),
         })
     }
 
@@ -857,7 +1063,10 @@ impl Builder<'_> {
                     Some(sz) => {
                         let [x, z] = *sz.get_ref();
                         if !(x.is_finite() && z.is_finite() && x > 0.0 && z > 0.0) {
-                            return src.err(sz.span(), format!("'size' must be two finite numbers > 0, got [{x}, {z}]"));
+                            return src.err(
+                                sz.span(),
+                                format!("'size' must be two finite numbers > 0, got [{x}, {z}]"),
+                            );
                         }
                         Vec2::new(x, z)
                     }
@@ -867,7 +1076,10 @@ impl Builder<'_> {
                     Some(g) => {
                         let [x, z] = *g.get_ref();
                         if !(1..=4096).contains(&x) || !(1..=4096).contains(&z) {
-                            return src.err(g.span(), format!("'grid' must be two integers in [1, 4096], got [{x}, {z}]"));
+                            return src.err(
+                                g.span(),
+                                format!("'grid' must be two integers in [1, 4096], got [{x}, {z}]"),
+                            );
                         }
                         UVec2::new(x, z)
                     }
@@ -877,11 +1089,21 @@ impl Builder<'_> {
                 if let Some(ws) = &d.waves {
                     for (k, w) in ws.get_ref().iter().enumerate() {
                         let dir = Vec2::from(w.direction);
-                        let ok = w.amplitude.is_finite() && w.phase.is_finite() && w.wavelength.is_finite() && w.wavelength > 0.0 && dir.is_finite() && dir.length_squared() > 0.0;
+                        let ok = w.amplitude.is_finite()
+                            && w.phase.is_finite()
+                            && w.wavelength.is_finite()
+                            && w.wavelength > 0.0
+                            && dir.is_finite()
+                            && dir.length_squared() > 0.0;
                         if !ok {
                             return src.err(ws.span(), format!("wave #{}: needs finite 'amplitude' and 'phase', 'wavelength' > 0 and a non-zero 'direction'", k + 1));
                         }
-                        waves.push(Wave { amplitude: w.amplitude, wavelength: w.wavelength, direction: dir.normalize(), phase: w.phase });
+                        waves.push(Wave {
+                            amplitude: w.amplitude,
+                            wavelength: w.wavelength,
+                            direction: dir.normalize(),
+                            phase: w.phase,
+                        });
                     }
                 }
                 ShapeGeometry::Mesh(heightfield(size, grid, &waves).transformed(&t))

@@ -101,11 +101,19 @@ pub struct Endpoint {
 
 impl Endpoint {
     pub fn surface(hit: &Hit) -> Endpoint {
-        Endpoint { p: hit.p, n: hit.ng, err: hit.p_err }
+        Endpoint {
+            p: hit.p,
+            n: hit.ng,
+            err: hit.p_err,
+        }
     }
 
     pub fn point(p: Vec3) -> Endpoint {
-        Endpoint { p, n: Vec3::ZERO, err: Vec3::ZERO }
+        Endpoint {
+            p,
+            n: Vec3::ZERO,
+            err: Vec3::ZERO,
+        }
     }
 }
 
@@ -150,14 +158,23 @@ impl Scene {
     /// Transmittance from `a` to `b` (or from `a` to infinity along unit `dir` when `b` is
     /// `None`), starting in `medium`, through index-matched boundaries; `None` when a surface
     /// blocks the way. Without media this is a single occlusion query.
-    pub fn transmittance(&self, a: &Endpoint, b: Option<&Endpoint>, dir: Vec3, medium: Option<u32>) -> Option<Transmittance> {
+    pub fn transmittance(
+        &self,
+        a: &Endpoint,
+        b: Option<&Endpoint>,
+        dir: Vec3,
+        medium: Option<u32>,
+    ) -> Option<Transmittance> {
         let (mut o, d, mut remaining) = match b {
             Some(b) => shadow_segment(a.p, a.err, a.n, b.p, b.err, b.n),
             None => (offset_origin(a.p, a.err, a.n, dir), dir, f32::INFINITY),
         };
         if !self.features.media {
             let free = remaining <= 0.0 || self.accel.unoccluded(o, d, remaining);
-            return free.then_some(Transmittance { tr: Spectrum::ONE, pass: 1.0 });
+            return free.then_some(Transmittance {
+                tr: Spectrum::ONE,
+                pass: 1.0,
+            });
         }
         let (mut tr, mut pass, mut medium) = (Spectrum::ONE, 1.0f32, medium);
         // A bounded number of index-matched crossings (closed shapes give two each).
@@ -165,7 +182,11 @@ impl Scene {
             if remaining <= 0.0 {
                 return Some(Transmittance { tr, pass });
             }
-            let ray = Ray { o, d, t_max: remaining };
+            let ray = Ray {
+                o,
+                d,
+                t_max: remaining,
+            };
             let Some(sp) = self.intersect(&ray) else {
                 if let Some(m) = medium {
                     let m = &self.media[m as usize];

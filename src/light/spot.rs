@@ -1,0 +1,255 @@
+//! Spot lights: the angular profile shared by the point spot light and spot area lights, and
+//! the point spot light itself (a delta light).
+//!
+//! The profile is pbrt's: full strength within `cone_angle - cone_delta` of the axis, zero
+//! beyond `cone_angle`, and `smoothstep(cos(cone_angle), cos(cone_angle - cone_delta), cos)`
+//! in between (a hard edge for `cone_delta = 0`). It is evaluated on `z = 1 - cos(theta)`
+//! (the same function; accurate for narrow cones).
+
+use super::cone::{one_minus_cos, one_minus_cos_deg, sample_uniform_cone, uniform_cone_pdf};
+use super::{EmissionSample, LightSample};
+use crate::math::{Frame, Spectrum, luminance};
+use glam::{Vec2, Vec3};
+
+/// Angular falloff of a spot light around its axis.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SpotProfile {
+    /// Half-angle of the cone, degrees.
+    cone_angle: f32,
+    /// Width of the smooth edge inside the cone, degrees.
+    cone_delta: f32,
+    /// `1 - cos(cone_angle)`: the profile is zero beyond.
+    z_end: f32,
+    /// `1 - cos(cone_angle - cone_delta)`: the profile is one within.
+    z_start: f32,
+}
+
+impl Default for SpotProfile {
+    /// 30 degrees with a 5 degree edge.
+    fn default() -> SpotProfile {
+        SpotProfile::new(Self::DEFAULT_CONE_ANGLE, Self::DEFAULT_CONE_DELTA)
+    }
+}
+
+impl SpotProfile {
+    /// Default half-angle of the cone, degrees (pbrt's).
+    pub const DEFAULT_CONE_ANGLE: f32 = 30.0;
+    /// Default width of the smooth edge, degrees (pbrt's).
+    pub const DEFAULT_CONE_DELTA: f32 = 5.0;
+
+    /// The profile of half-angle `cone_angle` with a smooth edge `cone_delta` wide (both in
+    /// degrees). Panics unless [`SpotProfile::check`] accepts them.
+    pub fn new(cone_angle: f32, cone_delta: f32) -> SpotProfile {
+        if let Err(e) = SpotProfile::check(cone_angle, cone_delta) {
+            panic!("{e}");
+        }
+        SpotProfile {
+            cone_angle,
+            cone_delta,
+            z_end: one_minus_cos_deg(cone_angle),
+            z_start: one_minus_cos_deg(cone_angle - cone_delta),
+        }
+    }
+
+    /// Why `(cone_angle, cone_delta)` is not a valid profile, if it is not: `cone_angle` must
+    /// be in `(0, 180]` and `cone_delta` in `[0, cone_angle]` (degrees, finite). Spot area
+    /// lights further need `cone_angle <= 90` (see [`SpotProfile::check_area`]).
+    pub fn check(cone_angle: f32, cone_delta: f32) -> Result<(), String> {
+        if !(cone_angle.is_finite() && cone_angle > 0.0 && cone_angle <= 180.0) {
+            return Err(format!(
+                "cone_angle must be in (0, 180] degrees, got {cone_angle}"
+            ));
+        }
+        if !(cone_delta.is_finite() && cone_delta >= 0.0 && cone_delta <= cone_angle) {
+            return Err(format!(
+                "cone_delta must be in [0, cone_angle = {cone_angle}] degrees, got {cone_delta}"
+            ));
+        }
+        Ok(())
+    }
+
+    /// [`SpotProfile::check`] for a spot area light, which emits on its front side only:
+    /// also `cone_angle <= 90`.
+    pub fn check_area(cone_angle: f32, cone_delta: f32) -> Result<(), String> {
+        SpotProfile::check(cone_angle, cone_delta)?;
+        if cone_angle > 90.0 {
+            return Err(format!(
+                "cone_angle of an area light must be at most 90 degrees, got {cone_angle}"
+            ));
+        }
+        Ok(())
+    }
+
+    /// Half-angle of the cone, degrees.
+    pub fn cone_angle(&self) -> f32 {
+        self.cone_angle
+    }
+
+    /// Width of the smooth edge, degrees.
+    pub fn cone_delta(&self) -> f32 {
+        self.cone_delta
+    }
+
+    /// `1 - cos(cone_angle)`: the profile is zero where `1 - cos(theta)` exceeds it.
+    pub fn one_minus_cos_total(&self) -> f32 {
+        self.z_end
+    }
+
+    /// `1 - cos(cone_angle - cone_delta)`: the profile is one where `1 - cos(theta)` is below.
+    pub fn one_minus_cos_falloff_start(&self) -> f32 {
+        self.z_start
+    }
+
+    /// The profile at `z = 1 - cos(theta)`.
+    #[inline]
+    pub fn falloff_z(&self, z: f32) -> f32 {
+        if z > self.z_end {
+            0.0
+        } else if z <= self.z_start {
+            1.0
+        } else {
+            // smoothstep(cos_end, cos_start, cos) with t = (cos - cos_end) / (cos_start -
+            // cos_end) = (z_end - z) / (z_end - z_start).
+            let t = ((self.z_end - z) / (self.z_end - self.z_start)).clamp(0.0, 1.0);
+            t * t * (3.0 - 2.0 * t)
+        }
+    }
+
+    /// The profile at `cos(theta)` (less accurate than [`SpotProfile::falloff_z`] for narrow
+    /// cones).
+    pub fn falloff(&self, cos_theta: f32) -> f32 {
+        self.falloff_z(1.0 - cos_theta)
+    }
+
+    /// The profile of unit direction `w` around unit `axis`.
+    #[inline]
+    pub fn falloff_dir(&self, axis: Vec3, w: Vec3) -> f32 {
+        self.falloff_z(one_minus_cos(axis, w))
+    }
+
+    /// `∫ profile dω` over the sphere, exactly: `2 pi ((1 - cos_start) + (cos_start -
+    /// cos_end) / 2)` (the smoothstep averages 1/2 over its interval) `= pi (z_start + z_end)`.
+    pub fn solid_angle_integral(&self) -> f64 {
+        std::f64::consts::PI * (self.z_start as f64 + self.z_end as f64)
+    }
+
+    /// `∫ profile(theta) cos(theta) dω` over the front hemisphere, exactly (for
+    /// `cone_angle <= 90`): with `a = cos_end`, `b = cos_start`,
+    /// `2 pi [(1 - b^2) / 2 + (b - a) (a / 2 + 0.35 (b - a))]`; `pi` for a plain emitter.
+    pub fn cosine_integral(&self) -> f64 {
+        let (z_end, z_start) = (self.z_end as f64, self.z_start as f64);
+        let a = 1.0 - z_end;
+        let w = z_end - z_start; // b - a, without cancellation
+        let one_minus_b2 = z_start * (2.0 - z_start);
+        2.0 * std::f64::consts::PI * (0.5 * one_minus_b2 + w * (0.5 * a + 0.35 * w))
+    }
+}
+
+/// A point light whose intensity falls off around `direction` by a [`SpotProfile`].
+#[derive(Debug, Clone)]
+pub struct SpotLight {
+    pub position: Vec3,
+    /// Intensity on the axis (W/sr per RGB channel).
+    pub intensity: Spectrum,
+    direction: Vec3,
+    profile: SpotProfile,
+}
+
+impl SpotLight {
+    /// A spot at `position` pointing along `direction` (normalised here; must be non-zero),
+    /// with intensity `intensity` on the axis and the given profile
+    /// ([`SpotProfile::default`]: 30 degrees, 5 degree edge).
+    pub fn new(
+        position: Vec3,
+        direction: Vec3,
+        intensity: Spectrum,
+        profile: SpotProfile,
+    ) -> SpotLight {
+        let direction = direction.normalize();
+        assert!(
+            direction.is_finite(),
+            "spot light direction must be non-zero"
+        );
+        SpotLight {
+            position,
+            intensity,
+            direction,
+            profile,
+        }
+    }
+
+    /// Unit axis of the cone.
+    pub fn direction(&self) -> Vec3 {
+        self.direction
+    }
+
+    pub fn profile(&self) -> &SpotProfile {
+        &self.profile
+    }
+
+    /// Intensity emitted along unit `w`.
+    pub fn intensity_towards(&self, w: Vec3) -> Spectrum {
+        self.intensity * self.profile.falloff_dir(self.direction, w)
+    }
+
+    /// `luminance(I) ∫ profile dω`.
+    pub fn power(&self) -> f32 {
+        (luminance(self.intensity) as f64 * self.profile.solid_angle_integral()) as f32
+    }
+
+    /// Towards the spot from `p`; `None` outside the cone (and at the spot itself).
+    pub fn sample_li(&self, p: Vec3) -> Option<LightSample> {
+        let v = self.position - p;
+        let d2 = v.length_squared();
+        if d2 == 0.0 {
+            return None;
+        }
+        let dist = d2.sqrt();
+        let wi = v / dist;
+        let i = self.intensity_towards(-wi);
+        if i == Spectrum::ZERO {
+            return None;
+        }
+        Some(LightSample {
+            wi,
+            dist,
+            p: self.position,
+            n: Vec3::ZERO,
+            li: i / d2,
+            pdf: 1.0,
+            delta: true,
+        })
+    }
+
+    /// A direction uniform in the cone of `cone_angle`; `le` is the intensity along it.
+    pub fn sample_le(&self, u_dir: Vec2) -> Option<EmissionSample> {
+        let z_end = self.profile.z_end;
+        let dir = Frame::from_z(self.direction).to_world(sample_uniform_cone(u_dir, z_end));
+        let le = self.intensity_towards(dir);
+        if le == Spectrum::ZERO {
+            return None; // only on the cone's edge
+        }
+        Some(EmissionSample {
+            p: self.position,
+            n: Vec3::ZERO,
+            dir,
+            le,
+            pdf_pos: 1.0,
+            pdf_dir: uniform_cone_pdf(z_end),
+        })
+    }
+
+    /// (1, density of `dir`): uniform in the cone, zero outside.
+    pub fn pdf_le(&self, dir: Vec3) -> (f32, f32) {
+        let z = one_minus_cos(self.direction, dir.normalize());
+        let z_end = self.profile.z_end;
+        (
+            1.0,
+            if z <= z_end {
+                uniform_cone_pdf(z_end)
+            } else {
+                0.0
+            },
+        )
+    }
+}

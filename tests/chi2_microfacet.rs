@@ -1,0 +1,458 @@
+//! Statistical tests of the microfacet BSDFs (GGX rough conductor and rough dielectric) and
+//! of the GGX distribution itself.
+//!
+//! * The distribution: `∫ D(m) cos(theta_m) dm = 1` and `∫ D_wo(m) dm = 1` by cubature, and
+//!   chi-square of the visible-normal sampler against `D_wo`.
+//! * Each BSDF: chi-square of `sample` against `pdf` over the whole sphere, binned on two
+//!   log-warped charts (one per side of the surface, see `chi2::LobeDomain`) so that lobes
+//!   down to alpha = 0.05 spread over many bins, for alpha in {0.05, 0.1, 0.3, 0.7, 1} and
+//!   incident angles from normal to grazing (85 degrees), `wo` on both sides (inside the
+//!   dielectric, below and above its critical angle). Every draw samples in both transport
+//!   modes with the same random numbers; per sample, in each mode, the sample's `pdf` and `f`
+//!   must equal `pdf()` and `eval()`, `weight == f |cos| / pdf`, the flags and `eta` must be
+//!   right, and the two modes must pick the same direction (the sampling does not depend on
+//!   the mode, so one chi-square test covers both).
+//! * Power: the harness must reject the pdf of the *full* normal distribution
+//!   (`D(m) cos(theta_m) / (4 wo.m)`) for a visible-normal sampler, and a transmission pdf
+//!   without the `eta^2` of the half-vector Jacobian.
+//!
+//! Statistics (see `common/chi2.rs`): every chi-square test and mass check runs at the
+//! suite's Sidak-corrected level `chi2::alpha()`; this file has 124 of them (60 cases and 2
+//! power controls, x 2). Samples per case: [`N`] = 200,000 on 20 x 32 bins per chart (a few
+//! hundred to a couple of thousand expected per bin where the lobe is).
+
+mod common;
+
+use common::chi2::{self, LobeDomain};
+use common::{Failures, close, close3};
+use glam::Vec3;
+use lodestar::bsdf::microfacet::Ggx;
+use lodestar::bsdf::{Bsdf, ConductorFresnel, ShadingFrame, TransportMode, fresnel};
+use lodestar::math::{Frame, Sampler};
+
+/// Samples per chi-square case.
+const N: usize = 150_000;
+
+const ALPHAS: [f32; 5] = [0.05, 0.1, 0.3, 0.7, 1.0];
+
+const MODES: [TransportMode; 2] = [TransportMode::Radiance, TransportMode::Importance];
+
+/// A generic (not axis-aligned) geometric normal, so the frames are exercised.
+fn ng_generic() -> Vec3 {
+    Vec3::new(0.3, -0.5, 0.8).normalize()
+}
+
+/// Direction at polar angle `theta` (degrees, from `n`) and azimuth `phi` (degrees).
+fn dir_around(n: Vec3, theta_deg: f32, phi_deg: f32) -> Vec3 {
+    let (t, p) = (theta_deg.to_radians(), phi_deg.to_radians());
+    let local = Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos());
+    Frame::from_z(n).to_world(local).normalize()
+}
+
+fn reflect(wo: Vec3, n: Vec3) -> Vec3 {
+    2.0 * wo.dot(n) * n - wo
+}
+
+/// Warp strength of the lobe domain for roughness alpha.
+fn warp_for(alpha: f32) -> f64 {
+    10.0 / (alpha as f64 * alpha as f64)
+}
+
+/// The lobe domain for `wo` at a surface with shading normal `ns`: chart 0 around the mirror
+/// direction, chart 1 around the macro-refracted direction (`eta_r` = n(other side) /
+/// n(side of wo)), or straight through the surface under total internal reflection.
+fn lobe_domain(ns: Vec3, wo: Vec3, eta_r: f32, alpha: f32) -> LobeDomain {
+    let n = if wo.dot(ns) >= 0.0 { ns } else { -ns };
+    let c = wo.dot(n);
+    let sin2_t = (1.0 - c * c) / (eta_r * eta_r);
+    let axis1 = if sin2_t < 0.99 {
+        (-wo / eta_r + (c / eta_r - (1.0 - sin2_t).sqrt()) * n).normalize()
+    } else {
+        -n
+    };
+    LobeDomain::new(n, reflect(wo, n), axis1, warp_for(alpha)).with_res(RINGS, PHIS)
+}
+
+/// Rings per chart and bins in phi of the lobe domains.
+const RINGS: usize = 16;
+const PHIS: usize = 24;
+
+/// Relative tolerance of a sample's `f` and `pdf` against `eval()` and `pdf()` at its
+/// direction. These are the same function, but `eval()` gets `wi` after a round trip through
+/// world space (a few 1e-8 of error). That is amplified only where the Fresnel term of a
+/// dielectric is ill-conditioned: near the critical angle, `cos_t` of the refraction of `wo`
+/// through the microfacet goes to zero like `sqrt(sin_c^2 - sin^2)`, and `F` and `1 - F`
+/// change with it, so a perturbation `e` of `sin^2` changes them by about `e / (2 cos_t^2)`
+/// relatively, and `e` reaches several ulps (a few 1e-7) in `f32`.
+fn value_tolerance(ns: Vec3, wo: Vec3, wi: Vec3, eta_r: f32) -> f64 {
+    let base = 1e-3;
+    if eta_r == 1.0 {
+        return base;
+    }
+    let m = if wi.dot(ns) * wo.dot(ns) < 0.0 {
+        (wo + eta_r * wi).normalize()
+    } else {
+        (wo + wi).normalize()
+    };
+    let (_, cos_t, _) = fresnel::dielectric(wo.dot(m).abs(), eta_r);
+    if cos_t == 0.0 {
+        return base;
+    }
+    base + 1e-6 / (cos_t as f64 * cos_t as f64)
+}
+
+/// Chi-square of a rough BSDF's sampler against its pdf from `wo`, with every per-sample
+/// check in both modes. `eta_r` is the relative index a transmitted sample must report.
+fn bsdf_case(name: &str, bsdf: &Bsdf, sf: &ShadingFrame, wo: Vec3, eta_r: f32, alpha: f32) {
+    let ns = sf.frame.n;
+    let aligned = ns == sf.ng;
+    let domain = lobe_domain(ns, wo, eta_r, alpha);
+    let mut fails = Failures::new();
+    let report = chi2::lobe_spherical(
+        name,
+        N,
+        &domain,
+        |s: &mut dyn Sampler| {
+            let (ul, u) = (s.next_1d(), s.next_2d());
+            let smps = MODES.map(|mode| bsdf.sample(sf, wo, ul, u, mode));
+            fails.check(smps[0].is_some() == smps[1].is_some(), || {
+                "one mode sampled, the other did not".to_string()
+            });
+            let (Some(r), Some(_)) = (smps[0], smps[1]) else {
+                return None;
+            };
+            let wi = r.wi;
+            let mut weights = [Vec3::ZERO; 2];
+            for (k, mode) in MODES.into_iter().enumerate() {
+                let smp = smps[k].unwrap();
+                fails.check(smp.wi == wi && smp.transmission == r.transmission, || {
+                    format!("modes chose {} and {}", wi, smp.wi)
+                });
+                let pdf = bsdf.pdf(sf, wo, wi, mode);
+                let f = bsdf.eval(sf, wo, wi, mode);
+                let tol = value_tolerance(ns, wo, wi, eta_r);
+                fails.check(close(smp.pdf as f64, pdf as f64, tol, 0.0), || {
+                    format!("{mode:?}: sample pdf {} != pdf() {pdf} at wi {wi}", smp.pdf)
+                });
+                fails.check(close3(smp.f, f, tol, 0.0), || {
+                    format!("{mode:?}: sample f {} != eval() {f} at wi {wi}", smp.f)
+                });
+                // The sample's weight uses the cosine in the local frame; recomputed from the
+                // world-space wi it carries an absolute error of a few 1e-8, which matters
+                // for grazing wi.
+                let cos = wi.dot(ns).abs();
+                let w = f * cos / pdf;
+                let tol = 1e-3 + 2e-7 / cos as f64;
+                fails.check(close3(smp.weight, w, tol, 0.0), || {
+                    format!("{mode:?}: weight {} != f |cos| / pdf = {w}", smp.weight)
+                });
+                fails.check(
+                    smp.weight.is_finite() && smp.weight.min_element() > 0.0,
+                    || format!("{mode:?}: weight {}", smp.weight),
+                );
+                // Importance-mode weights are G2 / G1(wo) times F or 1 - F (over the lobe
+                // probability): never above 1 without a shading normal.
+                if aligned && mode == TransportMode::Importance {
+                    fails.check(smp.weight.max_element() <= 1.0 + 1e-4, || {
+                        format!("importance weight {} > 1", smp.weight)
+                    });
+                }
+                weights[k] = smp.weight;
+                let crosses = wi.dot(ns) * wo.dot(ns) < 0.0;
+                let expected_eta = if crosses { eta_r } else { 1.0 };
+                fails.check(
+                    !smp.delta
+                        && smp.transmission == crosses
+                        && close(smp.eta as f64, expected_eta as f64, 1e-6, 0.0),
+                    || {
+                        format!(
+                            "flags: delta {} transmission {} (crosses {crosses}) eta {}",
+                            smp.delta, smp.transmission, smp.eta
+                        )
+                    },
+                );
+                fails.check((wi.length() - 1.0).abs() < 1e-4, || {
+                    format!("|wi| = {}", wi.length())
+                });
+            }
+            // Radiance scales transmission by 1 / eta_r^2, reflection not at all.
+            let scale = if r.transmission {
+                1.0 / (eta_r * eta_r)
+            } else {
+                1.0
+            };
+            if aligned {
+                fails.check(close3(weights[0], weights[1] * scale, 1e-4, 0.0), || {
+                    format!(
+                        "radiance weight {} != importance weight {} x {scale}",
+                        weights[0], weights[1]
+                    )
+                });
+            }
+            Some(wi)
+        },
+        |wi| bsdf.pdf(sf, wo, wi, TransportMode::Radiance) as f64,
+    );
+    report.assert_ok();
+    fails.assert_none(name);
+}
+
+fn gold() -> ConductorFresnel {
+    ConductorFresnel::Complex {
+        eta: Vec3::new(0.143, 0.374, 1.442),
+        k: Vec3::new(3.983, 2.385, 1.603),
+    }
+}
+
+// ------------------------------------------------------------------------------------------
+// The distribution
+// ------------------------------------------------------------------------------------------
+
+#[test]
+fn ggx_projected_area_and_visible_normals_integrate_to_one() {
+    let mut fails = Failures::new();
+    for alpha in [0.01f32, 0.05, 0.3, 1.0, 2.0] {
+        let ggx = Ggx::new(alpha);
+        // One chart (the upper hemisphere) around +z; chart 1 is empty.
+        let domain = LobeDomain::new(Vec3::Z, Vec3::Z, -Vec3::Z, warp_for(alpha)).with_res(12, 16);
+        let projected = chi2::integrate_lobe(&domain, |m| (ggx.d(m) * m.z.max(0.0)) as f64);
+        println!("alpha {alpha}: ∫ D cos = {projected:.6}");
+        fails.check(close(projected, 1.0, 0.0, 1e-3), || {
+            format!("alpha {alpha}: ∫ D(m) cos = {projected}")
+        });
+        for theta in [0.0f32, 60.0, 85.0, 89.5] {
+            let wo = dir_around(Vec3::Z, theta, 20.0);
+            let vis = chi2::integrate_lobe(&domain, |m| ggx.d_visible(wo, m) as f64);
+            // The same statement as the Smith normalisation ∫ G1 <wo, m> D = cos_o.
+            println!("alpha {alpha}, theta_o {theta}: ∫ D_wo = {vis:.6}");
+            fails.check(close(vis, 1.0, 0.0, 1e-3), || {
+                format!("alpha {alpha}, theta_o {theta}: ∫ D_wo(m) = {vis}")
+            });
+        }
+    }
+    fails.assert_none("GGX normalisation");
+}
+
+#[test]
+fn ggx_visible_normal_sampling() {
+    for alpha in [0.1f32, 0.7] {
+        let ggx = Ggx::new(alpha);
+        for theta in [0.0f32, 60.0, 85.0] {
+            let wo = dir_around(Vec3::Z, theta, 20.0);
+            let name = format!("VNDF alpha {alpha}, theta_o {theta}");
+            let domain =
+                LobeDomain::new(Vec3::Z, Vec3::Z, -Vec3::Z, warp_for(alpha)).with_res(RINGS, PHIS);
+            let mut fails = Failures::new();
+            chi2::lobe_spherical(
+                &name,
+                N,
+                &domain,
+                |s| {
+                    let m = ggx.sample_visible(wo, s.next_2d())?;
+                    fails.check((m.length() - 1.0).abs() < 1e-4 && m.z > 0.0, || {
+                        format!("m = {m}")
+                    });
+                    Some(m)
+                },
+                |m| ggx.d_visible(wo, m) as f64,
+            )
+            .assert_ok();
+            fails.assert_none(&name);
+        }
+    }
+}
+
+// ------------------------------------------------------------------------------------------
+// Rough conductor
+// ------------------------------------------------------------------------------------------
+
+#[test]
+fn rough_conductor_sampling_matches_pdf() {
+    let ng = ng_generic();
+    let sf = ShadingFrame::new(ng, ng);
+    for (i, &alpha) in ALPHAS.iter().enumerate() {
+        // Alternate the Fresnel models; the pdf does not depend on them, f does.
+        let fresnel = if i % 2 == 0 {
+            gold()
+        } else {
+            ConductorFresnel::Constant(Vec3::new(0.9, 0.6, 0.3))
+        };
+        let bsdf = Bsdf::rough_conductor(alpha, fresnel);
+        // Normal, oblique, grazing, and from below (two-sided).
+        for theta in [0.0f32, 45.0, 85.0, 130.0] {
+            let wo = dir_around(ng, theta, 40.0);
+            let name = format!("rough conductor alpha {alpha}, wo at {theta} deg");
+            bsdf_case(&name, &bsdf, &sf, wo, 1.0, alpha);
+        }
+    }
+}
+
+// ------------------------------------------------------------------------------------------
+// Rough dielectric
+// ------------------------------------------------------------------------------------------
+
+fn rough_dielectric_cases(alphas: &[f32]) {
+    let eta = 1.5;
+    let ng = ng_generic();
+    let sf = ShadingFrame::new(ng, ng);
+    for &alpha in alphas {
+        let bsdf = Bsdf::rough_dielectric(eta, alpha);
+        // Outside: normal, oblique, grazing. Inside (theta > 90): 20 degrees from -n (below
+        // the critical angle of 41.8 degrees), 50 degrees (beyond it: the smooth interface
+        // would reflect everything, the rough one still transmits through tilted facets),
+        // and grazing at 85 degrees.
+        for theta in [0.0f32, 45.0, 85.0, 160.0, 130.0, 95.0] {
+            let wo = dir_around(ng, theta, 70.0);
+            let eta_r = if wo.dot(ng) > 0.0 { eta } else { 1.0 / eta };
+            let name = format!("rough dielectric alpha {alpha}, wo at {theta} deg");
+            bsdf_case(&name, &bsdf, &sf, wo, eta_r, alpha);
+        }
+    }
+}
+
+#[test]
+fn rough_dielectric_sampling_matches_pdf_smooth_alphas() {
+    rough_dielectric_cases(&ALPHAS[..2]);
+}
+
+#[test]
+fn rough_dielectric_sampling_matches_pdf_rough_alphas() {
+    rough_dielectric_cases(&ALPHAS[2..]);
+}
+
+/// With a shading normal tilted away from the geometric one, samples whose side of ng
+/// contradicts their lobe are dropped; the pdf must lose the same mass.
+#[test]
+fn rough_bsdfs_with_tilted_shading_normal() {
+    let ng = ng_generic();
+    let ns = dir_around(ng, 20.0, 0.0);
+    let sf = ShadingFrame::new(ns, ng);
+    let alpha = 0.3;
+    for (theta, phi) in [(60.0f32, 180.0f32), (120.0, 0.0)] {
+        let wo = dir_around(ng, theta, phi);
+        let conductor = Bsdf::rough_conductor(alpha, gold());
+        bsdf_case(
+            &format!("rough conductor tilted ns, wo at ({theta}, {phi})"),
+            &conductor,
+            &sf,
+            wo,
+            1.0,
+            alpha,
+        );
+        let eta = 1.5;
+        let eta_r = if wo.dot(ns) > 0.0 { eta } else { 1.0 / eta };
+        bsdf_case(
+            &format!("rough dielectric tilted ns, wo at ({theta}, {phi})"),
+            &Bsdf::rough_dielectric(eta, alpha),
+            &sf,
+            wo,
+            eta_r,
+            alpha,
+        );
+    }
+}
+
+// ------------------------------------------------------------------------------------------
+// The harness must be able to fail on microfacet cases
+// ------------------------------------------------------------------------------------------
+
+#[test]
+fn harness_rejects_wrong_microfacet_pdfs() {
+    let ns = Vec3::Z;
+    let sf = ShadingFrame::new(ns, ns);
+    let mode = TransportMode::Radiance;
+
+    // (1) Conductor sampled by visible normals, checked against the pdf of sampling the full
+    // distribution D(m) cos(theta_m) (the pre-2014 scheme): D instead of D_wo.
+    let alpha = 0.3;
+    let ggx = Ggx::new(alpha);
+    let bsdf = Bsdf::rough_conductor(alpha, ConductorFresnel::Constant(Vec3::ONE));
+    let wo = dir_around(ns, 70.0, 0.0);
+    let domain = lobe_domain(ns, wo, 1.0, alpha);
+    let sample =
+        |s: &mut dyn Sampler| Some(bsdf.sample(&sf, wo, s.next_1d(), s.next_2d(), mode)?.wi);
+    chi2::lobe_spherical("power: VNDF control", N, &domain, sample, |wi| {
+        bsdf.pdf(&sf, wo, wi, mode) as f64
+    })
+    .assert_ok();
+    let wrong = |wi: Vec3| {
+        if wi.z <= 0.0 {
+            return 0.0;
+        }
+        let m = (wo + wi).normalize();
+        (ggx.d(m) * m.z / (4.0 * wo.dot(m))) as f64
+    };
+    let r = chi2::lobe_spherical("power: D instead of D_wo", N, &domain, sample, wrong);
+    println!("{r}");
+    assert!(r.chi2_rejects(), "harness missed D instead of D_wo: {r}");
+
+    // The same error, normalised over the successful share so only the shape differs.
+    let mass = chi2::integrate_lobe(&domain, wrong);
+    let share = chi2::integrate_lobe(&domain, |wi| bsdf.pdf(&sf, wo, wi, mode) as f64);
+    let r = chi2::lobe_spherical(
+        "power: D instead of D_wo, normalised",
+        N,
+        &domain,
+        sample,
+        |wi| wrong(wi) * share / mass,
+    );
+    println!("{r}");
+    assert!(!r.mass_mismatch() && r.chi2_rejects(), "{r}");
+
+    // (2) Rough dielectric from outside: transmission pdf with the Jacobian of the reflection
+    // half vector's form but without eta^2 (|ci| / (eta ci + co)^2 instead of
+    // |ci| / (ci + co / eta)^2), normalised to the right mass.
+    let (eta, alpha) = (1.5f32, 0.3f32);
+    let ggx = Ggx::new(alpha);
+    let bsdf = Bsdf::rough_dielectric(eta, alpha);
+    let wo = dir_around(ns, 30.0, 0.0);
+    let domain = lobe_domain(ns, wo, eta, alpha);
+    let sample =
+        |s: &mut dyn Sampler| Some(bsdf.sample(&sf, wo, s.next_1d(), s.next_2d(), mode)?.wi);
+    let right = |wi: Vec3| bsdf.pdf(&sf, wo, wi, mode) as f64;
+    chi2::lobe_spherical("power: transmission control", N, &domain, sample, right).assert_ok();
+    let wrong = |wi: Vec3| {
+        if wi.z >= 0.0 {
+            return right(wi);
+        }
+        let mut m = (wo + eta * wi).normalize();
+        if m.z < 0.0 {
+            m = -m;
+        }
+        let (co, ci) = (wo.dot(m), wi.dot(m));
+        if !(co > 0.0 && ci < 0.0) {
+            return 0.0;
+        }
+        let t = 1.0 - fresnel::dielectric(co, eta).0;
+        (t * ggx.d_visible(wo, m) * -ci / ((eta * ci + co) * (eta * ci + co))) as f64
+    };
+    let mass = chi2::integrate_lobe(&domain, wrong);
+    let share = chi2::integrate_lobe(&domain, right);
+    let r = chi2::lobe_spherical(
+        "power: transmission Jacobian without eta^2",
+        N,
+        &domain,
+        sample,
+        |wi| wrong(wi) * share / mass,
+    );
+    println!("{r}");
+    assert!(r.chi2_rejects(), "harness missed the wrong Jacobian: {r}");
+    // Unnormalised, the mass check sees it too.
+    let r = chi2::lobe_spherical(
+        "power: transmission Jacobian without eta^2, unnormalised",
+        N,
+        &domain,
+        sample,
+        wrong,
+    );
+    println!("{r}");
+    assert!(r.mass_mismatch(), "{r}");
+
+    // The warped domain itself: a direction maps back to itself.
+    let d = lobe_domain(ns, wo, eta, alpha);
+    for w in [wo, -wo, Vec3::X, dir_around(ns, 120.0, 33.0)] {
+        let x = d.to_param(w).unwrap();
+        let (back, _) = d.to_dir(x).unwrap();
+        assert!((back - w).length() < 1e-5, "{w} -> {x} -> {back}");
+    }
+}

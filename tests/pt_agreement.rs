@@ -60,3 +60,28 @@ fn max_depth_one_shows_only_directly_visible_emitters() {
             > 10
     );
 }
+
+/// The same agreement on the glossy Cornell box (GGX rough conductor and rough dielectric):
+/// BSDF `eval`/`pdf` must match what `sample` does for MIS to be unbiased.
+#[test]
+fn mis_bsdf_and_nee_agree_on_the_glossy_cornell_box() {
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/cornell-glossy.toml"
+    ))
+    .unwrap()
+    .replace("resolution = [256, 256]", "resolution = [48, 48]");
+    let scene = util::scene(&text);
+    let mis = util::render(&scene, "pt", 6, &["strategy=mis"], 256, 1, 2).image;
+    let bsdf = util::render(&scene, "pt", 6, &["strategy=bsdf"], 256, 2, 2).image;
+    let nee = util::render(&scene, "pt", 6, &["strategy=nee"], 256, 3, 2).image;
+    for (name, other) in [("bsdf", &bsdf), ("nee", &nee)] {
+        let z = util::z_same_mean(&mis, other);
+        assert!(
+            z.abs().max_element() < 4.5,
+            "glossy: mis vs {name}: z = {z}, means {} vs {}",
+            mis.mean(),
+            other.mean()
+        );
+    }
+}

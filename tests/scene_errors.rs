@@ -633,3 +633,121 @@ fn every_bad_fixture_fails_and_names_itself() {
     }
     assert!(n >= 3);
 }
+
+// ---------------------------------------------------------------------------------------------
+// Media, rough materials, spot / directional / sun lights, heightfields
+// ---------------------------------------------------------------------------------------------
+
+const FOG: &str =
+    "[[medium]]\nname = \"fog\"\nsigma_a = [0.1, 0.1, 0.1]\nsigma_s = [0.5, 0.5, 0.5]\n";
+
+#[test]
+fn unknown_medium_name() {
+    let text = with(&format!(
+        "{FOG}[[shape]]\ntype = \"cube\"\ninterior = \"smoke\" {MARK}\n"
+    ));
+    check(&text, &["unknown medium 'smoke'", "fog"]);
+}
+
+#[test]
+fn unknown_world_medium() {
+    let text = format!("world_medium = \"smoke\" {MARK}\n{BASE}");
+    check(&text, &["unknown medium 'smoke'"]);
+}
+
+#[test]
+fn negative_sigma() {
+    let text = with(&format!(
+        "[[medium]]\nname = \"fog\"\nsigma_a = [0.1, -0.1, 0.1] {MARK}\nsigma_s = [0.5, 0.5, 0.5]\n"
+    ));
+    check(&text, &["'sigma_a'", ">= 0"]);
+}
+
+#[test]
+fn phase_g_out_of_range() {
+    for g in ["1.0", "-1", "nan"] {
+        let text = with(&format!("{FOG}g = {g} {MARK}\n"));
+        check(&text, &["'g'", "(-1, 1)"]);
+    }
+}
+
+#[test]
+fn rough_material_alpha_and_ior() {
+    for (kind, line, fact) in [
+        ("roughconductor", "alpha = 0 ", "'alpha'"),
+        ("roughconductor", "alpha = 1.5 ", "'alpha'"),
+        ("roughdielectric", "alpha = nan ", "'alpha'"),
+        ("roughdielectric", "ior = 1.0 ", "index-matched"),
+    ] {
+        let other = match (kind, line.starts_with("ior")) {
+            ("roughconductor", _) => "reflectance = [0.9, 0.9, 0.9]",
+            (_, true) => "alpha = 0.1",
+            _ => "ior = 1.5",
+        };
+        let text = with(&format!(
+            "[[material]]\nname = \"m\"\ntype = \"{kind}\"\n{other}\n{line}{MARK}\n"
+        ));
+        check(&text, &[fact]);
+    }
+}
+
+#[test]
+fn rough_conductor_needs_one_kind_of_fresnel() {
+    let text = with(&format!(
+        "[[material]] {MARK}\nname = \"m\"\ntype = \"roughconductor\"\nalpha = 0.1\nreflectance = [1, 1, 1]\neta = [0.2, 0.4, 1.4]\nk = [3, 2.4, 1.8]\n"
+    ));
+    check(&text, &["'reflectance'", "'eta'", "'k'"]);
+}
+
+#[test]
+fn sun_needs_exactly_one_of_radiance_and_irradiance() {
+    let text = with(&format!(
+        "[[light]] {MARK}\ntype = \"sun\"\ndirection = [0, 1, 0]\nradiance = [1, 1, 1]\nirradiance = [1, 1, 1]\n"
+    ));
+    check(&text, &["'radiance'", "'irradiance'"]);
+}
+
+#[test]
+fn spot_cone_out_of_range() {
+    let text = with(&format!(
+        "[[light]]\ntype = \"spot\"\nposition = [0, 1, 0]\ndirection = [0, -1, 0]\nintensity = [1, 1, 1]\ncone_angle = 200 {MARK}\n"
+    ));
+    check(&text, &["spot cone"]);
+}
+
+#[test]
+fn zero_light_direction() {
+    let text = with(&format!(
+        "[[light]]\ntype = \"directional\"\ndirection = [0, 0, 0] {MARK}\nirradiance = [1, 1, 1]\n"
+    ));
+    check(&text, &["'direction'", "non-zero"]);
+}
+
+#[test]
+fn cone_on_a_shape_without_emission() {
+    let text = edit(
+        r#"material = "white""#,
+        &format!("material = \"white\"\ncone_angle = 20 {MARK}"),
+    );
+    check(&text, &["'cone_angle'", "'emission'"]);
+}
+
+#[test]
+fn heightfield_with_a_bad_wave() {
+    let text = with(&format!(
+        "[[shape]]\ntype = \"heightfield\"\nmaterial = \"white\"\nwaves = [{{ amplitude = 0.1, wavelength = 0, direction = [1, 0] }}] {MARK}\n"
+    ));
+    check(&text, &["wave #1", "'wavelength'"]);
+}
+
+#[test]
+fn valid_media_lights_and_rough_materials_load() {
+    let text = format!(
+        "world_medium = \"fog\"\n{BASE}{FOG}g = 0.3\n[[material]]\nname = \"gold\"\ntype = \"roughconductor\"\nalpha = 0.2\neta = [0.14, 0.37, 1.44]\nk = [3.98, 2.38, 1.6]\n[[shape]]\ntype = \"heightfield\"\nmaterial = \"gold\"\nsize = [2, 1]\ngrid = [8, 4]\nwaves = [{{ amplitude = 0.01, wavelength = 0.5, direction = [1, 1] }}]\n[[shape]]\ntype = \"disk\"\nradius = 0.1\nemission = [5, 5, 5]\ncone_angle = 30\n[[light]]\ntype = \"sun\"\ndirection = [0, 1, 0]\nirradiance = [2, 2, 2]\n[[light]]\ntype = \"spot\"\nposition = [0, 1, 0]\ndirection = [0, -1, 0]\nintensity = [1, 1, 1]\n[[light]]\ntype = \"directional\"\ndirection = [0, -1, 0]\nirradiance = [1, 1, 1]\n"
+    );
+    let scene = load_str(&text, "ok.toml", None).unwrap();
+    assert!(scene.features.media && scene.features.delta_lights && scene.features.environment);
+    assert_eq!(scene.camera_medium, Some(0));
+    assert_eq!(scene.lights.len(), 5);
+    assert_eq!(scene.infinite_lights.len(), 2);
+}

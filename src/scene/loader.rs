@@ -2,6 +2,8 @@
 //! numbers are errors of the form `FILE:LINE: what is wrong, and what was expected`.
 //!
 //! ```toml
+//! world_medium = "haze"    # optional: a medium filling the world (the camera is in it)
+//!
 //! [camera]                 # pinhole
 //! position = [0, 0, 3.9]
 //! look_at = [0, 0, 0]
@@ -16,23 +18,37 @@
 //!
 //! [[material]]
 //! name = "white"
-//! type = "diffuse"         # diffuse (albedo), conductor (reflectance), dielectric (ior), black
-//! albedo = [0.73, 0.73, 0.73]
+//! type = "diffuse"         # diffuse (albedo), conductor (reflectance: a mirror),
+//! albedo = [0.73, 0.73, 0.73] # dielectric (ior), roughconductor (alpha and reflectance, or
+//!                          # alpha, eta and k), roughdielectric (alpha, ior), black
+//!
+//! [[medium]]               # homogeneous
+//! name = "haze"
+//! sigma_a = [0.01, 0.01, 0.01]
+//! sigma_s = [0.1, 0.1, 0.1]
+//! g = 0.0                  # Henyey-Greenstein, in (-1, 1)
 //!
 //! [[shape]]
 //! type = "quad"            # quad (origin, edge_u, edge_v), cube, sphere (center, radius),
-//!                          # disk (center, normal, radius, segments), obj (file)
+//!                          # disk (center, normal, radius, segments), obj (file),
+//!                          # heightfield (size, grid, waves = [{ amplitude, wavelength,
+//!                          # direction = [x, z], phase }])
 //! origin = [-1, -1, -1]
 //! edge_u = [0, 0, 2]       # front side along edge_u x edge_v
 //! edge_v = [2, 0, 0]
-//! material = "white"
+//! material = "white"       # omit with interior/exterior for an index-matched boundary
 //! emission = [17, 12, 4]   # optional: makes the shape an area light (front side only)
+//! cone_angle = 30          # optional with emission: an area spot light (degrees, half-angle;
+//! cone_delta = 5           # smooth edge width)
+//! interior = "fog"         # optional media inside / outside (unnamed side: the world medium)
 //! transform = { scale = [1, 1, 1], rotate = { axis = [0, 1, 0], degrees = 0 }, translate = [0, 0, 0] }
 //!
 //! [[light]]
-//! type = "point"           # point (position, intensity), environment (radiance)
-//! position = [0, 0.9, 0]
-//! intensity = [1, 1, 1]
+//! type = "point"           # point (position, intensity), spot (position, direction,
+//! position = [0, 0.9, 0]   # intensity, cone_angle = 30, cone_delta = 5), environment
+//! intensity = [1, 1, 1]    # (radiance), directional (direction of travel, irradiance),
+//!                          # sun (direction towards the sun, angle = 0.27 degrees,
+//!                          # radiance or irradiance)
 //! ```
 //! Transforms apply scale, then rotation, then translation. Paths are relative to the scene file.
 

@@ -18,6 +18,7 @@ use glam::Vec3;
 use lodestar::geometry::bvh::ShapeGeometry;
 use lodestar::geometry::{Accel, Ray, TriangleMesh};
 use lodestar::math::{IndependentSampler, Sampler, warp};
+use lodestar::render::process_cpu_seconds;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -167,16 +168,6 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
-/// CPU seconds (user + system) this process has used, from /proc (Linux); None elsewhere.
-fn cpu_seconds() -> Option<f64> {
-    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
-    // Fields after the command name (in parentheses): utime is the 12th, stime the 13th.
-    let rest = &stat[stat.rfind(')')? + 2..];
-    let f: Vec<&str> = rest.split_whitespace().collect();
-    let ticks = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
-    Some(ticks / 100.0) // USER_HZ is 100 on Linux
-}
-
 /// Run `f` over all rays on `threads` threads; returns (Mrays per wall second, Mrays per CPU
 /// second, result count).
 fn trace(rays: &[[f32; 6]], threads: usize, f: impl Fn(&Ray) -> bool + Sync) -> (f64, f64, usize) {
@@ -184,7 +175,7 @@ fn trace(rays: &[[f32; 6]], threads: usize, f: impl Fn(&Ray) -> bool + Sync) -> 
         .num_threads(threads)
         .build()
         .unwrap();
-    let cpu0 = cpu_seconds();
+    let cpu0 = process_cpu_seconds();
     let start = Instant::now();
     let hits: usize = pool.install(|| {
         rays.par_chunks(4096)
@@ -202,7 +193,7 @@ fn trace(rays: &[[f32; 6]], threads: usize, f: impl Fn(&Ray) -> bool + Sync) -> 
             .sum()
     });
     let wall = start.elapsed().as_secs_f64();
-    let cpu = match (cpu0, cpu_seconds()) {
+    let cpu = match (cpu0, process_cpu_seconds()) {
         (Some(a), Some(b)) if b > a => b - a,
         _ => wall * threads as f64,
     };

@@ -181,7 +181,7 @@ impl PathTracer {
                 }
             }
 
-            let Some(sp) = sp else {
+            let Some(sp) = &sp else {
                 // ---- Escaped: lights at infinity ----
                 for &li in &scene.infinite_lights {
                     let light = &scene.lights[li];
@@ -193,10 +193,10 @@ impl PathTracer {
                 }
                 break;
             };
-            let hit = sp.hit;
+            let hit = &sp.hit;
 
             // ---- Index-matched boundary: straight through, still the same segment ----
-            if sp.null {
+            if sp.is_null() {
                 null_crossings += 1;
                 if null_crossings > 256 {
                     break;
@@ -208,7 +208,7 @@ impl PathTracer {
             let wo = -ray.d;
 
             // ---- Emission of a hit emitter ----
-            if let Some(li) = sp.light {
+            if let Some(li) = sp.light() {
                 let light = &scene.lights[li];
                 let le = light.le(hit.ng, wo);
                 if le != Spectrum::ZERO {

@@ -86,6 +86,18 @@ pub fn run_passes(progress: bool, budget: Budget, mut pass: impl FnMut(u64)) -> 
     (passes, start.elapsed().as_secs_f64())
 }
 
+/// CPU seconds (user + system, all threads) this process has used so far, from
+/// `/proc/self/stat` on Linux; `None` elsewhere. Benchmarks report work per CPU-second with it,
+/// which stays meaningful on a machine shared with other jobs.
+pub fn process_cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // Fields after the command name (in parentheses): utime is the 12th, stime the 13th.
+    let rest = &stat[stat.rfind(')')? + 2..];
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let ticks = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
+    Some(ticks / 100.0) // USER_HZ is 100 on Linux
+}
+
 fn progress_bar(progress: bool, budget: Budget) -> ProgressBar {
     if !progress {
         return ProgressBar::with_draw_target(None, ProgressDrawTarget::hidden());

@@ -158,5 +158,5 @@ fn features_and_camera_medium() {
     assert_eq!(scene.camera_medium, None);
     let ray = scene.camera.generate_ray(Vec2::new(12.0, 12.0));
     let sp = scene.intersect(&ray).unwrap();
-    assert!(sp.null && scene.medium_after(&sp, ray.d, None) == Some(0));
+    assert!(sp.is_null() && scene.medium_after(&sp, ray.d, None) == Some(0));
 }

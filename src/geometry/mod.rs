@@ -74,7 +74,7 @@ pub const fn gamma(n: i32) -> f32 {
 
 /// Move `p` off its surface (normal `n`, error bound `p_err`) to the side `w` points to, so a
 /// ray from the result towards `w` cannot hit the surface it starts on.
-#[inline]
+#[inline(always)]
 pub fn offset_origin(p: Vec3, p_err: Vec3, n: Vec3, w: Vec3) -> Vec3 {
     // Distance along n that clears the error box, doubled for the rounding of the addition.
     let d = n.abs().dot(p_err) * 2.0 + f32::MIN_POSITIVE;
@@ -88,7 +88,7 @@ pub fn offset_origin(p: Vec3, p_err: Vec3, n: Vec3, w: Vec3) -> Vec3 {
     )
 }
 
-#[inline]
+#[inline(always)]
 fn next_away(x: f32, dir: f32) -> f32 {
     if dir > 0.0 {
         x.next_up()

@@ -83,11 +83,23 @@ pub struct SurfacePoint<'a> {
     pub hit: Hit,
     pub bsdf: &'a Bsdf,
     pub frame: ShadingFrame,
-    /// Emitting light of the shape, if any.
-    pub light: Option<usize>,
-    pub interface: Option<MediumInterface>,
-    /// Index-matched boundary (no scattering; the ray continues straight through).
-    pub null: bool,
+    /// The shape's light, media and whether it is an index-matched boundary (kept by
+    /// reference: surface points are built for every ray and should stay small).
+    pub info: &'a ShapeInfo,
+}
+
+impl SurfacePoint<'_> {
+    /// Index of the light the shape emits as, if any.
+    #[inline]
+    pub fn light(&self) -> Option<usize> {
+        self.info.light.map(|l| l as usize)
+    }
+
+    /// An index-matched boundary: no scattering, rays continue straight through.
+    #[inline]
+    pub fn is_null(&self) -> bool {
+        self.info.null
+    }
 }
 
 /// One end of a visibility test: a surface point (normal and position error bound) or a point
@@ -138,9 +150,7 @@ impl Scene {
         Some(SurfacePoint {
             bsdf: &self.materials[info.material as usize].bsdf,
             frame: ShadingFrame::new(hit.ns, hit.ng),
-            light: info.light.map(|l| l as usize),
-            interface: info.interface,
-            null: info.null,
+            info,
             hit,
         })
     }
@@ -149,7 +159,7 @@ impl Scene {
     /// the medium before.
     #[inline]
     pub fn medium_after(&self, sp: &SurfacePoint, d: Vec3, current: Option<u32>) -> Option<u32> {
-        match &sp.interface {
+        match &sp.info.interface {
             Some(mi) => mi.crossing(d, sp.hit.ng),
             None => current,
         }
@@ -195,7 +205,7 @@ impl Scene {
                 }
                 return Some(Transmittance { tr, pass });
             };
-            if !sp.null {
+            if !sp.is_null() {
                 return None;
             }
             if let Some(m) = medium {

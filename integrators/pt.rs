@@ -201,7 +201,7 @@ impl PathTracer {
                 if null_crossings > 256 {
                     break;
                 }
-                medium = scene.medium_after(&sp, ray.d, medium);
+                medium = scene.medium_after(sp, ray.d, medium);
                 ray = hit.spawn(ray.d);
                 continue;
             }
@@ -222,8 +222,8 @@ impl PathTracer {
 
             // ---- Next-event estimation (adds a path of depth + 1 segments) ----
             if use_nee && !sp.bsdf.is_delta() {
-                let surface = Scatterer::Surface { sp: &sp, wo };
-                l += beta * self.direct(scene, &Endpoint::surface(&hit), medium, &surface, sampler);
+                let surface = Scatterer::Surface { sp, wo };
+                l += beta * self.direct(scene, &Endpoint::surface(hit), medium, &surface, sampler);
             }
 
             // ---- BSDF sampling: extend the path ----
@@ -238,7 +238,7 @@ impl PathTracer {
             beta *= bs.weight;
             if bs.transmission {
                 eta_scale *= bs.eta * bs.eta;
-                medium = scene.medium_after(&sp, bs.wi, medium);
+                medium = scene.medium_after(sp, bs.wi, medium);
             }
             prev = Scattered {
                 delta: bs.delta,

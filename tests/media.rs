@@ -160,3 +160,57 @@ fn features_and_camera_medium() {
     let sp = scene.intersect(&ray).unwrap();
     assert!(sp.is_null() && scene.medium_after(&sp, ray.d, None) == Some(0));
 }
+
+/// A dielectric boundary around a medium: a glass sphere (ior 1.5) filled with a purely
+/// scattering medium, in a uniform environment, still renders the environment everywhere
+/// (refraction and the medium switch at the boundary conserve energy).
+#[test]
+fn medium_inside_a_dielectric_boundary_conserves_energy() {
+    let toml = r#"
+[camera]
+position = [0, 0, 4]
+look_at = [0, 0, 0]
+fov = 35
+resolution = [24, 24]
+[[material]]
+name = "glass"
+type = "dielectric"
+ior = 1.5
+[[medium]]
+name = "milk"
+sigma_a = [0, 0, 0]
+sigma_s = [2.0, 1.0, 0.5]
+g = 0.6
+[[shape]]
+type = "sphere"
+radius = 1
+material = "glass"
+interior = "milk"
+[[light]]
+type = "environment"
+radiance = [0.5, 0.7, 0.9]
+"#;
+    let scene = util::scene(toml);
+    for (i, strategy) in ["mis", "nee"].iter().enumerate() {
+        let img = util::render(
+            &scene,
+            "pt",
+            63,
+            &[&format!("strategy={strategy}")],
+            64,
+            20 + i as u64,
+            2,
+        )
+        .image;
+        let (mean, se) = util::mean_and_stderr(&img);
+        for (c, expected) in [0.5, 0.7, 0.9].into_iter().enumerate() {
+            let z = (mean[c] - expected) / (se[c] + 1e-6 * expected);
+            assert!(
+                z.abs() < 4.5,
+                "{strategy}: channel {c}: mean {} expected {expected} (se {})",
+                mean[c],
+                se[c]
+            );
+        }
+    }
+}

@@ -2,6 +2,7 @@
 //! constructor. The CLI's `--integrator`, a scene's `[render] integrator`, the EXR metadata
 //! and the tests all go through this table.
 
+pub mod bdpt;
 pub mod pt;
 
 use crate::error::{Error, Result};
@@ -22,11 +23,23 @@ pub struct Entry {
     pub build: fn(&IntegratorParams) -> Result<Box<dyn Integrator>>,
 }
 
-pub static REGISTRY: &[Entry] = &[Entry {
-    name: "pt",
-    summary: "path tracing: next-event estimation and BSDF sampling combined by MIS, Russian roulette",
-    build: pt::build,
-}];
+pub static REGISTRY: &[Entry] = &[
+    Entry {
+        name: "pt",
+        summary: "path tracing: next-event estimation and BSDF sampling combined by MIS, Russian roulette",
+        build: pt::build,
+    },
+    Entry {
+        name: "lt",
+        summary: "light tracing: light subpaths connected to the camera and splatted",
+        build: bdpt::build_lt,
+    },
+    Entry {
+        name: "bdpt",
+        summary: "bidirectional path tracing: all (s, t) techniques, full MIS, media",
+        build: bdpt::build,
+    },
+];
 
 /// Build an integrator by name; an unknown name lists the valid ones, and an option that
 /// the integrator does not read is an error.

@@ -34,6 +34,9 @@ mod rough_dielectric;
 use crate::math::{Frame, Spectrum};
 use glam::{Vec2, Vec3};
 
+/// Lowest Russian-roulette continuation probability (caps the weight boost at 20x).
+pub const MIN_CONTINUATION: f32 = 0.05;
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum TransportMode {
     Radiance,
@@ -158,6 +161,41 @@ impl Bsdf {
                 microfacet::clamp_alpha(*alpha).sqrt().min(1.0)
             }
         }
+    }
+
+    /// Discrete probability with which `sample` picks the delta lobe that takes `wo` to `wi`
+    /// (`wi` being that lobe's direction): 1 for a mirror, F or 1 - F for a smooth dielectric;
+    /// 0 for BSDFs without delta lobes. Path densities of delta vertices use it.
+    pub fn delta_lobe_probability(&self, sf: &ShadingFrame, wo: Vec3, wi: Vec3) -> f32 {
+        match self {
+            Bsdf::Conductor { .. } => 1.0,
+            Bsdf::Dielectric { eta } => {
+                let (wo_l, wi_l) = (sf.frame.to_local(wo), sf.frame.to_local(wi));
+                let (f, _, _) = fresnel::dielectric(wo_l.z, *eta);
+                if wo_l.z * wi_l.z > 0.0 { f } else { 1.0 - f }
+            }
+            _ => 0.0,
+        }
+    }
+
+    /// Russian-roulette continuation probability of a path leaving this surface: the largest
+    /// channel of its reflectance (1 for dielectrics and Fresnel conductors), at least
+    /// [`MIN_CONTINUATION`]. It depends on the surface only, not on the directions or the path,
+    /// so the density of any complete path, roulette included, can be computed from either end.
+    pub fn continuation(&self) -> f32 {
+        let q = match self {
+            Bsdf::Black => return 0.0,
+            Bsdf::Diffuse { albedo } => albedo.max_element(),
+            Bsdf::Conductor { reflectance } => reflectance.max_element(),
+            Bsdf::RoughConductor {
+                fresnel: ConductorFresnel::Constant(r),
+                ..
+            } => r.max_element(),
+            Bsdf::RoughConductor { .. }
+            | Bsdf::Dielectric { .. }
+            | Bsdf::RoughDielectric { .. } => 1.0,
+        };
+        q.clamp(MIN_CONTINUATION, 1.0)
     }
 
     /// Sample `wi` given `wo`. `u_lobe` picks a lobe, `u` the direction. `None` if the sample

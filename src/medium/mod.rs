@@ -72,6 +72,19 @@ impl HomogeneousMedium {
         }
     }
 
+    /// Russian-roulette continuation probability after scattering here: the largest
+    /// single-scattering albedo `sigma_s / sigma_t` over channels (see `Bsdf::continuation`).
+    pub fn continuation(&self) -> f32 {
+        let albedo = Spectrum::select(
+            self.sigma_t.cmpgt(Spectrum::ZERO),
+            self.sigma_s / self.sigma_t,
+            Spectrum::ZERO,
+        );
+        albedo
+            .max_element()
+            .clamp(crate::bsdf::MIN_CONTINUATION, 1.0)
+    }
+
     /// Transmittance over distance `d`.
     #[inline]
     pub fn tr(&self, d: f32) -> Spectrum {

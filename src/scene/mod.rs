@@ -9,7 +9,7 @@ pub use features::SceneFeatures;
 use crate::bsdf::{Bsdf, ShadingFrame};
 use crate::camera::Camera;
 use crate::geometry::bvh::{ShapeGeometry, shadow_segment};
-use crate::geometry::{Accel, Hit, Ray, offset_origin};
+use crate::geometry::{Accel, Hit, Ray, SHADOW_EPS, offset_origin};
 use crate::light::{Light, LightSampler};
 use crate::math::Spectrum;
 use crate::medium::{HomogeneousMedium, MediumInterface};
@@ -135,6 +135,9 @@ impl Endpoint {
 pub struct Transmittance {
     pub tr: Spectrum,
     pub pass: f32,
+    /// (medium, length) of the first and the last medium segment (for path densities).
+    pub first: Option<(u32, f32)>,
+    pub last: Option<(u32, f32)>,
 }
 
 impl Scene {
@@ -179,18 +182,37 @@ impl Scene {
             Some(b) => shadow_segment(a.p, a.err, a.n, b.p, b.err, b.n),
             None => (offset_origin(a.p, a.err, a.n, dir), dir, f32::INFINITY),
         };
+        let mut out = Transmittance {
+            tr: Spectrum::ONE,
+            pass: 1.0,
+            first: None,
+            last: None,
+        };
         if !self.features.media {
             let free = remaining <= 0.0 || self.accel.unoccluded(o, d, remaining);
-            return free.then_some(Transmittance {
-                tr: Spectrum::ONE,
-                pass: 1.0,
-            });
+            return free.then_some(out);
         }
-        let (mut tr, mut pass, mut medium) = (Spectrum::ONE, 1.0f32, medium);
+        let segment = |out: &mut Transmittance, m: u32, len: f32| {
+            let md = &self.media[m as usize];
+            out.tr *= md.tr(len);
+            out.pass *= md.pass_probability(len);
+            if out.first.is_none() {
+                out.first = Some((m, len));
+            }
+            out.last = Some((m, len));
+        };
+        let mut medium = medium;
+        // Occlusion stops short of the target by the shadow epsilon; attenuation and the
+        // free-flight probabilities use the full distance.
+        let slack = if remaining.is_finite() {
+            remaining * SHADOW_EPS / (1.0 - SHADOW_EPS)
+        } else {
+            0.0
+        };
         // A bounded number of index-matched crossings (closed shapes give two each).
         for _ in 0..64 {
             if remaining <= 0.0 {
-                return Some(Transmittance { tr, pass });
+                return Some(out);
             }
             let ray = Ray {
                 o,
@@ -199,19 +221,15 @@ impl Scene {
             };
             let Some(sp) = self.intersect(&ray) else {
                 if let Some(m) = medium {
-                    let m = &self.media[m as usize];
-                    tr *= m.tr(remaining);
-                    pass *= m.pass_probability(remaining);
+                    segment(&mut out, m, remaining + slack);
                 }
-                return Some(Transmittance { tr, pass });
+                return Some(out);
             };
             if !sp.is_null() {
                 return None;
             }
             if let Some(m) = medium {
-                let m = &self.media[m as usize];
-                tr *= m.tr(sp.hit.t);
-                pass *= m.pass_probability(sp.hit.t);
+                segment(&mut out, m, sp.hit.t);
             }
             medium = self.medium_after(&sp, d, medium);
             let next = offset_origin(sp.hit.p, sp.hit.p_err, sp.hit.ng, d);

@@ -1,0 +1,104 @@
+//! The densities with which every BDPT technique produces one complete path, and the MIS
+//! weights built from them.
+//!
+//! A path y_0 (pinhole) .. y_k (emitter) has k segments. Technique s (s light vertices,
+//! t = k + 1 - s camera vertices) samples y_1 .. y_{t-1} from the camera side and y_t .. y_k
+//! from the light side, then connects y_{t-1} with y_t (s = 0: the camera walk hits the
+//! emitter; s = 1 with t >= 2: next-event estimation chooses y_k). With
+//!
+//! * `pc[j]`: density of y_j when generated from y_{j-1} by the camera-side walk,
+//! * `pl[j]`: density of y_j when generated from y_{j+1} by the light-side walk (`pl[k]` is
+//!   the emission origin's density, light choice included),
+//! * `nee_k`: density of y_k chosen by next-event estimation from y_{k-1},
+//!
+//! (all including Russian roulette and free flight), technique s has density
+//! `p(s) = prod_{j<t} pc[j] * prod_{j>=t} pl[j]` (with `nee_k` in place of the light side for
+//! s = 1, t >= 2), or zero when its connection would end at a delta vertex or it cannot hit
+//! the emitter. The balance heuristic weight of s is `p(s) / sum p`, the power heuristic
+//! `p(s)^2 / sum p^2`; `sum p` is also BDPT's `pdf_unguided` for the path (one sample of
+//! each technique per pixel and pass).
+
+use crate::path::MAX_VERTICES;
+
+/// MIS heuristic.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Heuristic {
+    Balance,
+    Power,
+}
+
+/// Per-vertex inputs of [`technique_densities`] for one path of `k` segments.
+pub struct PathTerms {
+    pub k: usize,
+    pub pc: [f64; MAX_VERTICES],
+    pub pl: [f64; MAX_VERTICES],
+    pub nee_k: f64,
+    /// A connection can end at y_j.
+    pub connectible: [bool; MAX_VERTICES],
+    /// The camera walk can hit y_k (an emitter that is not a delta).
+    pub hittable: bool,
+}
+
+impl PathTerms {
+    pub fn new(k: usize) -> PathTerms {
+        PathTerms {
+            k,
+            pc: [0.0; MAX_VERTICES],
+            pl: [0.0; MAX_VERTICES],
+            nee_k: 0.0,
+            connectible: [false; MAX_VERTICES],
+            hittable: false,
+        }
+    }
+
+    /// `out[s]` = density of technique s, for s = 0..=k.
+    pub fn technique_densities(&self, out: &mut [f64; MAX_VERTICES]) {
+        let k = self.k;
+        let mut pre = [1.0f64; MAX_VERTICES];
+        for j in 1..=k {
+            pre[j] = pre[j - 1] * self.pc[j];
+        }
+        let mut suf = [1.0f64; MAX_VERTICES + 1];
+        for j in (1..=k).rev() {
+            suf[j] = suf[j + 1] * self.pl[j];
+        }
+        for (s, out) in out.iter_mut().enumerate().take(k + 1) {
+            let t = k + 1 - s;
+            *out = if s == 0 {
+                if self.hittable { pre[k] } else { 0.0 }
+            } else if s == 1 && t >= 2 {
+                if self.connectible[k - 1] {
+                    pre[k - 1] * self.nee_k
+                } else {
+                    0.0
+                }
+            } else if self.connectible[t - 1] && self.connectible[t] {
+                pre[t - 1] * suf[t]
+            } else {
+                0.0
+            };
+        }
+    }
+
+    /// MIS weight of technique `s` for this path.
+    pub fn weight(&self, s: usize, heuristic: Heuristic) -> f64 {
+        let mut p = [0.0f64; MAX_VERTICES];
+        self.technique_densities(&mut p);
+        let own = p[s];
+        if own == 0.0 || !own.is_finite() {
+            return 0.0;
+        }
+        let mut sum = 0.0;
+        for &q in &p[..=self.k] {
+            sum += match heuristic {
+                Heuristic::Balance => q / own,
+                Heuristic::Power => (q / own) * (q / own),
+            };
+        }
+        if sum.is_finite() && sum > 0.0 {
+            1.0 / sum
+        } else {
+            0.0
+        }
+    }
+}

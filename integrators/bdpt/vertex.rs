@@ -1,0 +1,231 @@
+//! Subpath vertices and the densities between them.
+//!
+//! Densities are in the area measure for surface and light vertices, the volume measure for
+//! medium vertices and the solid-angle measure for lights at infinity (DESIGN.md §3). A delta
+//! event (specular BSDF, point light position, pinhole) contributes its discrete probability
+//! and the Dirac itself is left out: every technique that can produce a path contains the
+//! same Diracs, so they cancel in every ratio. Roulette is not stored in the cached densities;
+//! it is applied when path densities are assembled, because its probability depends on the
+//! direction a vertex is reached from (`strategies.rs`).
+
+use crate::bsdf::{Bsdf, ShadingFrame, TransportMode};
+use crate::math::Spectrum;
+use crate::scene::{Scene, ShapeInfo};
+use glam::Vec3;
+
+/// What a vertex is.
+#[derive(Clone, Copy)]
+pub enum Kind<'a> {
+    /// The pinhole.
+    Camera,
+    /// On a light. For lights at infinity `n` holds the direction from the scene towards the
+    /// light and `p` is unused.
+    Light {
+        light: usize,
+    },
+    Surface {
+        bsdf: &'a Bsdf,
+        frame: ShadingFrame,
+        info: &'a ShapeInfo,
+    },
+    Medium {
+        medium: u32,
+    },
+}
+
+/// Free flight along the edge that reached a vertex, for the densities of both directions:
+/// the product of pass probabilities of its medium segments, and the first and last segment.
+#[derive(Clone, Copy, Default)]
+pub struct Edge {
+    pub pass: f32,
+    /// (medium, length) of the segment next to the walk's previous vertex.
+    pub first: Option<(u32, f32)>,
+    /// (medium, length) of the segment next to this vertex.
+    pub last: Option<(u32, f32)>,
+}
+
+impl Edge {
+    pub const VACUUM: Edge = Edge {
+        pass: 1.0,
+        first: None,
+        last: None,
+    };
+
+    /// Add a segment of length `len` in `medium` (None: vacuum, which adds nothing).
+    pub fn push(&mut self, scene: &Scene, medium: Option<u32>, len: f32) {
+        if let Some(m) = medium {
+            self.pass *= scene.media[m as usize].pass_probability(len);
+            if self.first.is_none() {
+                self.first = Some((m, len));
+            }
+            self.last = Some((m, len));
+        }
+    }
+
+    /// Free-flight factor of generating the vertex at one end of the edge: the pass
+    /// probabilities of all segments, except that a medium vertex is reached by scattering in
+    /// its segment (`mean(sigma_t Tr)` instead of `mean(Tr)`).
+    pub fn factor(&self, scene: &Scene, target_is_medium: bool, target_is_this: bool) -> f32 {
+        if !target_is_medium {
+            return self.pass;
+        }
+        let seg = if target_is_this {
+            self.last
+        } else {
+            self.first
+        };
+        let Some((m, len)) = seg else {
+            return self.pass;
+        };
+        let m = &scene.media[m as usize];
+        let pass = m.pass_probability(len);
+        if pass <= 0.0 {
+            return 0.0;
+        }
+        let tr = m.tr(len);
+        let scatter = (m.sigma_t * tr).dot(Spectrum::splat(1.0 / 3.0));
+        self.pass / pass * scatter
+    }
+}
+
+#[derive(Clone, Copy)]
+pub struct Vertex<'a> {
+    pub kind: Kind<'a>,
+    pub p: Vec3,
+    /// Position error bound (surfaces), for spawning and visibility.
+    pub p_err: Vec3,
+    /// Geometric normal; zero in media, at the pinhole and on point lights.
+    pub n: Vec3,
+    /// Throughput of the subpath up to this vertex (for a light vertex: 1 / its density).
+    pub beta: Spectrum,
+    /// Delta BSDF (or a delta light): no connection can end here.
+    pub delta: bool,
+    /// Density of this vertex from its walk (no roulette), free flight included.
+    pub pdf_fwd: f32,
+    /// Density of the walk's previous vertex when generated from this one in the other
+    /// direction (no roulette); set once the walk has sampled the next vertex.
+    pub pdf_rev: f32,
+    /// Free flight of the edge from the walk's previous vertex.
+    pub edge: Edge,
+    /// Medium of medium vertices; for others the medium the walk arrived through.
+    pub medium: Option<u32>,
+}
+
+impl<'a> Vertex<'a> {
+    pub fn is_medium(&self) -> bool {
+        matches!(self.kind, Kind::Medium { .. })
+    }
+
+    pub fn is_infinite_light(&self, scene: &Scene) -> bool {
+        matches!(self.kind, Kind::Light { light } if scene.lights[light].is_infinite())
+    }
+
+    /// Whether a connection (a deterministic edge) can end here.
+    pub fn connectible(&self, scene: &Scene) -> bool {
+        match self.kind {
+            Kind::Camera | Kind::Medium { .. } => true,
+            Kind::Surface { bsdf, .. } => !bsdf.is_delta() && !bsdf.is_black(),
+            // A light whose emission is a delta in direction cannot be connected to.
+            Kind::Light { light } => {
+                !matches!(scene.lights[light], crate::light::Light::Directional(_))
+                    && !scene.lights[light].is_infinite()
+            }
+        }
+    }
+
+    /// Scattering value towards `next`, having come from `prev`: BSDF times |cos| at the
+    /// shading normal on surfaces (mode as for the walk), the phase function in media.
+    pub fn f(&self, scene: &Scene, prev: Vec3, next: Vec3, mode: TransportMode) -> Spectrum {
+        let (wo, wi) = ((prev - self.p).normalize(), (next - self.p).normalize());
+        match self.kind {
+            Kind::Surface { bsdf, frame, .. } => {
+                bsdf.eval(&frame, wo, wi, mode) * wi.dot(frame.frame.n).abs()
+            }
+            Kind::Medium { medium } => {
+                Spectrum::splat(scene.media[medium as usize].phase.eval(wo, wi))
+            }
+            Kind::Camera | Kind::Light { .. } => Spectrum::ZERO,
+        }
+    }
+
+    /// |cos| between the normal at this vertex and the direction to `other` (1 in media).
+    pub fn abs_cos_to(&self, other: Vec3) -> f32 {
+        if self.n == Vec3::ZERO || self.is_medium() {
+            1.0
+        } else {
+            self.n.dot((other - self.p).normalize()).abs()
+        }
+    }
+}
+
+/// Convert a solid-angle density at `from` towards `to` into `to`'s measure: area (|cos| / d^2)
+/// for surfaces and finite lights, volume (1 / d^2) in media; lights at infinity keep solid angle.
+pub fn to_measure(scene: &Scene, pdf_w: f32, from: Vec3, to: &Vertex) -> f32 {
+    if to.is_infinite_light(scene) {
+        return pdf_w;
+    }
+    let d = to.p - from;
+    let d2 = d.length_squared();
+    if d2 == 0.0 {
+        return 0.0;
+    }
+    let mut pdf = pdf_w / d2;
+    if to.n != Vec3::ZERO && !to.is_medium() {
+        pdf *= to.n.dot(d).abs() / d2.sqrt();
+    }
+    pdf
+}
+
+/// Density (in `next`'s measure; no roulette, no free flight) with which vertex `v`, reached
+/// from `prev`, generates `next`: by the camera's ray sampling, by a light's emission
+/// sampling, by BSDF or phase sampling (a delta surface: its lobe probability, the Dirac left
+/// out). Every density of a path is computed by this one function from vertex positions, in
+/// the walks, at connections and from scratch, so all techniques see the same numbers.
+pub fn pdf(scene: &Scene, v: &Vertex, prev: Option<Vec3>, next: &Vertex) -> f32 {
+    let towards = |q: Vec3| (q - v.p).normalize();
+    // A vertex at infinity is a direction.
+    let to_next = if next.is_infinite_light(scene) {
+        next.n
+    } else {
+        towards(next.p)
+    };
+    match v.kind {
+        Kind::Camera => to_measure(scene, scene.camera.pdf_we(to_next), v.p, next),
+        Kind::Light { light } => {
+            let l = &scene.lights[light];
+            if l.is_infinite() {
+                // Origins on a disk facing the light: an area density projected onto `next`.
+                let (pdf_pos, _) = l.pdf_le(v.n, -v.n);
+                let cos = if next.n == Vec3::ZERO || next.is_medium() {
+                    1.0
+                } else {
+                    next.n.dot(v.n).abs()
+                };
+                pdf_pos * cos
+            } else {
+                let (_, pdf_dir) = l.pdf_le(v.n, to_next);
+                to_measure(scene, pdf_dir, v.p, next)
+            }
+        }
+        Kind::Surface { bsdf, frame, .. } => {
+            let Some(prev) = prev else { return 0.0 };
+            let pdf_w = if bsdf.is_delta() {
+                bsdf.delta_lobe_probability(&frame, towards(prev), to_next)
+            } else {
+                bsdf.pdf(&frame, towards(prev), to_next, TransportMode::Radiance)
+            };
+            to_measure(scene, pdf_w, v.p, next)
+        }
+        Kind::Medium { medium } => {
+            let Some(prev) = prev else { return 0.0 };
+            to_measure(
+                scene,
+                scene.media[medium as usize]
+                    .phase
+                    .eval(towards(prev), to_next),
+                v.p,
+                next,
+            )
+        }
+    }
+}

@@ -1,0 +1,281 @@
+//! Random walks: the camera subpath and the light subpath of one BDPT sample.
+//!
+//! A walk traces segments through index-matched boundaries, samples free flights in media,
+//! records each vertex with its forward density (and, one step later, the reverse density of
+//! its predecessor), scatters by BSDF or phase sampling, and plays Russian roulette with the
+//! local continuation probability (`Bsdf::continuation`) once it has `rr_depth` segments.
+
+use super::vertex::{Edge, Kind, Vertex, pdf};
+use crate::bsdf::TransportMode;
+use crate::geometry::{Ray, offset_origin};
+use crate::math::{Sampler, Spectrum};
+use crate::scene::Scene;
+use glam::{Vec2, Vec3};
+
+/// Russian-roulette continuation probability when leaving `v` (1 before `rr_depth`).
+pub fn continuation(scene: &Scene, v: &Vertex, segments: usize, rr_depth: u32) -> f32 {
+    if (segments as u32) < rr_depth {
+        return 1.0;
+    }
+    match v.kind {
+        Kind::Surface { bsdf, .. } => bsdf.continuation(),
+        Kind::Medium { medium } => scene.media[medium as usize].continuation(),
+        Kind::Camera | Kind::Light { .. } => 1.0,
+    }
+}
+
+/// The camera subpath through raster position `raster`, at most `max_vertices` vertices.
+pub fn camera_subpath<'a>(
+    scene: &'a Scene,
+    raster: Vec2,
+    max_vertices: usize,
+    rr_depth: u32,
+    sampler: &mut impl Sampler,
+    path: &mut Vec<Vertex<'a>>,
+) {
+    path.clear();
+    let cam = &scene.camera;
+    let ray = cam.generate_ray(raster);
+    path.push(Vertex {
+        kind: Kind::Camera,
+        p: cam.position,
+        p_err: Vec3::ZERO,
+        n: Vec3::ZERO,
+        beta: Spectrum::ONE,
+        delta: false,
+        pdf_fwd: 1.0,
+        pdf_rev: 0.0,
+        edge: Edge::VACUUM,
+        medium: scene.camera_medium,
+    });
+    // We cos / pdf_We = 1 for the pinhole.
+    walk(
+        scene,
+        ray,
+        Spectrum::ONE,
+        TransportMode::Radiance,
+        scene.camera_medium,
+        max_vertices,
+        rr_depth,
+        sampler,
+        path,
+    );
+}
+
+/// A light subpath: a light chosen by power, an emitted ray, then the walk.
+pub fn light_subpath<'a>(
+    scene: &'a Scene,
+    max_vertices: usize,
+    rr_depth: u32,
+    sampler: &mut impl Sampler,
+    path: &mut Vec<Vertex<'a>>,
+) {
+    path.clear();
+    let u_light = sampler.next_1d();
+    let (u_pos, u_dir) = (sampler.next_2d(), sampler.next_2d());
+    let Some((light, pmf)) = scene.light_sampler.sample(u_light) else {
+        return;
+    };
+    let l = &scene.lights[light];
+    let Some(e) = l.sample_le(u_pos, u_dir) else {
+        return;
+    };
+    if e.pdf_pos <= 0.0 || e.pdf_dir <= 0.0 || e.le == Spectrum::ZERO {
+        return;
+    }
+    let infinite = l.is_infinite();
+    let origin_pdf = pmf * if infinite { e.pdf_dir } else { e.pdf_pos };
+    path.push(Vertex {
+        kind: Kind::Light { light },
+        p: e.p,
+        p_err: crate::geometry::gamma(8) * e.p.abs(),
+        n: if infinite { -e.dir } else { e.n },
+        // The light vertex's throughput is 1 / its density; emission is applied when leaving.
+        beta: Spectrum::splat(1.0 / origin_pdf),
+        delta: l.is_delta(),
+        pdf_fwd: origin_pdf,
+        pdf_rev: 0.0,
+        edge: Edge::VACUUM,
+        medium: None,
+    });
+    let cos = if e.n == Vec3::ZERO {
+        1.0
+    } else {
+        e.n.dot(e.dir).abs()
+    };
+    let beta = e.le * cos / (pmf * e.pdf_pos * e.pdf_dir);
+    // Light paths start in vacuum (emitters in media are not supported yet).
+    let origin = if e.n == Vec3::ZERO || infinite {
+        e.p
+    } else {
+        offset_origin(e.p, path[0].p_err, e.n, e.dir)
+    };
+    walk(
+        scene,
+        Ray::new(origin, e.dir),
+        beta,
+        TransportMode::Importance,
+        None,
+        max_vertices,
+        rr_depth,
+        sampler,
+        path,
+    );
+}
+
+#[allow(clippy::too_many_arguments)]
+fn walk<'a>(
+    scene: &'a Scene,
+    mut ray: Ray,
+    mut beta: Spectrum,
+    mode: TransportMode,
+    mut medium: Option<u32>,
+    max_vertices: usize,
+    rr_depth: u32,
+    sampler: &mut impl Sampler,
+    path: &mut Vec<Vertex<'a>>,
+) {
+    while path.len() < max_vertices {
+        // ---- Trace one segment: through index-matched boundaries, with free flight ----
+        let mut edge = Edge::VACUUM;
+        let mut crossings = 0;
+        let found = loop {
+            let sp = scene.intersect(&ray);
+            if let Some(m) = medium {
+                let t_hit = sp.as_ref().map_or(f32::INFINITY, |sp| sp.hit.t);
+                let flight = scene.media[m as usize].sample_distance(
+                    t_hit,
+                    sampler.next_1d(),
+                    sampler.next_1d(),
+                );
+                beta *= flight.weight;
+                edge.push(scene, medium, flight.t);
+                if flight.scattered {
+                    let p = ray.at(flight.t);
+                    break Some(Vertex {
+                        kind: Kind::Medium { medium: m },
+                        p,
+                        p_err: Vec3::ZERO,
+                        n: Vec3::ZERO,
+                        beta,
+                        delta: false,
+                        pdf_fwd: 0.0,
+                        pdf_rev: 0.0,
+                        edge,
+                        medium,
+                    });
+                }
+            }
+            let Some(sp) = sp else { break None };
+            if sp.is_null() {
+                crossings += 1;
+                if crossings > 256 {
+                    break None;
+                }
+                medium = scene.medium_after(&sp, ray.d, medium);
+                ray = sp.hit.spawn(ray.d);
+                continue;
+            }
+            let kind = Kind::Surface {
+                bsdf: sp.bsdf,
+                frame: sp.frame,
+                info: sp.info,
+            };
+            break Some(Vertex {
+                kind,
+                p: sp.hit.p,
+                p_err: sp.hit.p_err,
+                n: sp.hit.ng,
+                beta,
+                delta: sp.bsdf.is_delta(),
+                pdf_fwd: 0.0,
+                pdf_rev: 0.0,
+                edge,
+                medium,
+            });
+        };
+        if beta == Spectrum::ZERO {
+            return;
+        }
+        let n = path.len();
+        let prev_p = path[n - 1].p;
+        let mut v = match found {
+            Some(v) => v,
+            // Escaped: a camera path may end on a light at infinity (the s = 0 technique);
+            // its position is one unit along the escape direction from the last vertex.
+            None if mode == TransportMode::Radiance
+                && !scene.infinite_lights.is_empty()
+                && edge.pass > 0.0 =>
+            {
+                let light = scene.infinite_lights[0];
+                Vertex {
+                    kind: Kind::Light { light },
+                    p: prev_p + ray.d,
+                    p_err: Vec3::ZERO,
+                    n: ray.d,
+                    beta,
+                    delta: false,
+                    pdf_fwd: 0.0,
+                    pdf_rev: 0.0,
+                    edge,
+                    medium,
+                }
+            }
+            None => return,
+        };
+        // Densities from positions (the same function every technique uses): of v from the
+        // last vertex, and of the vertex before that from the last vertex given v.
+        let before = (n >= 2).then(|| path[n - 2].p);
+        v.pdf_fwd = pdf(scene, &path[n - 1], before, &v) * edge.factor(scene, v.is_medium(), true);
+        if n >= 2 {
+            let target = path[n - 2];
+            let factor = path[n - 1].edge.factor(scene, target.is_medium(), false);
+            path[n - 2].pdf_rev = pdf(scene, &path[n - 1], Some(v.p), &target) * factor;
+        }
+        let escaped = found.is_none();
+        path.push(v);
+        if escaped || path.len() == max_vertices {
+            return;
+        }
+
+        // ---- Scatter ----
+        let cur = path[path.len() - 1];
+        let wo = -ray.d;
+        let wi = match cur.kind {
+            Kind::Surface { bsdf, frame, .. } => {
+                let (u_lobe, u) = (sampler.next_1d(), sampler.next_2d());
+                let Some(bs) = bsdf.sample(&frame, wo, u_lobe, u, mode) else {
+                    return;
+                };
+                beta *= bs.weight;
+                bs.wi
+            }
+            Kind::Medium { medium: m } => {
+                scene.media[m as usize]
+                    .phase
+                    .sample(wo, sampler.next_2d())
+                    .0
+            }
+            Kind::Camera | Kind::Light { .. } => return,
+        };
+        let n = path.len();
+
+        // ---- Russian roulette ----
+        let q = continuation(scene, &cur, n - 1, rr_depth);
+        if q < 1.0 {
+            if sampler.next_1d() >= q {
+                return;
+            }
+            beta /= q;
+        }
+        ray = match cur.kind {
+            Kind::Surface { info, .. } => {
+                if let Some(mi) = &info.interface {
+                    medium = mi.crossing(wi, cur.n);
+                }
+                Ray::new(offset_origin(cur.p, cur.p_err, cur.n, wi), wi)
+            }
+            _ => Ray::new(cur.p, wi),
+        };
+    }
+}

@@ -11,8 +11,9 @@
 //! | rr_depth  | integer >= 1           | 5       | Russian roulette starts on paths of this many segments (Mitsuba's default) |
 //! | strategy  | `mis` / `bsdf` / `nee` | `mis`   | `bsdf`: emitters only found by BSDF sampling; `nee`: only by next-event estimation (except after delta bounces and for the camera ray) |
 //!
-//! Roulette continues with probability `min(1, max(beta * eta_scale))`, where `eta_scale`
-//! undoes the radiance scaling of refraction (pbrt-v4's rule).
+//! Roulette continues with the local probability of the vertex (`Bsdf::continuation`: its
+//! largest reflectance, 1 for glass; a medium's albedo), so that the density of any path, roulette
+//! included, can be computed from the path alone (`pdf_unguided`, shared with BDPT).
 //!
 //! Media: in a homogeneous medium the path samples a free-flight distance (one RGB channel
 //! chosen uniformly, the channel-averaged density); a scattering point is a path vertex that
@@ -33,6 +34,7 @@ use crate::error::{Error, Result};
 use crate::geometry::{Ray, gamma};
 use crate::math::{IndependentSampler, Sampler, Spectrum, power_heuristic};
 use crate::medium::HenyeyGreenstein;
+use crate::path::{Path, Vertex as PathVertex, VertexKind};
 use crate::render::{
     Budget, Integrator, PixelEstimator, RenderContext, RenderResult, render_pixel_estimator,
 };
@@ -117,15 +119,37 @@ impl PixelEstimator for PathTracer {
 }
 
 impl PathTracer {
+    /// `pdf_unguided` (DESIGN.md §3): the density with which pt produces `path` by either of
+    /// its techniques (the continuation hits the emitter; next-event estimation), summed. The
+    /// techniques are BDPT's s = 0 and s = 1, so the densities come from the same code.
+    pub fn pdf_unguided(&self, scene: &Scene, path: &Path) -> f64 {
+        let s = &self.settings;
+        super::bdpt::technique_densities_of(scene, path, s.max_depth, s.rr_depth)
+            .map_or(0.0, |(p, _)| p[0] + p[1])
+    }
+
     /// Radiance arriving at the pinhole through raster position `raster`.
     pub fn li(&self, scene: &Scene, raster: Vec2, sampler: &mut impl Sampler) -> Spectrum {
+        self.li_recorded(scene, raster, sampler, None)
+    }
+
+    /// As [`Self::li`], handing every complete path it forms to `recorder`.
+    pub fn li_recorded(
+        &self,
+        scene: &Scene,
+        raster: Vec2,
+        sampler: &mut impl Sampler,
+        recorder: Option<&mut dyn PathRecorder>,
+    ) -> Spectrum {
         let s = &self.settings;
         let use_nee = s.strategy != Strategy::Bsdf;
         let mut ray = scene.camera.generate_ray(raster);
+        let mut rec = recorder.map(|sink| {
+            Recording::new(scene, sink, ray.d, scene.camera.pixel_index(raster) as u32)
+        });
         let mut medium = scene.camera_medium;
         let mut l = Spectrum::ZERO;
         let mut beta = Spectrum::ONE;
-        let mut eta_scale = 1.0f32;
         // The last scattering vertex (the pinhole is a delta vertex), for MIS on emitters that
         // the continuation finds, and the free-flight pass probability since then.
         let mut prev = Scattered {
@@ -154,21 +178,43 @@ impl PathTracer {
                     let p = ray.at(flight.t);
                     let wo = -ray.d;
                     let here = Endpoint::point(p);
+                    if let Some(r) = &mut rec {
+                        let v = PathVertex {
+                            p,
+                            n: Vec3::ZERO,
+                            ns: Vec3::ZERO,
+                            kind: VertexKind::Medium {
+                                medium: medium.unwrap_or(0),
+                            },
+                        };
+                        r.arrive(scene, v, pass * flight.pdf);
+                    }
                     if use_nee {
                         let phase = Scatterer::Medium {
                             phase: &m.phase,
                             wo,
                         };
-                        l += beta * self.direct(scene, &here, medium, &phase, sampler);
+                        l += beta
+                            * self.direct(
+                                scene,
+                                &here,
+                                medium,
+                                &phase,
+                                sampler,
+                                rec.as_mut().map(|r| (r, beta)),
+                            );
                     }
                     let (wi, pdf) = m.phase.sample(wo, sampler.next_2d());
+                    if let Some(r) = &mut rec {
+                        r.scatter(pdf, self.roulette_probability(depth, m.continuation()));
+                    }
                     prev = Scattered {
                         delta: false,
                         pdf,
                         p,
                     };
                     pass = 1.0;
-                    if !self.roulette(depth, &mut beta, eta_scale, sampler) {
+                    if !self.roulette(depth, m.continuation(), &mut beta, sampler) {
                         break;
                     }
                     ray = Ray::new(p, wi);
@@ -187,6 +233,19 @@ impl PathTracer {
                     let light = &scene.lights[li];
                     let le = light.le(Vec3::ZERO, ray.d);
                     if le != Spectrum::ZERO {
+                        if let Some(r) = &mut rec {
+                            let at = r.path.vertices().last().map_or(ray.o, |v| v.p) + ray.d;
+                            let v = PathVertex {
+                                p: at,
+                                n: ray.d,
+                                ns: Vec3::ZERO,
+                                kind: VertexKind::Emitter {
+                                    light: li as u32,
+                                    delta: false,
+                                },
+                            };
+                            r.emitter(scene, v, pass, beta * le);
+                        }
                         let pdf_li = || light.pdf_li(prev.p, Vec3::ZERO, Vec3::ZERO, ray.d);
                         l += beta * le * self.emission_weight(scene, li, &prev, pass, pdf_li);
                     }
@@ -212,6 +271,18 @@ impl PathTracer {
                 let light = &scene.lights[li];
                 let le = light.le(hit.ng, wo);
                 if le != Spectrum::ZERO {
+                    if let Some(r) = &mut rec {
+                        let v = PathVertex {
+                            p: hit.p,
+                            n: hit.ng,
+                            ns: Vec3::ZERO,
+                            kind: VertexKind::Emitter {
+                                light: li as u32,
+                                delta: false,
+                            },
+                        };
+                        r.emitter(scene, v, pass, beta * le);
+                    }
                     let pdf_li = || light.pdf_li(prev.p, hit.p, hit.ng, ray.d);
                     l += beta * le * self.emission_weight(scene, li, &prev, pass, pdf_li);
                 }
@@ -219,11 +290,36 @@ impl PathTracer {
             if sp.bsdf.is_black() || depth == s.max_depth {
                 break;
             }
+            if let Some(r) = &mut rec {
+                let kind = VertexKind::Surface {
+                    material: sp.info.material,
+                    shape: sp.info.index,
+                    delta: sp.bsdf.is_delta(),
+                };
+                r.arrive(
+                    scene,
+                    PathVertex {
+                        p: hit.p,
+                        n: hit.ng,
+                        ns: hit.ns,
+                        kind,
+                    },
+                    pass,
+                );
+            }
 
             // ---- Next-event estimation (adds a path of depth + 1 segments) ----
             if use_nee && !sp.bsdf.is_delta() {
                 let surface = Scatterer::Surface { sp, wo };
-                l += beta * self.direct(scene, &Endpoint::surface(hit), medium, &surface, sampler);
+                l += beta
+                    * self.direct(
+                        scene,
+                        &Endpoint::surface(hit),
+                        medium,
+                        &surface,
+                        sampler,
+                        rec.as_mut().map(|r| (r, beta)),
+                    );
             }
 
             // ---- BSDF sampling: extend the path ----
@@ -236,8 +332,13 @@ impl PathTracer {
                 break;
             };
             beta *= bs.weight;
+            if let Some(r) = &mut rec {
+                r.scatter(
+                    bs.pdf,
+                    self.roulette_probability(depth, sp.bsdf.continuation()),
+                );
+            }
             if bs.transmission {
-                eta_scale *= bs.eta * bs.eta;
                 medium = scene.medium_after(sp, bs.wi, medium);
             }
             prev = Scattered {
@@ -246,7 +347,7 @@ impl PathTracer {
                 p: hit.p,
             };
             pass = 1.0;
-            if !self.roulette(depth, &mut beta, eta_scale, sampler) {
+            if !self.roulette(depth, sp.bsdf.continuation(), &mut beta, sampler) {
                 break;
             }
             ray = hit.spawn(bs.wi);
@@ -255,18 +356,28 @@ impl PathTracer {
         l
     }
 
-    /// Russian roulette on paths of `rr_depth` segments or more; false terminates the path.
+    /// Russian roulette on paths of `rr_depth` segments or more, continuing with the local
+    /// probability `q` of the vertex (`Bsdf::continuation`, the medium's albedo); false
+    /// terminates the path. A local rule keeps the path's density computable from the path
+    /// alone (`pdf_unguided`), in both directions, like BDPT's.
+    fn roulette_probability(&self, depth: u32, q: f32) -> f32 {
+        if depth < self.settings.rr_depth {
+            1.0
+        } else {
+            q.min(1.0)
+        }
+    }
+
     fn roulette(
         &self,
         depth: u32,
+        q: f32,
         beta: &mut Spectrum,
-        eta_scale: f32,
         sampler: &mut impl Sampler,
     ) -> bool {
-        if depth < self.settings.rr_depth {
+        if depth < self.settings.rr_depth || q >= 1.0 {
             return true;
         }
-        let q = (*beta * eta_scale).max_element().min(1.0);
         if sampler.next_1d() >= q {
             return false;
         }
@@ -283,6 +394,7 @@ impl PathTracer {
         medium: Option<u32>,
         at: &Scatterer,
         sampler: &mut impl Sampler,
+        rec: Option<(&mut Recording, Spectrum)>,
     ) -> Spectrum {
         let u_light = sampler.next_1d();
         let u = sampler.next_2d();
@@ -310,6 +422,31 @@ impl PathTracer {
             return Spectrum::ZERO;
         };
         let p_light = pmf * ls.pdf;
+        if let Some((r, beta)) = rec {
+            let l = &scene.lights[light_id];
+            let infinite = l.is_infinite();
+            let (p, n) = if infinite {
+                (from.p + ls.wi, ls.wi)
+            } else {
+                (ls.p, ls.n)
+            };
+            let v = PathVertex {
+                p,
+                n,
+                ns: Vec3::ZERO,
+                kind: VertexKind::Emitter {
+                    light: light_id as u32,
+                    delta: l.is_delta(),
+                },
+            };
+            // Next-event density in the light vertex's measure (area; solid angle at infinity).
+            let nee = if ls.delta || infinite {
+                p_light
+            } else {
+                p_light * ls.n.dot(ls.wi).abs() / (ls.dist * ls.dist)
+            };
+            r.record_with(v, nee as f64, beta * f * t.tr * ls.li / p_light, 1);
+        }
         let w = if ls.delta || self.settings.strategy == Strategy::Nee {
             1.0
         } else {
@@ -337,6 +474,93 @@ impl PathTracer {
                 power_heuristic(prev.pdf * pass, scene.light_sampler.pmf(light) * pdf_li())
             }
         }
+    }
+}
+
+/// Receives the complete paths `pt` forms (for guiding, and for tests of `pdf_unguided`).
+pub trait PathRecorder {
+    /// `path` runs from the camera to an emitter, with f(X) (the unweighted estimate times
+    /// `density`) and its pixel; `technique` is 0 when the path's continuation hit the emitter
+    /// and 1 for next-event estimation; `density` is the density pt sampled the path with
+    /// (image-wide, in the area / volume / solid-angle measure of DESIGN.md §3, roulette and
+    /// free flight included).
+    fn record(&mut self, path: &Path, technique: usize, density: f64);
+}
+
+/// The path being traced, with its density so far, while recording.
+struct Recording<'r> {
+    sink: &'r mut dyn PathRecorder,
+    path: Path,
+    /// Density of the vertices so far.
+    density: f64,
+    /// Solid-angle density of the direction leaving the last vertex.
+    pdf_w: f32,
+    /// Roulette continuation applied at the last vertex.
+    q: f32,
+}
+
+impl<'r> Recording<'r> {
+    fn new(scene: &Scene, sink: &'r mut dyn PathRecorder, d: Vec3, pixel: u32) -> Self {
+        let mut path = Path::default();
+        path.push(PathVertex {
+            p: scene.camera.position,
+            n: Vec3::ZERO,
+            ns: Vec3::ZERO,
+            kind: VertexKind::Camera,
+        });
+        path.pixel = pixel;
+        Recording {
+            sink,
+            path,
+            density: 1.0,
+            pdf_w: scene.camera.pdf_we(d),
+            q: 1.0,
+        }
+    }
+
+    /// Density of reaching `v` from the last vertex (free-flight factor `ff`).
+    fn step(&self, scene: &Scene, v: &PathVertex, ff: f32) -> f64 {
+        let last = self.path.vertices().last().map_or(Vec3::ZERO, |l| l.p);
+        let infinite = matches!(v.kind, VertexKind::Emitter { light, .. } if scene.lights[light as usize].is_infinite());
+        let conv = if infinite {
+            1.0
+        } else {
+            let d = v.p - last;
+            let d2 = d.length_squared();
+            if v.n == Vec3::ZERO {
+                1.0 / d2
+            } else {
+                v.n.dot(d).abs() / (d2 * d2.sqrt())
+            }
+        };
+        self.density * (self.pdf_w * conv * ff * self.q) as f64
+    }
+
+    fn arrive(&mut self, scene: &Scene, v: PathVertex, ff: f32) {
+        self.density = self.step(scene, &v, ff);
+        self.path.push(v);
+    }
+
+    fn scatter(&mut self, pdf_w: f32, q: f32) {
+        self.pdf_w = pdf_w;
+        self.q = q;
+    }
+
+    /// Technique 0: the continuation reached emitter vertex `v`; `estimate` is beta * Le.
+    fn emitter(&mut self, scene: &Scene, v: PathVertex, ff: f32, estimate: Spectrum) {
+        let density = self.step(scene, &v, ff);
+        self.record_with(v, density / self.density, estimate, 0);
+    }
+
+    /// Record the path plus `v`, whose density given the path is `factor`.
+    fn record_with(&mut self, v: PathVertex, factor: f64, estimate: Spectrum, technique: usize) {
+        let density = self.density * factor;
+        if !self.path.push(v) {
+            return;
+        }
+        self.path.f = estimate * density as f32;
+        self.sink.record(&self.path, technique, density);
+        self.path.pop();
     }
 }
 

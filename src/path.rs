@@ -3,7 +3,9 @@
 //! A path runs from the camera `x_0` to an emitter `x_k`; it has `k` segments. Vertices are
 //! stored inline (at most [`MAX_VERTICES`]), so building a path never allocates. Directions
 //! and densities are not stored: any technique recomputes them from the positions, normals and
-//! vertex kinds (DESIGN.md §2-3).
+//! vertex kinds (DESIGN.md §2-3); `bdpt::path_terms` does, for `pdf_unguided`. Beyond
+//! DESIGN.md, surface vertices also keep their shading normal and shape (BSDF densities and
+//! medium interfaces need them).
 
 use crate::math::Spectrum;
 use glam::Vec3;
@@ -15,8 +17,12 @@ pub const MAX_VERTICES: usize = 64;
 pub enum VertexKind {
     /// The pinhole.
     Camera,
-    /// A scattering surface; `delta` if its BSDF is specular.
-    Surface { material: u32, delta: bool },
+    /// A scattering surface of scene shape `shape`; `delta` if its BSDF is specular.
+    Surface {
+        material: u32,
+        shape: u32,
+        delta: bool,
+    },
     /// A scattering point inside a medium.
     Medium { medium: u32 },
     /// The emitter the path ends on; `delta` for point lights.
@@ -25,9 +31,14 @@ pub enum VertexKind {
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Vertex {
+    /// Position; for a light at infinity, the previous vertex plus its direction.
     pub p: Vec3,
-    /// Geometric normal; zero for medium vertices, point lights and the camera.
+    /// Geometric normal; zero for medium vertices, point lights and the camera; for a light
+    /// at infinity the direction towards it.
     pub n: Vec3,
+    /// Shading normal of surface vertices (zero otherwise): needed to re-evaluate BSDF
+    /// densities, so a path's density can be recomputed exactly from the path.
+    pub ns: Vec3,
     pub kind: VertexKind,
 }
 
@@ -35,6 +46,7 @@ impl Vertex {
     pub const EMPTY: Vertex = Vertex {
         p: Vec3::ZERO,
         n: Vec3::ZERO,
+        ns: Vec3::ZERO,
         kind: VertexKind::Camera,
     };
 }
@@ -74,6 +86,12 @@ impl Path {
         self.vertices[self.len] = v;
         self.len += 1;
         true
+    }
+
+    /// Remove the last vertex.
+    pub fn pop(&mut self) -> Option<Vertex> {
+        self.len = self.len.checked_sub(1)?;
+        Some(self.vertices[self.len])
     }
 
     pub fn vertices(&self) -> &[Vertex] {

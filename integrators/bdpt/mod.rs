@@ -37,7 +37,7 @@ use crate::film::Film;
 use crate::geometry::gamma;
 use crate::light::Light;
 use crate::math::{IndependentSampler, Sampler, Spectrum, is_finite3};
-use crate::path::MAX_VERTICES;
+use crate::path::{MAX_VERTICES, Path, VertexKind};
 use crate::render::{Budget, Integrator, RenderContext, RenderResult, run_passes};
 use crate::scene::{Endpoint, Scene};
 use glam::{Vec2, Vec3};
@@ -569,10 +569,7 @@ pub fn path_terms(scene: &Scene, y: &[Vertex], rr_depth: u32) -> PathTerms {
             };
             to_next[j] = edge.factor(scene, y[j + 1].is_medium(), true);
             to_prev[j] = edge.factor(scene, y[j].is_medium(), false);
-            medium = tr
-                .last
-                .map(|(m, _)| m)
-                .or(if tr.first.is_none() { start } else { None });
+            medium = tr.end_medium;
         }
     }
     let dir_pdf =
@@ -598,6 +595,144 @@ pub fn path_terms(scene: &Scene, y: &[Vertex], rr_depth: u32) -> PathTerms {
     }
     terms.nee_k = nee_density(scene, &y[k - 1], &y[k], light);
     terms
+}
+
+/// BDPT's `pdf_unguided` (DESIGN.md §3): the sum over its techniques of the density of
+/// producing `path` (one sample of each technique per pixel and pass, image-wide densities);
+/// 0 for paths longer than `max_depth`.
+pub fn pdf_unguided(scene: &Scene, path: &Path, max_depth: u32, rr_depth: u32) -> f64 {
+    technique_densities_of(scene, path, max_depth, rr_depth)
+        .map_or(0.0, |(p, k)| p[..=k].iter().sum())
+}
+
+/// Densities of every BDPT technique (index s) for `path`, and its number of segments k;
+/// `None` if the path does not end on a light or is longer than `max_depth`.
+pub fn technique_densities_of(
+    scene: &Scene,
+    path: &Path,
+    max_depth: u32,
+    rr_depth: u32,
+) -> Option<([f64; MAX_VERTICES], usize)> {
+    let y = from_path(scene, path)?;
+    let k = y.len() - 1;
+    if k > max_depth as usize {
+        return None;
+    }
+    let mut p = [0.0f64; MAX_VERTICES];
+    path_terms(scene, &y, rr_depth).technique_densities(&mut p);
+    Some((p, k))
+}
+
+/// The vertices of a `Path` as BDPT vertices (scene references, shading frames, and the
+/// medium each was reached in, tracked from the camera). `None` if it does not end on a light.
+pub fn from_path<'a>(scene: &'a Scene, path: &Path) -> Option<Vec<Vertex<'a>>> {
+    let vs = path.vertices();
+    if vs.len() < 2 {
+        return None;
+    }
+    let mut out = Vec::with_capacity(vs.len());
+    let mut medium = scene.camera_medium;
+    for (j, pv) in vs.iter().enumerate() {
+        let (kind, delta) = match pv.kind {
+            VertexKind::Camera => (Kind::Camera, false),
+            VertexKind::Surface {
+                material,
+                shape,
+                delta,
+            } => {
+                let info = &scene.shape_info[shape as usize];
+                let ns = if pv.ns == Vec3::ZERO { pv.n } else { pv.ns };
+                let frame = crate::bsdf::ShadingFrame::new(ns, pv.n);
+                (
+                    Kind::Surface {
+                        bsdf: &scene.materials[material as usize].bsdf,
+                        frame,
+                        info,
+                    },
+                    delta,
+                )
+            }
+            VertexKind::Medium { medium } => (Kind::Medium { medium }, false),
+            VertexKind::Emitter { light, delta } => (
+                Kind::Light {
+                    light: light as usize,
+                },
+                delta,
+            ),
+        };
+        let v = Vertex {
+            kind,
+            p: pv.p,
+            p_err: gamma(8) * pv.p.abs(),
+            n: pv.n,
+            beta: Spectrum::ONE,
+            delta,
+            pdf_fwd: 0.0,
+            pdf_rev: 0.0,
+            edge: Edge::VACUUM,
+            medium,
+        };
+        // The medium the next segment ends in (index-matched crossings resolved by tracing).
+        if j + 1 < vs.len() && scene.features.media {
+            let next = &vs[j + 1];
+            let infinite = matches!(next.kind, VertexKind::Emitter { light, .. } if scene.lights[light as usize].is_infinite());
+            let d = if infinite {
+                next.n
+            } else {
+                (next.p - pv.p).normalize()
+            };
+            let start = if j == 0 {
+                medium
+            } else {
+                medium_towards(scene, &v, d)
+            };
+            let end = Endpoint {
+                p: next.p,
+                n: next.n,
+                err: gamma(8) * next.p.abs(),
+            };
+            medium = scene
+                .transmittance(&endpoint(&v), (!infinite).then_some(&end), d, start)
+                .map_or(start, |tr| tr.end_medium);
+        }
+        out.push(v);
+    }
+    matches!(out.last()?.kind, Kind::Light { .. }).then_some(out)
+}
+
+/// BDPT vertices as a `Path` (camera first) with contribution f(X) and pixel.
+pub fn to_path(vertices: &[Vertex], f: Spectrum, pixel: u32) -> Path {
+    let mut path = Path::default();
+    for v in vertices {
+        let (kind, ns) = match v.kind {
+            Kind::Camera => (VertexKind::Camera, Vec3::ZERO),
+            Kind::Surface { bsdf, frame, info } => (
+                VertexKind::Surface {
+                    material: info.material,
+                    shape: info.index,
+                    delta: bsdf.is_delta(),
+                },
+                frame.frame.n,
+            ),
+            Kind::Medium { medium } => (VertexKind::Medium { medium }, Vec3::ZERO),
+            Kind::Light { light } => (
+                VertexKind::Emitter {
+                    light: light as u32,
+                    delta: v.delta,
+                },
+                Vec3::ZERO,
+            ),
+        };
+        path.push(crate::path::Vertex {
+            p: v.p,
+            n: v.n,
+            ns,
+            kind,
+        });
+    }
+    path.f = f;
+    path.pixel = pixel;
+    path
 }
 
 /// Emitted radiance (area lights; intensity for point and spot lights) towards `w`.

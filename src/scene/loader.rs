@@ -492,6 +492,7 @@ impl Builder<'_> {
             };
             shapes.push(geometry);
             shape_info.push(ShapeInfo {
+                index: shape_id,
                 name: label,
                 material,
                 light,

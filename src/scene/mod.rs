@@ -28,6 +28,8 @@ pub struct Material {
 pub struct ShapeInfo {
     /// Display name (`name` key, or "shape #i (type)").
     pub name: String,
+    /// Index of the shape in the scene.
+    pub index: u32,
     pub material: u32,
     /// Index into `Scene::lights` when the shape emits.
     pub light: Option<u32>,
@@ -138,6 +140,8 @@ pub struct Transmittance {
     /// (medium, length) of the first and the last medium segment (for path densities).
     pub first: Option<(u32, f32)>,
     pub last: Option<(u32, f32)>,
+    /// Medium at the far end (after any index-matched crossings).
+    pub end_medium: Option<u32>,
 }
 
 impl Scene {
@@ -187,6 +191,7 @@ impl Scene {
             pass: 1.0,
             first: None,
             last: None,
+            end_medium: medium,
         };
         if !self.features.media {
             let free = remaining <= 0.0 || self.accel.unoccluded(o, d, remaining);
@@ -212,6 +217,7 @@ impl Scene {
         // A bounded number of index-matched crossings (closed shapes give two each).
         for _ in 0..64 {
             if remaining <= 0.0 {
+                out.end_medium = medium;
                 return Some(out);
             }
             let ray = Ray {
@@ -223,6 +229,7 @@ impl Scene {
                 if let Some(m) = medium {
                     segment(&mut out, m, remaining + slack);
                 }
+                out.end_medium = medium;
                 return Some(out);
             };
             if !sp.is_null() {

@@ -1,0 +1,66 @@
+//! BDPT cost per iteration (a camera and a light subpath per pixel) in CPU-seconds, on the
+//! Cornell box at 512 x 512 with the tall box a mirror and the glass sphere, at most 10
+//! segments: the configuration SmallVCM's BPT is timed on (about 1.3 CPU-seconds per
+//! iteration on these machines). Also pt and lt on the same scene for scale.
+//!
+//! ```text
+//! cargo bench --bench bdpt_iteration
+//! ```
+//! Environment: `LODESTAR_BENCH_ITERATIONS` (default 2).
+
+use lodestar::integrators::{self, IntegratorParams, Options};
+use lodestar::render::{Budget, RenderContext, process_cpu_seconds};
+use lodestar::scene::{CORNELL_BOX_TOML, loader};
+
+fn main() {
+    let iterations: u64 = std::env::var("LODESTAR_BENCH_ITERATIONS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(2);
+    let text = CORNELL_BOX_TOML
+        .replace("resolution = [256, 256]", "resolution = [512, 512]")
+        .replace("name = \"black\"\ntype = \"black\"", "name = \"black\"\ntype = \"black\"\n\n[[material]]\nname = \"mirror\"\ntype = \"conductor\"\nreflectance = [0.95, 0.95, 0.95]")
+        .replace("type = \"cube\"\nmaterial = \"white\"", "type = \"cube\"\nmaterial = \"mirror\"");
+    let scene = loader::load_str(&text, "cornell-mirror-512", None).unwrap();
+    assert!(scene.features.specular_surfaces);
+    let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    println!(
+        "{:<6} {:>7} {:>11} {:>16} {:>12}",
+        "integr", "threads", "iterations", "CPU-s/iteration", "wall-s/iter"
+    );
+    for name in ["bdpt", "pt", "lt"] {
+        for threads in [1, cores] {
+            let mut integrator = integrators::build(
+                name,
+                &IntegratorParams {
+                    max_depth: 10,
+                    options: Options::default(),
+                },
+            )
+            .unwrap();
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            let ctx = RenderContext {
+                scene: &scene,
+                seed: 1,
+                progress: false,
+            };
+            let cpu0 = process_cpu_seconds();
+            let r = pool.install(|| integrator.render(&ctx, Budget::Spp(iterations)));
+            let cpu = match (cpu0, process_cpu_seconds()) {
+                (Some(a), Some(b)) if b > a => b - a,
+                _ => r.seconds * threads as f64,
+            };
+            println!(
+                "{:<6} {:>7} {:>11} {:>16.3} {:>12.3}",
+                name,
+                threads,
+                iterations,
+                cpu / iterations as f64,
+                r.seconds / iterations as f64
+            );
+        }
+    }
+}

@@ -169,11 +169,8 @@ pub fn srgb_encode(x: f32) -> f32 {
     }
 }
 
-/// Write through a temporary file in the target's directory, then rename it into place.
-pub fn atomic_write(
-    path: &Path,
-    write: impl FnOnce(&Path) -> std::result::Result<(), String>,
-) -> Result<()> {
+/// The directory `path` will be written into; an error if it does not exist.
+pub fn output_dir(path: &Path) -> Result<&Path> {
     let dir = path
         .parent()
         .filter(|d| !d.as_os_str().is_empty())
@@ -185,6 +182,15 @@ pub fn atomic_write(
             dir.display()
         )));
     }
+    Ok(dir)
+}
+
+/// Write through a temporary file in the target's directory, then rename it into place.
+pub fn atomic_write(
+    path: &Path,
+    write: impl FnOnce(&Path) -> std::result::Result<(), String>,
+) -> Result<()> {
+    let dir = output_dir(path)?;
     let name = path
         .file_name()
         .ok_or_else(|| Error::new(format!("{}: not a file name", path.display())))?;

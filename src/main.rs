@@ -173,17 +173,7 @@ fn render(args: RenderArgs) -> Result<()> {
     });
     // Fail before a long render, not after it.
     for path in std::iter::once(&output).chain(&args.png) {
-        let dir = path
-            .parent()
-            .filter(|d| !d.as_os_str().is_empty())
-            .unwrap_or(Path::new("."));
-        if !dir.is_dir() {
-            return Err(Error::new(format!(
-                "{}: cannot write: directory '{}' does not exist",
-                path.display(),
-                dir.display()
-            )));
-        }
+        lodestar::film::output_dir(path)?;
     }
     let scene = load_scene(args.scene.as_deref())?;
     let name = args

@@ -575,10 +575,15 @@ impl Builder<'_> {
         })
     }
 
-    /// Reject keys that do not belong to this type, at the line of the first one present.
-    fn only(&self, what: &str, present: &[(&str, Option<std::ops::Range<usize>>)]) -> Result<()> {
-        for (key, span) in present {
-            if let Some(span) = span {
+    /// Reject keys that are present but not `allowed` for this type, at the line of the first.
+    fn only(
+        &self,
+        what: &str,
+        keys: &[(&str, Option<std::ops::Range<usize>>)],
+        allowed: &[&str],
+    ) -> Result<()> {
+        for (key, span) in keys {
+            if let (Some(span), false) = (span, allowed.contains(key)) {
                 return self.src.err(
                     span.clone(),
                     format!("{what} does not take the key '{key}'"),
@@ -620,12 +625,7 @@ impl Builder<'_> {
                 return src.err(d.kind.span(), format!("unknown light type '{other}' (expected point, spot, environment, directional or sun)"));
             }
         };
-        let extra: Vec<(&str, Option<std::ops::Range<usize>>)> = keys
-            .iter()
-            .filter(|(k, _)| !allowed.contains(k))
-            .cloned()
-            .collect();
-        self.only(&what, &extra)?;
+        self.only(&what, &keys, allowed)?;
         let position = || {
             src.finite3(
                 src.required(&d.position, span.clone(), "position", &what)?,
@@ -838,12 +838,7 @@ impl Builder<'_> {
                 return src.err(d.kind.span(), format!("unknown material type '{other}' (expected diffuse, conductor, dielectric, roughconductor, roughdielectric or black)"));
             }
         };
-        let extra: Vec<(&str, Option<std::ops::Range<usize>>)> = keys
-            .iter()
-            .filter(|(k, _)| !allowed.contains(k))
-            .cloned()
-            .collect();
-        self.only(&what, &extra)?;
+        self.only(&what, &keys, allowed)?;
         let ior = || -> Result<f32> {
             let ior = src.required(&d.ior, span.clone(), "ior", &what)?;
             let eta = *ior.get_ref();
@@ -983,11 +978,7 @@ impl Builder<'_> {
                     ),
                 ),
             };
-        let extra: Vec<(&str, Option<std::ops::Range<usize>>)> = keys
-            .into_iter()
-            .filter(|(k, _)| !allowed.contains(k))
-            .collect();
-        self.only(&what, &extra)?;
+        self.only(&what, &keys, allowed)?;
         let radius = |default: f32| -> Result<f32> {
             match &d.radius {
                 None => Ok(default),

@@ -82,3 +82,19 @@ pub fn mean_and_stderr(img: &Image) -> (DVec3, DVec3) {
         / (n - 1.0);
     (mean, (var / n).map(f64::sqrt))
 }
+
+/// Assert that `img` is the constant `expected` (per channel): a z-test of the image mean at
+/// |z| < 4.5 (false-failure rate below 1e-5), with the f32 resolution of the image (1e-6
+/// relative) added to the standard error so that noiseless images compare too.
+pub fn assert_constant_image(img: &Image, expected: [f64; 3], label: &str) {
+    let (mean, se) = mean_and_stderr(img);
+    for (c, e) in expected.into_iter().enumerate() {
+        let z = (mean[c] - e) / (se[c] + 1e-6 * e.abs());
+        assert!(
+            z.abs() < 4.5,
+            "{label}: channel {c}: mean {} expected {e} (se {}, z {z})",
+            mean[c],
+            se[c]
+        );
+    }
+}

@@ -153,3 +153,18 @@ fn lt_agrees_with_pt_on_the_diffuse_box() {
         pt.mean()
     );
 }
+
+/// lt in a medium: the fog box has no specular surface, so light tracing converges there too.
+#[test]
+fn lt_agrees_with_pt_in_the_fog_box() {
+    let scene = scene_file("cornell-fog.toml", 24);
+    let pt = util::render(&scene, "pt", 6, &[], 256, 7, 2).image;
+    let lt = util::render(&scene, "lt", 6, &[], 256, 8, 2).image;
+    let z = util::z_same_mean(&lt, &pt);
+    assert!(
+        z.abs().max_element() < 4.5,
+        "lt vs pt z = {z}, means {} vs {}",
+        lt.mean(),
+        pt.mean()
+    );
+}

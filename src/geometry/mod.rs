@@ -88,15 +88,19 @@ pub fn offset_origin(p: Vec3, p_err: Vec3, n: Vec3, w: Vec3) -> Vec3 {
     )
 }
 
+/// `x` moved by one ulp in the direction of `dir` (unchanged for `dir == 0`). `x` is finite
+/// and the offset was just added to it, so the NaN and infinity cases of `f32::next_up` are
+/// not needed: the bit pattern steps by one (away from zero if `x` and `dir` share a sign).
 #[inline(always)]
 fn next_away(x: f32, dir: f32) -> f32 {
-    if dir > 0.0 {
-        x.next_up()
-    } else if dir < 0.0 {
-        x.next_down()
-    } else {
-        x
+    if dir == 0.0 {
+        return x;
     }
+    if x == 0.0 {
+        return f32::from_bits(1).copysign(dir);
+    }
+    let bits = x.to_bits();
+    f32::from_bits(if (x > 0.0) == (dir > 0.0) { bits + 1 } else { bits - 1 })
 }
 
 /// Shadow-ray tolerance: a fraction of the segment left out at its far end.
@@ -106,5 +110,19 @@ impl Hit {
     /// Ray leaving this hit in direction `d` (unit).
     pub fn spawn(&self, d: Vec3) -> Ray {
         Ray::new(offset_origin(self.p, self.p_err, self.ng, d), d)
+    }
+}
+
+#[cfg(test)]
+mod next_away_tests {
+    use super::next_away;
+
+    #[test]
+    fn matches_next_up_and_down() {
+        for x in [1.0f32, -1.0, 3.5e-3, -7.25e6, 1e-30, -1e-30, 0.0, -0.0, f32::MIN_POSITIVE] {
+            assert_eq!(next_away(x, 1.0).to_bits(), x.next_up().to_bits(), "{x} up");
+            assert_eq!(next_away(x, -1.0).to_bits(), x.next_down().to_bits(), "{x} down");
+            assert_eq!(next_away(x, 0.0).to_bits(), x.to_bits());
+        }
     }
 }

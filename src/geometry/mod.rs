@@ -100,7 +100,11 @@ fn next_away(x: f32, dir: f32) -> f32 {
         return f32::from_bits(1).copysign(dir);
     }
     let bits = x.to_bits();
-    f32::from_bits(if (x > 0.0) == (dir > 0.0) { bits + 1 } else { bits - 1 })
+    f32::from_bits(if (x > 0.0) == (dir > 0.0) {
+        bits + 1
+    } else {
+        bits - 1
+    })
 }
 
 /// Shadow-ray tolerance: a fraction of the segment left out at its far end.
@@ -119,9 +123,23 @@ mod next_away_tests {
 
     #[test]
     fn matches_next_up_and_down() {
-        for x in [1.0f32, -1.0, 3.5e-3, -7.25e6, 1e-30, -1e-30, 0.0, -0.0, f32::MIN_POSITIVE] {
+        for x in [
+            1.0f32,
+            -1.0,
+            3.5e-3,
+            -7.25e6,
+            1e-30,
+            -1e-30,
+            0.0,
+            -0.0,
+            f32::MIN_POSITIVE,
+        ] {
             assert_eq!(next_away(x, 1.0).to_bits(), x.next_up().to_bits(), "{x} up");
-            assert_eq!(next_away(x, -1.0).to_bits(), x.next_down().to_bits(), "{x} down");
+            assert_eq!(
+                next_away(x, -1.0).to_bits(),
+                x.next_down().to_bits(),
+                "{x} down"
+            );
             assert_eq!(next_away(x, 0.0).to_bits(), x.to_bits());
         }
     }

@@ -9,7 +9,7 @@
 //! Environment: `LODESTAR_BENCH_ITERATIONS` (default 2).
 
 use lodestar::integrators::{self, IntegratorParams, Options};
-use lodestar::render::{Budget, RenderContext, process_cpu_seconds};
+use lodestar::render::Budget;
 use lodestar::scene::{CORNELL_BOX_TOML, loader};
 
 fn main() {
@@ -30,29 +30,21 @@ fn main() {
     );
     for name in ["bdpt", "pt", "lt"] {
         for threads in [1, cores] {
-            let mut integrator = integrators::build(
+            let params = IntegratorParams {
+                max_depth: 10,
+                options: Options::default(),
+            };
+            let run = integrators::render_named(
+                &scene,
                 name,
-                &IntegratorParams {
-                    max_depth: 10,
-                    options: Options::default(),
-                },
+                &params,
+                Budget::Spp(iterations),
+                1,
+                threads,
+                false,
             )
             .unwrap();
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .unwrap();
-            let ctx = RenderContext {
-                scene: &scene,
-                seed: 1,
-                progress: false,
-            };
-            let cpu0 = process_cpu_seconds();
-            let r = pool.install(|| integrator.render(&ctx, Budget::Spp(iterations)));
-            let cpu = match (cpu0, process_cpu_seconds()) {
-                (Some(a), Some(b)) if b > a => b - a,
-                _ => r.seconds * threads as f64,
-            };
+            let (r, cpu) = (run.result, run.cpu_seconds);
             println!(
                 "{:<6} {:>7} {:>11} {:>16.3} {:>12.3}",
                 name,

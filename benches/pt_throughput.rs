@@ -9,7 +9,7 @@
 //! Environment: `LODESTAR_BENCH_SPP` (default 16).
 
 use lodestar::integrators::{self, IntegratorParams, Options};
-use lodestar::render::{Budget, RenderContext, process_cpu_seconds};
+use lodestar::render::Budget;
 use lodestar::scene::{Scene, loader};
 
 fn main() {
@@ -39,29 +39,21 @@ fn main() {
         for threads in [1, cores] {
             let (mut rates, mut walls) = (Vec::new(), Vec::new());
             for run in 0..3 {
-                let mut pt = integrators::build(
+                let params = IntegratorParams {
+                    max_depth: 8,
+                    options: Options::default(),
+                };
+                let run = integrators::render_named(
+                    scene,
                     "pt",
-                    &IntegratorParams {
-                        max_depth: 8,
-                        options: Options::default(),
-                    },
+                    &params,
+                    Budget::Spp(spp),
+                    run,
+                    threads,
+                    false,
                 )
                 .unwrap();
-                let pool = rayon::ThreadPoolBuilder::new()
-                    .num_threads(threads)
-                    .build()
-                    .unwrap();
-                let ctx = RenderContext {
-                    scene,
-                    seed: run,
-                    progress: false,
-                };
-                let cpu0 = process_cpu_seconds();
-                let r = pool.install(|| pt.render(&ctx, Budget::Spp(spp)));
-                let cpu = match (cpu0, process_cpu_seconds()) {
-                    (Some(a), Some(b)) if b > a => b - a,
-                    _ => r.seconds * threads as f64,
-                };
+                let (r, cpu) = (run.result, run.cpu_seconds);
                 walls.push(r.seconds);
                 rates.push(pixels * spp as f64 / cpu);
             }

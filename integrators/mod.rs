@@ -128,3 +128,48 @@ impl Options {
         }
     }
 }
+
+/// The outcome of [`render_named`].
+pub struct NamedRender {
+    pub result: crate::render::RenderResult,
+    /// Process CPU seconds the render took (wall seconds times threads where unavailable).
+    pub cpu_seconds: f64,
+    /// Registry name and settings of the integrator, for metadata.
+    pub name: &'static str,
+    pub settings: String,
+}
+
+/// Build integrator `name` and render `scene` with it on a pool of `threads` threads: what
+/// the command line, the benchmarks and the tests all do.
+pub fn render_named(
+    scene: &crate::scene::Scene,
+    name: &str,
+    params: &IntegratorParams,
+    budget: crate::render::Budget,
+    seed: u64,
+    threads: usize,
+    progress: bool,
+) -> Result<NamedRender> {
+    let mut integrator = build(name, params)?;
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(threads)
+        .build()
+        .map_err(|e| Error::new(format!("cannot start {threads} threads: {e}")))?;
+    let ctx = crate::render::RenderContext {
+        scene,
+        seed,
+        progress,
+    };
+    let cpu0 = crate::render::process_cpu_seconds();
+    let result = pool.install(|| integrator.render(&ctx, budget));
+    let cpu_seconds = match (cpu0, crate::render::process_cpu_seconds()) {
+        (Some(a), Some(b)) if b > a => b - a,
+        _ => result.seconds * threads as f64,
+    };
+    Ok(NamedRender {
+        result,
+        cpu_seconds,
+        name: integrator.name(),
+        settings: integrator.settings(),
+    })
+}

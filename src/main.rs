@@ -5,7 +5,7 @@ use lodestar::error::{Error, Result};
 use lodestar::film::Image;
 use lodestar::integrators::{self, IntegratorParams, Options};
 use lodestar::path::MAX_VERTICES;
-use lodestar::render::{Budget, RenderContext};
+use lodestar::render::Budget;
 use lodestar::scene::{Scene, loader};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -184,7 +184,6 @@ fn render(args: RenderArgs) -> Result<()> {
         max_depth: args.max_depth.unwrap_or(scene.render.max_depth),
         options: Options::parse(&args.options)?,
     };
-    let mut integrator = integrators::build(&name, &params)?;
     let budget = match (args.spp, args.time) {
         (_, Some(t)) => Budget::Seconds(t),
         (Some(n), None) => Budget::Spp(n),
@@ -193,20 +192,20 @@ fn render(args: RenderArgs) -> Result<()> {
     let threads = args
         .threads
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .map_err(|e| Error::new(format!("cannot start {threads} threads: {e}")))?;
-    let ctx = RenderContext {
-        scene: &scene,
-        seed: args.seed,
-        progress: !args.quiet,
-    };
-    let result = pool.install(|| integrator.render(&ctx, budget));
+    let run = integrators::render_named(
+        &scene,
+        &name,
+        &params,
+        budget,
+        args.seed,
+        threads,
+        !args.quiet,
+    )?;
+    let result = &run.result;
 
     let mut meta = vec![
-        ("integrator".to_string(), integrator.name().to_string()),
-        ("settings".to_string(), integrator.settings()),
+        ("integrator".to_string(), run.name.to_string()),
+        ("settings".to_string(), run.settings.clone()),
         ("scene".to_string(), scene.source.clone()),
         ("spp".to_string(), result.spp.to_string()),
         ("passes".to_string(), result.passes.to_string()),
@@ -225,7 +224,7 @@ fn render(args: RenderArgs) -> Result<()> {
         scene.source,
         result.spp,
         result.seconds,
-        integrator.name(),
+        run.name,
         threads,
         output.display(),
         m.x,

@@ -6,7 +6,7 @@
 use glam::DVec3;
 use lodestar::film::Image;
 use lodestar::integrators::{self, IntegratorParams, Options};
-use lodestar::render::{Budget, RenderContext, RenderResult};
+use lodestar::render::{Budget, RenderResult};
 use lodestar::scene::{Scene, loader};
 
 pub fn scene(toml: &str) -> Scene {
@@ -34,18 +34,10 @@ pub fn render(
 ) -> RenderResult {
     let options =
         Options::parse(&options.iter().map(|s| s.to_string()).collect::<Vec<_>>()).unwrap();
-    let mut integrator =
-        integrators::build(name, &IntegratorParams { max_depth, options }).unwrap();
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .unwrap();
-    let ctx = RenderContext {
-        scene,
-        seed,
-        progress: false,
-    };
-    pool.install(|| integrator.render(&ctx, Budget::Spp(spp)))
+    let params = IntegratorParams { max_depth, options };
+    integrators::render_named(scene, name, &params, Budget::Spp(spp), seed, threads, false)
+        .unwrap()
+        .result
 }
 
 /// Per-channel z statistic of "A and B have the same expectation", from pixel differences

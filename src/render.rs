@@ -116,35 +116,55 @@ fn progress_bar(progress: bool, budget: Budget) -> ProgressBar {
     bar
 }
 
-/// Render with a per-pixel estimator: each pass adds one jittered sample to every pixel.
-pub fn render_pixel_estimator<E: PixelEstimator>(
+/// One row's work for [`render_rows`]: a value for each pixel sample, plus splats (pixel
+/// index, value) to any pixel (light tracing, BDPT's t = 1), merged after the pass in row order.
+pub trait RowTracer {
+    fn sample(&mut self, raster: Vec2, sampler: &mut IndependentSampler) -> Spectrum;
+    /// Splats made since the last call (none by default).
+    fn take_splats(&mut self) -> Vec<(u32, Spectrum)> {
+        Vec::new()
+    }
+}
+
+/// The pass driver of sample-per-pixel integrators: each pass gives every pixel one jittered
+/// sample from its own stream (seed, pass, pixel), one task per row with a tracer from
+/// `new_tracer`; splats are added in row order and scaled by 1 / passes (one light path per
+/// pixel and pass), so the image does not depend on the number of threads.
+pub fn render_rows<T: RowTracer>(
     ctx: &RenderContext,
     budget: Budget,
-    estimator: &E,
+    new_tracer: impl Fn() -> T + Sync,
 ) -> RenderResult {
-    let scene = ctx.scene;
-    let UVec2 { x: w, y: h } = scene.camera.resolution;
+    let UVec2 { x: w, y: h } = ctx.scene.camera.resolution;
     let mut film = Film::new(w, h);
     let invalid = AtomicU64::new(0);
     let (passes, seconds) = run_passes(ctx.progress, budget, |pass| {
-        film.par_rows_mut().enumerate().for_each(|(y, row)| {
-            for (x, acc) in row.iter_mut().enumerate() {
-                let index = y as u64 * w as u64 + x as u64;
-                let mut sampler = IndependentSampler::new(ctx.seed, pass, index);
-                let jitter = crate::math::Sampler::next_2d(&mut sampler);
-                let raster = Vec2::new(x as f32, y as f32) + jitter;
-                let l = estimator.estimate(scene, raster, &mut sampler);
-                if is_finite3(l) && l.min_element() >= 0.0 {
-                    *acc += l.as_dvec3();
-                } else {
-                    invalid.fetch_add(1, Ordering::Relaxed);
+        let splats: Vec<Vec<(u32, Spectrum)>> = film
+            .par_rows_mut()
+            .enumerate()
+            .map(|(y, row)| {
+                let mut tracer = new_tracer();
+                for (x, acc) in row.iter_mut().enumerate() {
+                    let index = y as u64 * w as u64 + x as u64;
+                    let mut sampler = IndependentSampler::new(ctx.seed, pass, index);
+                    let jitter = crate::math::Sampler::next_2d(&mut sampler);
+                    let l = tracer.sample(Vec2::new(x as f32, y as f32) + jitter, &mut sampler);
+                    if is_finite3(l) && l.min_element() >= 0.0 {
+                        *acc += l.as_dvec3();
+                    } else {
+                        invalid.fetch_add(1, Ordering::Relaxed);
+                    }
                 }
-            }
-        });
+                tracer.take_splats()
+            })
+            .collect();
+        for row in &splats {
+            film.add_splats(row);
+        }
     });
-    let image = film.to_image(passes as f64, 0.0);
+    let splat_scale = if passes > 0 { 1.0 / passes as f64 } else { 0.0 };
     RenderResult {
-        image,
+        image: film.to_image(passes as f64, splat_scale),
         spp: passes,
         passes,
         seconds,
@@ -153,6 +173,21 @@ pub fn render_pixel_estimator<E: PixelEstimator>(
             invalid.load(Ordering::Relaxed).to_string(),
         )],
     }
+}
+
+/// Render with a per-pixel estimator (no splats).
+pub fn render_pixel_estimator<E: PixelEstimator>(
+    ctx: &RenderContext,
+    budget: Budget,
+    estimator: &E,
+) -> RenderResult {
+    struct Rows<'a, E>(&'a E, &'a Scene);
+    impl<E: PixelEstimator> RowTracer for Rows<'_, E> {
+        fn sample(&mut self, raster: Vec2, sampler: &mut IndependentSampler) -> Spectrum {
+            self.0.estimate(self.1, raster, sampler)
+        }
+    }
+    render_rows(ctx, budget, || Rows(estimator, ctx.scene))
 }
 
 #[cfg(test)]

@@ -29,28 +29,17 @@
 mod common;
 
 use common::chi2::{self, LobeDomain};
-use common::{Failures, close};
+use common::{Failures, MODES, close, dir_around, ng_generic};
 use glam::Vec3;
 use lodestar::bsdf::microfacet::MIN_ALPHA;
 use lodestar::bsdf::{Bsdf, ConductorFresnel, ShadingFrame, TransportMode, fresnel};
-use lodestar::math::{Frame, Sampler, warp};
+use lodestar::math::{Sampler, warp};
 use statrs::distribution::{ContinuousCDF, Normal};
 
-const MODES: [TransportMode; 2] = [TransportMode::Radiance, TransportMode::Importance];
 const ALPHAS: [f32; 5] = [0.05, 0.1, 0.3, 0.7, 1.0];
 /// Samples per white-furnace estimate.
 const N_FURNACE: usize = 200_000;
 const ETA: f32 = 1.5;
-
-fn ng_generic() -> Vec3 {
-    Vec3::new(0.3, -0.5, 0.8).normalize()
-}
-
-fn dir_around(n: Vec3, theta_deg: f32, phi_deg: f32) -> Vec3 {
-    let (t, p) = (theta_deg.to_radians(), phi_deg.to_radians());
-    let local = Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos());
-    Frame::from_z(n).to_world(local).normalize()
-}
 
 fn random_dir(s: &mut dyn Sampler) -> Vec3 {
     warp::square_to_uniform_sphere(s.next_2d())

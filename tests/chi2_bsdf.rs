@@ -13,31 +13,16 @@
 mod common;
 
 use common::chi2::{self, SphereDomain};
-use common::{Failures, close, close3};
+use common::{Failures, MODES, close, close3, dir_around, ng_generic};
 use glam::{DVec2, Vec2, Vec3};
 use lodestar::bsdf::{Bsdf, ShadingFrame, TransportMode, fresnel};
-use lodestar::math::{Frame, Sampler, warp};
+use lodestar::math::{Sampler, warp};
 use std::f32::consts::PI;
 
 /// Samples per chi-square case over directions.
 const N_DIR: usize = 1_000_000;
 /// Samples per (BSDF, wo) configuration of the delta BSDFs.
 const N_DELTA: usize = 200_000;
-
-const MODES: [TransportMode; 2] = [TransportMode::Radiance, TransportMode::Importance];
-
-/// A generic (not axis-aligned) geometric normal, so the frames are exercised.
-fn ng_generic() -> Vec3 {
-    Vec3::new(0.3, -0.5, 0.8).normalize()
-}
-
-/// Direction at polar angle `theta` (degrees, from `n`) and azimuth `phi` (degrees) in the
-/// frame of `n`.
-fn dir_around(n: Vec3, theta_deg: f32, phi_deg: f32) -> Vec3 {
-    let (t, p) = (theta_deg.to_radians(), phi_deg.to_radians());
-    let local = Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos());
-    Frame::from_z(n).to_world(local).normalize()
-}
 
 /// A shading normal tilted by `deg` degrees from `ng` (towards the frame's s axis).
 fn tilted(ng: Vec3, deg: f32) -> Vec3 {

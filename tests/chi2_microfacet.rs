@@ -24,30 +24,16 @@
 mod common;
 
 use common::chi2::{self, LobeDomain};
-use common::{Failures, close, close3};
+use common::{Failures, MODES, close, close3, dir_around, ng_generic};
 use glam::Vec3;
 use lodestar::bsdf::microfacet::Ggx;
 use lodestar::bsdf::{Bsdf, ConductorFresnel, ShadingFrame, TransportMode, fresnel};
-use lodestar::math::{Frame, Sampler};
+use lodestar::math::Sampler;
 
 /// Samples per chi-square case.
 const N: usize = 150_000;
 
 const ALPHAS: [f32; 5] = [0.05, 0.1, 0.3, 0.7, 1.0];
-
-const MODES: [TransportMode; 2] = [TransportMode::Radiance, TransportMode::Importance];
-
-/// A generic (not axis-aligned) geometric normal, so the frames are exercised.
-fn ng_generic() -> Vec3 {
-    Vec3::new(0.3, -0.5, 0.8).normalize()
-}
-
-/// Direction at polar angle `theta` (degrees, from `n`) and azimuth `phi` (degrees).
-fn dir_around(n: Vec3, theta_deg: f32, phi_deg: f32) -> Vec3 {
-    let (t, p) = (theta_deg.to_radians(), phi_deg.to_radians());
-    let local = Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos());
-    Frame::from_z(n).to_world(local).normalize()
-}
 
 fn reflect(wo: Vec3, n: Vec3) -> Vec3 {
     2.0 * wo.dot(n) * n - wo

@@ -33,16 +33,13 @@ pub use vertex::{Kind, Vertex};
 use super::IntegratorParams;
 use crate::bsdf::TransportMode;
 use crate::error::{Error, Result};
-use crate::film::Film;
 use crate::geometry::gamma;
 use crate::light::Light;
-use crate::math::{IndependentSampler, Sampler, Spectrum, is_finite3};
+use crate::math::{IndependentSampler, Sampler, Spectrum};
 use crate::path::{MAX_VERTICES, Path, VertexKind};
-use crate::render::{Budget, Integrator, RenderContext, RenderResult, run_passes};
+use crate::render::{Budget, Integrator, RenderContext, RenderResult, RowTracer, render_rows};
 use crate::scene::{Endpoint, Scene};
 use glam::{Vec2, Vec3};
-use rayon::prelude::*;
-use std::sync::atomic::{AtomicU64, Ordering};
 use vertex::{Edge, pdf, to_measure};
 use walk::continuation;
 
@@ -112,47 +109,17 @@ impl Integrator for Bdpt {
     }
 
     fn render(&mut self, ctx: &RenderContext, budget: Budget) -> RenderResult {
-        let scene = ctx.scene;
-        let res = scene.camera.resolution;
-        let mut film = Film::new(res.x, res.y);
-        let invalid = AtomicU64::new(0);
-        let (passes, seconds) = run_passes(ctx.progress, budget, |pass| {
-            // One task per row; its splats are merged in row order, so the image does not
-            // depend on the number of threads.
-            let splats: Vec<Vec<(u32, Spectrum)>> = film
-                .par_rows_mut()
-                .enumerate()
-                .map(|(y, row)| {
-                    let mut tracer = Tracer::new(scene, &self.settings);
-                    for (x, acc) in row.iter_mut().enumerate() {
-                        let index = y as u64 * res.x as u64 + x as u64;
-                        let mut sampler = IndependentSampler::new(ctx.seed, pass, index);
-                        let raster = Vec2::new(x as f32, y as f32) + sampler.next_2d();
-                        let l = tracer.sample(raster, &mut sampler);
-                        if is_finite3(l) && l.min_element() >= 0.0 {
-                            *acc += l.as_dvec3();
-                        } else {
-                            invalid.fetch_add(1, Ordering::Relaxed);
-                        }
-                    }
-                    tracer.splats
-                })
-                .collect();
-            for row in &splats {
-                film.add_splats(row);
-            }
-        });
-        let inv = if passes > 0 { 1.0 / passes as f64 } else { 0.0 };
-        RenderResult {
-            image: film.to_image(passes as f64, inv),
-            spp: passes,
-            passes,
-            seconds,
-            stats: vec![(
-                "invalid_samples".to_string(),
-                invalid.load(Ordering::Relaxed).to_string(),
-            )],
-        }
+        render_rows(ctx, budget, || Tracer::new(ctx.scene, &self.settings))
+    }
+}
+
+impl<'a> RowTracer for Tracer<'a> {
+    fn sample(&mut self, raster: Vec2, sampler: &mut IndependentSampler) -> Spectrum {
+        Tracer::sample(self, raster, sampler)
+    }
+
+    fn take_splats(&mut self) -> Vec<(u32, Spectrum)> {
+        std::mem::take(&mut self.splats)
     }
 }
 
@@ -300,20 +267,14 @@ impl<'a> Tracer<'a> {
             return Spectrum::ZERO;
         };
         let infinite = l.is_infinite();
-        let lv = Vertex {
-            kind: Kind::Light { light },
-            // A light at infinity sits one unit along its direction (see the walk).
-            p: if infinite { y.p + ls.wi } else { ls.p },
-            p_err: gamma(8) * ls.p.abs(),
-            n: if infinite { ls.wi } else { ls.n },
-            beta: Spectrum::ONE,
-            delta: l.is_delta(),
-            pdf_fwd: 0.0,
-            pdf_rev: 0.0,
-            edge: Edge::VACUUM,
-            medium: None,
-        };
+        // A light at infinity sits one unit along its direction (see the walk).
         let target = if infinite { y.p + ls.wi } else { ls.p };
+        let n = if infinite { ls.wi } else { ls.n };
+        let lv = Vertex {
+            p_err: gamma(8) * ls.p.abs(),
+            delta: l.is_delta(),
+            ..Vertex::new(Kind::Light { light }, target, n)
+        };
         let f = y.f(scene, c[t - 2].p, target, TransportMode::Radiance);
         if f == Spectrum::ZERO {
             return Spectrum::ZERO;
@@ -332,10 +293,7 @@ impl<'a> Tracer<'a> {
             return Spectrum::ZERO;
         };
         let contribution = y.beta * f * ls.li * tr.tr / (pmf * ls.pdf);
-        let mut edge = Edge::VACUUM;
-        edge.pass = tr.pass;
-        edge.first = tr.first;
-        edge.last = tr.last;
+        let edge = Edge::along(&tr);
         let w = self.weight_connection(c, std::slice::from_ref(&lv), &edge, Some(pmf * ls.pdf));
         contribution * w as f32
     }
@@ -373,8 +331,8 @@ impl<'a> Tracer<'a> {
         let w = if self.settings.light_tracing {
             1.0
         } else {
-            let mut edge = Edge::VACUUM;
-            (edge.pass, edge.first, edge.last) = (tr.pass, tr.last, tr.first);
+            // Traced from the light vertex towards the camera: reverse it to run camera first.
+            let edge = Edge::along(&tr).reversed();
             self.weight_connection(std::slice::from_ref(cam), lp, &edge, None)
         };
         Some((cs.raster, contribution * w as f32))
@@ -404,8 +362,7 @@ impl<'a> Tracer<'a> {
             return Spectrum::ZERO;
         };
         let contribution = a.beta * fa * fb * b.beta * tr.tr / d2;
-        let mut edge = Edge::VACUUM;
-        (edge.pass, edge.first, edge.last) = (tr.pass, tr.first, tr.last);
+        let edge = Edge::along(&tr);
         contribution * self.weight_connection(c, lp, &edge, None) as f32
     }
 
@@ -562,11 +519,7 @@ pub fn path_terms(scene: &Scene, y: &[Vertex], rr_depth: u32) -> PathTerms {
             let Some(tr) = scene.transmittance(&endpoint(&y[j]), end.as_ref(), d, start) else {
                 return terms;
             };
-            let edge = Edge {
-                pass: tr.pass,
-                first: tr.first,
-                last: tr.last,
-            };
+            let edge = Edge::along(&tr);
             to_next[j] = edge.factor(scene, y[j + 1].is_medium(), true);
             to_prev[j] = edge.factor(scene, y[j].is_medium(), false);
             medium = tr.end_medium;
@@ -661,16 +614,10 @@ pub fn from_path<'a>(scene: &'a Scene, path: &Path) -> Option<Vec<Vertex<'a>>> {
             ),
         };
         let v = Vertex {
-            kind,
-            p: pv.p,
             p_err: gamma(8) * pv.p.abs(),
-            n: pv.n,
-            beta: Spectrum::ONE,
             delta,
-            pdf_fwd: 0.0,
-            pdf_rev: 0.0,
-            edge: Edge::VACUUM,
             medium,
+            ..Vertex::new(kind, pv.p, pv.n)
         };
         // The medium the next segment ends in (index-matched crossings resolved by tracing).
         if j + 1 < vs.len() && scene.features.media {

@@ -51,6 +51,24 @@ impl Edge {
         last: None,
     };
 
+    /// The free flight of a traced connection.
+    pub fn along(tr: &crate::scene::Transmittance) -> Edge {
+        Edge {
+            pass: tr.pass,
+            first: tr.first,
+            last: tr.last,
+        }
+    }
+
+    /// The same edge seen from its other end.
+    pub fn reversed(self) -> Edge {
+        Edge {
+            first: self.last,
+            last: self.first,
+            ..self
+        }
+    }
+
     /// Add a segment of length `len` in `medium` (None: vacuum, which adds nothing).
     pub fn push(&mut self, scene: &Scene, medium: Option<u32>, len: f32) {
         if let Some(m) = medium {
@@ -112,6 +130,23 @@ pub struct Vertex<'a> {
 }
 
 impl<'a> Vertex<'a> {
+    /// A vertex with neutral bookkeeping (throughput 1, no densities yet, no position error,
+    /// a vacuum edge, not delta); walks set what they know with struct-update syntax.
+    pub fn new(kind: Kind<'a>, p: Vec3, n: Vec3) -> Vertex<'a> {
+        Vertex {
+            kind,
+            p,
+            p_err: Vec3::ZERO,
+            n,
+            beta: Spectrum::ONE,
+            delta: false,
+            pdf_fwd: 0.0,
+            pdf_rev: 0.0,
+            edge: Edge::VACUUM,
+            medium: None,
+        }
+    }
+
     pub fn is_medium(&self) -> bool {
         matches!(self.kind, Kind::Medium { .. })
     }

@@ -37,16 +37,9 @@ pub fn camera_subpath<'a>(
     let cam = &scene.camera;
     let ray = cam.generate_ray(raster);
     path.push(Vertex {
-        kind: Kind::Camera,
-        p: cam.position,
-        p_err: Vec3::ZERO,
-        n: Vec3::ZERO,
-        beta: Spectrum::ONE,
-        delta: false,
         pdf_fwd: 1.0,
-        pdf_rev: 0.0,
-        edge: Edge::VACUUM,
         medium: scene.camera_medium,
+        ..Vertex::new(Kind::Camera, cam.position, Vec3::ZERO)
     });
     // We cos / pdf_We = 1 for the pinhole.
     walk(
@@ -86,17 +79,15 @@ pub fn light_subpath<'a>(
     let infinite = l.is_infinite();
     let origin_pdf = pmf * if infinite { e.pdf_dir } else { e.pdf_pos };
     path.push(Vertex {
-        kind: Kind::Light { light },
-        p: e.p,
-        p_err: crate::geometry::gamma(8) * e.p.abs(),
-        n: if infinite { -e.dir } else { e.n },
-        // The light vertex's throughput is 1 / its density; emission is applied when leaving.
+        p_err: crate::geometry::gamma(8) * e.p.abs(), // The light vertex's throughput is 1 / its density; emission is applied when leaving.
         beta: Spectrum::splat(1.0 / origin_pdf),
         delta: l.is_delta(),
         pdf_fwd: origin_pdf,
-        pdf_rev: 0.0,
-        edge: Edge::VACUUM,
-        medium: None,
+        ..Vertex::new(
+            Kind::Light { light },
+            e.p,
+            if infinite { -e.dir } else { e.n },
+        )
     });
     let cos = if e.n == Vec3::ZERO {
         1.0
@@ -153,16 +144,10 @@ fn walk<'a>(
                 if flight.scattered {
                     let p = ray.at(flight.t);
                     break Some(Vertex {
-                        kind: Kind::Medium { medium: m },
-                        p,
-                        p_err: Vec3::ZERO,
-                        n: Vec3::ZERO,
                         beta,
-                        delta: false,
-                        pdf_fwd: 0.0,
-                        pdf_rev: 0.0,
                         edge,
                         medium,
+                        ..Vertex::new(Kind::Medium { medium: m }, p, Vec3::ZERO)
                     });
                 }
             }
@@ -182,16 +167,12 @@ fn walk<'a>(
                 info: sp.info,
             };
             break Some(Vertex {
-                kind,
-                p: sp.hit.p,
                 p_err: sp.hit.p_err,
-                n: sp.hit.ng,
                 beta,
                 delta: sp.bsdf.is_delta(),
-                pdf_fwd: 0.0,
-                pdf_rev: 0.0,
                 edge,
                 medium,
+                ..Vertex::new(kind, sp.hit.p, sp.hit.ng)
             });
         };
         if beta == Spectrum::ZERO {
@@ -209,16 +190,10 @@ fn walk<'a>(
             {
                 let light = scene.infinite_lights[0];
                 Vertex {
-                    kind: Kind::Light { light },
-                    p: prev_p + ray.d,
-                    p_err: Vec3::ZERO,
-                    n: ray.d,
                     beta,
-                    delta: false,
-                    pdf_fwd: 0.0,
-                    pdf_rev: 0.0,
                     edge,
                     medium,
+                    ..Vertex::new(Kind::Light { light }, prev_p + ray.d, ray.d)
                 }
             }
             None => return,

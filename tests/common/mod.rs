@@ -53,3 +53,22 @@ impl Failures {
         self.assert_at_most(0, what);
     }
 }
+
+/// Both transport modes, for BSDF tests.
+pub const MODES: [lodestar::bsdf::TransportMode; 2] = [
+    lodestar::bsdf::TransportMode::Radiance,
+    lodestar::bsdf::TransportMode::Importance,
+];
+
+/// A generic (not axis-aligned) geometric normal, so the frames are exercised.
+pub fn ng_generic() -> Vec3 {
+    Vec3::new(0.3, -0.5, 0.8).normalize()
+}
+
+/// Direction at polar angle `theta` (degrees, from `n`) and azimuth `phi` (degrees) in the
+/// frame of `n`.
+pub fn dir_around(n: Vec3, theta_deg: f32, phi_deg: f32) -> Vec3 {
+    let (t, p) = (theta_deg.to_radians(), phi_deg.to_radians());
+    let local = Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos());
+    lodestar::math::Frame::from_z(n).to_world(local).normalize()
+}

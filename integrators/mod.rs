@@ -3,6 +3,7 @@
 //! and the tests all go through this table.
 
 pub mod bdpt;
+pub mod guided;
 pub mod pt;
 
 use crate::error::{Error, Result};
@@ -33,6 +34,11 @@ pub static REGISTRY: &[Entry] = &[
         name: "lt",
         summary: "light tracing: light subpaths connected to the camera and splatted",
         build: bdpt::build_lt,
+    },
+    Entry {
+        name: "guided-pt",
+        summary: "selective guided sampling with complete guide paths (Reibold et al. 2018), mixed with pt",
+        build: guided::build,
     },
     Entry {
         name: "bdpt",
@@ -160,8 +166,10 @@ pub fn render_named(
         seed,
         progress,
     };
+    integrator.prepare(scene)?;
     let cpu0 = crate::render::process_cpu_seconds();
     let result = pool.install(|| integrator.render(&ctx, budget));
+    integrator.finish(scene)?;
     let cpu_seconds = match (cpu0, crate::render::process_cpu_seconds()) {
         (Some(a), Some(b)) if b > a => b - a,
         _ => result.seconds * threads as f64,

@@ -121,11 +121,12 @@ impl PixelEstimator for PathTracer {
 impl PathTracer {
     /// `pdf_unguided` (DESIGN.md §3): the density with which pt produces `path` by either of
     /// its techniques (the continuation hits the emitter; next-event estimation), summed. The
-    /// techniques are BDPT's s = 0 and s = 1, so the densities come from the same code.
+    /// techniques are BDPT's s = 0 and (for paths of two or more segments) s = 1, so the
+    /// densities come from the same code; a one-segment path is only found by the camera ray.
     pub fn pdf_unguided(&self, scene: &Scene, path: &Path) -> f64 {
         let s = &self.settings;
         super::bdpt::technique_densities_of(scene, path, s.max_depth, s.rr_depth)
-            .map_or(0.0, |(p, _)| p[0] + p[1])
+            .map_or(0.0, |(p, k)| p[0] + if k >= 2 { p[1] } else { 0.0 })
     }
 
     /// Radiance arriving at the pinhole through raster position `raster`.
@@ -190,6 +191,7 @@ impl PathTracer {
                         r.arrive(scene, v, pass * flight.pdf);
                     }
                     if use_nee {
+                        let q_here = self.roulette_probability(depth, m.continuation());
                         let phase = Scatterer::Medium {
                             phase: &m.phase,
                             wo,
@@ -201,7 +203,7 @@ impl PathTracer {
                                 medium,
                                 &phase,
                                 sampler,
-                                rec.as_mut().map(|r| (r, beta)),
+                                rec.as_mut().map(|r| (r, beta, q_here)),
                             );
                     }
                     let (wi, pdf) = m.phase.sample(wo, sampler.next_2d());
@@ -244,7 +246,13 @@ impl PathTracer {
                                     delta: false,
                                 },
                             };
-                            r.emitter(scene, v, pass, beta * le);
+                            let nee = if prev.delta {
+                                0.0
+                            } else {
+                                scene.light_sampler.pmf(li) as f64
+                                    * light.pdf_li(prev.p, Vec3::ZERO, Vec3::ZERO, ray.d) as f64
+                            };
+                            r.emitter(scene, v, pass, nee, beta * le);
                         }
                         let pdf_li = || light.pdf_li(prev.p, Vec3::ZERO, Vec3::ZERO, ray.d);
                         l += beta * le * self.emission_weight(scene, li, &prev, pass, pdf_li);
@@ -281,7 +289,16 @@ impl PathTracer {
                                 delta: false,
                             },
                         };
-                        r.emitter(scene, v, pass, beta * le);
+                        let nee = if prev.delta {
+                            0.0
+                        } else {
+                            let d2 = (hit.p - prev.p).length_squared() as f64;
+                            scene.light_sampler.pmf(li) as f64
+                                * light.pdf_li(prev.p, hit.p, hit.ng, ray.d) as f64
+                                * hit.ng.dot(ray.d).abs() as f64
+                                / d2
+                        };
+                        r.emitter(scene, v, pass, nee, beta * le);
                     }
                     let pdf_li = || light.pdf_li(prev.p, hit.p, hit.ng, ray.d);
                     l += beta * le * self.emission_weight(scene, li, &prev, pass, pdf_li);
@@ -310,6 +327,7 @@ impl PathTracer {
 
             // ---- Next-event estimation (adds a path of depth + 1 segments) ----
             if use_nee && !sp.bsdf.is_delta() {
+                let q_here = self.roulette_probability(depth, sp.bsdf.continuation());
                 let surface = Scatterer::Surface { sp, wo };
                 l += beta
                     * self.direct(
@@ -318,7 +336,7 @@ impl PathTracer {
                         medium,
                         &surface,
                         sampler,
-                        rec.as_mut().map(|r| (r, beta)),
+                        rec.as_mut().map(|r| (r, beta, q_here)),
                     );
             }
 
@@ -394,7 +412,7 @@ impl PathTracer {
         medium: Option<u32>,
         at: &Scatterer,
         sampler: &mut impl Sampler,
-        rec: Option<(&mut Recording, Spectrum)>,
+        rec: Option<(&mut Recording, Spectrum, f32)>,
     ) -> Spectrum {
         let u_light = sampler.next_1d();
         let u = sampler.next_2d();
@@ -422,7 +440,7 @@ impl PathTracer {
             return Spectrum::ZERO;
         };
         let p_light = pmf * ls.pdf;
-        if let Some((r, beta)) = rec {
+        if let Some((r, beta, q_here)) = rec {
             let l = &scene.lights[light_id];
             let infinite = l.is_infinite();
             let (p, n) = if infinite {
@@ -445,7 +463,22 @@ impl PathTracer {
             } else {
                 p_light * ls.n.dot(ls.wi).abs() / (ls.dist * ls.dist)
             };
-            r.record_with(v, nee as f64, beta * f * t.tr * ls.li / p_light, 1);
+            // The continuation's density of reaching the same light vertex (roulette and free
+            // flight included); delta lights cannot be hit.
+            let by_continuation = if ls.delta {
+                0.0
+            } else if infinite {
+                pdf_scatter * t.pass * q_here
+            } else {
+                pdf_scatter * t.pass * q_here * ls.n.dot(ls.wi).abs() / (ls.dist * ls.dist)
+            };
+            r.record_with(
+                v,
+                nee as f64,
+                by_continuation as f64,
+                beta * f * t.tr * ls.li / p_light,
+                1,
+            );
         }
         let w = if ls.delta || self.settings.strategy == Strategy::Nee {
             1.0
@@ -483,8 +516,9 @@ pub trait PathRecorder {
     /// `density`) and its pixel; `technique` is 0 when the path's continuation hit the emitter
     /// and 1 for next-event estimation; `density` is the density pt sampled the path with
     /// (image-wide, in the area / volume / solid-angle measure of DESIGN.md §3, roulette and
-    /// free flight included).
-    fn record(&mut self, path: &Path, technique: usize, density: f64);
+    /// free flight included); `other` is the density of pt's other technique for the same
+    /// path, so `density + other` is `pdf_unguided(path)`.
+    fn record(&mut self, path: &Path, technique: usize, density: f64, other: f64);
 }
 
 /// The path being traced, with its density so far, while recording.
@@ -546,20 +580,31 @@ impl<'r> Recording<'r> {
         self.q = q;
     }
 
-    /// Technique 0: the continuation reached emitter vertex `v`; `estimate` is beta * Le.
-    fn emitter(&mut self, scene: &Scene, v: PathVertex, ff: f32, estimate: Spectrum) {
+    /// Technique 0: the continuation reached emitter vertex `v`; `estimate` is beta * Le;
+    /// `nee` is the density with which next-event estimation would choose `v` (0 after a
+    /// delta vertex).
+    fn emitter(&mut self, scene: &Scene, v: PathVertex, ff: f32, nee: f64, estimate: Spectrum) {
         let density = self.step(scene, &v, ff);
-        self.record_with(v, density / self.density, estimate, 0);
+        self.record_with(v, density / self.density, nee, estimate, 0);
     }
 
-    /// Record the path plus `v`, whose density given the path is `factor`.
-    fn record_with(&mut self, v: PathVertex, factor: f64, estimate: Spectrum, technique: usize) {
+    /// Record the path plus `v`, whose density given the path is `factor` (`other`: the other
+    /// technique's).
+    fn record_with(
+        &mut self,
+        v: PathVertex,
+        factor: f64,
+        other: f64,
+        estimate: Spectrum,
+        technique: usize,
+    ) {
         let density = self.density * factor;
         if !self.path.push(v) {
             return;
         }
         self.path.f = estimate * density as f32;
-        self.sink.record(&self.path, technique, density);
+        self.sink
+            .record(&self.path, technique, density, self.density * other);
         self.path.pop();
     }
 }

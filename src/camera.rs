@@ -73,6 +73,12 @@ impl Camera {
         (self.resolution.x * self.resolution.y) as usize
     }
 
+    /// Height of one pixel on the image plane at distance 1: a pixel's footprint at distance
+    /// `d` along the view is about `d * pixel_angle()` (the guider sizes its kernels with it).
+    pub fn pixel_angle(&self) -> f32 {
+        2.0 * self.half_h / self.resolution.y as f32
+    }
+
     /// Area of the image plane at distance 1.
     pub fn image_area(&self) -> f32 {
         4.0 * self.half_w * self.half_h

@@ -52,6 +52,14 @@ pub trait Integrator: Send {
     /// Settings in a human-readable form, for logs and EXR metadata.
     fn settings(&self) -> String;
     fn render(&mut self, ctx: &RenderContext, budget: Budget) -> RenderResult;
+    /// Called before `render` with the scene: load and check inputs (default: nothing).
+    fn prepare(&mut self, _scene: &Scene) -> crate::error::Result<()> {
+        Ok(())
+    }
+    /// Called after `render`: write outputs other than the image (default: nothing).
+    fn finish(&mut self, _scene: &Scene) -> crate::error::Result<()> {
+        Ok(())
+    }
 }
 
 /// Estimates the measurement of one pixel from one sample stream (a camera path).

@@ -49,7 +49,7 @@ struct Collect<'a> {
 }
 
 impl PathRecorder for Collect<'_> {
-    fn record(&mut self, path: &Path, technique: usize, density: f64) {
+    fn record(&mut self, path: &Path, technique: usize, density: f64, other: f64) {
         let s = &self.pt.settings;
         let (p, k) = bdpt::technique_densities_of(self.scene, path, s.max_depth, s.rr_depth)
             .expect("a complete path within max_depth");
@@ -71,8 +71,22 @@ impl PathRecorder for Collect<'_> {
                 p[technique]
             ));
         }
+        // pt's techniques are s = 0 and next-event estimation (s = 1 with t >= 2); s = 1 on a
+        // one-segment path would be light tracing, which pt does not do.
+        let nee = if k >= 2 { p[1] } else { 0.0 };
         let total = self.pt.pdf_unguided(self.scene, path);
-        assert!((total - (p[0] + p[1])).abs() <= 1e-9 * total);
+        assert!((total - (p[0] + nee)).abs() <= 1e-9 * total);
+        // The other technique's density, reported by the sampler, is the other term.
+        let expected_other = if technique == 0 { nee } else { p[0] };
+        let rel_other = (expected_other - other).abs() / total.max(1e-300);
+        if rel_other > 1e-3 {
+            self.loose += 1;
+        }
+        if rel_other > 5e-2 && self.failures.len() < 5 {
+            self.failures.push(format!(
+                "k {k}, technique {technique}: other technique reported {other}, pdf_unguided term {expected_other}"
+            ));
+        }
     }
 }
 

@@ -24,7 +24,7 @@
 //! ```
 
 mod strategies;
-mod vertex;
+pub mod vertex;
 mod walk;
 
 pub use strategies::{Heuristic, PathTerms};
@@ -729,7 +729,7 @@ fn nee_density(scene: &Scene, from: &Vertex, v: &Vertex, light: usize) -> f64 {
 
 /// A vertex as the end of a visibility test: surfaces and lights on surfaces are offset along
 /// their normal; medium points, the pinhole and point lights are not.
-fn endpoint(v: &Vertex) -> Endpoint {
+pub fn endpoint(v: &Vertex) -> Endpoint {
     match v.kind {
         Kind::Surface { .. } | Kind::Light { .. } => Endpoint {
             p: v.p,
@@ -741,7 +741,7 @@ fn endpoint(v: &Vertex) -> Endpoint {
 }
 
 /// Medium a connection leaving `v` along `d` starts in.
-fn medium_towards(scene: &Scene, v: &Vertex, d: Vec3) -> Option<u32> {
+pub fn medium_towards(scene: &Scene, v: &Vertex, d: Vec3) -> Option<u32> {
     match v.kind {
         Kind::Medium { medium } => Some(medium),
         Kind::Surface { info, .. } => info.interface.map_or(v.medium, |mi| mi.crossing(d, v.n)),

@@ -1,11 +1,13 @@
 //! Maths shared by every integrator: spectra (RGB), orthonormal frames, sampling warps with
 //! their densities, discrete distributions and the counter-based random streams.
 
+pub mod alias;
 pub mod distribution;
 pub mod frame;
 pub mod rng;
 pub mod warp;
 
+pub use alias::AliasTable;
 pub use distribution::Distribution1D;
 pub use frame::Frame;
 pub use rng::{IndependentSampler, Sampler, stream_seed};

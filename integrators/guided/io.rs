@@ -1,0 +1,211 @@
+//! `--save-guides` / `--load-guides`: a learned guide-path cache as a versioned binary file.
+//!
+//! Layout (little endian): magic `LSGUIDES`, format version (u32), a fingerprint of the scene
+//! (u64: camera, counts of shapes, triangles, materials, lights, media, bounds), the learning
+//! iteration (u32), the number of guide paths (u32), then per guide path: vertex count (u8),
+//! age (u16), f (f32), p_u (f64), weight (f64) and its vertices (position, normal, shading
+//! normal as 9 f32, kind tag u8, two u32 ids, delta flag u8). Kernels, neighbours and the
+//! pruning BVH are rebuilt on load, deterministically, so a loaded cache renders exactly like
+//! the one that was saved. A wrong magic or version, a truncated file, a cache learned on
+//! another scene, or ids out of range are errors naming the file.
+
+use super::cache::GuideCache;
+use crate::error::{Error, Result};
+use crate::path::{Vertex as PathVertex, VertexKind};
+use crate::scene::Scene;
+use glam::Vec3;
+use std::path::Path;
+
+const MAGIC: &[u8; 8] = b"LSGUIDES";
+pub const VERSION: u32 = 1;
+
+/// A hash of what a cache depends on in the scene.
+pub fn scene_fingerprint(scene: &Scene) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut eat = |x: u64| {
+        for b in x.to_le_bytes() {
+            h ^= b as u64;
+            h = h.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    };
+    let c = &scene.camera;
+    for v in [c.position, c.forward, c.up, scene.center] {
+        for x in v.to_array() {
+            eat(x.to_bits() as u64);
+        }
+    }
+    eat(c.resolution.x as u64);
+    eat(c.resolution.y as u64);
+    eat(c.fov_y_degrees.to_bits() as u64);
+    eat(scene.radius.to_bits() as u64);
+    eat(scene.shapes.len() as u64);
+    eat(scene.triangle_count() as u64);
+    eat(scene.materials.len() as u64);
+    eat(scene.lights.len() as u64);
+    eat(scene.media.len() as u64);
+    h
+}
+
+pub fn save(scene: &Scene, cache: &GuideCache, file: &Path) -> Result<()> {
+    let mut b: Vec<u8> = Vec::new();
+    b.extend_from_slice(MAGIC);
+    b.extend_from_slice(&VERSION.to_le_bytes());
+    b.extend_from_slice(&scene_fingerprint(scene).to_le_bytes());
+    b.extend_from_slice(&cache.iteration.to_le_bytes());
+    b.extend_from_slice(&(cache.guides.len() as u32).to_le_bytes());
+    for (l, g) in cache.guides.iter().enumerate() {
+        b.push(g.len);
+        b.extend_from_slice(&g.age.to_le_bytes());
+        b.extend_from_slice(&g.f.to_le_bytes());
+        b.extend_from_slice(&g.p_u.to_le_bytes());
+        b.extend_from_slice(&g.weight.to_le_bytes());
+        for v in 1..g.len as usize {
+            let pv = cache.vertex(scene, l, v);
+            for x in [pv.p, pv.n, pv.ns] {
+                for c in x.to_array() {
+                    b.extend_from_slice(&c.to_le_bytes());
+                }
+            }
+            let (tag, a, c, d) = match pv.kind {
+                VertexKind::Camera => (0u8, 0u32, 0u32, false),
+                VertexKind::Surface {
+                    material,
+                    shape,
+                    delta,
+                } => (1, material, shape, delta),
+                VertexKind::Medium { medium } => (2, medium, 0, false),
+                VertexKind::Emitter { light, delta } => (3, light, 0, delta),
+            };
+            b.push(tag);
+            b.extend_from_slice(&a.to_le_bytes());
+            b.extend_from_slice(&c.to_le_bytes());
+            b.push(d as u8);
+        }
+    }
+    crate::film::atomic_write(file, |tmp| {
+        std::fs::write(tmp, &b).map_err(|e| e.to_string())
+    })
+}
+
+struct Reader<'a> {
+    data: &'a [u8],
+    at: usize,
+    file: &'a Path,
+}
+
+impl Reader<'_> {
+    fn take(&mut self, n: usize) -> Result<&[u8]> {
+        if self.at + n > self.data.len() {
+            return Err(Error::new(format!(
+                "{}: truncated guide cache (needs more than {} bytes)",
+                self.file.display(),
+                self.data.len()
+            )));
+        }
+        let s = &self.data[self.at..self.at + n];
+        self.at += n;
+        Ok(s)
+    }
+    fn u8(&mut self) -> Result<u8> {
+        Ok(self.take(1)?[0])
+    }
+    fn u16(&mut self) -> Result<u16> {
+        Ok(u16::from_le_bytes(
+            self.take(2)?.try_into().unwrap_or_default(),
+        ))
+    }
+    fn u32(&mut self) -> Result<u32> {
+        Ok(u32::from_le_bytes(
+            self.take(4)?.try_into().unwrap_or_default(),
+        ))
+    }
+    fn u64(&mut self) -> Result<u64> {
+        Ok(u64::from_le_bytes(
+            self.take(8)?.try_into().unwrap_or_default(),
+        ))
+    }
+    fn f32(&mut self) -> Result<f32> {
+        Ok(f32::from_bits(self.u32()?))
+    }
+    fn f64(&mut self) -> Result<f64> {
+        Ok(f64::from_bits(self.u64()?))
+    }
+    fn vec3(&mut self) -> Result<Vec3> {
+        Ok(Vec3::new(self.f32()?, self.f32()?, self.f32()?))
+    }
+}
+
+pub fn load(scene: &Scene, file: &Path) -> Result<GuideCache> {
+    let data = std::fs::read(file)
+        .map_err(|e| Error::new(format!("{}: cannot read guide cache: {e}", file.display())))?;
+    let mut r = Reader {
+        data: &data,
+        at: 0,
+        file,
+    };
+    let bad = |what: String| Error::new(format!("{}: {what}", file.display()));
+    if data.len() < MAGIC.len() || &data[..MAGIC.len()] != MAGIC {
+        return Err(bad("not a lodestar guide cache (bad magic)".into()));
+    }
+    r.take(MAGIC.len())?;
+    let version = r.u32()?;
+    if version != VERSION {
+        return Err(bad(format!(
+            "guide cache format version {version}, this lodestar reads version {VERSION}"
+        )));
+    }
+    if r.u64()? != scene_fingerprint(scene) {
+        return Err(bad(format!(
+            "guide cache was learned on another scene (not {})",
+            scene.source
+        )));
+    }
+    let iteration = r.u32()?;
+    let count = r.u32()? as usize;
+    let mut entries = Vec::with_capacity(count.min(1 << 20));
+    for i in 0..count {
+        let len = r.u8()? as usize;
+        if !(3..=crate::path::MAX_VERTICES).contains(&len) {
+            return Err(bad(format!("guide path {i} has {len} vertices")));
+        }
+        let age = r.u16()?;
+        let f = r.f32()?;
+        let p_u = r.f64()?;
+        let weight = r.f64()?;
+        let mut vertices = vec![PathVertex {
+            p: scene.camera.position,
+            n: Vec3::ZERO,
+            ns: Vec3::ZERO,
+            kind: VertexKind::Camera,
+        }];
+        for _ in 1..len {
+            let (p, n, ns) = (r.vec3()?, r.vec3()?, r.vec3()?);
+            let (tag, a, c, d) = (r.u8()?, r.u32()?, r.u32()?, r.u8()? != 0);
+            let kind = match tag {
+                1 if (a as usize) < scene.materials.len() && (c as usize) < scene.shapes.len() => {
+                    VertexKind::Surface {
+                        material: a,
+                        shape: c,
+                        delta: d,
+                    }
+                }
+                2 if (a as usize) < scene.media.len() => VertexKind::Medium { medium: a },
+                3 if (a as usize) < scene.lights.len() => {
+                    VertexKind::Emitter { light: a, delta: d }
+                }
+                _ => return Err(bad(format!("guide path {i} has an invalid vertex"))),
+            };
+            vertices.push(PathVertex { p, n, ns, kind });
+        }
+        if !(f.is_finite() && p_u.is_finite() && weight.is_finite() && weight >= 0.0) {
+            return Err(bad(format!("guide path {i} has invalid numbers")));
+        }
+        entries.push((vertices, f, p_u, weight, age));
+    }
+    if r.at != data.len() {
+        return Err(bad(format!("{} trailing bytes", data.len() - r.at)));
+    }
+    let mut cache = GuideCache::default();
+    cache.install(scene, entries, iteration);
+    Ok(cache)
+}

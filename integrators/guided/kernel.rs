@@ -1,0 +1,381 @@
+//! Guide-path structure and the per-vertex densities of the guided technique.
+//!
+//! A guide path `g_0 .. g_{L-1}` (camera to emitter) is followed vertex by vertex. Vertex 1 is
+//! drawn from an isotropic kernel on the plane through `g_1` orthogonal to the camera ray (3D
+//! in a medium). Each later vertex `x_v` is drawn from a mixture: with probability `p_b` (set
+//! by the roughness at `x_{v-1}`) by the BSDF or phase function at `x_{v-1}` restricted to the
+//! guide's mode there, otherwise from the segment's conditional Gaussian [`Kernel`] given
+//! `x_{v-1}`: on the plane through `g_v` orthogonal to the guide segment for surface targets
+//! (the ray towards the drawn point gives the vertex), a 3D point for medium targets, a point
+//! on the unit-distance plane for lights at infinity. Delta lights end the path by a
+//! deterministic connection. Densities are in the measure of DESIGN.md §3 (area, volume, or
+//! solid angle at infinity; delta events carry discrete probabilities) and are computed from
+//! vertex positions by the functions here, for sampling and evaluation alike.
+
+use super::gaussian::{R, std_trunc_density};
+use crate::bsdf::TransportMode;
+use crate::integrators::bdpt::{Kind, Vertex, vertex::to_measure};
+use crate::light::Light;
+use crate::math::Frame;
+use crate::path::{Path, Vertex as PathVertex, VertexKind};
+use crate::scene::Scene;
+use glam::{DVec3, Vec3};
+
+/// How the last vertex of a guided path is reached.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Reach {
+    /// Traced like a surface vertex (area lights).
+    Area,
+    /// A direction to a light at infinity that the ray must escape towards (environment, sun).
+    Infinite,
+    /// A deterministic connection (point, spot, directional lights).
+    Delta,
+}
+
+/// What a vertex of a path is; guided samples copy their guide path's nodes exactly.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Node {
+    /// A scattering surface: specular or not, and whether the path crosses it here.
+    Surface {
+        delta: bool,
+        transmit: bool,
+    },
+    Medium {
+        medium: u32,
+    },
+    Emitter {
+        light: u32,
+        reach: Reach,
+    },
+}
+
+/// Nodes of vertices 1 .. L-1 of a path and their hash; `None` for paths the guider does
+/// not handle (fewer than 3 vertices, not ending on an emitter, or too long).
+pub fn structure(scene: &Scene, path: &Path, max_len: usize) -> Option<(u64, Vec<Node>)> {
+    let vs = path.vertices();
+    let l = vs.len();
+    if l < 3 || l > max_len {
+        return None;
+    }
+    let mut nodes = Vec::with_capacity(l - 1);
+    for v in 1..l {
+        let x = &vs[v];
+        let node = match x.kind {
+            VertexKind::Surface { delta, .. } => {
+                if v + 1 >= l {
+                    return None;
+                }
+                let (a, b) = (vs[v - 1].p - x.p, vs[v + 1].p - x.p);
+                let transmit = (a.dot(x.n) > 0.0) != (b.dot(x.n) > 0.0);
+                Node::Surface { delta, transmit }
+            }
+            VertexKind::Medium { medium } => Node::Medium { medium },
+            VertexKind::Emitter { light, .. } => {
+                if v + 1 != l {
+                    return None;
+                }
+                Node::Emitter {
+                    light,
+                    reach: reach(&scene.lights[light as usize]),
+                }
+            }
+            VertexKind::Camera => return None,
+        };
+        nodes.push(node);
+    }
+    Some((hash_nodes(&nodes), nodes))
+}
+
+pub fn reach(light: &Light) -> Reach {
+    match light {
+        Light::Area(_) => Reach::Area,
+        Light::Environment(_) | Light::Sun(_) => Reach::Infinite,
+        Light::Point(_) | Light::Spot(_) | Light::Directional(_) => Reach::Delta,
+    }
+}
+
+/// FNV-1a over the nodes (a fast first test; equal hashes are confirmed node by node).
+pub fn hash_nodes(nodes: &[Node]) -> u64 {
+    let mut h: u64 = 0xcbf2_9ce4_8422_2325;
+    let mut eat = |x: u64| {
+        h ^= x;
+        h = h.wrapping_mul(0x0000_0100_0000_01b3);
+    };
+    eat(nodes.len() as u64);
+    for n in nodes {
+        match *n {
+            Node::Surface { delta, transmit } => eat(1 + 2 * delta as u64 + 4 * transmit as u64),
+            Node::Medium { medium } => eat(8 + ((medium as u64) << 8)),
+            Node::Emitter { light, reach } => eat(16 + reach as u64 + ((light as u64) << 8)),
+        }
+    }
+    h
+}
+
+/// The conditional Gaussian of one guide segment (g_{v-1} -> g_v), in the segment's frame
+/// (`n` along the segment, or the direction for a light at infinity). Target coordinates `y`
+/// (2D on the plane through g_v, 3D for a medium target, unit-plane coordinates at infinity)
+/// are relative to g_v, conditioning coordinates `z` (2D, 3D in a medium) relative to g_{v-1}.
+/// At sample time only the conditional mean `mu1 + K (z - mu2)` is computed; the conditional
+/// covariance is stored as its eigenvectors `e` (columns) and standard deviations `s`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Kernel {
+    pub mu1: [f32; 3],
+    pub mu2: [f32; 3],
+    pub k: [[f32; 3]; 3],
+    pub e: [[f32; 3]; 3],
+    pub s: [f32; 3],
+    /// Medium targets: std of the distance along a phase-sampled direction.
+    pub sigma_dist: f32,
+}
+
+impl Kernel {
+    /// An isotropic kernel of std `sigma` centred on the guide vertex, without regression.
+    pub fn isotropic(sigma: f32) -> Kernel {
+        Kernel {
+            mu1: [0.0; 3],
+            mu2: [0.0; 3],
+            k: [[0.0; 3]; 3],
+            e: [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            s: [sigma; 3],
+            sigma_dist: sigma,
+        }
+    }
+
+    /// Conditional mean of the target given conditioning coordinates `z` (dimension `dc`).
+    pub fn mean(&self, z: [f64; 3], dc: usize) -> [f64; 3] {
+        let mut m = [0.0; 3];
+        for (i, mi) in m.iter_mut().enumerate() {
+            *mi = self.mu1[i] as f64;
+            for j in 0..dc {
+                *mi += self.k[i][j] as f64 * (z[j] - self.mu2[j] as f64);
+            }
+        }
+        m
+    }
+
+    /// Truncated density of target coordinates `y` (dimension `dt`) around mean `m`.
+    pub fn density(&self, y: [f64; 3], m: [f64; 3], dt: usize) -> f64 {
+        let mut z2 = 0.0;
+        let mut norm = 1.0;
+        for i in 0..dt {
+            let mut c = 0.0;
+            for j in 0..dt {
+                c += self.e[j][i] as f64 * (y[j] - m[j]);
+            }
+            let s = self.s[i] as f64;
+            z2 += (c / s) * (c / s);
+            norm *= s;
+        }
+        if z2 > R * R {
+            return 0.0;
+        }
+        std_trunc_density(dt, z2) / norm
+    }
+
+    /// Map standard-normal coordinates `z` to target coordinates around mean `m`.
+    pub fn warp(&self, z: [f64; 3], m: [f64; 3], dt: usize) -> [f64; 3] {
+        let mut y = m;
+        for (j, yj) in y.iter_mut().enumerate().take(dt) {
+            for (i, zi) in z.iter().enumerate().take(dt) {
+                *yj += self.e[j][i] as f64 * self.s[i] as f64 * zi;
+            }
+        }
+        y
+    }
+}
+
+pub fn dvec(v: Vec3) -> DVec3 {
+    v.as_dvec3()
+}
+
+/// Frame of guide segment (g_{v-1} -> g_v): z along the segment (the direction itself for a
+/// light at infinity, stored in the vertex normal).
+pub fn segment_frame(prev: &PathVertex, g: &PathVertex, g_infinite: bool) -> Frame {
+    let n = if g_infinite {
+        g.n
+    } else {
+        (g.p - prev.p).normalize()
+    };
+    Frame::from_z(n)
+}
+
+/// Coordinates of point `x` relative to `origin` in frame `f`, 2D or 3D.
+pub fn coords(f: &Frame, x: Vec3, origin: Vec3, dims: usize) -> [f64; 3] {
+    let d = dvec(x) - dvec(origin);
+    let c = [
+        d.dot(dvec(f.s)),
+        d.dot(dvec(f.t)),
+        if dims == 3 { d.dot(dvec(f.n)) } else { 0.0 },
+    ];
+    c
+}
+
+/// Unit-plane coordinates of direction `w` in frame `f` (None behind the plane).
+pub fn direction_coords(f: &Frame, w: Vec3) -> Option<[f64; 3]> {
+    let w = dvec(w);
+    let c = w.dot(dvec(f.n));
+    (c > 0.0).then(|| [w.dot(dvec(f.s)) / c, w.dot(dvec(f.t)) / c, 0.0])
+}
+
+/// Solid-angle density of the direction from `o` towards `x` when a point is drawn on the
+/// plane through `g` orthogonal to `f.n` with 2D density `q2` (target coordinates relative to
+/// `g`) and the ray is shot through it: `q2(P) t_P² / |n·ω|`, 0 if the plane is behind.
+pub fn plane_direction_density(
+    f: &Frame,
+    g: Vec3,
+    o: Vec3,
+    w: Vec3,
+    q2: impl Fn([f64; 3]) -> f64,
+) -> f64 {
+    let (n, w, o) = (dvec(f.n), dvec(w).normalize(), dvec(o));
+    let cos = n.dot(w);
+    if cos == 0.0 {
+        return 0.0;
+    }
+    let t_p = n.dot(dvec(g) - o) / cos;
+    if !(t_p > 0.0) {
+        return 0.0;
+    }
+    let p = o + w * t_p - dvec(g);
+    let y = [p.dot(dvec(f.s)), p.dot(dvec(f.t)), 0.0];
+    q2(y) * t_p * t_p / cos.abs()
+}
+
+/// Probability of the BSDF branch at vertex `x` (0 at the camera): `clamp(1 − 1.5 roughness)`
+/// on surfaces (1 for specular ones), `clamp(1.5 |g| − 0.5)` in media (0 when isotropic).
+pub fn bsdf_branch_probability(scene: &Scene, x: &Vertex) -> f64 {
+    match x.kind {
+        Kind::Surface { bsdf, .. } => (1.0 - 1.5 * bsdf.roughness() as f64).clamp(0.0, 1.0),
+        Kind::Medium { medium } => {
+            let g = scene.media[medium as usize].phase.g.abs() as f64;
+            (1.5 * g - 0.5).clamp(0.0, 1.0)
+        }
+        Kind::Camera | Kind::Light { .. } => 0.0,
+    }
+}
+
+/// Density of the 1D truncated Gaussian N(ell, sigma) at distance `t` (0 outside ±R sigma or
+/// for t <= 0, which sampling counts as failures, not renormalised).
+pub fn distance_density(t: f64, ell: f64, sigma: f64) -> f64 {
+    if !(t > 0.0) {
+        return 0.0;
+    }
+    let z = (t - ell) / sigma;
+    std_trunc_density(1, z * z) / sigma
+}
+
+/// Density of the BSDF branch at `y[v-1]` producing `y[v]` (from `y[v-2]`), in `y[v]`'s
+/// measure. Restricted to the guide's mode: a smooth dielectric picks the guide's lobe with
+/// probability 1; other BSDFs sample freely and a sample in the wrong mode fails (so their
+/// density is the BSDF's own). Medium targets add the distance density around `ell`.
+pub fn bsdf_branch_density(
+    scene: &Scene,
+    y: &[Vertex],
+    v: usize,
+    medium_target: Option<(f64, f64)>,
+) -> f64 {
+    let (x, prev, next) = (&y[v - 1], &y[v - 2], &y[v]);
+    let wo = (prev.p - x.p).normalize();
+    let to_next = if next.is_infinite_light(scene) {
+        next.n
+    } else {
+        (next.p - x.p).normalize()
+    };
+    let pdf_w = match x.kind {
+        Kind::Surface { bsdf, frame, .. } => {
+            if bsdf.is_delta() {
+                // The restricted lobe is chosen with probability 1; the path is only valid if
+                // its direction is that lobe's (the sampler never produces another one).
+                if bsdf.delta_lobe_probability(&frame, wo, to_next) > 0.0 {
+                    1.0
+                } else {
+                    0.0
+                }
+            } else {
+                bsdf.pdf(&frame, wo, to_next, TransportMode::Radiance)
+            }
+        }
+        Kind::Medium { medium } => scene.media[medium as usize].phase.eval(wo, to_next),
+        Kind::Camera | Kind::Light { .. } => 0.0,
+    };
+    if pdf_w == 0.0 {
+        return 0.0;
+    }
+    match medium_target {
+        Some((ell, sigma)) => {
+            let t = (dvec(next.p) - dvec(x.p)).length();
+            pdf_w as f64 * distance_density(t, ell, sigma) / (t * t)
+        }
+        None => to_measure(scene, pdf_w, x.p, next) as f64,
+    }
+}
+
+/// Density of the first vertex `y[1]` under the isotropic kernel of std `sigma1` around the
+/// guide's first vertex `g1` (plane through g1 orthogonal to the camera ray; 3D in media).
+pub fn first_vertex_density(scene: &Scene, y: &[Vertex], g1: &PathVertex, sigma1: f32) -> f64 {
+    let x0 = scene.camera.position;
+    let f = Frame::from_z((g1.p - x0).normalize());
+    let s = sigma1 as f64;
+    let x1 = &y[1];
+    if x1.is_medium() {
+        let c = coords(&f, x1.p, g1.p, 3);
+        let z2 = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]) / (s * s);
+        return std_trunc_density(3, z2) / (s * s * s);
+    }
+    let w = x1.p - x0;
+    let pdf_w = plane_direction_density(&f, g1.p, x0, w, |c| {
+        std_trunc_density(2, (c[0] * c[0] + c[1] * c[1]) / (s * s)) / (s * s)
+    });
+    if pdf_w == 0.0 {
+        return 0.0;
+    }
+    // Area measure at x1 (|cos| / d^2), computed in f64 like the rest of the product.
+    let d = dvec(x1.p) - dvec(x0);
+    let d2 = d.length_squared();
+    let cos = if x1.n == Vec3::ZERO {
+        1.0
+    } else {
+        dvec(x1.n).dot(d).abs() / d2.sqrt()
+    };
+    pdf_w * cos / d2
+}
+
+/// Density of the Gaussian branch of guide segment (g_prev -> g) with kernel `k` producing
+/// `y[v]` from `y[v-1]`, in `y[v]`'s measure.
+pub fn gaussian_branch_density(
+    scene: &Scene,
+    y: &[Vertex],
+    v: usize,
+    g_prev: &PathVertex,
+    g: &PathVertex,
+    g_infinite: bool,
+    k: &Kernel,
+) -> f64 {
+    let (x, next) = (&y[v - 1], &y[v]);
+    let f = segment_frame(g_prev, g, g_infinite);
+    let dc = if x.is_medium() { 3 } else { 2 };
+    let m = k.mean(coords(&f, x.p, g_prev.p, dc), dc);
+    if next.is_infinite_light(scene) {
+        let Some(c) = direction_coords(&f, next.n) else {
+            return 0.0;
+        };
+        let cos = dvec(next.n).normalize().dot(dvec(f.n));
+        return k.density(c, m, 2) / (cos * cos * cos);
+    }
+    if next.is_medium() {
+        return k.density(coords(&f, next.p, g.p, 3), m, 3);
+    }
+    let pdf_w = plane_direction_density(&f, g.p, x.p, next.p - x.p, |c| k.density(c, m, 2));
+    if pdf_w == 0.0 {
+        return 0.0;
+    }
+    let d = dvec(next.p) - dvec(x.p);
+    let d2 = d.length_squared();
+    pdf_w * dvec(next.n).dot(d).abs() / (d2 * d2.sqrt())
+}
+
+/// Whether `v` of a path is a light at infinity.
+pub fn is_infinite_vertex(scene: &Scene, v: &PathVertex) -> bool {
+    matches!(v.kind, VertexKind::Emitter { light, .. } if scene.lights[light as usize].is_infinite())
+}

@@ -1,0 +1,526 @@
+//! Drawing one guided path (spec §4.1): pick a guide path by weight, draw x_1 from its
+//! first-vertex kernel (this decides the pixel), then each later vertex from the mixture of
+//! the BSDF / phase branch (restricted to the guide's mode) and the segment's Gaussian, and end
+//! on an emitter of the guide's kind. A step that fails (leaves the image, misses, hits the
+//! wrong kind of vertex, crosses a surface the guide reflects at, ...) makes the sample a
+//! failure: it still counts as a sample, of value zero.
+//!
+//! The density returned is the one the sample was drawn with along its guide path, `p(X | l)`,
+//! assembled from sampling-time quantities for the branch taken (the other branch of each
+//! mixture is evaluated); the tests compare it with the cache's evaluation of the finished path.
+
+use super::cache::GuideCache;
+use super::gaussian::{sample_std_trunc, std_trunc_density};
+use super::kernel::{
+    Node, Reach, bsdf_branch_probability, coords, distance_density, dvec, is_infinite_vertex,
+    segment_frame,
+};
+use crate::bsdf::TransportMode;
+use crate::geometry::Ray;
+use crate::integrators::bdpt::{Kind, Vertex};
+use crate::math::{Frame, Sampler};
+use crate::path::{Path, Vertex as PathVertex, VertexKind};
+use crate::scene::{Endpoint, Scene, SurfacePoint};
+use glam::{DVec3, Vec2, Vec3};
+
+/// Why a guided sample failed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Failure {
+    /// The first direction leaves the image.
+    OffImage,
+    /// A ray missed, or hit something else than the guide's vertex kind or emitter.
+    Miss,
+    /// The path's structure (modes, delta flags) differs from the guide's.
+    Structure,
+    /// BSDF or phase sampling produced nothing, or a drawn distance was not positive.
+    Scatter,
+    /// A medium target is not visible or not in the guide's medium.
+    Occluded,
+}
+
+pub struct GuidedSample {
+    pub path: Path,
+    pub raster: Vec2,
+    /// Guide path followed.
+    pub guide: usize,
+    /// p(X | guide) as drawn.
+    pub density: f64,
+}
+
+/// The vertex the walk is at.
+struct At<'s> {
+    pv: PathVertex,
+    sp: Option<SurfacePoint<'s>>,
+    /// Medium of a medium vertex; for others the medium the walk arrived through.
+    medium: Option<u32>,
+}
+
+impl<'s> At<'s> {
+    fn ray(&self, d: Vec3) -> Ray {
+        match &self.sp {
+            Some(sp) => sp.hit.spawn(d),
+            None => Ray::new(self.pv.p, d),
+        }
+    }
+
+    fn endpoint(&self) -> Endpoint {
+        match &self.sp {
+            Some(sp) => Endpoint::surface(&sp.hit),
+            None => Endpoint::point(self.pv.p),
+        }
+    }
+
+    /// Medium a segment leaving along `d` starts in.
+    fn medium_towards(&self, scene: &Scene, d: Vec3) -> Option<u32> {
+        match &self.sp {
+            Some(sp) => scene.medium_after(sp, d, self.medium),
+            None => self.medium,
+        }
+    }
+
+    /// As a BDPT vertex (for the branch densities shared with evaluation).
+    fn vertex(&self) -> Vertex<'s> {
+        let kind = match (&self.sp, self.pv.kind) {
+            (Some(sp), _) => Kind::Surface {
+                bsdf: sp.bsdf,
+                frame: sp.frame,
+                info: sp.info,
+            },
+            (None, VertexKind::Medium { medium }) => Kind::Medium { medium },
+            _ => Kind::Camera,
+        };
+        Vertex::new(kind, self.pv.p, self.pv.n)
+    }
+}
+
+/// First non-null surface along `ray` (index-matched boundaries crossed), and the medium the
+/// ray arrives through.
+fn trace<'s>(
+    scene: &'s Scene,
+    mut ray: Ray,
+    mut medium: Option<u32>,
+) -> (Option<SurfacePoint<'s>>, Option<u32>) {
+    for _ in 0..256 {
+        match scene.intersect(&ray) {
+            None => return (None, medium),
+            Some(sp) if sp.is_null() => {
+                medium = scene.medium_after(&sp, ray.d, medium);
+                ray = sp.hit.spawn(ray.d);
+            }
+            Some(sp) => return (Some(sp), medium),
+        }
+    }
+    (None, medium)
+}
+
+fn surface_vertex(sp: &SurfacePoint) -> PathVertex {
+    PathVertex {
+        p: sp.hit.p,
+        n: sp.hit.ng,
+        ns: sp.hit.ns,
+        kind: VertexKind::Surface {
+            material: sp.info.material,
+            shape: sp.info.index,
+            delta: sp.bsdf.is_delta(),
+        },
+    }
+}
+
+fn to_world(f: &Frame, origin: Vec3, c: [f64; 3]) -> Vec3 {
+    (dvec(origin) + dvec(f.s) * c[0] + dvec(f.t) * c[1] + dvec(f.n) * c[2]).as_vec3()
+}
+
+/// |cos| at `x` (normal `n`, zero in media) towards `from`, over the squared distance.
+fn area_factor(from: Vec3, x: Vec3, n: Vec3) -> f64 {
+    let d: DVec3 = dvec(x) - dvec(from);
+    let d2 = d.length_squared();
+    if n == Vec3::ZERO {
+        1.0 / d2
+    } else {
+        dvec(n).dot(d).abs() / (d2 * d2.sqrt())
+    }
+}
+
+/// Draw one guided path from `cache` (which must not be empty).
+pub fn sample_path(
+    scene: &Scene,
+    cache: &GuideCache,
+    sampler: &mut impl Sampler,
+) -> Result<GuidedSample, Failure> {
+    let (l, _) = cache.select(sampler.next_1d(), sampler.next_1d());
+    let guide = cache.guides[l];
+    let len = guide.len as usize;
+    let x0 = scene.camera.position;
+    let mut path = Path::default();
+    path.push(cache.vertex(scene, l, 0));
+
+    // ---- Vertex 1: the isotropic first-vertex kernel ----
+    let g1 = cache.vertex(scene, l, 1);
+    let f0 = Frame::from_z((g1.p - x0).normalize());
+    let s = guide.sigma1 as f64;
+    let mut density;
+    let (mut prev, mut at);
+    let raster = match cache.node(l, 1) {
+        Node::Medium { medium } => {
+            let z = sample_std_trunc(3, sampler);
+            let p = to_world(&f0, g1.p, [z[0] * s, z[1] * s, z[2] * s]);
+            let w0 = (p - x0).normalize();
+            let raster = scene
+                .camera
+                .raster_of_direction(w0)
+                .ok_or(Failure::OffImage)?;
+            let tr = scene
+                .transmittance(
+                    &Endpoint::point(x0),
+                    Some(&Endpoint::point(p)),
+                    w0,
+                    scene.camera_medium,
+                )
+                .ok_or(Failure::Occluded)?;
+            if tr.end_medium != Some(medium) {
+                return Err(Failure::Occluded);
+            }
+            density = std_trunc_density(3, z[0] * z[0] + z[1] * z[1] + z[2] * z[2]) / (s * s * s);
+            let pv = PathVertex {
+                p,
+                n: Vec3::ZERO,
+                ns: Vec3::ZERO,
+                kind: VertexKind::Medium { medium },
+            };
+            path.push(pv);
+            path.pixel = scene.camera.pixel_index(raster) as u32;
+            at = At {
+                pv,
+                sp: None,
+                medium: Some(medium),
+            };
+            raster
+        }
+        Node::Surface { delta, .. } => {
+            let z = sample_std_trunc(2, sampler);
+            let p = to_world(&f0, g1.p, [z[0] * s, z[1] * s, 0.0]);
+            let w0 = (p - x0).normalize();
+            let raster = scene
+                .camera
+                .raster_of_direction(w0)
+                .ok_or(Failure::OffImage)?;
+            let (sp, medium) = trace(scene, Ray::new(x0, w0), scene.camera_medium);
+            let sp = sp.ok_or(Failure::Miss)?;
+            if sp.bsdf.is_black() || sp.bsdf.is_delta() != delta {
+                return Err(Failure::Miss);
+            }
+            let t_p = dvec(f0.n).dot(dvec(g1.p) - dvec(x0)) / dvec(f0.n).dot(dvec(w0));
+            density = std_trunc_density(2, z[0] * z[0] + z[1] * z[1]) / (s * s) * t_p * t_p
+                / dvec(f0.n).dot(dvec(w0)).abs()
+                * area_factor(x0, sp.hit.p, sp.hit.ng);
+            let pv = surface_vertex(&sp);
+            path.push(pv);
+            path.pixel = scene.camera.pixel_index(raster) as u32;
+            at = At {
+                pv,
+                sp: Some(sp),
+                medium,
+            };
+            raster
+        }
+        Node::Emitter { .. } => return Err(Failure::Structure),
+    };
+    prev = path.vertices()[0];
+
+    // ---- Vertices 2 .. L-1 ----
+    for v in 2..len {
+        let node = cache.node(l, v);
+        let (g_prev, g) = (cache.vertex(scene, l, v - 1), cache.vertex(scene, l, v));
+        let last = v + 1 == len;
+        // Delta lights: a deterministic connection.
+        if let Node::Emitter {
+            light,
+            reach: Reach::Delta,
+        } = node
+        {
+            let lt = &scene.lights[light as usize];
+            let ls = lt
+                .sample_li(at.pv.p, Vec2::splat(0.5))
+                .ok_or(Failure::Miss)?;
+            let (p, n) = if lt.is_infinite() {
+                (at.pv.p + ls.wi, ls.wi)
+            } else {
+                (ls.p, Vec3::ZERO)
+            };
+            check_mode(cache, l, v - 1, &prev, &at.pv, p)?;
+            path.push(PathVertex {
+                p,
+                n,
+                ns: Vec3::ZERO,
+                kind: VertexKind::Emitter { light, delta: true },
+            });
+            break;
+        }
+        let x = at.vertex();
+        let p_b = bsdf_branch_probability(scene, &x);
+        let kernel = cache.kernel(l, v);
+        let g_inf = is_infinite_vertex(scene, &g);
+        let seg_frame = segment_frame(&g_prev, &g, g_inf);
+        let ell = (dvec(g.p) - dvec(g_prev.p)).length();
+        let medium_target = matches!(node, Node::Medium { .. });
+        let use_bsdf = p_b > 0.0 && (p_b >= 1.0 || (sampler.next_1d() as f64) < p_b);
+
+        // Choose the direction (and for medium targets the point).
+        let mut point: Option<Vec3> = None;
+        let dir: Vec3;
+        let branch_density_w: f64; // solid-angle density (BSDF) or point density (Gaussian)
+        if use_bsdf {
+            let wo = (prev.p - at.pv.p).normalize();
+            let (wi, pdf) = match &at.sp {
+                Some(sp) => {
+                    let u_lobe = if sp.bsdf.is_delta() {
+                        // Restrict a smooth dielectric to the guide's lobe.
+                        match cache.node(l, v - 1) {
+                            Node::Surface { transmit: true, .. } => 1.0,
+                            _ => 0.0,
+                        }
+                    } else {
+                        sampler.next_1d()
+                    };
+                    let bs = sp
+                        .bsdf
+                        .sample(
+                            &sp.frame,
+                            wo,
+                            u_lobe,
+                            sampler.next_2d(),
+                            TransportMode::Radiance,
+                        )
+                        .ok_or(Failure::Scatter)?;
+                    (bs.wi, if bs.delta { 1.0 } else { bs.pdf as f64 })
+                }
+                None => {
+                    let VertexKind::Medium { medium } = at.pv.kind else {
+                        return Err(Failure::Structure);
+                    };
+                    let (wi, pdf) = scene.media[medium as usize]
+                        .phase
+                        .sample(wo, sampler.next_2d());
+                    (wi, pdf as f64)
+                }
+            };
+            dir = wi;
+            if medium_target {
+                let z = sample_std_trunc(1, sampler)[0];
+                let sd = kernel.sigma_dist as f64;
+                let t = ell + sd * z;
+                if !(t > 0.0) {
+                    return Err(Failure::Scatter);
+                }
+                point = Some((dvec(at.pv.p) + dvec(wi) * t).as_vec3());
+                branch_density_w = pdf * distance_density(t, ell, sd) / (t * t);
+            } else {
+                branch_density_w = pdf;
+            }
+        } else {
+            let dc = if matches!(at.pv.kind, VertexKind::Medium { .. }) {
+                3
+            } else {
+                2
+            };
+            let m = kernel.mean(coords(&seg_frame, at.pv.p, g_prev.p, dc), dc);
+            let dt = if medium_target { 3 } else { 2 };
+            let z = sample_std_trunc(dt, sampler);
+            let y = kernel.warp(z, m, dt);
+            let q = kernel.density(y, m, dt);
+            if medium_target {
+                let p = to_world(&seg_frame, g.p, y);
+                point = Some(p);
+                dir = (p - at.pv.p).normalize();
+                branch_density_w = q;
+            } else if g_inf {
+                let w = (dvec(seg_frame.s) * y[0] + dvec(seg_frame.t) * y[1] + dvec(seg_frame.n))
+                    .normalize();
+                let cos = w.dot(dvec(seg_frame.n));
+                dir = w.as_vec3();
+                branch_density_w = q / (cos * cos * cos);
+            } else {
+                let p = to_world(&seg_frame, g.p, [y[0], y[1], 0.0]);
+                let w = (dvec(p) - dvec(at.pv.p)).normalize();
+                let cos = dvec(seg_frame.n).dot(w);
+                let t_p = dvec(seg_frame.n).dot(dvec(g.p) - dvec(at.pv.p)) / cos;
+                if !(t_p > 0.0) {
+                    return Err(Failure::Miss);
+                }
+                dir = w.as_vec3();
+                branch_density_w = q * t_p * t_p / cos.abs();
+            }
+        }
+        if dir == Vec3::ZERO || !dir.is_finite() {
+            return Err(Failure::Scatter);
+        }
+
+        // Find the vertex.
+        let next: At;
+        let taken: f64;
+        let start_medium = at.medium_towards(scene, dir);
+        if let Some(p) = point {
+            let Node::Medium { medium } = node else {
+                return Err(Failure::Structure);
+            };
+            let tr = scene
+                .transmittance(&at.endpoint(), Some(&Endpoint::point(p)), dir, start_medium)
+                .ok_or(Failure::Occluded)?;
+            if tr.end_medium != Some(medium) {
+                return Err(Failure::Occluded);
+            }
+            taken = branch_density_w;
+            next = At {
+                pv: PathVertex {
+                    p,
+                    n: Vec3::ZERO,
+                    ns: Vec3::ZERO,
+                    kind: VertexKind::Medium { medium },
+                },
+                sp: None,
+                medium: Some(medium),
+            };
+        } else {
+            let (sp, medium) = trace(scene, at.ray(dir), start_medium);
+            match (node, sp) {
+                (
+                    Node::Emitter {
+                        light,
+                        reach: Reach::Infinite,
+                    },
+                    None,
+                ) => {
+                    if scene.lights[light as usize].le(Vec3::ZERO, dir) == Vec3::ZERO {
+                        return Err(Failure::Miss);
+                    }
+                    taken = branch_density_w;
+                    next = At {
+                        pv: PathVertex {
+                            p: at.pv.p + dir,
+                            n: dir,
+                            ns: Vec3::ZERO,
+                            kind: VertexKind::Emitter {
+                                light,
+                                delta: false,
+                            },
+                        },
+                        sp: None,
+                        medium,
+                    };
+                }
+                (
+                    Node::Emitter {
+                        light,
+                        reach: Reach::Area,
+                    },
+                    Some(sp),
+                ) => {
+                    if sp.light() != Some(light as usize)
+                        || scene.lights[light as usize].le(sp.hit.ng, -dir) == Vec3::ZERO
+                    {
+                        return Err(Failure::Miss);
+                    }
+                    taken = branch_density_w * area_factor(at.pv.p, sp.hit.p, sp.hit.ng);
+                    next = At {
+                        pv: PathVertex {
+                            p: sp.hit.p,
+                            n: sp.hit.ng,
+                            ns: Vec3::ZERO,
+                            kind: VertexKind::Emitter {
+                                light,
+                                delta: false,
+                            },
+                        },
+                        sp: None,
+                        medium,
+                    };
+                }
+                (Node::Surface { delta, .. }, Some(sp)) if !last => {
+                    if sp.bsdf.is_black() || sp.bsdf.is_delta() != delta {
+                        return Err(Failure::Miss);
+                    }
+                    taken = branch_density_w * area_factor(at.pv.p, sp.hit.p, sp.hit.ng);
+                    next = At {
+                        pv: surface_vertex(&sp),
+                        sp: Some(sp),
+                        medium,
+                    };
+                }
+                _ => return Err(Failure::Miss),
+            }
+        }
+        check_mode(cache, l, v - 1, &prev, &at.pv, next.pv.p)?;
+        path.push(next.pv);
+
+        // Mixture density at this vertex: the branch taken from sampling-time quantities, the
+        // other branch evaluated.
+        let other = {
+            let y_now: Vec<Vertex> = vec![
+                Vertex::new(Kind::Camera, prev.p, prev.n),
+                x,
+                as_vertex(scene, &next),
+            ];
+            if use_bsdf {
+                if p_b < 1.0 {
+                    super::kernel::gaussian_branch_density(
+                        scene, &y_now, 2, &g_prev, &g, g_inf, kernel,
+                    )
+                } else {
+                    0.0
+                }
+            } else if p_b > 0.0 {
+                let mt = medium_target.then_some((ell, kernel.sigma_dist as f64));
+                super::kernel::bsdf_branch_density(scene, &y_now, 2, mt)
+            } else {
+                0.0
+            }
+        };
+        density *= if use_bsdf {
+            p_b * taken + (1.0 - p_b) * other
+        } else {
+            (1.0 - p_b) * taken + p_b * other
+        };
+        prev = at.pv;
+        at = next;
+    }
+    Ok(GuidedSample {
+        path,
+        raster,
+        guide: l,
+        density,
+    })
+}
+
+fn as_vertex<'s>(scene: &'s Scene, a: &At<'s>) -> Vertex<'s> {
+    match a.pv.kind {
+        VertexKind::Emitter { light, .. } => {
+            let _ = scene;
+            Vertex::new(
+                Kind::Light {
+                    light: light as usize,
+                },
+                a.pv.p,
+                a.pv.n,
+            )
+        }
+        _ => a.vertex(),
+    }
+}
+
+/// The path must reflect or transmit at surface vertex `v` as the guide does.
+fn check_mode(
+    cache: &GuideCache,
+    l: usize,
+    v: usize,
+    prev: &PathVertex,
+    x: &PathVertex,
+    next: Vec3,
+) -> Result<(), Failure> {
+    if let Node::Surface { transmit, .. } = cache.node(l, v) {
+        let t = ((prev.p - x.p).dot(x.n) > 0.0) != ((next - x.p).dot(x.n) > 0.0);
+        if t != transmit {
+            return Err(Failure::Structure);
+        }
+    }
+    Ok(())
+}

@@ -99,6 +99,9 @@ pub struct GuideCache {
     sigs: HashSet<u64>,
     /// Learning iterations the cache has seen.
     pub iteration: u32,
+    /// Testing hook: leave this guide path out of `pdf` (a deliberately wrong p_g, which the
+    /// unbiasedness test must detect). Never set by the renderer.
+    pub skip_in_pdf: Option<usize>,
 }
 
 impl GuideCache {
@@ -237,7 +240,11 @@ impl GuideCache {
         for &l in scratch.iter() {
             let l = l as usize;
             let g = &self.guides[l];
-            if g.sig != sig || g.weight == 0.0 || self.nodes_of(l) != nodes {
+            if g.sig != sig
+                || g.weight == 0.0
+                || self.nodes_of(l) != nodes
+                || self.skip_in_pdf == Some(l)
+            {
                 continue;
             }
             sum += g.weight * self.pdf_given(scene, l, y);
@@ -394,7 +401,8 @@ impl GuideCache {
                 }
                 _ => 1.0,
             };
-            let s = rho * (90.0 / k + 10.0).max(1.0) + (1.0 - rho) * (90.0 / k + 1.0).max(1.0);
+            let s = (rho * (90.0 / k + 10.0).max(1.0) + (1.0 - rho) * (90.0 / k + 1.0).max(1.0))
+                * debug_scale("LODESTAR_S1") as f32;
             let footprint = (g1.p - scene.camera.position).length() * pixel_angle;
             self.guides.push(Guide {
                 start: self.vertices.len() as u32,
@@ -428,6 +436,13 @@ impl GuideCache {
             self.guides[l].neighbours = nb;
             self.guides[l].kernels = self.kernels.len() as u32;
             self.kernels.extend(kernels);
+        }
+        // Selection probabilities: the weights normalised (p_g uses exactly these).
+        let total: f64 = self.guides.iter().map(|g| g.weight).sum();
+        if total > 0.0 {
+            for g in &mut self.guides {
+                g.weight /= total;
+            }
         }
         let w: Vec<f64> = self.guides.iter().map(|g| g.weight).collect();
         self.alias = AliasTable::new(&w);
@@ -512,7 +527,9 @@ impl GuideCache {
             )
         };
         let age = self.guides[l].age as f64;
-        let iso = (90.0 / (age + 2.0)).max(1.0) * if infinite { pixel_angle } else { footprint };
+        let iso = (90.0 / (age + 2.0)).max(1.0)
+            * debug_scale("LODESTAR_ISO")
+            * if infinite { pixel_angle } else { footprint };
         let isotropic = Kernel::isotropic(iso.min(ceil.sqrt()) as f32);
         if nb.len() < NEIGHBOURS {
             return isotropic;
@@ -648,4 +665,11 @@ pub fn regression_kernel(
         out.sigma_dist = floor.sqrt() as f32;
     }
     Some(out)
+}
+
+fn debug_scale(var: &str) -> f64 {
+    std::env::var(var)
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(1.0)
 }

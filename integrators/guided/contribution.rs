@@ -6,7 +6,7 @@
 //! lights at infinity). Delta lights contribute their incident radiance at `x_{k-1}`
 //! (intensity / d², or irradiance for a directional light) in place of `G_end · Le`.
 
-use crate::bsdf::TransportMode;
+use crate::bsdf::{Bsdf, ShadingFrame, TransportMode};
 use crate::integrators::bdpt::{Kind, Vertex, endpoint, medium_towards};
 use crate::math::Spectrum;
 use crate::scene::Scene;
@@ -53,7 +53,12 @@ pub fn contribution(scene: &Scene, y: &[Vertex], known_visible: u64) -> Spectrum
             } else {
                 y[j + 1].p
             };
-            f *= y[j].f(scene, y[j - 1].p, next, TransportMode::Radiance);
+            f *= match y[j].kind {
+                Kind::Surface { bsdf, frame, .. } if bsdf.is_delta() => {
+                    delta_throughput(bsdf, &frame, y[j - 1].p - y[j].p, next - y[j].p)
+                }
+                _ => y[j].f(scene, y[j - 1].p, next, TransportMode::Radiance),
+            };
         }
         if j + 1 == k && lt.is_delta() {
             let Some(ls) = lt.sample_li(y[k - 1].p, Vec2::splat(0.5)) else {
@@ -84,4 +89,18 @@ pub fn contribution(scene: &Scene, y: &[Vertex], known_visible: u64) -> Spectrum
         lt.le(y[k].n, (y[k - 1].p - y[k].p).normalize())
     };
     f * le
+}
+
+/// `f_s |cos|` of a specular vertex with the Dirac left out (the measure of DESIGN.md §3):
+/// the chosen lobe's Fresnel factor (over η² for refraction in radiance mode), as `sample`
+/// reports it for the lobe that takes `wo` to `wi`.
+fn delta_throughput(bsdf: &Bsdf, frame: &ShadingFrame, wo: Vec3, wi: Vec3) -> Spectrum {
+    let (wo, wi) = (wo.normalize(), wi.normalize());
+    let n = frame.frame.n;
+    let transmit = wo.dot(n) * wi.dot(n) < 0.0;
+    let u_lobe = if transmit { 1.0 } else { 0.0 };
+    match bsdf.sample(frame, wo, u_lobe, Vec2::ZERO, TransportMode::Radiance) {
+        Some(bs) if bs.transmission == transmit => bs.f * bs.wi.dot(n).abs(),
+        _ => Spectrum::ZERO,
+    }
 }

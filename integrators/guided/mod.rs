@@ -144,6 +144,9 @@ pub struct GuidedPt {
 pub struct Stats {
     pub guided: u64,
     pub failed: u64,
+    /// Failures by reason: off the image, missed / wrong vertex, structure (mode), scatter,
+    /// occluded medium target, zero contribution.
+    pub reasons: [u64; 6],
     pub pg_evaluations: u64,
     pub pg_candidates: u64,
 }
@@ -154,6 +157,9 @@ impl Stats {
         self.failed += o.failed;
         self.pg_evaluations += o.pg_evaluations;
         self.pg_candidates += o.pg_candidates;
+        for (a, b) in self.reasons.iter_mut().zip(o.reasons) {
+            *a += b;
+        }
     }
 }
 
@@ -162,6 +168,9 @@ struct Candidate {
     record: Record,
     pixel: u32,
     value: f64,
+    /// A guided sample of a guide path with fewer than `NEIGHBOURS` neighbours: recorded
+    /// whatever its trust, to densify sparse regions of the cache (spec §6.3a).
+    densify: bool,
 }
 
 /// What one row of a pass produces besides its pixels.
@@ -253,11 +262,15 @@ impl<'a> Estimator<'a> {
         &self,
         sampler: &mut impl Sampler,
         stats: &mut Stats,
-    ) -> Option<(u32, Spectrum, Record)> {
+    ) -> Option<(u32, Spectrum, Record, usize)> {
         stats.guided += 1;
-        let Ok(g) = sampler::sample_path(self.scene, self.cache, sampler) else {
-            stats.failed += 1;
-            return None;
+        let g = match sampler::sample_path(self.scene, self.cache, sampler) {
+            Ok(g) => g,
+            Err(e) => {
+                stats.failed += 1;
+                stats.reasons[e as usize] += 1;
+                return None;
+            }
         };
         let y = bdpt::from_path(self.scene, &g.path)?;
         let k = y.len() - 1;
@@ -273,6 +286,7 @@ impl<'a> Estimator<'a> {
         let f = contribution::contribution(self.scene, &y, visible);
         if f == Spectrum::ZERO {
             stats.failed += 1;
+            stats.reasons[5] += 1;
             return None;
         }
         let p_u = self.p_u(&y);
@@ -289,7 +303,7 @@ impl<'a> Estimator<'a> {
             p_u,
             c: luminance(f) as f64 / (self.alpha * p_u + (1.0 - self.alpha) * p_g),
         };
-        Some((g.path.pixel, value, record))
+        Some((g.path.pixel, value, record, g.guide))
     }
 }
 
@@ -329,6 +343,7 @@ impl PathRecorder for Collector<'_, '_> {
                     },
                     pixel: path.pixel,
                     value: lum as f64,
+                    densify: false,
                 },
             );
         }
@@ -379,7 +394,9 @@ impl GuidedPt {
                     let mut j = index;
                     while j < n_g {
                         let mut gs = IndependentSampler::new(ctx.seed, pass, n_pix + j);
-                        if let Some((pixel, value, record)) = est.guided(&mut gs, &mut out.stats) {
+                        if let Some((pixel, value, record, guide)) =
+                            est.guided(&mut gs, &mut out.stats)
+                        {
                             out.splats.push((pixel, value));
                             if learning {
                                 let lum = luminance(value);
@@ -390,6 +407,8 @@ impl GuidedPt {
                                         record,
                                         pixel,
                                         value: lum as f64,
+                                        densify: (est.cache.guides[guide].neighbours as usize)
+                                            < cache::NEIGHBOURS,
                                     },
                                 );
                             }
@@ -437,8 +456,15 @@ impl GuidedPt {
             let mut pool: Vec<Candidate> = Vec::new();
             for r in &mut rows[a..b] {
                 pool.extend(r.candidates.drain(..).filter(|c| {
-                    cascade.trust(c.pixel, norm(c.value), iteration + 1) <= TRUST_THRESHOLD
+                    c.densify
+                        || cascade.trust(c.pixel, norm(c.value), iteration + 1) <= TRUST_THRESHOLD
                 }));
+            }
+            if std::env::var_os("LODESTAR_DEBUG").is_some() {
+                eprintln!(
+                    "iteration {iteration} worker {w}: {} pass trust",
+                    pool.len()
+                );
             }
             pool.sort_by(|x, y| y.record.c.total_cmp(&x.record.c));
             pool.truncate(self.settings.intake);
@@ -576,6 +602,10 @@ impl Integrator for GuidedPt {
                 ),
             ),
             stat("learning_guided_samples", stats.guided),
+            stat(
+                "failures_offimage_miss_structure_scatter_occluded_zero",
+                format!("{:?}", rs.reasons),
+            ),
         ];
         self.cache = Some(cache);
         RenderResult {

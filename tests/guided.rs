@@ -1,0 +1,340 @@
+//! guided-pt: sampling and evaluation agree, the estimator is unbiased, caches round-trip.
+
+mod util;
+
+use lodestar::integrators::bdpt;
+use lodestar::integrators::guided::cache::{GuideCache, Install};
+use lodestar::integrators::guided::{GuidedPt, GuidedSettings, contribution, kernel, sampler};
+use lodestar::integrators::pt::PtSettings;
+use lodestar::integrators::pt::{PathRecorder, PathTracer};
+use lodestar::math::IndependentSampler;
+use lodestar::math::Sampler;
+use lodestar::path::MAX_VERTICES;
+use lodestar::path::Path;
+use lodestar::render::{Budget, Integrator, RenderContext};
+use lodestar::scene::Scene;
+
+fn scene(name: &str, res: u32, edit: impl Fn(String) -> String) -> Scene {
+    let text =
+        std::fs::read_to_string(format!("{}/scenes/{name}", env!("CARGO_MANIFEST_DIR"))).unwrap();
+    util::scene(&edit(text.replace(
+        "resolution = [256, 256]",
+        &format!("resolution = [{res}, {res}]"),
+    )))
+}
+
+fn settings(max_depth: u32, learn_fraction: f64) -> GuidedSettings {
+    GuidedSettings {
+        pt: PtSettings {
+            max_depth,
+            rr_depth: 5,
+            ..PtSettings::default()
+        },
+        learn_fraction,
+        ..GuidedSettings::default()
+    }
+}
+
+/// Learn a cache: `spp` passes of which all but the last are learning iterations.
+fn learn(scene: &Scene, max_depth: u32, spp: u64, seed: u64) -> GuideCache {
+    let mut g = GuidedPt {
+        settings: settings(max_depth, 1.0 - 1.0 / spp as f64),
+        cache: None,
+    };
+    let ctx = RenderContext {
+        scene,
+        seed,
+        progress: false,
+    };
+    g.render(&ctx, Budget::Spp(spp));
+    g.cache.take().expect("a cache")
+}
+
+/// A cache holding every path of two or more segments that pt forms from `n` camera paths
+/// (equal weights), installed as after many learning iterations (first-vertex kernels a few pixels wide).
+fn cache_of_pt_paths(scene: &Scene, max_depth: u32, n: u64) -> GuideCache {
+    struct Keep(Vec<Install>);
+    impl PathRecorder for Keep {
+        fn record(&mut self, path: &Path, _: usize, density: f64, other: f64) {
+            if path.segments() >= 2 && path.f != glam::Vec3::ZERO {
+                let f = lodestar::math::luminance(path.f);
+                self.0
+                    .push((path.vertices().to_vec(), f, density + other, 1.0, 0));
+            }
+        }
+    }
+    let pt = PathTracer {
+        settings: PtSettings {
+            max_depth,
+            ..PtSettings::default()
+        },
+    };
+    let mut keep = Keep(Vec::new());
+    let res = scene.camera.resolution;
+    for i in 0..n {
+        let mut s = IndependentSampler::new(5, 0, i);
+        let raster = glam::Vec2::new(
+            (i % res.x as u64) as f32,
+            ((i / res.x as u64) % res.y as u64) as f32,
+        ) + s.next_2d();
+        pt.li_recorded(scene, raster, &mut s, Some(&mut keep));
+    }
+    let mut cache = GuideCache::default();
+    cache.install(scene, keep.0, 10_000);
+    cache
+}
+
+/// Draw guided samples from a frozen cache and check, for each, that the density it was drawn
+/// with along its guide path equals the cache's evaluation of that term from the finished
+/// path, and that the pruned p_g equals the sum over every guide path.
+fn check_sampling_matches_evaluation(name: &str, scene: &Scene, max_depth: u32) {
+    let cache = cache_of_pt_paths(scene, max_depth, 600);
+    assert!(cache.len() > 20, "{name}: only {} guide paths", cache.len());
+    let (mut ok, mut loose, mut failed) = (0usize, 0usize, 0usize);
+    let mut worst = 0.0f64;
+    let mut scratch = Vec::new();
+    let mut reasons = std::collections::BTreeMap::new();
+    for i in 0..4000u64 {
+        let mut s = IndependentSampler::new(11, 0, i);
+        let g = match sampler::sample_path(scene, &cache, &mut s) {
+            Ok(g) => g,
+            Err(e) => {
+                failed += 1;
+                *reasons.entry(format!("{e:?}")).or_insert(0usize) += 1;
+                continue;
+            }
+        };
+        let y = bdpt::from_path(scene, &g.path).expect("a complete path");
+        let (sig, nodes) = kernel::structure(scene, &g.path, MAX_VERTICES).expect("structure");
+        assert_eq!(
+            sig, cache.guides[g.guide].sig,
+            "{name}: structure differs from the guide's"
+        );
+        let term = cache.pdf_given(scene, g.guide, &y);
+        let rel = (term - g.density).abs() / term.max(1e-300);
+        worst = worst.max(rel);
+        // Sampling uses the drawn point and direction, evaluation the rounded (f32) hit
+        // position: they agree to about 1e-4; a missing factor (branch probability, area
+        // conversion, truncation mass) is off by far more.
+        if rel > 1e-3 {
+            loose += 1;
+        }
+        assert!(
+            rel < 5e-2,
+            "{name}: drawn with {}, evaluated {term}",
+            g.density
+        );
+        let (p_g, _) = cache.pdf(scene, &y, sig, &nodes, &mut scratch);
+        let brute = cache.pdf_brute_force(scene, &y, sig, &nodes);
+        assert!(
+            (p_g - brute).abs() <= 1e-12 * brute,
+            "{name}: pruned p_g {p_g} vs all guide paths {brute}"
+        );
+        assert!(p_g >= cache.guides[g.guide].weight * term * (1.0 - 1e-12));
+        ok += 1;
+    }
+    eprintln!("{name}: {ok} ok, {failed} failed {reasons:?}, worst {worst:e}, loose {loose}");
+    assert!(
+        ok > 100,
+        "{name}: only {ok} successful guided samples ({failed} failed: {reasons:?})"
+    );
+    assert!(
+        loose * 100 <= ok,
+        "{name}: {loose} of {ok} differ by more than 1e-3 (worst {worst})"
+    );
+}
+
+#[test]
+fn guided_densities_match_their_evaluation_diffuse_and_glass() {
+    check_sampling_matches_evaluation("glass box", &scene("cornell-box.toml", 32, |t| t), 6);
+}
+
+#[test]
+fn guided_densities_match_their_evaluation_glossy() {
+    check_sampling_matches_evaluation("glossy box", &scene("cornell-glossy.toml", 32, |t| t), 6);
+}
+
+#[test]
+fn guided_densities_match_their_evaluation_fog() {
+    check_sampling_matches_evaluation("fog box", &scene("cornell-fog.toml", 32, |t| t), 5);
+}
+
+/// guided-pt (learning inside the render) and pt converge to the same image: per-channel
+/// z-test of the mean pixel difference, |z| < 4.5 (false-failure rate about 2e-5 for three
+/// channels). `broken` leaves one guide path out of p_g.
+fn guided_vs_pt_z(scene: &Scene, spp: u64, cache: GuideCache, broken: bool) -> glam::DVec3 {
+    guided_vs_reference_z(scene, ("pt", spp), spp, 0.5, cache, broken)
+}
+
+/// As [`guided_vs_pt_z`] against `reference` (integrator, spp), guided-pt with split `alpha`.
+fn guided_vs_reference_z(
+    scene: &Scene,
+    reference: (&str, u64),
+    spp: u64,
+    alpha: f64,
+    cache: GuideCache,
+    broken: bool,
+) -> glam::DVec3 {
+    let max_depth = 6;
+    let pt = util::render(scene, reference.0, max_depth, &[], reference.1, 1, 2);
+    let mut cache = cache;
+    if broken {
+        // The guide path that yields the most successful guided samples: its samples lose
+        // their guided density, so they are weighted as if only pt could have made them.
+        let mut used = vec![0usize; cache.len()];
+        for i in 0..4000u64 {
+            let mut s = IndependentSampler::new(13, 0, i);
+            if let Ok(g) = sampler::sample_path(scene, &cache, &mut s) {
+                used[g.guide] += 1;
+            }
+        }
+        let most = (0..cache.len()).max_by_key(|&l| (used[l], l)).unwrap();
+        cache.skip_in_pdf = Some(most);
+    }
+    let mut g = GuidedPt {
+        settings: GuidedSettings {
+            alpha,
+            ..settings(max_depth, 0.0)
+        },
+        cache: Some(cache),
+    };
+    let ctx = RenderContext {
+        scene,
+        seed: 9,
+        progress: false,
+    };
+    let guided = g.render(&ctx, Budget::Spp(spp));
+    let z = util::z_same_mean(&guided.image, &pt.image);
+    eprintln!(
+        "broken {broken}: z {z:?}, means {:?} vs {:?}, stats {:?}",
+        guided.image.mean(),
+        pt.image.mean(),
+        guided.stats
+    );
+    z
+}
+
+/// A caustic: a glass sphere on a diffuse floor under a small light, seen from above; pt
+/// finds the caustic only when a floor bounce happens to refract into the light.
+const CAUSTIC: &str = r#"
+[camera]
+position = [0, 2.2, 1.6]
+look_at = [0, 0, 0]
+up = [0, 1, 0]
+fov = 40
+resolution = [48, 48]
+
+[[material]]
+name = "floor"
+type = "diffuse"
+albedo = [0.7, 0.7, 0.7]
+
+[[material]]
+name = "glass"
+type = "dielectric"
+ior = 1.5
+
+[[material]]
+name = "black"
+type = "black"
+
+[[shape]]
+type = "quad"
+origin = [-1.5, 0, -1.5]
+edge_u = [0, 0, 3]
+edge_v = [3, 0, 0]
+material = "floor"
+
+[[shape]]
+type = "sphere"
+center = [0, 0.35, 0]
+radius = 0.35
+material = "glass"
+
+[[shape]]
+type = "quad"
+origin = [-0.08, 1.6, -0.08]
+edge_u = [0.16, 0, 0]
+edge_v = [0, 0, 0.16]
+material = "black"
+emission = [300, 300, 300]
+"#;
+
+#[test]
+fn guided_pt_is_unbiased_on_the_glass_cornell_box() {
+    let scene = scene("cornell-box.toml", 64, |t| t);
+    let z = guided_vs_pt_z(&scene, 64, learn(&scene, 6, 12, 2), false);
+    assert!(z.abs().max_element() < 4.5, "z {z:?}");
+}
+
+#[test]
+fn guided_pt_is_unbiased_on_a_caustic_and_a_broken_pg_is_caught() {
+    let scene = util::scene(CAUSTIC);
+    let z = guided_vs_pt_z(&scene, 64, learn(&scene, 6, 12, 2), false);
+    assert!(z.abs().max_element() < 4.5, "z {z:?}");
+    // Against a converged bdpt image (bdpt's light tracing finds the caustic easily), with
+    // most samples guided so that a wrong p_g shows.
+    let reference = ("bdpt", 1024);
+    let z = guided_vs_reference_z(&scene, reference, 64, 0.2, learn(&scene, 6, 12, 2), false);
+    assert!(z.abs().max_element() < 4.5, "z {z:?}");
+    let zb = guided_vs_reference_z(&scene, reference, 64, 0.2, learn(&scene, 6, 12, 2), true);
+    assert!(
+        zb.abs().max_element() > 4.5,
+        "the broken p_g went unnoticed: z {zb:?}"
+    );
+}
+
+/// f(X) evaluated from the vertices equals what pt's estimate times its density gives, for
+/// every path pt forms in a glass, a glossy and a fog box.
+#[test]
+fn contribution_matches_pt() {
+    struct Check<'a> {
+        scene: &'a Scene,
+        n: usize,
+        bad: Vec<String>,
+    }
+    impl PathRecorder for Check<'_> {
+        fn record(&mut self, path: &Path, technique: usize, _: f64, _: f64) {
+            if path.f == glam::Vec3::ZERO {
+                return;
+            }
+            let y = bdpt::from_path(self.scene, path).unwrap();
+            let f = contribution::contribution(self.scene, &y, 0);
+            let rel =
+                ((f - path.f).abs() / path.f.abs().max(glam::Vec3::splat(1e-30))).max_element();
+            self.n += 1;
+            if rel > 2e-3 && self.bad.len() < 4 {
+                self.bad.push(format!(
+                    "k {} technique {technique}: pt {} vs {f}",
+                    path.segments(),
+                    path.f
+                ));
+            }
+        }
+    }
+    for (name, res) in [
+        ("cornell-box.toml", 16),
+        ("cornell-glossy.toml", 16),
+        ("cornell-fog.toml", 16),
+    ] {
+        let scene = scene(name, res, |t| t);
+        let pt = PathTracer {
+            settings: PtSettings {
+                max_depth: 6,
+                ..PtSettings::default()
+            },
+        };
+        let mut c = Check {
+            scene: &scene,
+            n: 0,
+            bad: Vec::new(),
+        };
+        for i in 0..256u64 {
+            let mut s = IndependentSampler::new(3, 0, i);
+            let raster = glam::Vec2::new((i % 16) as f32, (i / 16) as f32) + s.next_2d();
+            pt.li_recorded(&scene, raster, &mut s, Some(&mut c));
+        }
+        assert!(c.n > 200, "{name}: {} paths", c.n);
+        assert!(c.bad.is_empty(), "{name}: {}", c.bad.join("\n"));
+    }
+}

@@ -40,7 +40,7 @@ pub fn escape(text: &str) -> String {
 
 const STYLE: &str = "body{font-family:sans-serif;margin:1.5em;color:#222}\
 table{border-collapse:collapse;margin:1em 0}\
-th,td{border:1px solid #bbb;padding:.25em .6em;text-align:right}\
+th,td{border:1px solid #bbb;padding:.25em .6em;text-align:right;white-space:nowrap}\
 th:nth-child(-n+3),td:nth-child(-n+3){text-align:left}\
 .grid{display:flex;flex-wrap:wrap;gap:1em}\
 figure{margin:0}figure img{image-rendering:pixelated;width:256px;display:block}\

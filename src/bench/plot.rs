@@ -60,13 +60,16 @@ fn draw(
         .margin(12)
         .x_label_area_size(40)
         .y_label_area_size(70)
-        .build_cartesian_2d((t0..t1).log_scale(), (e0..e1).log_scale())?;
+        .build_cartesian_2d(
+            (t0..t1).log_scale().with_key_points(key_points_125(t0, t1)),
+            (e0..e1).log_scale().with_key_points(key_points_125(e0, e1)),
+        )?;
     chart
         .configure_mesh()
         .x_desc("seconds")
         .y_desc("MSE")
-        .x_label_formatter(&|x| format!("{x:.3}"))
-        .y_label_formatter(&|y| format!("{y:.1e}"))
+        .x_label_formatter(&|x| format!("{}", round3(*x)))
+        .y_label_formatter(&|y| format!("{y:.0e}"))
         .draw()?;
     for (i, (name, pts)) in curves.iter().enumerate() {
         let colour = Palette99::pick(i).to_rgba();
@@ -88,7 +91,43 @@ fn draw(
     Ok(())
 }
 
+/// 1, 2 and 5 times the powers of ten in [lo, hi]: the labelled points of a log axis.
+pub fn key_points_125(lo: f64, hi: f64) -> Vec<f64> {
+    let mut points = Vec::new();
+    let mut p = 10f64.powf(lo.log10().floor());
+    while p <= hi {
+        for m in [1.0, 2.0, 5.0] {
+            let v = round3(m * p);
+            if v >= lo && v <= hi {
+                points.push(v);
+            }
+        }
+        p *= 10.0;
+    }
+    points
+}
+
+/// `v` rounded to 3 significant digits (so 0.2 prints as 0.2, not 0.20000000000000004).
+fn round3(v: f64) -> f64 {
+    if v == 0.0 || !v.is_finite() {
+        return v;
+    }
+    let p = 10f64.powf(v.abs().log10().floor() - 2.0);
+    (v / p).round() * p
+}
+
 /// Write the plot to `path` (atomically).
 pub fn write_svg(path: &Path, title: &str, all: &[IntegratorRuns]) -> Result<()> {
     super::report::write_text(path, &svg(title, all)?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn key_points_are_1_2_5_decades() {
+        assert_eq!(key_points_125(0.08, 2.5), [0.1, 0.2, 0.5, 1.0, 2.0]);
+        assert_eq!(key_points_125(3e-4, 1.5e-3), [5e-4, 1e-3]);
+    }
 }

@@ -145,6 +145,17 @@ pub struct NamedRender {
     pub settings: String,
 }
 
+/// How [`render_named_with`] runs: seed, threads, progress bar and snapshots.
+#[derive(Clone, Copy)]
+pub struct RunSettings<'a> {
+    pub seed: u64,
+    /// Size of the thread pool.
+    pub threads: usize,
+    pub progress: bool,
+    /// Images at given elapsed seconds; the clock starts when the integrator starts rendering.
+    pub snapshots: Option<&'a crate::snapshot::Snapshots<'a>>,
+}
+
 /// Build integrator `name` and render `scene` with it on a pool of `threads` threads: what
 /// the command line, the benchmarks and the tests all do.
 pub fn render_named(
@@ -156,19 +167,43 @@ pub fn render_named(
     threads: usize,
     progress: bool,
 ) -> Result<NamedRender> {
+    let run = RunSettings {
+        seed,
+        threads,
+        progress,
+        snapshots: None,
+    };
+    render_named_with(scene, name, params, budget, &run)
+}
+
+/// [`render_named`] with snapshots: any registered integrator, by name.
+pub fn render_named_with(
+    scene: &crate::scene::Scene,
+    name: &str,
+    params: &IntegratorParams,
+    budget: crate::render::Budget,
+    run: &RunSettings,
+) -> Result<NamedRender> {
     let mut integrator = build(name, params)?;
+    let threads = run.threads;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
         .map_err(|e| Error::new(format!("cannot start {threads} threads: {e}")))?;
     let ctx = crate::render::RenderContext {
         scene,
-        seed,
-        progress,
+        seed: run.seed,
+        progress: run.progress,
+        snapshots: run.snapshots,
     };
     integrator.prepare(scene)?;
     let cpu0 = crate::render::process_cpu_seconds();
-    let result = pool.install(|| integrator.render(&ctx, budget));
+    let result = pool.install(|| {
+        if let Some(s) = run.snapshots {
+            s.start_clock();
+        }
+        integrator.render(&ctx, budget)
+    });
     integrator.finish(scene)?;
     let cpu_seconds = match (cpu0, crate::render::process_cpu_seconds()) {
         (Some(a), Some(b)) if b > a => b - a,

@@ -135,17 +135,21 @@ impl Image {
                 bytes.push((srgb_encode(c * scale) * 255.0 + 0.5) as u8);
             }
         }
-        let (w, h) = (self.width, self.height);
-        atomic_write(path, |tmp| {
-            let file = std::fs::File::create(tmp).map_err(|e| e.to_string())?;
-            let mut enc = png::Encoder::new(std::io::BufWriter::new(file), w, h);
-            enc.set_color(png::ColorType::Rgb);
-            enc.set_depth(png::BitDepth::Eight);
-            let mut writer = enc.write_header().map_err(|e| e.to_string())?;
-            writer.write_image_data(&bytes).map_err(|e| e.to_string())?;
-            writer.finish().map_err(|e| e.to_string())
-        })
+        write_png_rgb8(path, self.width, self.height, &bytes)
     }
+}
+
+/// Write 8-bit RGB pixels (row-major, top row first, 3 bytes a pixel) as a PNG, atomically.
+pub fn write_png_rgb8(path: &Path, width: u32, height: u32, rgb: &[u8]) -> Result<()> {
+    atomic_write(path, |tmp| {
+        let file = std::fs::File::create(tmp).map_err(|e| e.to_string())?;
+        let mut enc = png::Encoder::new(std::io::BufWriter::new(file), width, height);
+        enc.set_color(png::ColorType::Rgb);
+        enc.set_depth(png::BitDepth::Eight);
+        let mut writer = enc.write_header().map_err(|e| e.to_string())?;
+        writer.write_image_data(rgb).map_err(|e| e.to_string())?;
+        writer.finish().map_err(|e| e.to_string())
+    })
 }
 
 /// Buffer used while reading an EXR.

@@ -5,6 +5,7 @@
 //! driver); integrators live in `integrators/`, one module each, registered by name in
 //! `integrators/mod.rs`. See `DESIGN.md` in the project's shared notes for the map.
 
+pub mod bench;
 pub mod bsdf;
 pub mod camera;
 pub mod error;
@@ -17,6 +18,7 @@ pub mod metrics;
 pub mod path;
 pub mod render;
 pub mod scene;
+pub mod snapshot;
 
 #[path = "../integrators/mod.rs"]
 pub mod integrators;

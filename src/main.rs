@@ -1,12 +1,15 @@
-//! The `lodestar` command line: render, compare, info, integrators.
+//! The `lodestar` command line: render (with snapshots), bench, compare, info, integrators.
 
 use clap::{Parser, Subcommand};
+use lodestar::bench::BenchConfig;
 use lodestar::error::{Error, Result};
 use lodestar::film::Image;
-use lodestar::integrators::{self, IntegratorParams, Options};
+use lodestar::integrators::{self, IntegratorParams, Options, RunSettings};
+use lodestar::metrics::Crop;
 use lodestar::path::MAX_VERTICES;
 use lodestar::render::Budget;
 use lodestar::scene::{Scene, loader};
+use lodestar::snapshot::{self, Snapshot, Snapshots};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -25,8 +28,16 @@ struct Cli {
 enum Command {
     /// Render a scene (the built-in Cornell box when no scene is given).
     Render(RenderArgs),
+    /// Equal-time comparison of integrators against a reference: table, CSV, plot, HTML.
+    Bench(BenchArgs),
     /// Compare two EXR images: per-channel means, MSE, RMSE and relMSE (B is the reference).
-    Compare { a: PathBuf, b: PathBuf },
+    Compare {
+        a: PathBuf,
+        b: PathBuf,
+        /// Only the pixels [x0, x1) x [y0, y1).
+        #[arg(long, value_name = "x0,y0,x1,y1")]
+        crop: Option<String>,
+    },
     /// Print a scene's counts and features.
     Info { scene: PathBuf },
     /// List the registered integrators.
@@ -66,7 +77,50 @@ struct RenderArgs {
     /// Integrator option key=value (repeatable), e.g. -O strategy=nee.
     #[arg(short = 'O', long = "option")]
     options: Vec<String>,
+    /// Also write the image at these elapsed seconds, e.g. 5,10,20,40: out.t0005.exr beside
+    /// out.exr (and out.t0005.png beside --png).
+    #[arg(long, value_name = "SECONDS,...")]
+    snapshots: Option<String>,
     /// No progress bar.
+    #[arg(short, long)]
+    quiet: bool,
+}
+
+#[derive(clap::Args)]
+struct BenchArgs {
+    /// Scene file (TOML).
+    #[arg(long)]
+    scene: PathBuf,
+    /// Integrator names, comma-separated; the first is the baseline of the speed-up.
+    #[arg(long, value_delimiter = ',', required = true)]
+    integrators: Vec<String>,
+    /// Wall-clock seconds per render (learning included for learning methods).
+    #[arg(long, allow_negative_numbers = true)]
+    time: f64,
+    /// Reference EXR of the scene (same resolution).
+    #[arg(long)]
+    reference: PathBuf,
+    /// Renders per integrator, seeds seed..seed+runs; the table shows medians.
+    #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
+    runs: u32,
+    #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
+    seed: u64,
+    /// Output directory (default: bench-<scene name>); created if missing.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Worker threads (default: all cores).
+    #[arg(long, allow_negative_numbers = true)]
+    threads: Option<usize>,
+    /// Maximum number of path segments; default: the scene's.
+    #[arg(long, allow_negative_numbers = true)]
+    max_depth: Option<u32>,
+    /// Measure every error over the pixels [x0, x1) x [y0, y1) only.
+    #[arg(long, value_name = "x0,y0,x1,y1")]
+    crop: Option<String>,
+    /// Exposure of the PNG images in stops.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    exposure: f32,
+    /// No line per render on stderr.
     #[arg(short, long)]
     quiet: bool,
 }
@@ -113,7 +167,8 @@ fn main() -> ExitCode {
     };
     let result = match cli.command {
         Command::Render(args) => render(args),
-        Command::Compare { a, b } => compare(&a, &b),
+        Command::Bench(args) => bench(args),
+        Command::Compare { a, b, crop } => compare(&a, &b, crop.as_deref()),
         Command::Info { scene } => info(&scene),
         Command::Integrators => {
             for e in integrators::REGISTRY {
@@ -163,6 +218,17 @@ fn render(args: RenderArgs) -> Result<()> {
     if !args.exposure.is_finite() {
         return Err(Error::new("--exposure must be a finite number"));
     }
+    let snapshot_times = match &args.snapshots {
+        Some(text) => snapshot::parse_times(text)?,
+        None => Vec::new(),
+    };
+    if let (Some(t), Some(last)) = (args.time, snapshot_times.iter().copied().reduce(f64::max))
+        && last > t
+    {
+        return Err(Error::new(format!(
+            "--snapshots: {last} s is beyond --time {t}"
+        )));
+    }
     let output = args.output.clone().unwrap_or_else(|| {
         let stem = args
             .scene
@@ -192,27 +258,51 @@ fn render(args: RenderArgs) -> Result<()> {
     let threads = args
         .threads
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    let run = integrators::render_named(
-        &scene,
-        &name,
-        &params,
-        budget,
-        args.seed,
+    let scene_source = scene.source.clone();
+    let base_meta = |name: &str| {
+        vec![
+            ("integrator".to_string(), name.to_string()),
+            ("scene".to_string(), scene_source.clone()),
+            ("seed".to_string(), args.seed.to_string()),
+            ("threads".to_string(), threads.to_string()),
+        ]
+    };
+    let sink = |s: &Snapshot| {
+        // The registry has accepted `name` by the time a snapshot is taken; the settings are
+        // in the final image's header.
+        let mut meta = base_meta(&name);
+        meta.extend([
+            ("spp".to_string(), s.spp.to_string()),
+            ("passes".to_string(), s.passes.to_string()),
+            ("seconds".to_string(), format!("{:.3}", s.seconds)),
+            ("snapshot_time".to_string(), s.time.to_string()),
+        ]);
+        s.image
+            .write_exr(&snapshot::snapshot_path(&output, s.time), &meta)?;
+        if let Some(png) = &args.png {
+            s.image
+                .write_png(&snapshot::snapshot_path(png, s.time), args.exposure)?;
+        }
+        Ok(())
+    };
+    let snapshots = Snapshots::new(&snapshot_times, &sink)?;
+    let run_settings = RunSettings {
+        seed: args.seed,
         threads,
-        !args.quiet,
-    )?;
+        progress: !args.quiet,
+        snapshots: (!snapshot_times.is_empty()).then_some(&snapshots),
+    };
+    let run = integrators::render_named_with(&scene, &name, &params, budget, &run_settings)?;
+    let missed = snapshots.finish()?;
     let result = &run.result;
 
-    let mut meta = vec![
-        ("integrator".to_string(), run.name.to_string()),
+    let mut meta = base_meta(run.name);
+    meta.extend([
         ("settings".to_string(), run.settings.clone()),
-        ("scene".to_string(), scene.source.clone()),
         ("spp".to_string(), result.spp.to_string()),
         ("passes".to_string(), result.passes.to_string()),
         ("seconds".to_string(), format!("{:.3}", result.seconds)),
-        ("seed".to_string(), args.seed.to_string()),
-        ("threads".to_string(), threads.to_string()),
-    ];
+    ]);
     meta.extend(result.stats.iter().cloned());
     result.image.write_exr(&output, &meta)?;
     if let Some(png) = &args.png {
@@ -231,13 +321,51 @@ fn render(args: RenderArgs) -> Result<()> {
         m.y,
         m.z
     );
+    if !missed.is_empty() {
+        let list: Vec<String> = missed.iter().map(|t| t.to_string()).collect();
+        eprintln!(
+            "note: the render ended before snapshot time(s) {} s",
+            list.join(", ")
+        );
+    }
     Ok(())
 }
 
-fn compare(a: &Path, b: &Path) -> Result<()> {
+fn bench(args: BenchArgs) -> Result<()> {
+    let crop = args.crop.as_deref().map(Crop::parse).transpose()?;
+    let config = BenchConfig {
+        out: args
+            .out
+            .clone()
+            .unwrap_or_else(|| lodestar::bench::default_out(&args.scene)),
+        scene: args.scene,
+        integrators: args.integrators,
+        seconds: args.time,
+        reference: args.reference,
+        runs: args.runs,
+        seed: args.seed,
+        threads: args
+            .threads
+            .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get())),
+        max_depth: args.max_depth,
+        crop,
+        exposure: args.exposure,
+        verbose: !args.quiet,
+    };
+    let prepared = lodestar::bench::prepare(config)?;
+    let report = lodestar::bench::bench(&prepared)?;
+    print!("{}", report.table);
+    if !args.quiet {
+        eprintln!("wrote {}", prepared.config.out.join("index.html").display());
+    }
+    Ok(())
+}
+
+fn compare(a: &Path, b: &Path, crop: Option<&str>) -> Result<()> {
+    let crop = crop.map(Crop::parse).transpose()?;
     let (ia, _) = Image::read_exr(a)?;
     let (ib, _) = Image::read_exr(b)?;
-    let c = lodestar::metrics::compare(&ia, &ib)
+    let c = lodestar::metrics::compare_crop(&ia, &ib, crop)
         .map_err(|e| e.context(format!("{} vs {}", a.display(), b.display())))?;
     println!(
         "mean A  {:.6} {:.6} {:.6}",

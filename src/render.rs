@@ -1,20 +1,22 @@
 //! The integrator interface and the shared pass driver.
 //!
 //! An [`Integrator`] renders passes into a film until a [`Budget`] is spent. The driver
-//! ([`run_passes`]) owns the loop, the budget and the progress bar; integrators that estimate
-//! one value per pixel implement [`PixelEstimator`] and get the whole render from
-//! [`render_pixel_estimator`]. Randomness comes from one counter-based stream per
-//! (seed, pass, pixel), and each pixel is accumulated by exactly one task, so the image is
-//! bit-identical for any number of threads.
+//! ([`run_passes`], [`run_passes_with_snapshots`]) owns the loop, the budget, the progress bar
+//! and snapshots (the current image at given elapsed seconds, see [`crate::snapshot`]);
+//! integrators that estimate one value per pixel implement [`PixelEstimator`] and get the
+//! whole render from [`render_pixel_estimator`]. Randomness comes from one counter-based
+//! stream per (seed, pass, pixel), and each pixel is accumulated by exactly one task, so the
+//! image is bit-identical for any number of threads (and with or without snapshots).
 
 use crate::film::{Film, Image};
 use crate::math::{IndependentSampler, Spectrum, is_finite3};
 use crate::scene::Scene;
+use crate::snapshot::Snapshots;
 use glam::{UVec2, Vec2};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, Ordering};
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 /// How much work a render may do.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -31,6 +33,22 @@ pub struct RenderContext<'a> {
     pub seed: u64,
     /// Draw a progress bar on stderr (hidden when stderr is not a terminal).
     pub progress: bool,
+    /// Images to hand out at given elapsed seconds (none when `None`); the pass driver does
+    /// it for integrators that use it, see [`crate::snapshot`] for integrators with their own
+    /// loop.
+    pub snapshots: Option<&'a Snapshots<'a>>,
+}
+
+impl<'a> RenderContext<'a> {
+    /// A context without snapshots.
+    pub fn new(scene: &'a Scene, seed: u64, progress: bool) -> RenderContext<'a> {
+        RenderContext {
+            scene,
+            seed,
+            progress,
+            snapshots: None,
+        }
+    }
 }
 
 /// The outcome of a render.
@@ -69,29 +87,74 @@ pub trait PixelEstimator: Sync {
 }
 
 /// Run `pass(i)` for i = 0, 1, ... until the budget is spent; returns (passes, seconds).
+/// No snapshots: see [`run_passes_with_snapshots`].
 pub fn run_passes(progress: bool, budget: Budget, mut pass: impl FnMut(u64)) -> (u64, f64) {
+    // Without snapshots the image closure is never called.
+    drive(
+        progress,
+        None,
+        budget,
+        &mut (),
+        |_, i| pass(i),
+        |_, _| Image::new(0, 0),
+    )
+}
+
+/// [`run_passes`] over a render state `S` (typically the film) that also hands out snapshots:
+/// after each pass, when a snapshot time of `ctx.snapshots` is due, `image(state, passes)`
+/// gives the current image (spp = passes). Time spent on snapshots does not count against a
+/// [`Budget::Seconds`]. Returns (passes, seconds).
+pub fn run_passes_with_snapshots<S>(
+    ctx: &RenderContext,
+    budget: Budget,
+    state: &mut S,
+    pass: impl FnMut(&mut S, u64),
+    image: impl Fn(&S, u64) -> Image,
+) -> (u64, f64) {
+    drive(ctx.progress, ctx.snapshots, budget, state, pass, image)
+}
+
+/// The pass loop. The budget clock starts here and excludes time paused for snapshots.
+fn drive<S>(
+    progress: bool,
+    snapshots: Option<&Snapshots>,
+    budget: Budget,
+    state: &mut S,
+    mut pass: impl FnMut(&mut S, u64),
+    image: impl Fn(&S, u64) -> Image,
+) -> (u64, f64) {
     let start = Instant::now();
+    let paused = || snapshots.map_or(Duration::ZERO, |s| s.paused());
+    let paused_at_start = paused();
+    let elapsed = || {
+        start
+            .elapsed()
+            .saturating_sub(paused() - paused_at_start)
+            .as_secs_f64()
+    };
     let bar = progress_bar(progress, budget);
     let mut passes = 0u64;
     loop {
         let done = match budget {
             Budget::Spp(n) => passes >= n,
-            Budget::Seconds(s) => passes > 0 && start.elapsed().as_secs_f64() >= s,
+            Budget::Seconds(s) => passes > 0 && elapsed() >= s,
         };
         if done {
             break;
         }
-        pass(passes);
+        pass(state, passes);
         passes += 1;
+        if let Some(snaps) = snapshots {
+            let state = &*state;
+            snaps.emit_due(passes, passes, || image(state, passes));
+        }
         match budget {
             Budget::Spp(_) => bar.set_position(passes),
-            Budget::Seconds(s) => {
-                bar.set_position((start.elapsed().as_secs_f64() / s * 1000.0).min(1000.0) as u64)
-            }
+            Budget::Seconds(s) => bar.set_position((elapsed() / s * 1000.0).min(1000.0) as u64),
         }
     }
     bar.finish_and_clear();
-    (passes, start.elapsed().as_secs_f64())
+    (passes, elapsed())
 }
 
 /// CPU seconds (user + system, all threads) this process has used so far, from
@@ -137,7 +200,8 @@ pub trait RowTracer {
 /// The pass driver of sample-per-pixel integrators: each pass gives every pixel one jittered
 /// sample from its own stream (seed, pass, pixel), one task per row with a tracer from
 /// `new_tracer`; splats are added in row order and scaled by 1 / passes (one light path per
-/// pixel and pass), so the image does not depend on the number of threads.
+/// pixel and pass), so the image does not depend on the number of threads. Snapshots of
+/// `ctx.snapshots` are handed out after the passes that reach their times.
 pub fn render_rows<T: RowTracer>(
     ctx: &RenderContext,
     budget: Budget,
@@ -146,7 +210,7 @@ pub fn render_rows<T: RowTracer>(
     let UVec2 { x: w, y: h } = ctx.scene.camera.resolution;
     let mut film = Film::new(w, h);
     let invalid = AtomicU64::new(0);
-    let (passes, seconds) = run_passes(ctx.progress, budget, |pass| {
+    let pass = |film: &mut Film, pass: u64| {
         let splats: Vec<Vec<(u32, Spectrum)>> = film
             .par_rows_mut()
             .enumerate()
@@ -169,7 +233,9 @@ pub fn render_rows<T: RowTracer>(
         for row in &splats {
             film.add_splats(row);
         }
-    });
+    };
+    let image = |film: &Film, passes: u64| film.to_image(passes as f64, 1.0 / passes as f64);
+    let (passes, seconds) = run_passes_with_snapshots(ctx, budget, &mut film, pass, image);
     let splat_scale = if passes > 0 { 1.0 / passes as f64 } else { 0.0 };
     RenderResult {
         image: film.to_image(passes as f64, splat_scale),
@@ -227,5 +293,96 @@ mod tests {
         assert!(starts.iter().all(|&t| t < budget), "{starts:?}");
         let (passes, _) = run_passes(false, Budget::Seconds(1e-9), |_| {});
         assert_eq!(passes, 1);
+    }
+
+    /// A tracer whose value depends on the sample stream, with a splat per pixel.
+    struct Noise(Vec<(u32, Spectrum)>, u32);
+    impl RowTracer for Noise {
+        fn sample(&mut self, raster: Vec2, sampler: &mut IndependentSampler) -> Spectrum {
+            use crate::math::Sampler;
+            let v = sampler.next_1d();
+            self.0
+                .push((self.1 - 1 - raster.x as u32, Spectrum::splat(v)));
+            Spectrum::new(v, raster.y, 1.0)
+        }
+        fn take_splats(&mut self) -> Vec<(u32, Spectrum)> {
+            std::mem::take(&mut self.0)
+        }
+    }
+
+    fn small_scene() -> Scene {
+        let text = crate::scene::CORNELL_BOX_TOML
+            .replace("resolution = [256, 256]", "resolution = [8, 6]");
+        crate::scene::loader::load_str(&text, "test.toml", None).unwrap()
+    }
+
+    /// Snapshots are the images an spp budget of their pass count gives, and taking them
+    /// changes nothing in the final image.
+    #[test]
+    fn render_rows_snapshots_are_the_images_of_shorter_renders() {
+        let scene = small_scene();
+        let w = scene.camera.resolution.x;
+        let render =
+            |ctx: &RenderContext, spp| render_rows(ctx, Budget::Spp(spp), || Noise(Vec::new(), w));
+        let plain = render(&RenderContext::new(&scene, 3, false), 40);
+        let taken = std::sync::Mutex::new(Vec::new());
+        let sink = |s: &crate::snapshot::Snapshot| {
+            taken
+                .lock()
+                .unwrap()
+                .push((s.passes, s.spp, s.image.clone()));
+            Ok(())
+        };
+        // Times so small that every pass crosses one until they run out.
+        let times: Vec<f64> = (1..=5).map(|k| k as f64 * 1e-9).collect();
+        let snaps = Snapshots::new(&times, &sink).unwrap();
+        snaps.start_clock();
+        let ctx = RenderContext {
+            snapshots: Some(&snaps),
+            ..RenderContext::new(&scene, 3, false)
+        };
+        let with = render(&ctx, 40);
+        assert_eq!(with.image, plain.image);
+        let taken = taken.lock().unwrap().clone();
+        assert!(!taken.is_empty());
+        for (passes, spp, image) in taken {
+            assert_eq!(passes, spp);
+            let shorter = render(&RenderContext::new(&scene, 3, false), passes);
+            assert_eq!(image, shorter.image, "snapshot after {passes} passes");
+        }
+    }
+
+    /// Time spent in the snapshot sink is not charged to a seconds budget.
+    #[test]
+    fn snapshot_time_is_paused_out_of_the_budget() {
+        let sink = |_: &crate::snapshot::Snapshot| {
+            std::thread::sleep(Duration::from_millis(60));
+            Ok(())
+        };
+        let snaps = Snapshots::new(&[1e-9], &sink).unwrap();
+        let scene = small_scene();
+        let ctx = RenderContext {
+            snapshots: Some(&snaps),
+            ..RenderContext::new(&scene, 0, false)
+        };
+        let mut n = 0u64;
+        let t0 = Instant::now();
+        let (passes, seconds) = run_passes_with_snapshots(
+            &ctx,
+            Budget::Seconds(0.05),
+            &mut n,
+            |n, _| {
+                *n += 1;
+                std::thread::sleep(Duration::from_millis(5));
+            },
+            |_, _| Image::new(1, 1),
+        );
+        // The sleeping sink ran once (60 ms, after the first pass) yet the budget still
+        // allowed ~50 ms of 5 ms passes (charged, it would have stopped after one), and the
+        // reported seconds leave the 60 ms out.
+        assert_eq!(passes, n);
+        assert!(passes >= 3, "{passes} passes");
+        assert!(seconds >= 0.05, "{seconds}");
+        assert!(t0.elapsed().as_secs_f64() >= seconds + 0.06, "{seconds}");
     }
 }

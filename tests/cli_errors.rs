@@ -483,3 +483,158 @@ fn integrators_lists_pt() {
         "{stdout}"
     );
 }
+
+// ---- render --snapshots, compare --crop ----
+
+#[test]
+fn snapshots_not_numbers() {
+    render_fails(&["--snapshots", "5,x"], 1, &["--snapshots", "'5,x'"]);
+}
+
+#[test]
+fn snapshots_not_positive() {
+    render_fails(&["--snapshots", "0,1"], 1, &["--snapshots", "got 0"]);
+    render_fails(&["--snapshots", "nan"], 1, &["--snapshots", "NaN"]);
+}
+
+#[test]
+fn snapshots_beyond_the_time_budget() {
+    render_fails(
+        &["--time", "1", "--snapshots", "0.5,2"],
+        1,
+        &["--snapshots", "2 s is beyond --time 1"],
+    );
+}
+
+#[test]
+fn compare_bad_crop() {
+    let t = TempDir::new();
+    let a = t.path("a.exr");
+    write_exr(&a, 8, 8);
+    let a = a.display().to_string();
+    fails(
+        &run(&["compare", &a, &a, "--crop", "1,2,3"]),
+        1,
+        &["--crop", "x0,y0,x1,y1", "'1,2,3'"],
+    );
+    fails(
+        &run(&["compare", &a, &a, "--crop", "0,0,9,8"]),
+        1,
+        &["--crop 0,0,9,8", "outside the 8x8 image"],
+    );
+}
+
+// ---- bench ----
+
+/// `lodestar bench` on TINY with a 16 x 16 reference in T, output T/out, with `flags`
+/// (flag, value) replacing the defaults or added: must fail with `code` and the facts,
+/// creating no output directory.
+fn bench_fails(flags: &[(&str, &str)], code: i32, facts: &[&str]) -> String {
+    let t = TempDir::new();
+    let reference = t.path("ref.exr");
+    write_exr(&reference, 16, 16);
+    let (reference, out) = (reference.display().to_string(), t.s("out"));
+    let mut pairs = vec![
+        ("--scene", TINY),
+        ("--integrators", "pt"),
+        ("--time", "0.01"),
+        ("--reference", &reference),
+        ("--out", &out),
+    ];
+    for &(flag, value) in flags {
+        match pairs.iter_mut().find(|(f, _)| *f == flag) {
+            Some(pair) => pair.1 = value,
+            None => pairs.push((flag, value)),
+        }
+    }
+    let mut args = vec!["bench", "--quiet"];
+    args.extend(pairs.iter().flat_map(|&(f, v)| [f, v]));
+    let line = fails(&run(&args), code, facts);
+    assert!(!t.path("out").exists(), "nothing may be written on error");
+    line
+}
+
+#[test]
+fn bench_unknown_integrator() {
+    bench_fails(
+        &[("--integrators", "pt,bogus")],
+        1,
+        &["--integrators", "unknown integrator 'bogus'", "bdpt"],
+    );
+}
+
+#[test]
+fn bench_integrator_listed_twice() {
+    bench_fails(&[("--integrators", "pt,lt,pt")], 1, &["'pt'", "twice"]);
+}
+
+#[test]
+fn bench_bad_time() {
+    bench_fails(&[("--time", "0")], 1, &["--time", "got 0"]);
+    bench_fails(&[("--time", "-2")], 1, &["--time", "got -2"]);
+    bench_fails(&[("--time", "nan")], 1, &["--time", "NaN"]);
+    bench_fails(&[("--time", "soon")], 2, &["--time", "'soon'"]);
+}
+
+#[test]
+fn bench_zero_runs() {
+    bench_fails(&[("--runs", "0")], 1, &["--runs", "at least 1"]);
+}
+
+#[test]
+fn bench_reference_of_the_wrong_resolution() {
+    let t = TempDir::new();
+    let small = t.path("small.exr");
+    write_exr(&small, 8, 16);
+    let small = small.display().to_string();
+    bench_fails(
+        &[("--reference", &small)],
+        1,
+        &[&small, "reference is 8x16", TINY, "16x16"],
+    );
+}
+
+#[test]
+fn bench_unreadable_reference() {
+    let t = TempDir::new();
+    let missing = t.s("missing.exr");
+    bench_fails(
+        &[("--reference", &missing)],
+        1,
+        &[&missing, "cannot read EXR"],
+    );
+    bench_fails(&[("--reference", TINY)], 1, &[TINY, "cannot read EXR"]);
+}
+
+#[test]
+fn bench_bad_crop() {
+    bench_fails(&[("--crop", "4,4,2,8")], 1, &["--crop", "'4,4,2,8'"]);
+    bench_fails(
+        &[("--crop", "0,0,16,17")],
+        1,
+        &["--crop 0,0,16,17", "outside the 16x16 image"],
+    );
+}
+
+#[test]
+fn bench_missing_scene_and_required_flags() {
+    bench_fails(
+        &[("--scene", "tests/data/no-such-scene.toml")],
+        1,
+        &["tests/data/no-such-scene.toml", "cannot read scene file"],
+    );
+    fails(
+        &run(&["bench", "--scene", TINY, "--time", "1"]),
+        2,
+        &["required", "--integrators", "--reference"],
+    );
+}
+
+#[test]
+fn bench_output_parent_missing() {
+    bench_fails(
+        &[("--out", "/nonexistent/dir/out")],
+        1,
+        &["--out /nonexistent/dir/out", "does not exist"],
+    );
+}

@@ -1,0 +1,283 @@
+//! The numbers of a bench: one row per run and one median row per integrator, with the MSE
+//! speed-up against the first integrator (its MSE over this one's at equal time: per run for
+//! the same seed, `median MSE(first) / median MSE(this)` for the medians), printed as a table
+//! and written as `report.csv`; the curves as `curves.csv`.
+//!
+//! Both CSV files have a header line and comma-separated fields (a field with a comma, quote
+//! or newline is quoted, quotes doubled). `report.csv`: `scene, integrator, run, seed, seconds,
+//! spp, passes, mse, rmse, rel_mse, speedup`, where `run` is the run's index or `median` (seed
+//! then gives the first seed). `curves.csv`: `scene, integrator, run, seed, seconds, spp,
+//! passes, mse, rmse, rel_mse`.
+
+use super::run::IntegratorRuns;
+use crate::error::Result;
+use crate::film::atomic_write;
+use crate::metrics::median;
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// One line of the report: a run, or the medians of an integrator's runs.
+#[derive(Debug, Clone)]
+pub struct Row {
+    pub integrator: String,
+    /// Run index, or `None` for the median row.
+    pub run: Option<usize>,
+    /// The run's seed (the first seed for a median row).
+    pub seed: u64,
+    /// How many runs the row summarises (1 for a run).
+    pub runs: usize,
+    pub seconds: f64,
+    pub spp: f64,
+    pub passes: f64,
+    pub mse: f64,
+    pub rmse: f64,
+    pub rel_mse: f64,
+    pub speedup: f64,
+}
+
+/// Per-run rows, in integrator order then run order.
+pub fn run_rows(all: &[IntegratorRuns]) -> Vec<Row> {
+    let mut rows = Vec::new();
+    for ir in all {
+        for (k, r) in ir.runs.iter().enumerate() {
+            let first = all[0].runs.get(k).map_or(f64::NAN, |f| f.error.mse);
+            rows.push(Row {
+                integrator: ir.name.clone(),
+                run: Some(k),
+                seed: r.seed,
+                runs: 1,
+                seconds: r.seconds,
+                spp: r.spp as f64,
+                passes: r.passes as f64,
+                mse: r.error.mse,
+                rmse: r.error.rmse,
+                rel_mse: r.error.rel_mse,
+                speedup: first / r.error.mse,
+            });
+        }
+    }
+    rows
+}
+
+/// One median row per integrator.
+pub fn median_rows(all: &[IntegratorRuns]) -> Vec<Row> {
+    let med = |ir: &IntegratorRuns, f: fn(&super::run::Run) -> f64| {
+        median(&ir.runs.iter().map(f).collect::<Vec<_>>())
+    };
+    let first_mse = all.first().map_or(f64::NAN, |f| med(f, |r| r.error.mse));
+    all.iter()
+        .map(|ir| {
+            let mse = med(ir, |r| r.error.mse);
+            Row {
+                integrator: ir.name.clone(),
+                run: None,
+                seed: ir.runs.first().map_or(0, |r| r.seed),
+                runs: ir.runs.len(),
+                seconds: med(ir, |r| r.seconds),
+                spp: med(ir, |r| r.spp as f64),
+                passes: med(ir, |r| r.passes as f64),
+                mse,
+                rmse: med(ir, |r| r.error.rmse),
+                rel_mse: med(ir, |r| r.error.rel_mse),
+                speedup: first_mse / mse,
+            }
+        })
+        .collect()
+}
+
+impl Row {
+    /// The run column: the seed for a single run, `median of N` for a summary of N runs.
+    pub fn run_label(&self) -> String {
+        match (self.run, self.runs) {
+            (None, n) if n > 1 => format!("median of {n}"),
+            _ => format!("seed {}", self.seed),
+        }
+    }
+}
+
+/// The text table printed by `lodestar bench`: one row per integrator (medians when there
+/// are several runs).
+pub fn table(scene: &str, rows: &[Row]) -> String {
+    let mut s = String::new();
+    let w = scene.len().max(5);
+    let iw = rows
+        .iter()
+        .map(|r| r.integrator.len())
+        .max()
+        .unwrap_or(0)
+        .max(10);
+    let _ = writeln!(
+        s,
+        "{:<w$} {:<iw$} {:<14} {:>8} {:>9} {:>9} {:>11} {:>11} {:>11} {:>8}",
+        "scene",
+        "integrator",
+        "run",
+        "seconds",
+        "spp",
+        "passes",
+        "MSE",
+        "RMSE",
+        "relMSE",
+        "speedup"
+    );
+    for r in rows {
+        let _ = writeln!(
+            s,
+            "{:<w$} {:<iw$} {:<14} {:>8.2} {:>9} {:>9} {:>11.4e} {:>11.4e} {:>11.4e} {:>8.3}",
+            scene,
+            r.integrator,
+            r.run_label(),
+            r.seconds,
+            count(r.spp),
+            count(r.passes),
+            r.mse,
+            r.rmse,
+            r.rel_mse,
+            r.speedup
+        );
+    }
+    s
+}
+
+/// A count, with one decimal when a median of an even number of runs fell between two.
+fn count(x: f64) -> String {
+    if x.fract() == 0.0 {
+        format!("{x:.0}")
+    } else {
+        format!("{x:.1}")
+    }
+}
+
+/// Write `report.csv`: the per-run rows, then the median rows.
+pub fn write_report_csv(path: &Path, scene: &str, all: &[IntegratorRuns]) -> Result<()> {
+    let mut s =
+        String::from("scene,integrator,run,seed,seconds,spp,passes,mse,rmse,rel_mse,speedup\n");
+    for r in run_rows(all).iter().chain(&median_rows(all)) {
+        let run = r.run.map_or("median".to_string(), |k| k.to_string());
+        let fields = [
+            field(scene),
+            field(&r.integrator),
+            run,
+            r.seed.to_string(),
+            format!("{:.6}", r.seconds),
+            r.spp.to_string(),
+            r.passes.to_string(),
+            format!("{:.9e}", r.mse),
+            format!("{:.9e}", r.rmse),
+            format!("{:.9e}", r.rel_mse),
+            format!("{:.9e}", r.speedup),
+        ];
+        s.push_str(&fields.join(","));
+        s.push('\n');
+    }
+    write_text(path, &s)
+}
+
+/// Write `curves.csv`: every curve point of every run.
+pub fn write_curves_csv(path: &Path, scene: &str, all: &[IntegratorRuns]) -> Result<()> {
+    let mut s = String::from("scene,integrator,run,seed,seconds,spp,passes,mse,rmse,rel_mse\n");
+    for ir in all {
+        for (k, r) in ir.runs.iter().enumerate() {
+            for q in &r.curve {
+                let _ = writeln!(
+                    s,
+                    "{},{},{k},{},{:.6},{},{},{:.9e},{:.9e},{:.9e}",
+                    field(scene),
+                    field(&ir.name),
+                    r.seed,
+                    q.seconds,
+                    q.spp,
+                    q.passes,
+                    q.error.mse,
+                    q.error.rmse,
+                    q.error.rel_mse
+                );
+            }
+        }
+    }
+    write_text(path, &s)
+}
+
+/// A CSV field, quoted when it needs to be.
+fn field(text: &str) -> String {
+    if text.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", text.replace('"', "\"\""))
+    } else {
+        text.to_string()
+    }
+}
+
+/// Write a text file atomically.
+pub fn write_text(path: &Path, text: &str) -> Result<()> {
+    atomic_write(path, |tmp| {
+        std::fs::write(tmp, text).map_err(|e| e.to_string())
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bench::run::Run;
+    use crate::film::Image;
+    use crate::metrics::Comparison;
+    use glam::DVec3;
+
+    fn runs(name: &str, mses: &[f64]) -> IntegratorRuns {
+        let runs = mses
+            .iter()
+            .enumerate()
+            .map(|(k, &mse)| {
+                let error = Comparison {
+                    mean_a: DVec3::ZERO,
+                    mean_b: DVec3::ZERO,
+                    mse,
+                    rmse: mse.sqrt(),
+                    rel_mse: 2.0 * mse,
+                };
+                Run {
+                    seed: 10 + k as u64,
+                    seconds: 1.0 + k as f64,
+                    spp: 4 + k as u64,
+                    passes: 4 + k as u64,
+                    error,
+                    curve: Vec::new(),
+                }
+            })
+            .collect();
+        IntegratorRuns {
+            name: name.to_string(),
+            settings: String::new(),
+            runs,
+            image: Image::new(1, 1),
+            metadata: Vec::new(),
+        }
+    }
+
+    /// Speed-ups: per run against the first integrator's run with the same seed, and median
+    /// over median for the summary.
+    #[test]
+    fn speedups_and_medians() {
+        let all = [runs("a", &[4.0, 8.0, 6.0]), runs("b", &[1.0, 4.0, 2.0])];
+        let per_run = run_rows(&all);
+        let speed: Vec<f64> = per_run.iter().map(|r| r.speedup).collect();
+        assert_eq!(speed, [1.0, 1.0, 1.0, 4.0, 2.0, 3.0]);
+        let med = median_rows(&all);
+        assert_eq!((med[0].mse, med[1].mse), (6.0, 2.0));
+        assert_eq!((med[0].speedup, med[1].speedup), (1.0, 3.0));
+        assert_eq!(
+            (med[1].seconds, med[1].spp, med[1].rel_mse),
+            (2.0, 5.0, 4.0)
+        );
+        assert_eq!(med[1].run_label(), "median of 3");
+        let t = table("s.toml", &med);
+        assert_eq!(t.lines().count(), 3);
+        assert!(t.lines().nth(2).unwrap().contains("3.000"), "{t}");
+    }
+
+    #[test]
+    fn csv_fields_are_quoted_when_needed() {
+        assert_eq!(field("a.toml"), "a.toml");
+        assert_eq!(field("a,b"), "\"a,b\"");
+        assert_eq!(field("say \"hi\""), "\"say \"\"hi\"\"\"");
+    }
+}

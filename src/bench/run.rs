@@ -1,0 +1,152 @@
+//! Runs an equal-time comparison: every integrator renders the scene for the same wall-clock
+//! budget with each seed (seeds interleaved, so a slow spell of a shared machine spreads over
+//! all integrators), and each render is compared with the reference at the final time and at
+//! the snapshot times `T / 32, T / 16, T / 8, T / 4, T / 2` (its error-against-time curve).
+//! Nothing here is integrator-specific: any name in the registry runs through
+//! `integrators::render_named_with`.
+
+use super::Prepared;
+use crate::error::Result;
+use crate::film::Image;
+use crate::integrators::{self, IntegratorParams, Options, RunSettings};
+use crate::metrics::{Comparison, compare_crop};
+use crate::render::Budget;
+use crate::snapshot::{Snapshot, Snapshots};
+use std::sync::Mutex;
+
+/// Fractions of the time budget at which curve points are taken (plus the final image).
+pub const CURVE_FRACTIONS: [f64; 5] = [1.0 / 32.0, 1.0 / 16.0, 1.0 / 8.0, 1.0 / 4.0, 1.0 / 2.0];
+
+/// One point of an error-against-time curve.
+#[derive(Debug, Clone, Copy)]
+pub struct CurvePoint {
+    /// Elapsed seconds on the render clock.
+    pub seconds: f64,
+    pub spp: u64,
+    pub passes: u64,
+    pub error: Comparison,
+}
+
+/// One render of one integrator with one seed.
+#[derive(Debug, Clone)]
+pub struct Run {
+    pub seed: u64,
+    pub seconds: f64,
+    pub spp: u64,
+    pub passes: u64,
+    pub error: Comparison,
+    /// Snapshot points in time order, ending with the final image.
+    pub curve: Vec<CurvePoint>,
+}
+
+/// All runs of one integrator, and the image of its first run.
+#[derive(Debug, Clone)]
+pub struct IntegratorRuns {
+    pub name: String,
+    pub settings: String,
+    pub runs: Vec<Run>,
+    pub image: Image,
+    /// EXR metadata of the first run's image.
+    pub metadata: Vec<(String, String)>,
+}
+
+/// Render every integrator `runs` times (seeds `seed .. seed + runs`).
+pub fn run_all(p: &Prepared) -> Result<Vec<IntegratorRuns>> {
+    let c = &p.config;
+    let mut all: Vec<Option<IntegratorRuns>> = vec![None; c.integrators.len()];
+    for seed in c.seed..c.seed + c.runs as u64 {
+        for (i, name) in c.integrators.iter().enumerate() {
+            let (run, image, name, settings) = render_one(p, name, seed)?;
+            if c.verbose {
+                eprintln!(
+                    "{name} seed {seed}: {} spp in {:.2} s, MSE {:.4e}",
+                    run.spp, run.seconds, run.error.mse
+                );
+            }
+            match &mut all[i] {
+                Some(r) => r.runs.push(run),
+                slot => {
+                    let metadata = metadata(p, &name, &settings, &run);
+                    *slot = Some(IntegratorRuns {
+                        name,
+                        settings,
+                        runs: vec![run],
+                        image,
+                        metadata,
+                    })
+                }
+            }
+        }
+    }
+    Ok(all.into_iter().flatten().collect())
+}
+
+fn render_one(p: &Prepared, name: &str, seed: u64) -> Result<(Run, Image, String, String)> {
+    let c = &p.config;
+    let points = Mutex::new(Vec::new());
+    let sink = |s: &Snapshot| {
+        let error = compare_crop(s.image, &p.reference, c.crop)?;
+        points.lock().unwrap().push(CurvePoint {
+            seconds: s.seconds,
+            spp: s.spp,
+            passes: s.passes,
+            error,
+        });
+        Ok(())
+    };
+    let times: Vec<f64> = CURVE_FRACTIONS.iter().map(|f| f * c.seconds).collect();
+    let snapshots = Snapshots::new(&times, &sink)?;
+    let params = IntegratorParams {
+        max_depth: p.max_depth,
+        options: Options::default(),
+    };
+    let settings = RunSettings {
+        seed,
+        threads: c.threads,
+        progress: false,
+        snapshots: Some(&snapshots),
+    };
+    let named = integrators::render_named_with(
+        &p.scene,
+        name,
+        &params,
+        Budget::Seconds(c.seconds),
+        &settings,
+    )?;
+    snapshots.finish()?;
+    drop(snapshots);
+    let r = named.result;
+    let error = compare_crop(&r.image, &p.reference, c.crop)?;
+    let mut curve: Vec<CurvePoint> = points.into_inner().unwrap_or_else(|e| e.into_inner());
+    // One pass may cross several snapshot times: keep one point per image.
+    curve.dedup_by_key(|q| q.passes);
+    curve.retain(|q| q.passes < r.passes);
+    curve.push(CurvePoint {
+        seconds: r.seconds,
+        spp: r.spp,
+        passes: r.passes,
+        error,
+    });
+    let run = Run {
+        seed,
+        seconds: r.seconds,
+        spp: r.spp,
+        passes: r.passes,
+        error,
+        curve,
+    };
+    Ok((run, r.image, named.name.to_string(), named.settings))
+}
+
+fn metadata(p: &Prepared, name: &str, settings: &str, run: &Run) -> Vec<(String, String)> {
+    vec![
+        ("integrator".to_string(), name.to_string()),
+        ("settings".to_string(), settings.to_string()),
+        ("scene".to_string(), p.scene.source.clone()),
+        ("spp".to_string(), run.spp.to_string()),
+        ("passes".to_string(), run.passes.to_string()),
+        ("seconds".to_string(), format!("{:.3}", run.seconds)),
+        ("seed".to_string(), run.seed.to_string()),
+        ("threads".to_string(), p.config.threads.to_string()),
+    ]
+}

@@ -51,32 +51,46 @@ impl PathTerms {
         }
     }
 
-    /// `out[s]` = density of technique s, for s = 0..=k.
+    /// Start over for a path of `k` segments: zero densities, nothing connectible (only the
+    /// entries a path of `k` segments uses are touched, so reusing one `PathTerms` is cheap).
+    pub fn reset(&mut self, k: usize) {
+        self.k = k;
+        self.pc[..=k].fill(0.0);
+        self.pl[..=k].fill(0.0);
+        self.connectible[..=k].fill(false);
+        self.nee_k = 0.0;
+        self.hittable = false;
+    }
+
+    /// `out[s]` = density of technique s, for s = 0..=k (other entries are left alone).
     pub fn technique_densities(&self, out: &mut [f64; MAX_VERTICES]) {
         let k = self.k;
-        let mut pre = [1.0f64; MAX_VERTICES];
-        for j in 1..=k {
-            pre[j] = pre[j - 1] * self.pc[j];
+        // First the light-side suffix: out[s] = prod_{j >= t} pl[j] with t = k + 1 - s.
+        let mut suf = 1.0f64;
+        for (o, pl) in out[1..=k].iter_mut().zip(self.pl[1..=k].iter().rev()) {
+            suf *= pl;
+            *o = suf;
         }
-        let mut suf = [1.0f64; MAX_VERTICES + 1];
-        for j in (1..=k).rev() {
-            suf[j] = suf[j + 1] * self.pl[j];
-        }
-        for (s, out) in out.iter_mut().enumerate().take(k + 1) {
-            let t = k + 1 - s;
-            *out = if s == 0 {
-                if self.hittable { pre[k] } else { 0.0 }
+        // Then, with t growing, the camera-side prefix pre = prod_{j < t} pc[j].
+        let mut pre = 1.0f64;
+        for t in 1..=k + 1 {
+            let s = k + 1 - t;
+            out[s] = if s == 0 {
+                if self.hittable { pre } else { 0.0 }
             } else if s == 1 && t >= 2 {
                 if self.connectible[k - 1] {
-                    pre[k - 1] * self.nee_k
+                    pre * self.nee_k
                 } else {
                     0.0
                 }
             } else if self.connectible[t - 1] && self.connectible[t] {
-                pre[t - 1] * suf[t]
+                pre * out[s]
             } else {
                 0.0
             };
+            if t <= k {
+                pre *= self.pc[t];
+            }
         }
     }
 

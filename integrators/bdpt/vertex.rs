@@ -193,6 +193,65 @@ impl<'a> Vertex<'a> {
     }
 }
 
+/// What a connection needs from one of its ends `v`: the scattering value towards the other
+/// end (as [`Vertex::f`]) and two solid-angle densities at `v` (as [`pdf`] before the measure
+/// conversion): of the other end, having come from the walk's previous vertex, and of that
+/// previous vertex, having come from the other end.
+#[derive(Clone, Copy)]
+pub struct ConnectionEnd {
+    pub f: Spectrum,
+    pub pdf_other: f32,
+    pub pdf_prev: f32,
+}
+
+/// [`ConnectionEnd`] of a surface or medium vertex `v`, with unit directions `wo` towards the
+/// walk's previous vertex and `wi` towards the other end; one BSDF (or phase) evaluation
+/// gives all three. Zero at the pinhole and on lights, which connections treat themselves.
+pub fn connection_end(
+    scene: &Scene,
+    v: &Vertex,
+    wo: Vec3,
+    wi: Vec3,
+    mode: TransportMode,
+) -> ConnectionEnd {
+    match v.kind {
+        Kind::Surface { bsdf, frame, .. } => {
+            let e = bsdf.eval_pdfs(&frame, wo, wi, mode);
+            ConnectionEnd {
+                f: e.f * wi.dot(frame.frame.n).abs(),
+                pdf_other: e.pdf_fwd,
+                pdf_prev: e.pdf_rev,
+            }
+        }
+        Kind::Medium { medium } => {
+            // Henyey-Greenstein depends on wo . wi only: one value for both directions.
+            let p = scene.media[medium as usize].phase.eval(wo, wi);
+            ConnectionEnd {
+                f: Spectrum::splat(p),
+                pdf_other: p,
+                pdf_prev: p,
+            }
+        }
+        Kind::Camera | Kind::Light { .. } => ConnectionEnd {
+            f: Spectrum::ZERO,
+            pdf_other: 0.0,
+            pdf_prev: 0.0,
+        },
+    }
+}
+
+/// The factor turning a solid-angle density towards the finite vertex `to`, at distance^2
+/// `d2` along unit `w`, into `to`'s measure: `|cos| / d^2` on surfaces, `1 / d^2` in media and
+/// at points without a normal (as [`to_measure`]).
+#[inline]
+pub fn measure_factor(to: &Vertex, w: Vec3, d2: f32) -> f32 {
+    if to.n != Vec3::ZERO && !to.is_medium() {
+        to.n.dot(w).abs() / d2
+    } else {
+        1.0 / d2
+    }
+}
+
 /// Convert a solid-angle density at `from` towards `to` into `to`'s measure: area (|cos| / d^2)
 /// for surfaces and finite lights, volume (1 / d^2) in media; lights at infinity keep solid angle.
 pub fn to_measure(scene: &Scene, pdf_w: f32, from: Vec3, to: &Vertex) -> f32 {

@@ -142,6 +142,8 @@ pub struct Tracer<'a> {
     /// every technique with s >= 2).
     light_nee: f64,
     terms: PathTerms,
+    /// Scratch for the technique densities of the current connection.
+    densities: [f64; MAX_VERTICES],
     pub splats: Vec<(u32, Spectrum)>,
     pub inspector: Option<std::cell::RefCell<Inspector<'a>>>,
 }
@@ -172,6 +174,7 @@ impl<'a> Tracer<'a> {
             light_cache: Vec::with_capacity(n),
             light_nee: 0.0,
             terms: PathTerms::new(0),
+            densities: [0.0; MAX_VERTICES],
             splats: Vec::new(),
             inspector: None,
         }
@@ -549,7 +552,7 @@ impl<'a> Tracer<'a> {
             s,
             terms,
         );
-        terms.weight(s, self.settings.heuristic)
+        terms.weight_with(s, self.settings.heuristic, &mut self.densities)
     }
 
     fn inspect(&self, path: impl FnOnce() -> Vec<Vertex<'a>>, s: usize, terms: &PathTerms) {
@@ -604,7 +607,7 @@ impl<'a> Tracer<'a> {
             0,
             terms,
         );
-        terms.weight(0, self.settings.heuristic)
+        terms.weight_with(0, self.settings.heuristic, &mut self.densities)
     }
 }
 

@@ -97,7 +97,13 @@ impl PathTerms {
     /// MIS weight of technique `s` for this path.
     pub fn weight(&self, s: usize, heuristic: Heuristic) -> f64 {
         let mut p = [0.0f64; MAX_VERTICES];
-        self.technique_densities(&mut p);
+        self.weight_with(s, heuristic, &mut p)
+    }
+
+    /// [`PathTerms::weight`], with `p` as scratch for the technique densities (so a caller
+    /// that keeps one need not clear a fresh array per path).
+    pub fn weight_with(&self, s: usize, heuristic: Heuristic, p: &mut [f64; MAX_VERTICES]) -> f64 {
+        self.technique_densities(p);
         let own = p[s];
         if own == 0.0 || !own.is_finite() {
             return 0.0;

@@ -323,3 +323,44 @@ pub fn pdf(scene: &Scene, v: &Vertex, prev: Option<Vec3>, next: &Vertex) -> f32 
         }
     }
 }
+
+/// Both densities at `v` between its neighbours `prev` and `next` in one evaluation: of `next`
+/// having come from `prev` ([`pdf`]`(v, prev, next)`) and of `prev` having come from `next`
+/// ([`pdf`]`(v, next, prev)`; 0 without `prev`), each in the measure of the vertex it
+/// generates. The walks use it once per vertex; the direction to `prev` is taken from its
+/// position, also when it is a light at infinity (equal to its direction up to rounding).
+pub fn pdf_both(scene: &Scene, v: &Vertex, prev: Option<&Vertex>, next: &Vertex) -> (f32, f32) {
+    let Some(prev) = prev else {
+        return (pdf(scene, v, None, next), 0.0);
+    };
+    let wo = (prev.p - v.p).normalize();
+    let wi = if next.is_infinite_light(scene) {
+        next.n
+    } else {
+        (next.p - v.p).normalize()
+    };
+    let (fwd, rev) = match v.kind {
+        Kind::Surface { bsdf, frame, .. } => {
+            if bsdf.is_delta() {
+                (
+                    bsdf.delta_lobe_probability(&frame, wo, wi),
+                    bsdf.delta_lobe_probability(&frame, wi, wo),
+                )
+            } else {
+                let e = bsdf.eval_pdfs(&frame, wo, wi, TransportMode::Radiance);
+                (e.pdf_fwd, e.pdf_rev)
+            }
+        }
+        Kind::Medium { medium } => {
+            // Henyey-Greenstein depends on wo . wi only: one value for both directions.
+            let p = scene.media[medium as usize].phase.eval(wo, wi);
+            (p, p)
+        }
+        // The pinhole and lights start walks: they have no previous vertex.
+        Kind::Camera | Kind::Light { .. } => return (pdf(scene, v, Some(prev.p), next), 0.0),
+    };
+    (
+        to_measure(scene, fwd, v.p, next),
+        to_measure(scene, rev, v.p, prev),
+    )
+}

@@ -5,7 +5,7 @@
 //! its predecessor), scatters by BSDF or phase sampling, and plays Russian roulette with the
 //! local continuation probability (`Bsdf::continuation`) once it has `rr_depth` segments.
 
-use super::vertex::{Edge, Kind, Vertex, pdf};
+use super::vertex::{Edge, Kind, Vertex, pdf_both};
 use crate::bsdf::TransportMode;
 use crate::geometry::{Ray, offset_origin};
 use crate::math::{Sampler, Spectrum};
@@ -209,12 +209,13 @@ fn walk<'a>(
         };
         // Densities from positions (the same function every technique uses): of v from the
         // last vertex, and of the vertex before that from the last vertex given v.
-        let before = (n >= 2).then(|| path[n - 2].p);
-        v.pdf_fwd = pdf(scene, &path[n - 1], before, &v) * edge.factor(scene, v.is_medium(), true);
+        let (fwd, rev) = pdf_both(scene, &path[n - 1], (n >= 2).then(|| &path[n - 2]), &v);
+        v.pdf_fwd = fwd * edge.factor(scene, v.is_medium(), true);
         if n >= 2 {
-            let target = path[n - 2];
-            let factor = path[n - 1].edge.factor(scene, target.is_medium(), false);
-            path[n - 2].pdf_rev = pdf(scene, &path[n - 1], Some(v.p), &target) * factor;
+            let factor = path[n - 1]
+                .edge
+                .factor(scene, path[n - 2].is_medium(), false);
+            path[n - 2].pdf_rev = rev * factor;
         }
         let escaped = found.is_none();
         path.push(v);

@@ -108,13 +108,13 @@ impl PathTerms {
         if own == 0.0 || !own.is_finite() {
             return 0.0;
         }
-        let mut sum = 0.0;
-        for &q in &p[..=self.k] {
-            sum += match heuristic {
-                Heuristic::Balance => q / own,
-                Heuristic::Power => (q / own) * (q / own),
-            };
-        }
+        // Ratios to the own density keep the sum in range whatever the densities' scale.
+        let inv_own = 1.0 / own;
+        let ratios = p[..=self.k].iter().map(|&q| q * inv_own);
+        let sum: f64 = match heuristic {
+            Heuristic::Balance => ratios.sum(),
+            Heuristic::Power => ratios.map(|r| r * r).sum(),
+        };
         if sum.is_finite() && sum > 0.0 {
             1.0 / sum
         } else {

@@ -207,6 +207,7 @@ pub struct ConnectionEnd {
 /// [`ConnectionEnd`] of a surface or medium vertex `v`, with unit directions `wo` towards the
 /// walk's previous vertex and `wi` towards the other end; one BSDF (or phase) evaluation
 /// gives all three. Zero at the pinhole and on lights, which connections treat themselves.
+#[inline]
 pub fn connection_end(
     scene: &Scene,
     v: &Vertex,
@@ -214,9 +215,9 @@ pub fn connection_end(
     wi: Vec3,
     mode: TransportMode,
 ) -> ConnectionEnd {
-    match v.kind {
+    match &v.kind {
         Kind::Surface { bsdf, frame, .. } => {
-            let e = bsdf.eval_pdfs(&frame, wo, wi, mode);
+            let e = bsdf.eval_pdfs(frame, wo, wi, mode);
             ConnectionEnd {
                 f: e.f * wi.dot(frame.frame.n).abs(),
                 pdf_other: e.pdf_fwd,
@@ -225,7 +226,7 @@ pub fn connection_end(
         }
         Kind::Medium { medium } => {
             // Henyey-Greenstein depends on wo . wi only: one value for both directions.
-            let p = scene.media[medium as usize].phase.eval(wo, wi);
+            let p = scene.media[*medium as usize].phase.eval(wo, wi);
             ConnectionEnd {
                 f: Spectrum::splat(p),
                 pdf_other: p,
@@ -339,21 +340,21 @@ pub fn pdf_both(scene: &Scene, v: &Vertex, prev: Option<&Vertex>, next: &Vertex)
     } else {
         (next.p - v.p).normalize()
     };
-    let (fwd, rev) = match v.kind {
+    let (fwd, rev) = match &v.kind {
         Kind::Surface { bsdf, frame, .. } => {
             if bsdf.is_delta() {
                 (
-                    bsdf.delta_lobe_probability(&frame, wo, wi),
-                    bsdf.delta_lobe_probability(&frame, wi, wo),
+                    bsdf.delta_lobe_probability(frame, wo, wi),
+                    bsdf.delta_lobe_probability(frame, wi, wo),
                 )
             } else {
-                let e = bsdf.eval_pdfs(&frame, wo, wi, TransportMode::Radiance);
+                let e = bsdf.eval_pdfs(frame, wo, wi, TransportMode::Radiance);
                 (e.pdf_fwd, e.pdf_rev)
             }
         }
         Kind::Medium { medium } => {
             // Henyey-Greenstein depends on wo . wi only: one value for both directions.
-            let p = scene.media[medium as usize].phase.eval(wo, wi);
+            let p = scene.media[*medium as usize].phase.eval(wo, wi);
             (p, p)
         }
         // The pinhole and lights start walks: they have no previous vertex.

@@ -8,7 +8,9 @@
 //! s, t >= 2 (a deterministic connection with transmittance through index-matched
 //! boundaries). The MIS weights come from explicit densities of each technique
 //! (`strategies.rs`), with Russian roulette (a local continuation probability, so the
-//! densities exist in both directions) and free-flight probabilities included.
+//! densities exist in both directions) and free-flight probabilities included. What every
+//! connection through a vertex reuses is cached once per subpath (`cache.rs`), and each
+//! connection end costs one BSDF evaluation (`f` and the densities in both directions).
 //!
 //! | option    | type                 | default   | meaning |
 //! |-----------|----------------------|-----------|---------|

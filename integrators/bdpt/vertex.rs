@@ -274,8 +274,10 @@ pub fn to_measure(scene: &Scene, pdf_w: f32, from: Vec3, to: &Vertex) -> f32 {
 /// Density (in `next`'s measure; no roulette, no free flight) with which vertex `v`, reached
 /// from `prev`, generates `next`: by the camera's ray sampling, by a light's emission
 /// sampling, by BSDF or phase sampling (a delta surface: its lobe probability, the Dirac left
-/// out). Every density of a path is computed by this one function from vertex positions, in
-/// the walks, at connections and from scratch, so all techniques see the same numbers.
+/// out). This is the from-scratch definition (`path_terms`); the walks ([`pdf_both`]) and
+/// connections ([`connection_end`] with [`measure_factor`]) evaluate the same BSDF and phase
+/// densities from vertex positions, two directions per call, so all techniques agree to
+/// rounding.
 pub fn pdf(scene: &Scene, v: &Vertex, prev: Option<Vec3>, next: &Vertex) -> f32 {
     let towards = |q: Vec3| (q - v.p).normalize();
     // A vertex at infinity is a direction.

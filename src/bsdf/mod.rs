@@ -321,7 +321,6 @@ impl Bsdf {
     /// `eval(wo, wi)`, `pdf(wo -> wi)` and `pdf(wi -> wo)` in one call, sharing the frame
     /// transforms and side checks; bit-identical to the three separate calls (densities do
     /// not depend on `mode`). Zero for delta lobes.
-    #[inline]
     pub fn eval_pdfs(
         &self,
         sf: &ShadingFrame,

@@ -6,7 +6,9 @@
 //! ```text
 //! cargo bench --bench bdpt_iteration
 //! ```
-//! Environment: `LODESTAR_BENCH_ITERATIONS` (default 2).
+//! Environment: `LODESTAR_BENCH_ITERATIONS` (default 2); `LODESTAR_BENCH_INTEGRATORS`, a
+//! comma-separated subset of `bdpt,pt,lt` (default all three); `LODESTAR_BENCH_THREADS`, a
+//! comma-separated list of thread counts (default `1,<cores>`).
 
 use lodestar::integrators::{self, IntegratorParams, Options};
 use lodestar::render::Budget;
@@ -24,12 +26,26 @@ fn main() {
     let scene = loader::load_str(&text, "cornell-mirror-512", None).unwrap();
     assert!(scene.features.specular_surfaces);
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let list = |key: &str, default: String| std::env::var(key).unwrap_or(default);
+    let names = list("LODESTAR_BENCH_INTEGRATORS", "bdpt,pt,lt".to_string());
+    let thread_counts: Vec<usize> = list("LODESTAR_BENCH_THREADS", format!("1,{cores}"))
+        .split(',')
+        .map(|s| match s.trim().parse() {
+            Ok(n) if n >= 1 => n,
+            _ => {
+                eprintln!(
+                    "LODESTAR_BENCH_THREADS: expected comma-separated integers >= 1, got '{s}'"
+                );
+                std::process::exit(2);
+            }
+        })
+        .collect();
     println!(
         "{:<6} {:>7} {:>11} {:>16} {:>12}",
         "integr", "threads", "iterations", "CPU-s/iteration", "wall-s/iter"
     );
-    for name in ["bdpt", "pt", "lt"] {
-        for threads in [1, cores] {
+    for name in names.split(',').map(str::trim) {
+        for &threads in &thread_counts {
             let params = IntegratorParams {
                 max_depth: 10,
                 options: Options::default(),
@@ -42,8 +58,14 @@ fn main() {
                 1,
                 threads,
                 false,
-            )
-            .unwrap();
+            );
+            let run = match run {
+                Ok(run) => run,
+                Err(e) => {
+                    eprintln!("LODESTAR_BENCH_INTEGRATORS: {e}");
+                    std::process::exit(2);
+                }
+            };
             let (r, cpu) = (run.result, run.cpu_seconds);
             println!(
                 "{:<6} {:>7} {:>11} {:>16.3} {:>12.3}",

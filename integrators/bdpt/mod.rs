@@ -8,7 +8,9 @@
 //! s, t >= 2 (a deterministic connection with transmittance through index-matched
 //! boundaries). The MIS weights come from explicit densities of each technique
 //! (`strategies.rs`), with Russian roulette (a local continuation probability, so the
-//! densities exist in both directions) and free-flight probabilities included.
+//! densities exist in both directions) and free-flight probabilities included. What every
+//! connection through a vertex reuses is cached once per subpath (`cache.rs`), and each
+//! connection end costs one BSDF evaluation (`f` and the densities in both directions).
 //!
 //! | option    | type                 | default   | meaning |
 //! |-----------|----------------------|-----------|---------|
@@ -23,6 +25,7 @@
 //! lodestar render scenes/cornell-box.toml --integrator bdpt --spp 64 -O mis=power
 //! ```
 
+mod cache;
 mod strategies;
 pub mod vertex;
 mod walk;
@@ -39,9 +42,10 @@ use crate::math::{IndependentSampler, Sampler, Spectrum};
 use crate::path::{MAX_VERTICES, Path, VertexKind};
 use crate::render::{Budget, Integrator, RenderContext, RenderResult, RowTracer, render_rows};
 use crate::scene::{Endpoint, Scene};
+use cache::{Cached, cache_subpath};
 use glam::{Vec2, Vec3};
-use vertex::{Edge, pdf, to_measure};
-use walk::continuation;
+use vertex::{ConnectionEnd, Edge, connection_end, measure_factor, pdf, to_measure};
+use walk::{continuation, roulette};
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct BdptSettings {
@@ -127,14 +131,37 @@ impl<'a> RowTracer for Tracer<'a> {
 /// technique's s, and the density terms it assembled for its MIS weight (for tests).
 pub type Inspector<'a> = Box<dyn FnMut(&[Vertex<'a>], usize, &PathTerms) + 'a>;
 
-/// Per-thread state: subpath buffers (reused) and the splats of the current row.
+/// Per-thread state: subpath buffers and their per-vertex caches (reused), the density terms
+/// of the current connection, and the splats of the current row.
 pub struct Tracer<'a> {
     scene: &'a Scene,
     settings: &'a BdptSettings,
     camera: Vec<Vertex<'a>>,
     light: Vec<Vertex<'a>>,
+    camera_cache: Vec<Cached>,
+    light_cache: Vec<Cached>,
+    /// Next-event density of the light subpath's first vertex from its second (`nee_k` of
+    /// every technique with s >= 2).
+    light_nee: f64,
+    terms: PathTerms,
+    /// Scratch for the technique densities of the current connection.
+    densities: [f64; MAX_VERTICES],
     pub splats: Vec<(u32, Spectrum)>,
     pub inspector: Option<std::cell::RefCell<Inspector<'a>>>,
+}
+
+/// The densities across the connection edge y_{t-1} - y_t of technique (s, t), each in the
+/// measure of the vertex it generates, free flight included, roulette not.
+#[derive(Default)]
+struct Bridge {
+    /// `pc[t]`: y_t generated from y_{t-1} (having come from y_{t-2}).
+    cam_next: f32,
+    /// `pl[t-1]`: y_{t-1} generated from y_t (having come from y_{t+1}).
+    light_next: f32,
+    /// `pl[t-2]` (t >= 3): y_{t-2} generated from y_{t-1}, having come from y_t.
+    cam_back: f32,
+    /// `pc[t+1]` (s >= 2): y_{t+1} generated from y_t, having come from y_{t-1}.
+    light_back: f32,
 }
 
 impl<'a> Tracer<'a> {
@@ -145,6 +172,11 @@ impl<'a> Tracer<'a> {
             settings,
             camera: Vec::with_capacity(n),
             light: Vec::with_capacity(n),
+            camera_cache: Vec::with_capacity(n),
+            light_cache: Vec::with_capacity(n),
+            light_nee: 0.0,
+            terms: PathTerms::new(0),
+            densities: [0.0; MAX_VERTICES],
             splats: Vec::new(),
             inspector: None,
         }
@@ -157,20 +189,32 @@ impl<'a> Tracer<'a> {
         let max_depth = st.max_depth as usize;
         let mut camera = std::mem::take(&mut self.camera);
         let mut light = std::mem::take(&mut self.light);
-        if st.light_tracing {
-            camera.clear();
-            walk::camera_subpath(scene, raster, 1, st.rr_depth, sampler, &mut camera);
-        } else {
-            walk::camera_subpath(
-                scene,
-                raster,
-                max_depth + 1,
-                st.rr_depth,
-                sampler,
-                &mut camera,
-            );
-        }
+        let mut cc = std::mem::take(&mut self.camera_cache);
+        let mut lc = std::mem::take(&mut self.light_cache);
+        let camera_vertices = if st.light_tracing { 1 } else { max_depth + 1 };
+        walk::camera_subpath(
+            scene,
+            raster,
+            camera_vertices,
+            st.rr_depth,
+            sampler,
+            &mut camera,
+        );
         walk::light_subpath(scene, max_depth + 1, st.rr_depth, sampler, &mut light);
+        cache_subpath(scene, &camera, st.rr_depth, &mut cc);
+        cache_subpath(scene, &light, st.rr_depth, &mut lc);
+        self.light_nee = match (light.first(), light.get(1)) {
+            (
+                Some(
+                    l0 @ Vertex {
+                        kind: Kind::Light { light },
+                        ..
+                    },
+                ),
+                Some(l1),
+            ) => nee_density(scene, l1, l0, *light),
+            _ => 0.0,
+        };
         let mut l = Spectrum::ZERO;
         for t in 1..=camera.len() {
             for s in 0..=light.len() {
@@ -179,26 +223,30 @@ impl<'a> Tracer<'a> {
                     continue;
                 }
                 if s == 0 {
-                    l += self.hit_emitter(&camera[..t]);
+                    l += self.hit_emitter(&camera[..t], &cc[..t]);
                 } else if t == 1 {
-                    if let Some((raster, c)) = self.connect_camera(&light[..s], &camera[0]) {
+                    if let Some((raster, c)) =
+                        self.connect_camera(&camera[..1], &cc[..1], &light[..s], &lc[..s])
+                    {
                         self.splats
                             .push((scene.camera.pixel_index(raster) as u32, c));
                     }
                 } else if s == 1 {
-                    l += self.next_event(&camera[..t], sampler);
+                    l += self.next_event(&camera[..t], &cc[..t], sampler);
                 } else {
-                    l += self.connect(&camera[..t], &light[..s]);
+                    l += self.connect(&camera[..t], &cc[..t], &light[..s], &lc[..s]);
                 }
             }
         }
         self.camera = camera;
         self.light = light;
+        self.camera_cache = cc;
+        self.light_cache = lc;
         l
     }
 
     /// s = 0: the last camera vertex is on an emitter (or at infinity).
-    fn hit_emitter(&self, c: &[Vertex<'a>]) -> Spectrum {
+    fn hit_emitter(&mut self, c: &[Vertex<'a>], cc: &[Cached]) -> Spectrum {
         let scene = self.scene;
         let t = c.len();
         let y = &c[t - 1];
@@ -211,7 +259,7 @@ impl<'a> Tracer<'a> {
             let w = if self.settings.light_tracing {
                 1.0
             } else {
-                self.weight_emitter_hit(c, &emitter, light)
+                self.weight_emitter_hit(c, cc, &emitter, light)
             };
             sum += y.beta * le * w as f32;
         };
@@ -251,12 +299,17 @@ impl<'a> Tracer<'a> {
     }
 
     /// s = 1, t >= 2: next-event estimation from the last camera vertex.
-    fn next_event(&self, c: &[Vertex<'a>], sampler: &mut impl Sampler) -> Spectrum {
+    fn next_event(
+        &mut self,
+        c: &[Vertex<'a>],
+        cc: &[Cached],
+        sampler: &mut impl Sampler,
+    ) -> Spectrum {
         let scene = self.scene;
         let t = c.len();
-        let y = &c[t - 1];
+        let (y, cy) = (&c[t - 1], &cc[t - 1]);
         let (u_light, u) = (sampler.next_1d(), sampler.next_2d());
-        if !y.connectible(scene) {
+        if !cy.connectible {
             return Spectrum::ZERO;
         }
         let Some((light, pmf)) = scene.light_sampler.sample(u_light) else {
@@ -275,49 +328,72 @@ impl<'a> Tracer<'a> {
             delta: l.is_delta(),
             ..Vertex::new(Kind::Light { light }, target, n)
         };
-        let f = y.f(scene, c[t - 2].p, target, TransportMode::Radiance);
-        if f == Spectrum::ZERO {
+        let end = connection_end(scene, y, cy.wo, ls.wi, TransportMode::Radiance);
+        if end.f == Spectrum::ZERO {
             return Spectrum::ZERO;
         }
-        let end = (!infinite).then_some(Endpoint {
+        let light_end = (!infinite).then_some(Endpoint {
             p: ls.p,
             n: ls.n,
             err: lv.p_err,
         });
         let Some(tr) = scene.transmittance(
             &endpoint(y),
-            end.as_ref(),
+            light_end.as_ref(),
             ls.wi,
             medium_towards(scene, y, ls.wi),
         ) else {
             return Spectrum::ZERO;
         };
-        let contribution = y.beta * f * ls.li * tr.tr / (pmf * ls.pdf);
-        let edge = Edge::along(&tr);
-        let w = self.weight_connection(c, std::slice::from_ref(&lv), &edge, Some(pmf * ls.pdf));
+        let contribution = y.beta * end.f * ls.li * tr.tr / (pmf * ls.pdf);
+        let conn = Edge::along(&tr);
+        let bridge = Bridge {
+            cam_next: to_measure(scene, end.pdf_other, y.p, &lv) * conn.factor(scene, false, true),
+            light_next: pdf(scene, &lv, None, y) * conn.factor(scene, y.is_medium(), false),
+            cam_back: end.pdf_prev * cy.to_prev * y.edge.factor(scene, c[t - 2].is_medium(), false),
+            light_back: 0.0,
+        };
+        let nee = pmf * ls.pdf;
+        let nee_k = if lv.delta {
+            nee as f64
+        } else {
+            to_measure(scene, nee, y.p, &lv) as f64
+        };
+        let lc = [Cached::first(scene, &lv)];
+        let w = self.weight_connection(c, cc, std::slice::from_ref(&lv), &lc, &bridge, nee_k);
         contribution * w as f32
     }
 
     /// t = 1: connect the last light vertex to the pinhole; returns the raster position and
     /// the value to splat there.
-    fn connect_camera(&self, lp: &[Vertex<'a>], cam: &Vertex<'a>) -> Option<(Vec2, Spectrum)> {
+    fn connect_camera(
+        &mut self,
+        c: &[Vertex<'a>],
+        cc: &[Cached],
+        lp: &[Vertex<'a>],
+        lc: &[Cached],
+    ) -> Option<(Vec2, Spectrum)> {
         let scene = self.scene;
         let s = lp.len();
-        let y = &lp[s - 1];
-        if !y.connectible(scene) {
+        let (cam, y, cy) = (&c[0], &lp[s - 1], &lc[s - 1]);
+        if !cy.connectible {
             return None;
         }
         let cs = scene.camera.sample_wi(y.p)?;
         let to_cam = cs.wi;
-        let f = if s == 1 {
+        let end = if s == 1 {
             let Kind::Light { light } = y.kind else {
                 return None;
             };
-            emission(&scene.lights[light], y.n, to_cam) * y.abs_cos_to(cam.p)
+            ConnectionEnd {
+                f: emission(&scene.lights[light], y.n, to_cam) * y.abs_cos_to(cam.p),
+                pdf_other: 0.0,
+                pdf_prev: 0.0,
+            }
         } else {
-            y.f(scene, lp[s - 2].p, cam.p, TransportMode::Importance)
+            connection_end(scene, y, cy.wo, to_cam, TransportMode::Importance)
         };
-        if f == Spectrum::ZERO {
+        if end.f == Spectrum::ZERO {
             return None;
         }
         let tr = scene.transmittance(
@@ -327,115 +403,158 @@ impl<'a> Tracer<'a> {
             medium_towards(scene, y, to_cam),
         )?;
         let cos_cam = scene.camera.forward.dot(-to_cam);
-        let contribution = y.beta * f * tr.tr * (cs.we * cos_cam / (cs.dist * cs.dist));
+        let contribution = y.beta * end.f * tr.tr * (cs.we * cos_cam / (cs.dist * cs.dist));
         let w = if self.settings.light_tracing {
             1.0
         } else {
             // Traced from the light vertex towards the camera: reverse it to run camera first.
-            let edge = Edge::along(&tr).reversed();
-            self.weight_connection(std::slice::from_ref(cam), lp, &edge, None)
+            let conn = Edge::along(&tr).reversed();
+            let cam_next = if y.is_infinite_light(scene) {
+                cs.pdf_we
+            } else {
+                cs.pdf_we * measure_factor(y, to_cam, cs.dist * cs.dist)
+            };
+            let bridge = Bridge {
+                cam_next: cam_next * conn.factor(scene, y.is_medium(), true),
+                light_back: if s >= 2 {
+                    end.pdf_prev * cy.to_prev * y.edge.factor(scene, lp[s - 2].is_medium(), false)
+                } else {
+                    0.0
+                },
+                ..Bridge::default()
+            };
+            let nee_k = if s >= 2 {
+                self.light_nee
+            } else {
+                let Kind::Light { light } = y.kind else {
+                    return None;
+                };
+                nee_density(scene, cam, y, light)
+            };
+            self.weight_connection(c, cc, lp, lc, &bridge, nee_k)
         };
         Some((cs.raster, contribution * w as f32))
     }
 
     /// s, t >= 2: connect the last camera vertex with the last light vertex.
-    fn connect(&self, c: &[Vertex<'a>], lp: &[Vertex<'a>]) -> Spectrum {
+    fn connect(
+        &mut self,
+        c: &[Vertex<'a>],
+        cc: &[Cached],
+        lp: &[Vertex<'a>],
+        lc: &[Cached],
+    ) -> Spectrum {
         let scene = self.scene;
         let (t, s) = (c.len(), lp.len());
         let (a, b) = (&c[t - 1], &lp[s - 1]);
-        if !a.connectible(scene) || !b.connectible(scene) {
-            return Spectrum::ZERO;
-        }
-        let fa = a.f(scene, c[t - 2].p, b.p, TransportMode::Radiance);
-        let fb = b.f(scene, lp[s - 2].p, a.p, TransportMode::Importance);
-        if fa == Spectrum::ZERO || fb == Spectrum::ZERO {
+        let (ca, cb) = (&cc[t - 1], &lc[s - 1]);
+        if !ca.connectible || !cb.connectible {
             return Spectrum::ZERO;
         }
         let d = b.p - a.p;
         let d2 = d.length_squared();
+        let w = d / d2.sqrt();
+        let ea = connection_end(scene, a, ca.wo, w, TransportMode::Radiance);
+        if ea.f == Spectrum::ZERO {
+            return Spectrum::ZERO;
+        }
+        let eb = connection_end(scene, b, cb.wo, -w, TransportMode::Importance);
+        if eb.f == Spectrum::ZERO {
+            return Spectrum::ZERO;
+        }
         let Some(tr) = scene.transmittance(
             &endpoint(a),
             Some(&endpoint(b)),
-            d / d2.sqrt(),
+            w,
             medium_towards(scene, a, d),
         ) else {
             return Spectrum::ZERO;
         };
-        let contribution = a.beta * fa * fb * b.beta * tr.tr / d2;
-        let edge = Edge::along(&tr);
-        contribution * self.weight_connection(c, lp, &edge, None) as f32
+        let contribution = a.beta * ea.f * eb.f * b.beta * tr.tr / d2;
+        let conn = Edge::along(&tr);
+        let bridge = Bridge {
+            cam_next: ea.pdf_other
+                * measure_factor(b, w, d2)
+                * conn.factor(scene, b.is_medium(), true),
+            light_next: eb.pdf_other
+                * measure_factor(a, w, d2)
+                * conn.factor(scene, a.is_medium(), false),
+            cam_back: ea.pdf_prev * ca.to_prev * a.edge.factor(scene, c[t - 2].is_medium(), false),
+            light_back: eb.pdf_prev
+                * cb.to_prev
+                * b.edge.factor(scene, lp[s - 2].is_medium(), false),
+        };
+        let w = self.weight_connection(c, cc, lp, lc, &bridge, self.light_nee);
+        contribution * w as f32
     }
 
     /// MIS weight of technique (s, t) for the path camera prefix `c` + reversed light prefix
-    /// `lp`, connected through `conn` (free flight from c's end to lp's end). `nee` is the
-    /// next-event density when s = 1 and t >= 2.
+    /// `lp` (with their caches), given the densities across the connection and `nee_k`, the
+    /// next-event density of the light vertex.
     fn weight_connection(
-        &self,
+        &mut self,
         c: &[Vertex<'a>],
+        cc: &[Cached],
         lp: &[Vertex<'a>],
-        conn: &Edge,
-        nee: Option<f32>,
+        lc: &[Cached],
+        bridge: &Bridge,
+        nee_k: f64,
     ) -> f64 {
         let scene = self.scene;
+        let rr_depth = self.settings.rr_depth;
         let (t, s) = (c.len(), lp.len());
         let k = s + t - 1;
-        let y = |j: usize| if j < t { &c[j] } else { &lp[k - j] };
-        let rr_cam = |j: usize| continuation(scene, y(j), j, self.settings.rr_depth) as f64;
-        let rr_light = |j: usize| continuation(scene, y(j), k - j, self.settings.rr_depth) as f64;
-        let mut terms = PathTerms::new(k);
-        for j in 0..=k {
-            terms.connectible[j] = y(j).connectible(scene);
-        }
-        let light_vertex = y(k);
-        let Kind::Light { light } = light_vertex.kind else {
+        let Kind::Light { light } = lp[0].kind else {
             return 0.0;
         };
+        // Roulette when leaving a vertex of local probability q after `segments` segments.
+        let rr = |q: f32, segments: usize| roulette(q, segments, rr_depth) as f64;
+        let terms = &mut self.terms;
+        terms.reset(k);
         terms.hittable = hittable(scene, light);
-        // Camera side.
-        for j in 1..=k {
-            let rr = if j >= 2 { rr_cam(j - 1) } else { 1.0 };
-            terms.pc[j] = rr
-                * if j < t {
-                    c[j].pdf_fwd as f64
-                } else if j == t {
-                    let prev = (t >= 2).then(|| c[t - 2].p);
-                    (pdf(scene, &c[t - 1], prev, y(t)) * conn.factor(scene, y(t).is_medium(), true))
-                        as f64
-                } else if j == t + 1 {
-                    (pdf(scene, y(t), Some(c[t - 1].p), y(t + 1))
-                        * y(t).edge.factor(scene, y(t + 1).is_medium(), false))
-                        as f64
-                } else {
-                    y(j).pdf_rev as f64
-                };
+        terms.nee_k = nee_k;
+        // y_j is c[j] for j < t and lp[k - j] from t on.
+        for (j, v) in cc.iter().enumerate() {
+            terms.connectible[j] = v.connectible;
         }
-        // Light side.
-        terms.pl[k] = origin_density(scene, light_vertex, light) as f64;
-        for j in (1..k).rev() {
-            let rr = if j + 1 < k { rr_light(j + 1) } else { 1.0 };
-            terms.pl[j] = rr
-                * if j >= t {
-                    y(j).pdf_fwd as f64
-                } else if j == t - 1 {
-                    let next = (t < k).then(|| y(t + 1).p);
-                    (pdf(scene, y(t), next, &c[t - 1])
-                        * conn.factor(scene, c[t - 1].is_medium(), false))
-                        as f64
-                } else if j == t - 2 {
-                    (pdf(scene, &c[t - 1], Some(y(t).p), &c[t - 2])
-                        * c[t - 1].edge.factor(scene, c[t - 2].is_medium(), false))
-                        as f64
-                } else {
-                    c[j].pdf_rev as f64
-                };
+        for (i, v) in lc.iter().enumerate() {
+            terms.connectible[k - i] = v.connectible;
         }
-        terms.nee_k = match nee {
-            Some(p) if !light_vertex.delta => to_measure(scene, p, y(k - 1).p, light_vertex) as f64,
-            Some(p) => p as f64,
-            None => nee_density(scene, y(k - 1), light_vertex, light),
-        };
-        self.inspect(|| (0..=k).map(|j| *y(j)).collect(), s, &terms);
-        terms.weight(s, self.settings.heuristic)
+        // Camera side: the camera walk's own densities, the two across the connection, then
+        // the light walk's reverse densities with camera-side roulette.
+        terms.pc[1..t]
+            .iter_mut()
+            .zip(&cc[1..t])
+            .for_each(|(p, v)| *p = v.fwd);
+        terms.pc[t] = bridge.cam_next as f64 * if t >= 2 { rr(cc[t - 1].q, t - 1) } else { 1.0 };
+        if s >= 2 {
+            terms.pc[t + 1] = bridge.light_back as f64 * rr(lc[s - 1].q, t);
+        }
+        for j in t + 2..=k {
+            let i = k - j;
+            terms.pc[j] = rr(lc[i + 1].q, j - 1) * lp[i].pdf_rev as f64;
+        }
+        // Light side, symmetrically.
+        for j in t..=k {
+            terms.pl[j] = lc[k - j].fwd;
+        }
+        if t >= 2 {
+            terms.pl[t - 1] =
+                bridge.light_next as f64 * if s >= 2 { rr(lc[s - 1].q, s - 1) } else { 1.0 };
+        }
+        if t >= 3 {
+            terms.pl[t - 2] = bridge.cam_back as f64 * rr(cc[t - 1].q, s);
+        }
+        for j in 1..t.saturating_sub(2) {
+            terms.pl[j] = rr(cc[j + 1].q, k - j - 1) * c[j].pdf_rev as f64;
+        }
+        let terms = &self.terms;
+        self.inspect(
+            || c.iter().chain(lp.iter().rev()).copied().collect(),
+            s,
+            terms,
+        );
+        terms.weight_with(s, self.settings.heuristic, &mut self.densities)
     }
 
     fn inspect(&self, path: impl FnOnce() -> Vec<Vertex<'a>>, s: usize, terms: &PathTerms) {
@@ -444,43 +563,53 @@ impl<'a> Tracer<'a> {
         }
     }
 
-    /// MIS weight of s = 0 for the camera path `c` whose last vertex is `emitter` (on `light`).
-    fn weight_emitter_hit(&self, c: &[Vertex<'a>], emitter: &Vertex<'a>, light: usize) -> f64 {
+    /// MIS weight of s = 0 for the camera path `c` (with its cache) whose last vertex is
+    /// `emitter` (on `light`).
+    fn weight_emitter_hit(
+        &mut self,
+        c: &[Vertex<'a>],
+        cc: &[Cached],
+        emitter: &Vertex<'a>,
+        light: usize,
+    ) -> f64 {
         let scene = self.scene;
+        let rr_depth = self.settings.rr_depth;
+        let rr = |q: f32, segments: usize| roulette(q, segments, rr_depth) as f64;
         let k = c.len() - 1;
-        let y = |j: usize| if j < k { &c[j] } else { emitter };
-        let mut terms = PathTerms::new(k);
-        for j in 0..=k {
-            terms.connectible[j] = y(j).connectible(scene);
+        let terms = &mut self.terms;
+        terms.reset(k);
+        for (j, v) in cc[..k].iter().enumerate() {
+            terms.connectible[j] = v.connectible;
         }
+        terms.connectible[k] = emitter.connectible(scene);
         terms.hittable = hittable(scene, light);
-        for j in 1..=k {
-            let rr = if j >= 2 {
-                continuation(scene, y(j - 1), j - 1, self.settings.rr_depth) as f64
-            } else {
-                1.0
-            };
-            terms.pc[j] = rr * y(j).pdf_fwd as f64;
-        }
+        terms.pc[1..=k]
+            .iter_mut()
+            .zip(&cc[1..=k])
+            .for_each(|(p, v)| *p = v.fwd);
         terms.pl[k] = origin_density(scene, emitter, light) as f64;
-        for j in (1..k).rev() {
-            let rr = if j + 1 < k {
-                continuation(scene, y(j + 1), k - j - 1, self.settings.rr_depth) as f64
-            } else {
-                1.0
-            };
-            terms.pl[j] = rr
-                * if j == k - 1 {
-                    (pdf(scene, emitter, None, y(j))
-                        * emitter.edge.factor(scene, y(j).is_medium(), false))
-                        as f64
-                } else {
-                    y(j).pdf_rev as f64
-                };
+        if k >= 2 {
+            terms.pl[k - 1] = (pdf(scene, emitter, None, &c[k - 1])
+                * emitter.edge.factor(scene, c[k - 1].is_medium(), false))
+                as f64;
         }
-        terms.nee_k = nee_density(scene, y(k - 1), emitter, light);
-        self.inspect(|| (0..=k).map(|j| *y(j)).collect(), 0, &terms);
-        terms.weight(0, self.settings.heuristic)
+        for j in 1..k.saturating_sub(1) {
+            terms.pl[j] = rr(cc[j + 1].q, k - j - 1) * c[j].pdf_rev as f64;
+        }
+        terms.nee_k = nee_density(scene, &c[k - 1], emitter, light);
+        let terms = &self.terms;
+        self.inspect(
+            || {
+                c[..k]
+                    .iter()
+                    .chain(std::iter::once(emitter))
+                    .copied()
+                    .collect()
+            },
+            0,
+            terms,
+        );
+        terms.weight_with(0, self.settings.heuristic, &mut self.densities)
     }
 }
 

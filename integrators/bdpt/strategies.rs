@@ -51,50 +51,70 @@ impl PathTerms {
         }
     }
 
-    /// `out[s]` = density of technique s, for s = 0..=k.
+    /// Start over for a path of `k` segments: zero densities, nothing connectible (only the
+    /// entries a path of `k` segments uses are touched, so reusing one `PathTerms` is cheap).
+    pub fn reset(&mut self, k: usize) {
+        self.k = k;
+        self.pc[..=k].fill(0.0);
+        self.pl[..=k].fill(0.0);
+        self.connectible[..=k].fill(false);
+        self.nee_k = 0.0;
+        self.hittable = false;
+    }
+
+    /// `out[s]` = density of technique s, for s = 0..=k (other entries are left alone).
     pub fn technique_densities(&self, out: &mut [f64; MAX_VERTICES]) {
         let k = self.k;
-        let mut pre = [1.0f64; MAX_VERTICES];
-        for j in 1..=k {
-            pre[j] = pre[j - 1] * self.pc[j];
+        // First the light-side suffix: out[s] = prod_{j >= t} pl[j] with t = k + 1 - s.
+        let mut suf = 1.0f64;
+        for (o, pl) in out[1..=k].iter_mut().zip(self.pl[1..=k].iter().rev()) {
+            suf *= pl;
+            *o = suf;
         }
-        let mut suf = [1.0f64; MAX_VERTICES + 1];
-        for j in (1..=k).rev() {
-            suf[j] = suf[j + 1] * self.pl[j];
-        }
-        for (s, out) in out.iter_mut().enumerate().take(k + 1) {
-            let t = k + 1 - s;
-            *out = if s == 0 {
-                if self.hittable { pre[k] } else { 0.0 }
+        // Then, with t growing, the camera-side prefix pre = prod_{j < t} pc[j].
+        let mut pre = 1.0f64;
+        for t in 1..=k + 1 {
+            let s = k + 1 - t;
+            out[s] = if s == 0 {
+                if self.hittable { pre } else { 0.0 }
             } else if s == 1 && t >= 2 {
                 if self.connectible[k - 1] {
-                    pre[k - 1] * self.nee_k
+                    pre * self.nee_k
                 } else {
                     0.0
                 }
             } else if self.connectible[t - 1] && self.connectible[t] {
-                pre[t - 1] * suf[t]
+                pre * out[s]
             } else {
                 0.0
             };
+            if t <= k {
+                pre *= self.pc[t];
+            }
         }
     }
 
     /// MIS weight of technique `s` for this path.
     pub fn weight(&self, s: usize, heuristic: Heuristic) -> f64 {
         let mut p = [0.0f64; MAX_VERTICES];
-        self.technique_densities(&mut p);
+        self.weight_with(s, heuristic, &mut p)
+    }
+
+    /// [`PathTerms::weight`], with `p` as scratch for the technique densities (so a caller
+    /// that keeps one need not clear a fresh array per path).
+    pub fn weight_with(&self, s: usize, heuristic: Heuristic, p: &mut [f64; MAX_VERTICES]) -> f64 {
+        self.technique_densities(p);
         let own = p[s];
         if own == 0.0 || !own.is_finite() {
             return 0.0;
         }
-        let mut sum = 0.0;
-        for &q in &p[..=self.k] {
-            sum += match heuristic {
-                Heuristic::Balance => q / own,
-                Heuristic::Power => (q / own) * (q / own),
-            };
-        }
+        // Ratios to the own density keep the sum in range whatever the densities' scale.
+        let inv_own = 1.0 / own;
+        let ratios = p[..=self.k].iter().map(|&q| q * inv_own);
+        let sum: f64 = match heuristic {
+            Heuristic::Balance => ratios.sum(),
+            Heuristic::Power => ratios.map(|r| r * r).sum(),
+        };
         if sum.is_finite() && sum > 0.0 {
             1.0 / sum
         } else {

@@ -193,6 +193,66 @@ impl<'a> Vertex<'a> {
     }
 }
 
+/// What a connection needs from one of its ends `v`: the scattering value towards the other
+/// end (as [`Vertex::f`]) and two solid-angle densities at `v` (as [`pdf`] before the measure
+/// conversion): of the other end, having come from the walk's previous vertex, and of that
+/// previous vertex, having come from the other end.
+#[derive(Clone, Copy)]
+pub struct ConnectionEnd {
+    pub f: Spectrum,
+    pub pdf_other: f32,
+    pub pdf_prev: f32,
+}
+
+/// [`ConnectionEnd`] of a surface or medium vertex `v`, with unit directions `wo` towards the
+/// walk's previous vertex and `wi` towards the other end; one BSDF (or phase) evaluation
+/// gives all three. Zero at the pinhole and on lights, which connections treat themselves.
+#[inline]
+pub fn connection_end(
+    scene: &Scene,
+    v: &Vertex,
+    wo: Vec3,
+    wi: Vec3,
+    mode: TransportMode,
+) -> ConnectionEnd {
+    match &v.kind {
+        Kind::Surface { bsdf, frame, .. } => {
+            let e = bsdf.eval_pdfs(frame, wo, wi, mode);
+            ConnectionEnd {
+                f: e.f * wi.dot(frame.frame.n).abs(),
+                pdf_other: e.pdf_fwd,
+                pdf_prev: e.pdf_rev,
+            }
+        }
+        Kind::Medium { medium } => {
+            // Henyey-Greenstein depends on wo . wi only: one value for both directions.
+            let p = scene.media[*medium as usize].phase.eval(wo, wi);
+            ConnectionEnd {
+                f: Spectrum::splat(p),
+                pdf_other: p,
+                pdf_prev: p,
+            }
+        }
+        Kind::Camera | Kind::Light { .. } => ConnectionEnd {
+            f: Spectrum::ZERO,
+            pdf_other: 0.0,
+            pdf_prev: 0.0,
+        },
+    }
+}
+
+/// The factor turning a solid-angle density towards the finite vertex `to`, at distance^2
+/// `d2` along unit `w`, into `to`'s measure: `|cos| / d^2` on surfaces, `1 / d^2` in media and
+/// at points without a normal (as [`to_measure`]).
+#[inline]
+pub fn measure_factor(to: &Vertex, w: Vec3, d2: f32) -> f32 {
+    if to.n != Vec3::ZERO && !to.is_medium() {
+        to.n.dot(w).abs() / d2
+    } else {
+        1.0 / d2
+    }
+}
+
 /// Convert a solid-angle density at `from` towards `to` into `to`'s measure: area (|cos| / d^2)
 /// for surfaces and finite lights, volume (1 / d^2) in media; lights at infinity keep solid angle.
 pub fn to_measure(scene: &Scene, pdf_w: f32, from: Vec3, to: &Vertex) -> f32 {
@@ -214,8 +274,10 @@ pub fn to_measure(scene: &Scene, pdf_w: f32, from: Vec3, to: &Vertex) -> f32 {
 /// Density (in `next`'s measure; no roulette, no free flight) with which vertex `v`, reached
 /// from `prev`, generates `next`: by the camera's ray sampling, by a light's emission
 /// sampling, by BSDF or phase sampling (a delta surface: its lobe probability, the Dirac left
-/// out). Every density of a path is computed by this one function from vertex positions, in
-/// the walks, at connections and from scratch, so all techniques see the same numbers.
+/// out). This is the from-scratch definition (`path_terms`); the walks ([`pdf_both`]) and
+/// connections ([`connection_end`] with [`measure_factor`]) evaluate the same BSDF and phase
+/// densities from vertex positions, two directions per call, so all techniques agree to
+/// rounding.
 pub fn pdf(scene: &Scene, v: &Vertex, prev: Option<Vec3>, next: &Vertex) -> f32 {
     let towards = |q: Vec3| (q - v.p).normalize();
     // A vertex at infinity is a direction.
@@ -263,4 +325,45 @@ pub fn pdf(scene: &Scene, v: &Vertex, prev: Option<Vec3>, next: &Vertex) -> f32 
             )
         }
     }
+}
+
+/// Both densities at `v` between its neighbours `prev` and `next` in one evaluation: of `next`
+/// having come from `prev` ([`pdf`]`(v, prev, next)`) and of `prev` having come from `next`
+/// ([`pdf`]`(v, next, prev)`; 0 without `prev`), each in the measure of the vertex it
+/// generates. The walks use it once per vertex; the direction to `prev` is taken from its
+/// position, also when it is a light at infinity (equal to its direction up to rounding).
+pub fn pdf_both(scene: &Scene, v: &Vertex, prev: Option<&Vertex>, next: &Vertex) -> (f32, f32) {
+    let Some(prev) = prev else {
+        return (pdf(scene, v, None, next), 0.0);
+    };
+    let wo = (prev.p - v.p).normalize();
+    let wi = if next.is_infinite_light(scene) {
+        next.n
+    } else {
+        (next.p - v.p).normalize()
+    };
+    let (fwd, rev) = match &v.kind {
+        Kind::Surface { bsdf, frame, .. } => {
+            if bsdf.is_delta() {
+                (
+                    bsdf.delta_lobe_probability(frame, wo, wi),
+                    bsdf.delta_lobe_probability(frame, wi, wo),
+                )
+            } else {
+                let e = bsdf.eval_pdfs(frame, wo, wi, TransportMode::Radiance);
+                (e.pdf_fwd, e.pdf_rev)
+            }
+        }
+        Kind::Medium { medium } => {
+            // Henyey-Greenstein depends on wo . wi only: one value for both directions.
+            let p = scene.media[*medium as usize].phase.eval(wo, wi);
+            (p, p)
+        }
+        // The pinhole and lights start walks: they have no previous vertex.
+        Kind::Camera | Kind::Light { .. } => return (pdf(scene, v, Some(prev.p), next), 0.0),
+    };
+    (
+        to_measure(scene, fwd, v.p, next),
+        to_measure(scene, rev, v.p, prev),
+    )
 }

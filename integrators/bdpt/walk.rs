@@ -5,7 +5,7 @@
 //! its predecessor), scatters by BSDF or phase sampling, and plays Russian roulette with the
 //! local continuation probability (`Bsdf::continuation`) once it has `rr_depth` segments.
 
-use super::vertex::{Edge, Kind, Vertex, pdf};
+use super::vertex::{Edge, Kind, Vertex, pdf_both};
 use crate::bsdf::TransportMode;
 use crate::geometry::{Ray, offset_origin};
 use crate::math::{Sampler, Spectrum};
@@ -14,14 +14,23 @@ use glam::{Vec2, Vec3};
 
 /// Russian-roulette continuation probability when leaving `v` (1 before `rr_depth`).
 pub fn continuation(scene: &Scene, v: &Vertex, segments: usize, rr_depth: u32) -> f32 {
-    if (segments as u32) < rr_depth {
-        return 1.0;
-    }
+    roulette(local_continuation(scene, v), segments, rr_depth)
+}
+
+/// The continuation probability of `v` once roulette applies (its surface's or medium's).
+pub fn local_continuation(scene: &Scene, v: &Vertex) -> f32 {
     match v.kind {
         Kind::Surface { bsdf, .. } => bsdf.continuation(),
         Kind::Medium { medium } => scene.media[medium as usize].continuation(),
         Kind::Camera | Kind::Light { .. } => 1.0,
     }
+}
+
+/// The local continuation probability `q` applied after `segments` segments: 1 before
+/// `rr_depth`, `q` from then on.
+#[inline]
+pub fn roulette(q: f32, segments: usize, rr_depth: u32) -> f32 {
+    if (segments as u32) < rr_depth { 1.0 } else { q }
 }
 
 /// The camera subpath through raster position `raster`, at most `max_vertices` vertices.
@@ -200,12 +209,13 @@ fn walk<'a>(
         };
         // Densities from positions (the same function every technique uses): of v from the
         // last vertex, and of the vertex before that from the last vertex given v.
-        let before = (n >= 2).then(|| path[n - 2].p);
-        v.pdf_fwd = pdf(scene, &path[n - 1], before, &v) * edge.factor(scene, v.is_medium(), true);
+        let (fwd, rev) = pdf_both(scene, &path[n - 1], (n >= 2).then(|| &path[n - 2]), &v);
+        v.pdf_fwd = fwd * edge.factor(scene, v.is_medium(), true);
         if n >= 2 {
-            let target = path[n - 2];
-            let factor = path[n - 1].edge.factor(scene, target.is_medium(), false);
-            path[n - 2].pdf_rev = pdf(scene, &path[n - 1], Some(v.p), &target) * factor;
+            let factor = path[n - 1]
+                .edge
+                .factor(scene, path[n - 2].is_medium(), false);
+            path[n - 2].pdf_rev = rev * factor;
         }
         let escaped = found.is_none();
         path.push(v);

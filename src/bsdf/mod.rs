@@ -297,6 +297,71 @@ impl Bsdf {
     }
 }
 
+/// `f(wo, wi)` and the densities of sampling either direction from the other: what a
+/// connection between two subpaths needs at each end (see [`Bsdf::eval_pdfs`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EvalPdfs {
+    /// As [`Bsdf::eval`] (no cosine).
+    pub f: Spectrum,
+    /// As [`Bsdf::pdf`] of `wi` given `wo`.
+    pub pdf_fwd: f32,
+    /// As [`Bsdf::pdf`] of `wo` given `wi`.
+    pub pdf_rev: f32,
+}
+
+impl EvalPdfs {
+    pub const ZERO: EvalPdfs = EvalPdfs {
+        f: Spectrum::ZERO,
+        pdf_fwd: 0.0,
+        pdf_rev: 0.0,
+    };
+}
+
+impl Bsdf {
+    /// `eval(wo, wi)`, `pdf(wo -> wi)` and `pdf(wi -> wo)` in one call, sharing the frame
+    /// transforms and side checks; bit-identical to the three separate calls (densities do
+    /// not depend on `mode`). Zero for delta lobes.
+    pub fn eval_pdfs(
+        &self,
+        sf: &ShadingFrame,
+        wo: Vec3,
+        wi: Vec3,
+        mode: TransportMode,
+    ) -> EvalPdfs {
+        let (wo_l, wi_l) = (sf.frame.to_local(wo), sf.frame.to_local(wi));
+        let transmission = wo_l.z * wi_l.z < 0.0;
+        if !geometry_agrees(sf, wo, wi, transmission) {
+            return EvalPdfs::ZERO;
+        }
+        let (f, pdf_fwd, pdf_rev) = match self {
+            Bsdf::Diffuse { albedo } => (
+                diffuse::eval(*albedo, wo_l, wi_l),
+                diffuse::pdf(wo_l, wi_l),
+                diffuse::pdf(wi_l, wo_l),
+            ),
+            Bsdf::RoughConductor { alpha, fresnel } => {
+                let (f, pdf_fwd) = rough_conductor::eval_pdf(*alpha, Some(fresnel), wo_l, wi_l);
+                let pdf_rev = rough_conductor::eval_pdf(*alpha, None, wi_l, wo_l).1;
+                (f, pdf_fwd, pdf_rev)
+            }
+            Bsdf::RoughDielectric { eta, alpha } => {
+                let (f, pdf_fwd) = rough_dielectric::eval_pdf(*eta, *alpha, wo_l, wi_l, mode);
+                let pdf_rev =
+                    rough_dielectric::eval_pdf(*eta, *alpha, wi_l, wo_l, TransportMode::Radiance).1;
+                (Spectrum::splat(f), pdf_fwd, pdf_rev)
+            }
+            Bsdf::Black | Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => {
+                return EvalPdfs::ZERO;
+            }
+        };
+        EvalPdfs {
+            f: f * shading_correction(sf, wo, wi, mode),
+            pdf_fwd,
+            pdf_rev,
+        }
+    }
+}
+
 /// A sample in the local shading frame, before the checks and corrections of [`Bsdf::sample`].
 pub(crate) struct LocalSample {
     pub wi: Vec3,
@@ -327,4 +392,63 @@ fn shading_correction(sf: &ShadingFrame, wo: Vec3, wi: Vec3, mode: TransportMode
     let num = wo.dot(sf.frame.n).abs() * wi.dot(sf.ng).abs();
     let den = wo.dot(sf.ng).abs() * wi.dot(sf.frame.n).abs();
     if den == 0.0 { 0.0 } else { num / den }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::math::{IndependentSampler, Sampler, warp};
+
+    /// `eval_pdfs` is the three separate calls, bit for bit, for every model, both modes, a
+    /// tilted shading normal and random direction pairs (reflection and transmission).
+    #[test]
+    fn eval_pdfs_matches_eval_and_both_pdfs() {
+        let bsdfs = [
+            Bsdf::Black,
+            Bsdf::Diffuse {
+                albedo: Spectrum::new(0.7, 0.5, 0.2),
+            },
+            Bsdf::Conductor {
+                reflectance: Spectrum::splat(0.9),
+            },
+            Bsdf::Dielectric { eta: 1.5 },
+            Bsdf::rough_conductor(0.3, ConductorFresnel::Constant(Spectrum::splat(0.8))),
+            Bsdf::rough_conductor(
+                0.05,
+                ConductorFresnel::Complex {
+                    eta: Spectrum::new(0.2, 0.9, 1.1),
+                    k: Spectrum::new(3.9, 2.4, 2.2),
+                },
+            ),
+            Bsdf::rough_dielectric(1.5, 0.2),
+            Bsdf::rough_dielectric(1.0 / 1.33, 0.6),
+        ];
+        let ng = Vec3::new(0.1, 0.2, 1.0).normalize();
+        let frames = [
+            ShadingFrame::new(ng, ng),
+            ShadingFrame::new(Vec3::new(0.3, -0.1, 1.0).normalize(), ng),
+        ];
+        let mut rng = IndependentSampler::new(11, 0, 0);
+        let mut non_zero = 0;
+        for bsdf in &bsdfs {
+            for sf in &frames {
+                for _ in 0..2000 {
+                    let wo = warp::square_to_uniform_sphere(rng.next_2d());
+                    let wi = warp::square_to_uniform_sphere(rng.next_2d());
+                    for mode in [TransportMode::Radiance, TransportMode::Importance] {
+                        let got = bsdf.eval_pdfs(sf, wo, wi, mode);
+                        let want = EvalPdfs {
+                            f: bsdf.eval(sf, wo, wi, mode),
+                            pdf_fwd: bsdf.pdf(sf, wo, wi, TransportMode::Radiance),
+                            pdf_rev: bsdf.pdf(sf, wi, wo, TransportMode::Radiance),
+                        };
+                        assert_eq!(got, want, "{bsdf:?} {mode:?} wo {wo} wi {wi}");
+                        assert_eq!(got.pdf_fwd, bsdf.pdf(sf, wo, wi, mode));
+                        non_zero += (got.pdf_fwd > 0.0 && got.pdf_rev > 0.0) as usize;
+                    }
+                }
+            }
+        }
+        assert!(non_zero > 10_000, "only {non_zero} pairs with densities");
+    }
 }

@@ -154,6 +154,8 @@ pub struct RunSettings<'a> {
     pub progress: bool,
     /// Images at given elapsed seconds; the clock starts when the integrator starts rendering.
     pub snapshots: Option<&'a crate::snapshot::Snapshots<'a>>,
+    /// Also produce the DBOR-re-weighted image (`RenderResult::dbor`).
+    pub dbor: bool,
 }
 
 /// Build integrator `name` and render `scene` with it on a pool of `threads` threads: what
@@ -172,6 +174,7 @@ pub fn render_named(
         threads,
         progress,
         snapshots: None,
+        dbor: false,
     };
     render_named_with(scene, name, params, budget, &run)
 }
@@ -195,6 +198,7 @@ pub fn render_named_with(
         seed: run.seed,
         progress: run.progress,
         snapshots: run.snapshots,
+        dbor: run.dbor,
     };
     integrator.prepare(scene)?;
     let cpu0 = crate::render::process_cpu_seconds();

@@ -81,9 +81,49 @@ struct RenderArgs {
     /// out.exr (and out.t0005.png beside --png).
     #[arg(long, value_name = "SECONDS,...")]
     snapshots: Option<String>,
+    /// guided-pt: unguided share once the cache holds guide paths (-O alpha=).
+    #[arg(long, allow_negative_numbers = true)]
+    alpha: Option<f64>,
+    /// guided-pt: share of the budget spent learning (-O learn_fraction=).
+    #[arg(long, allow_negative_numbers = true)]
+    learn_fraction: Option<f64>,
+    /// guided-pt: guide-path cache capacity (-O max_guides=).
+    #[arg(long, allow_negative_numbers = true)]
+    max_guides: Option<u64>,
+    /// guided-pt: write the learned guide-path cache to this file (-O save_guides=).
+    #[arg(long)]
+    save_guides: Option<PathBuf>,
+    /// guided-pt: render with this saved cache instead of learning one (-O load_guides=).
+    #[arg(long)]
+    load_guides: Option<PathBuf>,
+    /// Also write the image re-weighted by Zirr et al.'s firefly cascade (b = 8, kappa = 32)
+    /// as out.dbor.exr beside out.exr (biased; the plain sum of the cascade is the image).
+    #[arg(long)]
+    dbor: bool,
     /// No progress bar.
     #[arg(short, long)]
     quiet: bool,
+}
+
+impl RenderArgs {
+    /// `-O` options plus the guided-sampling flags as options.
+    fn all_options(&self) -> Vec<String> {
+        let mut o = self.options.clone();
+        let path = |p: &PathBuf| p.to_string_lossy().into_owned();
+        let flags: [(&str, Option<String>); 5] = [
+            ("alpha", self.alpha.map(|v| v.to_string())),
+            ("learn_fraction", self.learn_fraction.map(|v| v.to_string())),
+            ("max_guides", self.max_guides.map(|v| v.to_string())),
+            ("save_guides", self.save_guides.as_ref().map(path)),
+            ("load_guides", self.load_guides.as_ref().map(path)),
+        ];
+        for (k, v) in flags {
+            if let Some(v) = v {
+                o.push(format!("{k}={v}"));
+            }
+        }
+        o
+    }
 }
 
 #[derive(clap::Args)]
@@ -248,7 +288,7 @@ fn render(args: RenderArgs) -> Result<()> {
         .unwrap_or_else(|| scene.render.integrator.clone());
     let params = IntegratorParams {
         max_depth: args.max_depth.unwrap_or(scene.render.max_depth),
-        options: Options::parse(&args.options)?,
+        options: Options::parse(&args.all_options())?,
     };
     let budget = match (args.spp, args.time) {
         (_, Some(t)) => Budget::Seconds(t),
@@ -287,6 +327,7 @@ fn render(args: RenderArgs) -> Result<()> {
     };
     let snapshots = Snapshots::new(&snapshot_times, &sink)?;
     let run_settings = RunSettings {
+        dbor: args.dbor,
         seed: args.seed,
         threads,
         progress: !args.quiet,
@@ -305,6 +346,28 @@ fn render(args: RenderArgs) -> Result<()> {
     ]);
     meta.extend(result.stats.iter().cloned());
     result.image.write_exr(&output, &meta)?;
+    if args.dbor {
+        let Some(dbor) = &result.dbor else {
+            return Err(Error::new(format!(
+                "--dbor: integrator '{}' keeps no firefly cascade",
+                run.name
+            )));
+        };
+        let mut m = meta.clone();
+        m.push((
+            "dbor".to_string(),
+            "Zirr et al. 2018, b = 8, kappa = 32".to_string(),
+        ));
+        dbor.write_exr(&output.with_extension("dbor.exr"), &m)?;
+    }
+    if !result.stats.is_empty() && !args.quiet {
+        let s: Vec<String> = result
+            .stats
+            .iter()
+            .map(|(k, v)| format!("{k}={v}"))
+            .collect();
+        eprintln!("stats: {}", s.join(", "));
+    }
     if let Some(png) = &args.png {
         result.image.write_png(png, args.exposure)?;
     }

@@ -8,6 +8,7 @@
 //! stream per (seed, pass, pixel), and each pixel is accumulated by exactly one task, so the
 //! image is bit-identical for any number of threads (and with or without snapshots).
 
+use crate::dbor::Cascade;
 use crate::film::{Film, Image};
 use crate::math::{IndependentSampler, Spectrum, is_finite3};
 use crate::scene::Scene;
@@ -37,6 +38,9 @@ pub struct RenderContext<'a> {
     /// it for integrators that use it, see [`crate::snapshot`] for integrators with their own
     /// loop.
     pub snapshots: Option<&'a Snapshots<'a>>,
+    /// Keep Zirr et al.'s firefly cascade ([`crate::dbor`]) and return its re-weighted image
+    /// in `RenderResult::dbor` (`--dbor`).
+    pub dbor: bool,
 }
 
 impl<'a> RenderContext<'a> {
@@ -47,6 +51,7 @@ impl<'a> RenderContext<'a> {
             seed,
             progress,
             snapshots: None,
+            dbor: false,
         }
     }
 }
@@ -61,6 +66,9 @@ pub struct RenderResult {
     pub seconds: f64,
     /// Named counters and settings, also written into the EXR header.
     pub stats: Vec<(String, String)>,
+    /// The DBOR-re-weighted image, when the context asked for it and the integrator keeps
+    /// a cascade.
+    pub dbor: Option<Image>,
 }
 
 /// A rendering algorithm, registered by name in `integrators/mod.rs`.
@@ -210,11 +218,14 @@ pub fn render_rows<T: RowTracer>(
     let UVec2 { x: w, y: h } = ctx.scene.camera.resolution;
     let mut film = Film::new(w, h);
     let invalid = AtomicU64::new(0);
+    let mut cascade = ctx.dbor.then(|| Cascade::new(w, h));
     let pass = |film: &mut Film, pass: u64| {
+        let mut crows = cascade_rows(&mut cascade, h);
         let splats: Vec<Vec<(u32, Spectrum)>> = film
             .par_rows_mut()
+            .zip(crows.par_iter_mut())
             .enumerate()
-            .map(|(y, row)| {
+            .map(|(y, (row, crow))| {
                 let mut tracer = new_tracer();
                 for (x, acc) in row.iter_mut().enumerate() {
                     let index = y as u64 * w as u64 + x as u64;
@@ -223,6 +234,9 @@ pub fn render_rows<T: RowTracer>(
                     let l = tracer.sample(Vec2::new(x as f32, y as f32) + jitter, &mut sampler);
                     if is_finite3(l) && l.min_element() >= 0.0 {
                         *acc += l.as_dvec3();
+                        if let Some(cell) = crow.get_mut(x) {
+                            Cascade::splat_into(cell, l);
+                        }
                     } else {
                         invalid.fetch_add(1, Ordering::Relaxed);
                     }
@@ -230,14 +244,21 @@ pub fn render_rows<T: RowTracer>(
                 tracer.take_splats()
             })
             .collect();
+        drop(crows);
         for row in &splats {
             film.add_splats(row);
+            if let Some(c) = &mut cascade {
+                for &(p, v) in row {
+                    c.add(p, v);
+                }
+            }
         }
     };
     let image = |film: &Film, passes: u64| film.to_image(passes as f64, 1.0 / passes as f64);
     let (passes, seconds) = run_passes_with_snapshots(ctx, budget, &mut film, pass, image);
     let splat_scale = if passes > 0 { 1.0 / passes as f64 } else { 0.0 };
     RenderResult {
+        dbor: cascade.map(|c| c.reweighted(passes.max(1) as f64)),
         image: film.to_image(passes as f64, splat_scale),
         spp: passes,
         passes,
@@ -384,5 +405,16 @@ mod tests {
         assert!(passes >= 3, "{passes} passes");
         assert!(seconds >= 0.05, "{seconds}");
         assert!(t0.elapsed().as_secs_f64() >= seconds + 0.06, "{seconds}");
+    }
+}
+
+/// Per-row cells of an optional cascade (empty rows without one), to zip with film rows.
+pub fn cascade_rows(
+    cascade: &mut Option<Cascade>,
+    height: u32,
+) -> Vec<&mut [[glam::DVec3; crate::dbor::LAYERS]]> {
+    match cascade {
+        Some(c) => c.rows_mut().collect(),
+        None => (0..height).map(|_| &mut [][..]).collect(),
     }
 }

@@ -41,11 +41,7 @@ fn learn(scene: &Scene, max_depth: u32, spp: u64, seed: u64) -> GuideCache {
         settings: settings(max_depth, 1.0 - 1.0 / spp as f64),
         cache: None,
     };
-    let ctx = RenderContext {
-        scene,
-        seed,
-        progress: false,
-    };
+    let ctx = RenderContext::new(scene, seed, false);
     g.render(&ctx, Budget::Spp(spp));
     g.cache.take().expect("a cache")
 }
@@ -198,11 +194,7 @@ fn guided_vs_reference_z(
         },
         cache: Some(cache),
     };
-    let ctx = RenderContext {
-        scene,
-        seed: 9,
-        progress: false,
-    };
+    let ctx = RenderContext::new(scene, 9, false);
     let guided = g.render(&ctx, Budget::Spp(spp));
     let z = util::z_same_mean(&guided.image, &pt.image);
     eprintln!(

@@ -35,11 +35,14 @@ pub mod sampler;
 use super::IntegratorParams;
 use super::bdpt::{self, Vertex};
 use super::pt::{PathRecorder, PathTracer, PtSettings};
+use crate::dbor::Cascade;
 use crate::error::{Error, Result};
 use crate::film::Film;
 use crate::math::{IndependentSampler, Sampler, Spectrum, luminance};
 use crate::path::{MAX_VERTICES, Path};
-use crate::render::{Budget, Integrator, RenderContext, RenderResult, run_passes};
+use crate::render::{
+    Budget, Integrator, RenderContext, RenderResult, cascade_rows, run_passes_with_snapshots,
+};
 use crate::scene::Scene;
 use cache::{GuideCache, RebuildParams, Record};
 use glam::{DVec3, UVec2, Vec2};
@@ -365,6 +368,7 @@ impl GuidedPt {
         ctx: &RenderContext,
         est: &Estimator,
         film: &mut Film,
+        cascade: &mut Option<Cascade>,
         pass: u64,
         learning: bool,
     ) -> Vec<RowOutput> {
@@ -372,9 +376,12 @@ impl GuidedPt {
         let UVec2 { x: w, .. } = scene.camera.resolution;
         let n_pix = scene.camera.pixel_count() as u64;
         let n_g = est.n_g as u64;
-        film.par_rows_mut()
+        let mut crows = cascade_rows(cascade, scene.camera.resolution.y);
+        let rows = film
+            .par_rows_mut()
+            .zip(crows.par_iter_mut())
             .enumerate()
-            .map(|(y, row)| {
+            .map(|(y, (row, crow))| {
                 let mut out = RowOutput::default();
                 for (x, acc) in row.iter_mut().enumerate() {
                     let index = y as u64 * w as u64 + x as u64;
@@ -390,6 +397,9 @@ impl GuidedPt {
                         .li_recorded(scene, raster, &mut sampler, Some(&mut col));
                     let sum = col.sum;
                     *acc += sum;
+                    if let Some(cell) = crow.get_mut(x) {
+                        Cascade::splat_into(cell, sum.as_vec3());
+                    }
                     // Guided samples j = index, index + N, ... below n_g.
                     let mut j = index;
                     while j < n_g {
@@ -420,7 +430,17 @@ impl GuidedPt {
                 out.candidates.truncate(ROW_CANDIDATES);
                 out
             })
-            .collect()
+            .collect::<Vec<RowOutput>>();
+        drop(crows);
+        for r in &rows {
+            film.add_splats(&r.splats);
+            if let Some(c) = cascade {
+                for &(p, v) in &r.splats {
+                    c.add(p, v);
+                }
+            }
+        }
+        rows
     }
 
     /// Outliers of a learning pass: trust against the cascade, the `intake` largest C per
@@ -531,8 +551,9 @@ impl Integrator for GuidedPt {
                 let mut k = 0u64;
                 loop {
                     let est = Estimator::new(scene, st.pt.clone(), &cache, st.alpha);
-                    film.clear();
-                    let mut rows = self.pass(ctx, &est, &mut film, k, true);
+                    // The learning film averages the learning passes (each an unbiased
+                    // estimate); it is what snapshots during learning show.
+                    let mut rows = self.pass(ctx, &est, &mut film, &mut None, k, true);
                     for r in &rows {
                         stats.add(&r.stats);
                     }
@@ -540,6 +561,9 @@ impl Integrator for GuidedPt {
                     let records = self.outliers(scene, &mut rows, &mut cascade, alpha, k as u32);
                     drop(rows);
                     k += 1;
+                    if let Some(snap) = ctx.snapshots {
+                        snap.emit_due(k, k, || film.to_image(k as f64, 1.0 / k as f64));
+                    }
                     let done = match lb {
                         Budget::Spp(n) => k >= n,
                         Budget::Seconds(s) => start.elapsed().as_secs_f64() >= s,
@@ -571,13 +595,19 @@ impl Integrator for GuidedPt {
             Budget::Seconds(s) => Budget::Seconds((s - learn_seconds).max(0.0)),
         };
         let est = Estimator::new(scene, st.pt.clone(), &cache, st.alpha);
-        let (passes, render_seconds) = run_passes(ctx.progress, render_budget, |p| {
-            let rows = self.pass(ctx, &est, &mut film, learn_passes + p, false);
-            for r in &rows {
-                film.add_splats(&r.splats);
-                render_stats.borrow_mut().add(&r.stats);
-            }
-        });
+        let mut cascade = ctx.dbor.then(|| Cascade::new(w, h));
+        let (passes, render_seconds) = run_passes_with_snapshots(
+            ctx,
+            render_budget,
+            &mut film,
+            |film, p| {
+                let rows = self.pass(ctx, &est, film, &mut cascade, learn_passes + p, false);
+                for r in &rows {
+                    render_stats.borrow_mut().add(&r.stats);
+                }
+            },
+            |film, passes| film.to_image(passes as f64, 1.0 / passes.max(1) as f64),
+        );
         let rs = render_stats.into_inner();
         let image = film.to_image(passes as f64, 1.0 / passes.max(1) as f64);
         let out_stats = vec![
@@ -609,6 +639,7 @@ impl Integrator for GuidedPt {
         ];
         self.cache = Some(cache);
         RenderResult {
+            dbor: cascade.map(|c| c.reweighted(passes.max(1) as f64)),
             image,
             spp: passes,
             passes,

@@ -101,6 +101,7 @@ fn render_one(p: &Prepared, name: &str, seed: u64) -> Result<(Run, Image, String
         options: Options::default(),
     };
     let settings = RunSettings {
+        dbor: false,
         seed,
         threads: c.threads,
         progress: false,

@@ -31,7 +31,7 @@ pub struct Cascade {
 /// The layers and value shares of a sample of luminance `v`: (layer, share) pairs, shares
 /// adding to 1.
 pub fn value_shares(v: f64) -> [(usize, f64); 2] {
-    if !(v > 1.0) {
+    if v.is_nan() || v <= 1.0 {
         return [(0, 1.0), (0, 0.0)];
     }
     let i = (v.ln() / BASE.ln()).floor() as usize;

@@ -285,6 +285,17 @@ pub fn render_pixel_estimator<E: PixelEstimator>(
     render_rows(ctx, budget, || Rows(estimator, ctx.scene))
 }
 
+/// Per-row cells of an optional cascade (empty rows without one), to zip with film rows.
+pub fn cascade_rows(
+    cascade: &mut Option<Cascade>,
+    height: u32,
+) -> Vec<&mut [[glam::DVec3; crate::dbor::LAYERS]]> {
+    match cascade {
+        Some(c) => c.rows_mut().collect(),
+        None => (0..height).map(|_| &mut [][..]).collect(),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -405,16 +416,5 @@ mod tests {
         assert!(passes >= 3, "{passes} passes");
         assert!(seconds >= 0.05, "{seconds}");
         assert!(t0.elapsed().as_secs_f64() >= seconds + 0.06, "{seconds}");
-    }
-}
-
-/// Per-row cells of an optional cascade (empty rows without one), to zip with film rows.
-pub fn cascade_rows(
-    cascade: &mut Option<Cascade>,
-    height: u32,
-) -> Vec<&mut [[glam::DVec3; crate::dbor::LAYERS]]> {
-    match cascade {
-        Some(c) => c.rows_mut().collect(),
-        None => (0..height).map(|_| &mut [][..]).collect(),
     }
 }

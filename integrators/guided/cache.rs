@@ -168,6 +168,11 @@ impl GuideCache {
     /// equal): the first-vertex kernel times, per later vertex, the mixture of the BSDF and
     /// Gaussian branches (delta lights: the connection, factor 1).
     pub fn pdf_given(&self, scene: &Scene, l: usize, y: &[Vertex]) -> f64 {
+        self.pdf_given_with(scene, l, y, &mut PathTerms::default())
+    }
+
+    /// [`Self::pdf_given`] reusing the guide-independent terms of `y` in `terms`.
+    fn pdf_given_with(&self, scene: &Scene, l: usize, y: &[Vertex], terms: &mut PathTerms) -> f64 {
         let guide = &self.guides[l];
         let len = guide.len as usize;
         let mut p = first_vertex_density(scene, y, &self.vertex(scene, l, 1), guide.sigma1);
@@ -175,13 +180,24 @@ impl GuideCache {
             if p == 0.0 {
                 return 0.0;
             }
-            p *= self.vertex_density(scene, l, y, v);
+            p *= self.vertex_density_with(scene, l, y, v, terms);
         }
         p
     }
 
     /// Density of vertex `v` of `y` given `y[..v]` when following guide `l`.
     pub fn vertex_density(&self, scene: &Scene, l: usize, y: &[Vertex], v: usize) -> f64 {
+        self.vertex_density_with(scene, l, y, v, &mut PathTerms::default())
+    }
+
+    fn vertex_density_with(
+        &self,
+        scene: &Scene,
+        l: usize,
+        y: &[Vertex],
+        v: usize,
+        terms: &mut PathTerms,
+    ) -> f64 {
         let (g_prev, g) = (self.vertex(scene, l, v - 1), self.vertex(scene, l, v));
         let node = self.node(l, v);
         if let Node::Emitter {
@@ -192,13 +208,22 @@ impl GuideCache {
             return 1.0;
         }
         let k = self.kernel(l, v);
-        let p_b = bsdf_branch_probability(scene, &y[v - 1]);
-        let medium_target = matches!(node, Node::Medium { .. })
-            .then(|| ((dvec(g.p) - dvec(g_prev.p)).length(), k.sigma_dist as f64));
-        let fb = if p_b > 0.0 {
-            bsdf_branch_density(scene, y, v, medium_target)
-        } else {
+        let (p_b, fb_surface) = terms.get(v, || {
+            let p_b = bsdf_branch_probability(scene, &y[v - 1]);
+            let fb = if p_b > 0.0 && !y[v].is_medium() {
+                bsdf_branch_density(scene, y, v, None)
+            } else {
+                0.0
+            };
+            (p_b, fb)
+        });
+        let fb = if p_b == 0.0 {
             0.0
+        } else if matches!(node, Node::Medium { .. }) {
+            let ell = (dvec(g.p) - dvec(g_prev.p)).length();
+            bsdf_branch_density(scene, y, v, Some((ell, k.sigma_dist as f64)))
+        } else {
+            fb_surface
         };
         let fg = if p_b < 1.0 {
             let inf = is_infinite_vertex(scene, &g);
@@ -236,6 +261,7 @@ impl GuideCache {
             return (0.0, 0);
         }
         self.candidates(scene, y[1].p, scratch);
+        let mut terms = PathTerms::default();
         let mut sum = 0.0;
         for &l in scratch.iter() {
             let l = l as usize;
@@ -247,7 +273,7 @@ impl GuideCache {
             {
                 continue;
             }
-            sum += g.weight * self.pdf_given(scene, l, y);
+            sum += g.weight * self.pdf_given_with(scene, l, y, &mut terms);
         }
         (sum, scratch.len())
     }
@@ -372,7 +398,8 @@ impl GuideCache {
         self.install(scene, installs, params.iteration);
     }
 
-    /// Replace the cache by these guide paths (vertices camera first, f, p_u, weight, age):
+    /// Replace the cache by these guide paths (vertices camera first, f, p_u, weight, age;
+    /// the weights must sum to 1):
     /// first-vertex kernels for learning iteration `iteration`, pruning BVH, neighbours,
     /// kernels and the alias table. Deterministic, so a saved cache loads to the same state.
     pub fn install(&mut self, scene: &Scene, paths: Vec<Install>, iteration: u32) {
@@ -384,6 +411,7 @@ impl GuideCache {
         self.iteration = iteration;
         let k = iteration.max(1) as f32;
         let pixel_angle = scene.camera.pixel_angle();
+        let image_scale = kernel_pixel_scale(scene) as f32;
         for (vertices, f, p_u, weight, age) in paths {
             let mut path = crate::path::Path::default();
             for v in &vertices {
@@ -402,7 +430,9 @@ impl GuideCache {
                 _ => 1.0,
             };
             let s = (rho * (90.0 / k + 10.0).max(1.0) + (1.0 - rho) * (90.0 / k + 1.0).max(1.0))
+                * image_scale
                 * debug_scale("LODESTAR_S1") as f32;
+            let s = s.max(1.0);
             let footprint = (g1.p - scene.camera.position).length() * pixel_angle;
             self.guides.push(Guide {
                 start: self.vertices.len() as u32,
@@ -437,12 +467,23 @@ impl GuideCache {
             self.guides[l].kernels = self.kernels.len() as u32;
             self.kernels.extend(kernels);
         }
-        // Selection probabilities: the weights normalised (p_g uses exactly these).
-        let total: f64 = self.guides.iter().map(|g| g.weight).sum();
-        if total > 0.0 {
-            for g in &mut self.guides {
-                g.weight /= total;
+        // Selection probabilities are the weights as given (normalised by the caller; p_g
+        // uses exactly these).
+        if std::env::var_os("LODESTAR_DEBUG").is_some() {
+            let full = self
+                .guides
+                .iter()
+                .filter(|g| g.neighbours as usize >= NEIGHBOURS)
+                .count();
+            let mut lens = std::collections::BTreeMap::new();
+            for g in &self.guides {
+                *lens.entry(g.len).or_insert(0) += 1;
             }
+            eprintln!(
+                "rebuild {iteration}: {} guides, {full} with {NEIGHBOURS} neighbours, {} structures, lengths {lens:?}",
+                self.guides.len(),
+                self.sigs.len()
+            );
         }
         let w: Vec<f64> = self.guides.iter().map(|g| g.weight).collect();
         self.alias = AliasTable::new(&w);
@@ -527,7 +568,7 @@ impl GuideCache {
             )
         };
         let age = self.guides[l].age as f64;
-        let iso = (90.0 / (age + 2.0)).max(1.0)
+        let iso = ((90.0 / (age + 2.0)) * kernel_pixel_scale(scene)).max(1.0)
             * debug_scale("LODESTAR_ISO")
             * if infinite { pixel_angle } else { footprint };
         let isotropic = Kernel::isotropic(iso.min(ceil.sqrt()) as f32);
@@ -667,9 +708,43 @@ pub fn regression_kernel(
     Some(out)
 }
 
+/// Image height the spec's kernel widths in pixels refer to (the paper's images are about a
+/// megapixel). Widths are scaled by `height / KERNEL_REFERENCE_HEIGHT` (at most 1) and floored
+/// at one pixel, so a kernel covers the same share of a smaller image instead of most of it.
+pub const KERNEL_REFERENCE_HEIGHT: f64 = 1000.0;
+
+fn kernel_pixel_scale(scene: &Scene) -> f64 {
+    (scene.camera.resolution.y as f64 / KERNEL_REFERENCE_HEIGHT).min(1.0)
+}
+
 fn debug_scale(var: &str) -> f64 {
     std::env::var(var)
         .ok()
         .and_then(|v| v.parse().ok())
         .unwrap_or(1.0)
+}
+
+/// Terms of a path's guided density that do not depend on the guide path (the BSDF-branch
+/// probability and, for surface targets, the BSDF-branch density), computed once per path.
+#[derive(Default)]
+struct PathTerms {
+    known: u64,
+    values: Vec<(f64, f64)>,
+}
+
+impl PathTerms {
+    fn get(&mut self, v: usize, compute: impl FnOnce() -> (f64, f64)) -> (f64, f64) {
+        if v < 64 && self.known & (1 << v) != 0 {
+            return self.values[v];
+        }
+        let t = compute();
+        if v < 64 {
+            if self.values.len() <= v {
+                self.values.resize(v + 1, (0.0, 0.0));
+            }
+            self.values[v] = t;
+            self.known |= 1 << v;
+        }
+        t
+    }
 }

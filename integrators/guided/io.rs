@@ -202,6 +202,10 @@ pub fn load(scene: &Scene, file: &Path) -> Result<GuideCache> {
         }
         entries.push((vertices, f, p_u, weight, age));
     }
+    let total: f64 = entries.iter().map(|e| e.3).sum();
+    if count > 0 && (total - 1.0).abs() > 1e-6 {
+        return Err(bad(format!("guide path weights sum to {total}, not 1")));
+    }
     if r.at != data.len() {
         return Err(bad(format!("{} trailing bytes", data.len() - r.at)));
     }

@@ -203,12 +203,11 @@ pub fn segment_frame(prev: &PathVertex, g: &PathVertex, g_infinite: bool) -> Fra
 /// Coordinates of point `x` relative to `origin` in frame `f`, 2D or 3D.
 pub fn coords(f: &Frame, x: Vec3, origin: Vec3, dims: usize) -> [f64; 3] {
     let d = dvec(x) - dvec(origin);
-    let c = [
+    [
         d.dot(dvec(f.s)),
         d.dot(dvec(f.t)),
         if dims == 3 { d.dot(dvec(f.n)) } else { 0.0 },
-    ];
-    c
+    ]
 }
 
 /// Unit-plane coordinates of direction `w` in frame `f` (None behind the plane).
@@ -314,31 +313,37 @@ pub fn bsdf_branch_density(
 /// Density of the first vertex `y[1]` under the isotropic kernel of std `sigma1` around the
 /// guide's first vertex `g1` (plane through g1 orthogonal to the camera ray; 3D in media).
 pub fn first_vertex_density(scene: &Scene, y: &[Vertex], g1: &PathVertex, sigma1: f32) -> f64 {
-    let x0 = scene.camera.position;
-    let f = Frame::from_z((g1.p - x0).normalize());
-    let s = sigma1 as f64;
-    let x1 = &y[1];
+    let x0 = dvec(scene.camera.position);
+    let s2 = (sigma1 as f64) * (sigma1 as f64);
+    let (g, x1) = (dvec(g1.p), &y[1]);
+    // The kernel is isotropic, so only the distance to g1 matters (in the plane through g1
+    // orthogonal to the camera ray, or in 3D): no frame is needed.
     if x1.is_medium() {
-        let c = coords(&f, x1.p, g1.p, 3);
-        let z2 = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]) / (s * s);
-        return std_trunc_density(3, z2) / (s * s * s);
+        let r2 = (dvec(x1.p) - g).length_squared() / s2;
+        return std_trunc_density(3, r2) / (s2 * s2.sqrt());
     }
-    let w = x1.p - x0;
-    let pdf_w = plane_direction_density(&f, g1.p, x0, w, |c| {
-        std_trunc_density(2, (c[0] * c[0] + c[1] * c[1]) / (s * s)) / (s * s)
-    });
-    if pdf_w == 0.0 {
+    let d = g - x0;
+    let dist = d.length();
+    let to_x1 = dvec(x1.p) - x0;
+    let d1 = to_x1.length();
+    let w = to_x1 / d1;
+    let cos = d.dot(w) / dist;
+    if !(cos > 0.0) {
         return 0.0;
     }
-    // Area measure at x1 (|cos| / d^2), computed in f64 like the rest of the product.
-    let d = dvec(x1.p) - dvec(x0);
-    let d2 = d.length_squared();
-    let cos = if x1.n == Vec3::ZERO {
+    let t_p = dist / cos;
+    let r2 = (x0 + w * t_p - g).length_squared() / s2;
+    if r2 > R * R {
+        return 0.0;
+    }
+    let pdf_w = std_trunc_density(2, r2) / s2 * t_p * t_p / cos;
+    // Area measure at x1 (|cos| / d^2).
+    let cos1 = if x1.n == Vec3::ZERO {
         1.0
     } else {
-        dvec(x1.n).dot(d).abs() / d2.sqrt()
+        dvec(x1.n).dot(w).abs()
     };
-    pdf_w * cos / d2
+    pdf_w * cos1 / (d1 * d1)
 }
 
 /// Density of the Gaussian branch of guide segment (g_prev -> g) with kernel `k` producing

@@ -24,6 +24,10 @@
 //! lodestar render scenes/pool.toml --integrator guided-pt --time 60 -O alpha=0.5
 //! ```
 
+// `!(x > 0.0)` deliberately rejects NaN with the invalid values; the small dense linear
+// algebra reads best with explicit indices.
+#![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
+
 pub mod cache;
 pub mod contribution;
 pub mod gaussian;
@@ -53,6 +57,10 @@ use std::time::Instant;
 
 /// Workers (bands of rows) that each keep `intake` outliers per learning iteration.
 pub const WORKERS: usize = 4;
+/// Render passes draw from streams (seed, RENDER_STREAMS + pass, ...), learning passes from
+/// (seed, iteration, ...): a render with a loaded cache repeats the render phase of the run
+/// that saved it.
+const RENDER_STREAMS: u64 = 1 << 40;
 /// Candidates a row keeps for the outlier test (the largest C).
 const ROW_CANDIDATES: usize = 48;
 
@@ -601,7 +609,7 @@ impl Integrator for GuidedPt {
             render_budget,
             &mut film,
             |film, p| {
-                let rows = self.pass(ctx, &est, film, &mut cascade, learn_passes + p, false);
+                let rows = self.pass(ctx, &est, film, &mut cascade, RENDER_STREAMS + p, false);
                 for r in &rows {
                     render_stats.borrow_mut().add(&r.stats);
                 }

@@ -13,7 +13,7 @@ impl AliasTable {
     /// Build from non-negative weights; all-zero (or empty) weights give an empty table.
     pub fn new(weights: &[f64]) -> AliasTable {
         let total: f64 = weights.iter().sum();
-        if !(total > 0.0) || !total.is_finite() {
+        if total.is_nan() || total <= 0.0 || !total.is_finite() {
             return AliasTable::default();
         }
         let n = weights.len();

@@ -18,7 +18,6 @@ use crate::math::{Sampler, Spectrum};
 use crate::path::{Path, Vertex as PathVertex, VertexKind};
 use crate::scene::{Endpoint, Scene};
 use glam::{Vec2, Vec3};
-use std::cell::RefCell;
 
 pub struct CameraTracer<'a, 'p> {
     pub scene: &'a Scene,
@@ -26,7 +25,7 @@ pub struct CameraTracer<'a, 'p> {
     pub pc: &'p PassConstants,
     pub lights: &'p LightPaths<'a>,
     pub grid: Option<&'p HashGrid>,
-    pub inspector: Option<&'p RefCell<&'p mut Inspector>>,
+    pub inspector: Option<&'p Inspector<'p>>,
     /// The camera subpath's vertices (inspection only).
     path: Vec<PathVertex>,
 }
@@ -38,7 +37,7 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
         pc: &'p PassConstants,
         lights: &'p LightPaths<'a>,
         grid: Option<&'p HashGrid>,
-        inspector: Option<&'p RefCell<&'p mut Inspector>>,
+        inspector: Option<&'p Inspector<'p>>,
     ) -> Self {
         CameraTracer {
             scene,
@@ -319,7 +318,14 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
             if let Some(insp) = self.inspector {
                 let full = &self.lights.full[self.lights.owner[index as usize] as usize];
                 let light = &full[..y.depth as usize];
-                self.record(insp, Technique::Merge { t: self.path.len() }, light, w);
+                self.record(
+                    insp,
+                    Technique::Merge {
+                        t: self.path.len() - 1,
+                    },
+                    light,
+                    w,
+                );
             }
         });
         v.beta * sum * self.pc.vm_normalization
@@ -341,13 +347,7 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
     }
 
     /// Hand the camera path so far, then `light` reversed, to the inspector.
-    fn record(
-        &self,
-        insp: &RefCell<&mut Inspector>,
-        technique: Technique,
-        light: &[PathVertex],
-        w: f32,
-    ) {
+    fn record(&self, insp: &Inspector, technique: Technique, light: &[PathVertex], w: f32) {
         let mut path = Path::default();
         for v in &self.path {
             path.push(*v);

@@ -11,7 +11,6 @@ use crate::math::{IndependentSampler, Sampler, Spectrum};
 use crate::path::{Path, Vertex as PathVertex, VertexKind};
 use crate::scene::{Endpoint, Scene};
 use glam::Vec3;
-use std::cell::RefCell;
 
 /// The light subpaths of one row of path indices.
 #[derive(Default)]
@@ -75,7 +74,7 @@ pub struct LightTracer<'a, 'p> {
     pub scene: &'a Scene,
     pub settings: &'p VcmSettings,
     pub pc: &'p PassConstants,
-    pub inspector: Option<&'p RefCell<&'p mut Inspector>>,
+    pub inspector: Option<&'p Inspector<'p>>,
 }
 
 impl<'a> LightTracer<'a, '_> {

@@ -158,7 +158,8 @@ pub struct Record {
     pub weight: f64,
 }
 
-pub type Inspector = dyn FnMut(&Record);
+/// Receives every weighted contribution of [`inspect_pass`].
+pub type Inspector<'p> = RefCell<dyn FnMut(&Record) + 'p>;
 
 /// Constants of one pass.
 pub struct PassConstants {
@@ -304,21 +305,22 @@ pub fn inspect_pass(
     settings: &VcmSettings,
     seed: u64,
     pass: u64,
-    inspector: &mut Inspector,
+    inspector: &mut dyn FnMut(&Record),
 ) {
-    let cell = RefCell::new(inspector);
+    let cell = RefCell::new(|r: &Record| inspector(r));
+    let cell: &Inspector = &cell;
     let pc = PassConstants::new(settings, scene, pass);
     let UVec2 { x: w, y: h } = scene.camera.resolution;
     let lt = LightTracer {
         scene,
         settings,
         pc: &pc,
-        inspector: Some(&cell),
+        inspector: Some(cell),
     };
     let rows = vec![lt.row(seed, pass, 0, (w * h) as u64)];
     let lights = LightPaths::from_rows(rows, &mut Vec::new());
     let grid = settings.merge.then(|| build_grid(&lights, pc.radius));
-    let mut ct = CameraTracer::new(scene, settings, &pc, &lights, grid.as_ref(), Some(&cell));
+    let mut ct = CameraTracer::new(scene, settings, &pc, &lights, grid.as_ref(), Some(cell));
     for y in 0..h as usize {
         for x in 0..w as usize {
             camera_sample(&mut ct, seed, pass, y * w as usize + x, x, y);

@@ -131,11 +131,7 @@ fn weights_with_merging_count_every_technique() {
         ("cornell-box", scene_file("cornell-box.toml", 24)),
         ("cornell-fog", scene_file("cornell-fog.toml", 24)),
     ] {
-        let (mut vc, mut vm) = weight_errors(
-            &scene,
-            &settings(true, std::env::var("R").unwrap().parse().unwrap()),
-            2,
-        );
+        let (mut vc, mut vm) = weight_errors(&scene, &settings(true, 0.05), 2);
         assert!(vc.len() > 1000, "{name}: only {} connections", vc.len());
         assert!(vm.len() > 200, "{name}: only {} merges", vm.len());
         let worst = quantile(&mut vc, 1.0);

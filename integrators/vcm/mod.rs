@@ -92,17 +92,17 @@ impl VcmSettings {
 
 fn settings(params: &IntegratorParams, connect: bool) -> Result<VcmSettings> {
     let o = &params.options;
-    let radius: Option<f32> = match o.get("radius", f32::NAN, "a number > 0")? {
-        r if r.is_nan() => None,
-        r => Some(r),
+    let radius = match o.get::<String>("radius", String::new(), "a number > 0")? {
+        r if r.is_empty() => None,
+        r => match r.parse::<f32>() {
+            Ok(v) if v.is_finite() && v > 0.0 => Some(v),
+            _ => {
+                return Err(Error::new(format!(
+                    "option 'radius': expected a number > 0, got '{r}'"
+                )));
+            }
+        },
     };
-    if let Some(r) = radius
-        && !(r.is_finite() && r > 0.0)
-    {
-        return Err(Error::new(format!(
-            "option 'radius': expected a number > 0, got {r}"
-        )));
-    }
     let alpha: f32 = o.get("alpha", 0.75, "a number in (0, 1]")?;
     if !(alpha > 0.0 && alpha <= 1.0) {
         return Err(Error::new(format!(

@@ -5,6 +5,7 @@
 pub mod bdpt;
 pub mod guided;
 pub mod pt;
+pub mod vcm;
 
 use crate::error::{Error, Result};
 use crate::render::Integrator;
@@ -44,6 +45,16 @@ pub static REGISTRY: &[Entry] = &[
         name: "bdpt",
         summary: "bidirectional path tracing: all (s, t) techniques, full MIS, media",
         build: bdpt::build,
+    },
+    Entry {
+        name: "vcm",
+        summary: "vertex connection and merging: BDPT's techniques plus photon merging, MIS, shrinking radius",
+        build: vcm::build,
+    },
+    Entry {
+        name: "bpm",
+        summary: "bidirectional photon mapping: vcm's merging techniques alone, MIS, shrinking radius",
+        build: vcm::build_bpm,
     },
 ];
 

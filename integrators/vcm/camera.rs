@@ -1,0 +1,364 @@
+//! The camera subpath of one pixel and everything done at its vertices: emitter hits
+//! (s = 0), next-event estimation (s = 1), connections to every stored vertex of the light
+//! path with the same index (s, t >= 2), and merging with the stored vertices of all light
+//! paths within the pass's radius. Each contribution is weighed by the balance heuristic
+//! over all techniques, from the O(1) quantities of the two vertices it joins (VCM tech.
+//! report §5; the equation numbers below are that report's).
+
+use super::hash_grid::HashGrid;
+use super::light::LightPaths;
+use super::vertex::{
+    Edge, Mis, Scatter, Vertex, connectible_light, emission_densities, hittable, nee_density,
+};
+use super::walk::{Step, Walk};
+use super::{Inspector, PassConstants, Record, Technique, VcmSettings};
+use crate::bsdf::TransportMode;
+use crate::geometry::gamma;
+use crate::math::{Sampler, Spectrum};
+use crate::path::{Path, Vertex as PathVertex, VertexKind};
+use crate::scene::{Endpoint, Scene};
+use glam::{Vec2, Vec3};
+
+pub struct CameraTracer<'a, 'p> {
+    pub scene: &'a Scene,
+    pub settings: &'p VcmSettings,
+    pub pc: &'p PassConstants,
+    pub lights: &'p LightPaths<'a>,
+    pub grid: Option<&'p HashGrid>,
+    pub inspector: Option<&'p Inspector<'p>>,
+    /// The camera subpath's vertices (inspection only).
+    path: Vec<PathVertex>,
+}
+
+impl<'a, 'p> CameraTracer<'a, 'p> {
+    pub fn new(
+        scene: &'a Scene,
+        settings: &'p VcmSettings,
+        pc: &'p PassConstants,
+        lights: &'p LightPaths<'a>,
+        grid: Option<&'p HashGrid>,
+        inspector: Option<&'p Inspector<'p>>,
+    ) -> Self {
+        CameraTracer {
+            scene,
+            settings,
+            pc,
+            lights,
+            grid,
+            inspector,
+            path: Vec::new(),
+        }
+    }
+
+    /// The value of camera path `k` through raster position `raster`.
+    pub fn sample(&mut self, k: usize, raster: Vec2, sampler: &mut impl Sampler) -> Spectrum {
+        let (scene, st) = (self.scene, self.settings);
+        let max = st.max_depth;
+        let cam = &scene.camera;
+        let ray = cam.generate_ray(raster);
+        let pdf_we = cam.pdf_we(ray.d);
+        if pdf_we <= 0.0 {
+            return Spectrum::ZERO;
+        }
+        if self.inspector.is_some() {
+            self.path.clear();
+            self.path.push(PathVertex {
+                p: cam.position,
+                n: Vec3::ZERO,
+                ns: Vec3::ZERO,
+                kind: VertexKind::Camera,
+            });
+        }
+        let mut walk = Walk::camera(scene, ray, pdf_we);
+        let mut l = Spectrum::ZERO;
+        // No vertex so far where merging could take over (bpm counts emitter hits only then).
+        let mut no_merge_vertex = true;
+        loop {
+            let prev_p = walk.prev_p;
+            let (v, light) = match walk.trace(scene, sampler) {
+                Step::Vertex { v, light } => (v, light),
+                Step::Escaped { dir, mis } => {
+                    l += self.escaped(&walk, prev_p, dir, &mis, no_merge_vertex);
+                    break;
+                }
+                Step::Dead => break,
+            };
+            let i = v.depth;
+            if let Some(li) = light {
+                l += self.emitter_hit(&v, li, prev_p, no_merge_vertex);
+            }
+            if i >= max {
+                break;
+            }
+            if self.inspector.is_some() {
+                self.path.push(v.path_vertex());
+            }
+            if v.connectible() && st.connect {
+                l += self.next_event(&v, sampler);
+                for y in self.lights.path(k) {
+                    if y.depth + 1 + i <= max {
+                        l += self.connect(&v, y, k);
+                    }
+                }
+            }
+            if v.mergeable() {
+                no_merge_vertex = false;
+                if let Some(grid) = self.grid {
+                    l += self.merge(&v, grid);
+                }
+            }
+            if !walk.scatter(scene, &v, self.pc.factors, sampler) {
+                break;
+            }
+        }
+        l
+    }
+
+    /// s = 0: the camera walk's vertex `v` lies on light `li`, reached from `prev_p`.
+    fn emitter_hit(&self, v: &Vertex<'a>, li: usize, prev_p: Vec3, only: bool) -> Spectrum {
+        let scene = self.scene;
+        let l = &scene.lights[li];
+        let le = l.le(v.n, v.wo);
+        if le == Spectrum::ZERO {
+            return Spectrum::ZERO;
+        }
+        let w = if !self.settings.connect {
+            // Merging only: emitter hits count where no merge can produce the path.
+            if only { 1.0 } else { 0.0 }
+        } else {
+            let (p_origin, p_emit) = emission_densities(scene, li, v.n, v.wo);
+            let m = &v.mis;
+            // (49); a directly seen emitter competes with light tracing its origin.
+            let w_cam = if v.depth == 1 {
+                if connectible_light(l) {
+                    p_origin * m.d_vcm
+                } else {
+                    0.0
+                }
+            } else {
+                let p_nee = nee_density(scene, li, prev_p, v.p, v.n, -v.wo);
+                p_nee * m.d_vcm + p_origin * p_emit * m.d_vc
+            };
+            1.0 / (1.0 + w_cam)
+        };
+        if self.inspector.is_some() {
+            self.record_emitter(0, li, v.p, v.n, false, w);
+        }
+        v.beta * le * w
+    }
+
+    /// s = 0 at infinity: the walk escaped along `dir`; every light at infinity is seen.
+    fn escaped(&self, walk: &Walk, prev_p: Vec3, dir: Vec3, m: &Mis, only: bool) -> Spectrum {
+        let scene = self.scene;
+        let mut sum = Spectrum::ZERO;
+        for &li in &scene.infinite_lights {
+            let le = scene.lights[li].le(Vec3::ZERO, dir);
+            if le == Spectrum::ZERO {
+                continue;
+            }
+            let w = if !self.settings.connect {
+                if only { 1.0 } else { 0.0 }
+            } else if walk.depth == 1 {
+                1.0
+            } else {
+                let p_nee = nee_density(scene, li, prev_p, prev_p + dir, dir, dir);
+                let (p_origin, p_emit) = emission_densities(scene, li, dir, -dir);
+                1.0 / (1.0 + p_nee * m.d_vcm + p_origin * p_emit * m.d_vc)
+            };
+            if self.inspector.is_some() {
+                self.record_emitter(0, li, prev_p + dir, dir, false, w);
+            }
+            sum += walk.beta * le * w;
+        }
+        sum
+    }
+
+    /// s = 1: next-event estimation from `v`.
+    fn next_event(&self, v: &Vertex<'a>, sampler: &mut impl Sampler) -> Spectrum {
+        let scene = self.scene;
+        let (u_light, u) = (sampler.next_1d(), sampler.next_2d());
+        let Some((li, pick)) = scene.light_sampler.sample(u_light) else {
+            return Spectrum::ZERO;
+        };
+        let l = &scene.lights[li];
+        let Some(ls) = l.sample_li(v.p, u) else {
+            return Spectrum::ZERO;
+        };
+        if ls.pdf <= 0.0 {
+            return Spectrum::ZERO;
+        }
+        let f = v.f(scene, ls.wi, TransportMode::Radiance);
+        if f == Spectrum::ZERO {
+            return Spectrum::ZERO;
+        }
+        let infinite = l.is_infinite();
+        let end = (!infinite).then_some(Endpoint {
+            p: ls.p,
+            n: ls.n,
+            err: gamma(8) * ls.p.abs(),
+        });
+        let Some(tr) =
+            scene.transmittance(&v.endpoint(), end.as_ref(), ls.wi, v.medium_towards(ls.wi))
+        else {
+            return Spectrum::ZERO;
+        };
+        let c = v.beta * f * ls.li * tr.tr / (pick * ls.pdf);
+        // Densities of the light vertex y (NEE and the BSDF hitting it) and of v from y.
+        let (y_p, y_n) = if infinite {
+            (v.p + ls.wi, ls.wi)
+        } else {
+            (ls.p, ls.n)
+        };
+        let p_nee = nee_density(scene, li, v.p, y_p, y_n, ls.wi);
+        let (d2, cos_y) = if infinite {
+            (1.0, 1.0)
+        } else {
+            ((ls.p - v.p).length_squared(), ls.n.dot(ls.wi).abs())
+        };
+        let edge = Edge::along(&tr);
+        // (44): the BSDF sampling the light point (s = 0).
+        let w_light = if hittable(l) {
+            v.pdf_w(scene, v.wo, ls.wi) * cos_y / d2 * edge.pass / p_nee
+        } else {
+            0.0
+        };
+        // (45): the light's emission sampling v, and the camera side's techniques.
+        let (p_origin, p_emit) = emission_densities(scene, li, y_n, -ls.wi);
+        let p_rev_v = p_emit * v.cos(ls.wi) / if infinite { 1.0 } else { d2 }
+            * edge.factor(scene, v.is_medium(), false);
+        let merge = if v.mergeable() {
+            self.pc.factors.vm
+        } else {
+            0.0
+        };
+        let m = &v.mis;
+        let w_cam =
+            p_origin * p_rev_v / p_nee * (merge + m.d_vcm + m.d_vc * v.pdf_w(scene, ls.wi, v.wo));
+        let w = 1.0 / (w_light + 1.0 + w_cam);
+        if self.inspector.is_some() {
+            self.record_emitter(1, li, y_p, y_n, l.is_delta(), w);
+        }
+        c * w
+    }
+
+    /// s, t >= 2: connect camera vertex `v` with light vertex `y`.
+    fn connect(&self, v: &Vertex<'a>, y: &Vertex<'a>, k: usize) -> Spectrum {
+        let scene = self.scene;
+        let d = y.p - v.p;
+        let d2 = d.length_squared();
+        if d2 == 0.0 {
+            return Spectrum::ZERO;
+        }
+        let dir = d / d2.sqrt();
+        let fv = v.f(scene, dir, TransportMode::Radiance);
+        if fv == Spectrum::ZERO {
+            return Spectrum::ZERO;
+        }
+        let fy = y.f(scene, -dir, TransportMode::Importance);
+        if fy == Spectrum::ZERO {
+            return Spectrum::ZERO;
+        }
+        let Some(tr) = scene.transmittance(
+            &v.endpoint(),
+            Some(&y.endpoint()),
+            dir,
+            v.medium_towards(dir),
+        ) else {
+            return Spectrum::ZERO;
+        };
+        let c = v.beta * fv * tr.tr * fy * y.beta / d2;
+        let edge = Edge::along(&tr);
+        let vm = self.pc.factors.vm;
+        // (40): the camera side sampling y, then the light side's techniques.
+        let p_y =
+            v.pdf_w(scene, v.wo, dir) * y.cos(dir) / d2 * edge.factor(scene, y.is_medium(), true);
+        let w_light = p_y
+            * (if y.mergeable() { vm } else { 0.0 }
+                + y.mis.d_vcm
+                + y.mis.d_vc * y.pdf_w(scene, -dir, y.wo));
+        // (41): the light side sampling v, then the camera side's techniques.
+        let p_v =
+            y.pdf_w(scene, y.wo, -dir) * v.cos(dir) / d2 * edge.factor(scene, v.is_medium(), false);
+        let w_cam = p_v
+            * (if v.mergeable() { vm } else { 0.0 }
+                + v.mis.d_vcm
+                + v.mis.d_vc * v.pdf_w(scene, dir, v.wo));
+        let w = 1.0 / (w_light + 1.0 + w_cam);
+        if let Some(insp) = self.inspector {
+            let light = &self.lights.full[k][..=y.depth as usize];
+            self.record(insp, Technique::Connect { s: light.len() }, light, w);
+        }
+        c * w
+    }
+
+    /// Merge at `v` with every stored light vertex within the radius (whose path is not too
+    /// long), normalised by 1 / (pi r^2 N).
+    fn merge(&self, v: &Vertex<'a>, grid: &HashGrid) -> Spectrum {
+        let scene = self.scene;
+        let max = self.settings.max_depth;
+        let vc = self.pc.factors.vc;
+        let mut sum = Spectrum::ZERO;
+        grid.query(v.p, |index| {
+            let y = &self.lights.vertices[index as usize];
+            if y.depth + v.depth > max {
+                return;
+            }
+            let Scatter::Surface { bsdf, frame, .. } = v.scatter else {
+                return;
+            };
+            let f = bsdf.eval(&frame, v.wo, y.wo, TransportMode::Radiance);
+            if f == Spectrum::ZERO {
+                return;
+            }
+            // (42)-(43): both sides' techniques from the camera BSDF's densities at v.
+            let w_light = y.mis.d_vcm * vc + y.mis.d_vm * v.pdf_w(scene, v.wo, y.wo);
+            let w_cam = v.mis.d_vcm * vc + v.mis.d_vm * v.pdf_w(scene, y.wo, v.wo);
+            let w = 1.0 / (w_light + 1.0 + w_cam);
+            sum += f * y.beta * w;
+            if let Some(insp) = self.inspector {
+                let full = &self.lights.full[self.lights.owner[index as usize] as usize];
+                let light = &full[..y.depth as usize];
+                self.record(
+                    insp,
+                    Technique::Merge {
+                        t: self.path.len() - 1,
+                    },
+                    light,
+                    w,
+                );
+            }
+        });
+        v.beta * sum * self.pc.vm_normalization
+    }
+
+    /// Record a technique ending on light `li` (at `p`, normal `n`): s = 0 (hit) or 1 (NEE).
+    fn record_emitter(&self, s: usize, li: usize, p: Vec3, n: Vec3, delta: bool, w: f32) {
+        let Some(insp) = self.inspector else { return };
+        let y = PathVertex {
+            p,
+            n,
+            ns: Vec3::ZERO,
+            kind: VertexKind::Emitter {
+                light: li as u32,
+                delta,
+            },
+        };
+        self.record(insp, Technique::Connect { s }, &[y], w);
+    }
+
+    /// Hand the camera path so far, then `light` reversed, to the inspector.
+    fn record(&self, insp: &Inspector, technique: Technique, light: &[PathVertex], w: f32) {
+        let mut path = Path::default();
+        for v in &self.path {
+            path.push(*v);
+        }
+        for v in light.iter().rev() {
+            path.push(*v);
+        }
+        (insp.borrow_mut())(&Record {
+            technique,
+            path,
+            weight: w as f64,
+        });
+    }
+}

@@ -1,0 +1,298 @@
+//! The light subpaths of a pass: traced from a light chosen by power, their connectible
+//! vertices stored for connections and merging, and each vertex connected to the pinhole
+//! (light tracing, t = 1, splatted). Light path k uses the stream (seed, pass, N + k).
+
+use super::vertex::{Edge, Vertex, connectible_light, emission, emission_densities, hittable};
+use super::walk::{Step, Walk};
+use super::{Inspector, PassConstants, Record, Technique, VcmSettings};
+use crate::bsdf::TransportMode;
+use crate::geometry::{Ray, gamma, offset_origin};
+use crate::math::{IndependentSampler, Sampler, Spectrum};
+use crate::path::{Path, Vertex as PathVertex, VertexKind};
+use crate::scene::{Endpoint, Scene};
+use glam::Vec3;
+
+/// The light subpaths of one row of path indices.
+#[derive(Default)]
+pub struct LightRow<'a> {
+    pub vertices: Vec<Vertex<'a>>,
+    /// Number of stored vertices of each path.
+    pub counts: Vec<u32>,
+    /// Light-tracing contributions (pixel, value), in path order.
+    pub splats: Vec<(u32, Spectrum)>,
+    /// Every vertex of every path, light first (inspection only).
+    pub full: Vec<Vec<PathVertex>>,
+}
+
+/// All stored light vertices of a pass, path by path.
+#[derive(Default)]
+pub struct LightPaths<'a> {
+    pub vertices: Vec<Vertex<'a>>,
+    /// Path k's vertices are `starts[k] .. starts[k + 1]`.
+    pub starts: Vec<u32>,
+    /// Inspection only: every vertex of every path, and the path of each stored vertex.
+    pub full: Vec<Vec<PathVertex>>,
+    pub owner: Vec<u32>,
+}
+
+impl<'a> LightPaths<'a> {
+    /// Concatenate rows (in row order); their splats go to `splats` in the same order.
+    pub fn from_rows(rows: Vec<LightRow<'a>>, splats: &mut Vec<(u32, Spectrum)>) -> Self {
+        let total: usize = rows.iter().map(|r| r.vertices.len()).sum();
+        let paths: usize = rows.iter().map(|r| r.counts.len()).sum();
+        let mut out = LightPaths {
+            vertices: Vec::with_capacity(total),
+            starts: Vec::with_capacity(paths + 1),
+            ..Default::default()
+        };
+        out.starts.push(0);
+        for row in rows {
+            let inspect = !row.full.is_empty();
+            for &c in &row.counts {
+                if inspect {
+                    let k = out.starts.len() as u32 - 1;
+                    out.owner.extend(std::iter::repeat_n(k, c as usize));
+                }
+                out.starts.push(out.starts.last().unwrap() + c);
+            }
+            out.vertices.extend_from_slice(&row.vertices);
+            splats.extend_from_slice(&row.splats);
+            out.full.extend(row.full);
+        }
+        out
+    }
+
+    /// The stored vertices of light path `k`.
+    #[inline]
+    pub fn path(&self, k: usize) -> &[Vertex<'a>] {
+        &self.vertices[self.starts[k] as usize..self.starts[k + 1] as usize]
+    }
+}
+
+/// Traces light subpaths and connects them to the camera.
+pub struct LightTracer<'a, 'p> {
+    pub scene: &'a Scene,
+    pub settings: &'p VcmSettings,
+    pub pc: &'p PassConstants,
+    pub inspector: Option<&'p Inspector<'p>>,
+}
+
+impl<'a> LightTracer<'a, '_> {
+    /// Light paths `first .. first + count` of pass `pass`.
+    pub fn row(&self, seed: u64, pass: u64, first: u64, count: u64) -> LightRow<'a> {
+        let mut row = LightRow::default();
+        let n = self.pc.light_paths as u64;
+        for k in first..first + count {
+            let mut sampler = IndependentSampler::new(seed, pass, n + k);
+            let before = row.vertices.len();
+            let mut full = Vec::new();
+            let full_ref = self.inspector.is_some().then_some(&mut full);
+            self.trace(&mut sampler, &mut row.vertices, &mut row.splats, full_ref);
+            row.counts.push((row.vertices.len() - before) as u32);
+            if self.inspector.is_some() {
+                row.full.push(full);
+            }
+        }
+        row
+    }
+
+    /// One light subpath: stores its connectible vertices in `out`, pushes its light-tracing
+    /// contributions to `splats`, and (inspection) all its vertices to `full`.
+    pub fn trace(
+        &self,
+        sampler: &mut impl Sampler,
+        out: &mut Vec<Vertex<'a>>,
+        splats: &mut Vec<(u32, Spectrum)>,
+        mut full: Option<&mut Vec<PathVertex>>,
+    ) {
+        let (scene, st) = (self.scene, self.settings);
+        let max = st.max_depth;
+        let u_light = sampler.next_1d();
+        let (u_pos, u_dir) = (sampler.next_2d(), sampler.next_2d());
+        let Some((li, pick)) = scene.light_sampler.sample(u_light) else {
+            return;
+        };
+        let l = &scene.lights[li];
+        let Some(e) = l.sample_le(u_pos, u_dir) else {
+            return;
+        };
+        if e.pdf_pos <= 0.0 || e.pdf_dir <= 0.0 || e.le == Spectrum::ZERO {
+            return;
+        }
+        let infinite = l.is_infinite();
+        // For lights at infinity the origin's "normal" is the direction towards the light.
+        let n0 = if infinite { -e.dir } else { e.n };
+        let densities = emission_densities(scene, li, n0, e.dir);
+        let cos0 = if e.n == Vec3::ZERO || infinite {
+            1.0
+        } else {
+            e.n.dot(e.dir).abs()
+        };
+        let origin = PathVertex {
+            p: e.p,
+            n: n0,
+            ns: Vec3::ZERO,
+            kind: VertexKind::Emitter {
+                light: li as u32,
+                delta: l.is_delta(),
+            },
+        };
+        if let Some(f) = full.as_deref_mut() {
+            f.push(origin);
+        }
+        let err = gamma(8) * e.p.abs();
+        if st.connect && max >= 1 && connectible_light(l) {
+            self.connect_origin(li, &e, densities.0, err, splats, &origin);
+        }
+        let beta = e.le * cos0 / (pick * e.pdf_pos * e.pdf_dir);
+        let start = if e.n == Vec3::ZERO || infinite {
+            e.p
+        } else {
+            offset_origin(e.p, err, e.n, e.dir)
+        };
+        let mut walk = Walk::light(
+            Ray::new(start, e.dir),
+            beta,
+            li,
+            e.p,
+            n0,
+            densities,
+            cos0,
+            infinite,
+            hittable(l),
+            self.pc.factors,
+        );
+        while let Step::Vertex { v, .. } = walk.trace(scene, sampler) {
+            if let Some(f) = full.as_deref_mut() {
+                f.push(v.path_vertex());
+            }
+            let j = v.depth;
+            if v.connectible() {
+                if st.connect && j < max {
+                    self.connect_camera(&v, splats, full.as_deref());
+                }
+                if j < max && (st.connect || v.mergeable()) {
+                    out.push(v);
+                }
+            }
+            if j + 2 > max || !walk.scatter(scene, &v, self.pc.factors, sampler) {
+                break;
+            }
+        }
+    }
+
+    /// t = 1 with s = 1: the light's origin seen by the pinhole (weighed against the camera
+    /// ray hitting the emitter).
+    fn connect_origin(
+        &self,
+        li: usize,
+        e: &crate::light::EmissionSample,
+        p_origin: f32,
+        err: Vec3,
+        splats: &mut Vec<(u32, Spectrum)>,
+        origin: &PathVertex,
+    ) {
+        let scene = self.scene;
+        let cam = &scene.camera;
+        let Some(cs) = cam.sample_wi(e.p) else {
+            return;
+        };
+        let l = &scene.lights[li];
+        let cos0 = if e.n == Vec3::ZERO {
+            1.0
+        } else {
+            e.n.dot(cs.wi).abs()
+        };
+        let le = emission(l, e.n, cs.wi) * cos0;
+        if le == Spectrum::ZERO {
+            return;
+        }
+        let start = Endpoint {
+            p: e.p,
+            n: e.n,
+            err,
+        };
+        let Some(tr) =
+            scene.transmittance(&start, Some(&Endpoint::point(cam.position)), cs.wi, None)
+        else {
+            return;
+        };
+        let cos_cam = cam.forward.dot(-cs.wi);
+        let c = le * tr.tr * (cs.we * cos_cam / (cs.dist * cs.dist)) / p_origin;
+        // The camera ray hitting the emitter (s = 0) is the only other technique.
+        let w_cam = if hittable(l) {
+            cs.pdf_we * cos0 / (cs.dist * cs.dist) * tr.pass / p_origin
+        } else {
+            0.0
+        };
+        let w = 1.0 / (1.0 + w_cam);
+        let pixel = cam.pixel_index(cs.raster) as u32;
+        splats.push((pixel, c * w));
+        self.record(Technique::Connect { s: 1 }, &[*origin], w);
+    }
+
+    /// t = 1, s >= 2: light vertex `v` seen by the pinhole.
+    fn connect_camera(
+        &self,
+        v: &Vertex<'a>,
+        splats: &mut Vec<(u32, Spectrum)>,
+        full: Option<&Vec<PathVertex>>,
+    ) {
+        let scene = self.scene;
+        let cam = &scene.camera;
+        let Some(cs) = cam.sample_wi(v.p) else {
+            return;
+        };
+        let f = v.f(scene, cs.wi, TransportMode::Importance);
+        if f == Spectrum::ZERO {
+            return;
+        }
+        let Some(tr) = scene.transmittance(
+            &v.endpoint(),
+            Some(&Endpoint::point(cam.position)),
+            cs.wi,
+            v.medium_towards(cs.wi),
+        ) else {
+            return;
+        };
+        let d2 = cs.dist * cs.dist;
+        let cos_cam = cam.forward.dot(-cs.wi);
+        let c = v.beta * f * tr.tr * (cs.we * cos_cam / d2);
+        // VCM tech. report (46): the camera's (image-wide) density of v, times the light
+        // side's quantities.
+        let p_cam =
+            cs.pdf_we * v.cos(cs.wi) / d2 * Edge::along(&tr).factor(scene, v.is_medium(), false);
+        let pdf_rev = v.pdf_w(scene, cs.wi, v.wo);
+        let merge = if v.mergeable() {
+            self.pc.factors.vm
+        } else {
+            0.0
+        };
+        let w_light = p_cam * (merge + v.mis.d_vcm + v.mis.d_vc * pdf_rev);
+        let w = 1.0 / (1.0 + w_light);
+        splats.push((cam.pixel_index(cs.raster) as u32, c * w));
+        if let Some(full) = full {
+            self.record(Technique::Connect { s: full.len() }, full, w);
+        }
+    }
+
+    /// Hand a technique's path (pinhole, then `light` reversed) and weight to the inspector.
+    fn record(&self, technique: Technique, light: &[PathVertex], weight: f32) {
+        let Some(insp) = self.inspector else { return };
+        let mut path = Path::default();
+        path.push(PathVertex {
+            p: self.scene.camera.position,
+            n: Vec3::ZERO,
+            ns: Vec3::ZERO,
+            kind: VertexKind::Camera,
+        });
+        for v in light.iter().rev() {
+            path.push(*v);
+        }
+        (insp.borrow_mut())(&Record {
+            technique,
+            path,
+            weight: weight as f64,
+        });
+    }
+}

@@ -1,0 +1,329 @@
+//! `vcm` — vertex connection and merging (Georgiev, Křivánek, Davidovič, Slusallek 2012; the
+//! same estimator as Hachisuka et al.'s unified path sampling); `bpm` — its merging half
+//! alone (bidirectional photon mapping).
+//!
+//! Consistent: the merging radius shrinks over the passes, r_i = r_0 (i + 1)^((alpha - 1) / 2)
+//! (i = 0, 1, ... the pass), so the bias of merging vanishes and the image converges to the
+//! unbiased one (DESIGN.md §4). Per pass, with N = the number of pixels:
+//!
+//! 1. N light subpaths (`light.rs`), one light chosen by power each, random walks with media
+//!    and Russian roulette from the first bounce; their connectible vertices are stored, and
+//!    each is connected to the pinhole (light tracing, splatted);
+//! 2. a hash grid (`hash_grid.rs`) over the stored surface vertices, cells of 2 r_i;
+//! 3. one camera subpath per pixel (`camera.rs`): at every vertex, emitter hits (s = 0),
+//!    next-event estimation (s = 1), connections to every vertex of the light subpath with
+//!    the pixel's index (every other BDPT technique), and merging with all stored light
+//!    vertices within r_i at non-delta surface vertices, normalised by 1 / (pi r_i^2 N).
+//!
+//! MIS is the balance heuristic over all these techniques, with merging counted as
+//! `eta = pi r_i^2 N` connections, computed from the recursive quantities `d_vcm`, `d_vc`,
+//! `d_vm` stored at every vertex (SmallVCM; `vertex.rs` defines them, `walk.rs` updates them).
+//! Every density includes Russian roulette (a local continuation probability, from the first
+//! bounce) and free flight, so with merging off the weights are exactly those of `bdpt -O
+//! rr_depth=1` (tested path by path in `tests/vcm.rs`).
+//!
+//! Media: medium vertices take part in every connection technique (next-event estimation,
+//! connections, light tracing, emitter hits) but are not merged at; `bpm` therefore only sees
+//! paths with at least one non-delta surface vertex inside, or none that merging could
+//! take: an emitter hit counts in `bpm` when no vertex before it is a merging vertex.
+//!
+//! | option | type              | default                                | meaning |
+//! |--------|-------------------|----------------------------------------|---------|
+//! | max_depth | integer >= 1   | scene                                  | maximum number of segments, as for `pt` |
+//! | radius | number > 0        | 0.003 x the scene's bounding-sphere radius | initial merging radius r_0 (scene units) |
+//! | alpha  | number in (0, 1]  | 0.75                                   | radius schedule exponent (1: fixed radius) |
+//! | merge  | `true` / `false`  | `true`                                 | merging on (`vcm` only; `false` gives BDPT's techniques) |
+//!
+//! Limits: as `bdpt`, light subpaths start in vacuum; no merging in media.
+//!
+//! ```text
+//! lodestar render scenes/cornell-box.toml --integrator vcm --spp 64 -O radius=0.01
+//! ```
+
+mod camera;
+mod hash_grid;
+mod light;
+mod vertex;
+mod walk;
+
+pub use hash_grid::HashGrid;
+
+use super::IntegratorParams;
+use crate::error::{Error, Result};
+use crate::film::Film;
+use crate::math::{IndependentSampler, PI, Sampler, Spectrum, is_finite3};
+use crate::path::Path;
+use crate::render::{Budget, Integrator, RenderContext, RenderResult, run_passes_with_snapshots};
+use crate::scene::Scene;
+use camera::CameraTracer;
+use glam::{UVec2, Vec2, Vec3};
+use light::{LightPaths, LightRow, LightTracer};
+use rayon::prelude::*;
+use std::cell::RefCell;
+use std::sync::atomic::{AtomicU64, Ordering};
+use walk::MisFactors;
+
+/// Settings of `vcm` and `bpm`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct VcmSettings {
+    /// Maximum number of path segments.
+    pub max_depth: u32,
+    /// Initial merging radius r_0; `None`: 0.003 x the scene's bounding-sphere radius.
+    pub radius: Option<f32>,
+    /// Radius schedule exponent (default 0.75).
+    pub alpha: f32,
+    /// Vertex connection: BDPT's techniques (default true; false for `bpm`).
+    pub connect: bool,
+    /// Vertex merging (default true).
+    pub merge: bool,
+}
+
+impl VcmSettings {
+    /// The initial radius for `scene`.
+    pub fn initial_radius(&self, scene: &Scene) -> f32 {
+        self.radius.unwrap_or(0.003 * scene.radius)
+    }
+
+    /// The merging radius of pass `pass` (0-based).
+    pub fn radius_at(&self, scene: &Scene, pass: u64) -> f32 {
+        self.initial_radius(scene) * ((pass + 1) as f32).powf(0.5 * (self.alpha - 1.0))
+    }
+}
+
+fn settings(params: &IntegratorParams, connect: bool) -> Result<VcmSettings> {
+    let o = &params.options;
+    let radius = match o.get::<String>("radius", String::new(), "a number > 0")? {
+        r if r.is_empty() => None,
+        r => match r.parse::<f32>() {
+            Ok(v) if v.is_finite() && v > 0.0 => Some(v),
+            _ => {
+                return Err(Error::new(format!(
+                    "option 'radius': expected a number > 0, got '{r}'"
+                )));
+            }
+        },
+    };
+    let alpha: f32 = o.get("alpha", 0.75, "a number in (0, 1]")?;
+    if !(alpha > 0.0 && alpha <= 1.0) {
+        return Err(Error::new(format!(
+            "option 'alpha': expected a number in (0, 1], got {alpha}"
+        )));
+    }
+    let merge = if connect {
+        o.get("merge", true, "true or false")?
+    } else {
+        true
+    };
+    Ok(VcmSettings {
+        max_depth: params.max_depth,
+        radius,
+        alpha,
+        connect,
+        merge,
+    })
+}
+
+pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
+    Ok(Box::new(Vcm {
+        settings: settings(params, true)?,
+    }))
+}
+
+pub fn build_bpm(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
+    Ok(Box::new(Vcm {
+        settings: settings(params, false)?,
+    }))
+}
+
+pub struct Vcm {
+    pub settings: VcmSettings,
+}
+
+/// Which technique produced a path (for inspection).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Technique {
+    /// A BDPT technique with `s` light vertices (s = 0: emitter hit, 1: next-event estimation
+    /// or the light's origin seen by the pinhole, t = 1: light tracing).
+    Connect { s: usize },
+    /// Merging at path vertex x_t (camera index): the path's x_t is the camera vertex, the
+    /// light subpath's vertex within the radius is not part of it.
+    Merge { t: usize },
+}
+
+/// A weighted contribution handed to an inspector: the path (camera first, ending on the
+/// emitter), its technique, and its MIS weight.
+pub struct Record {
+    pub technique: Technique,
+    pub path: Path,
+    pub weight: f64,
+}
+
+/// Receives every weighted contribution of [`inspect_pass`].
+pub type Inspector<'p> = RefCell<dyn FnMut(&Record) + 'p>;
+
+/// Constants of one pass.
+pub struct PassConstants {
+    pub radius: f32,
+    /// Light subpaths per pass (N).
+    pub light_paths: usize,
+    pub factors: MisFactors,
+    /// 1 / (pi r^2 N).
+    pub vm_normalization: f32,
+}
+
+impl PassConstants {
+    pub fn new(settings: &VcmSettings, scene: &Scene, pass: u64) -> PassConstants {
+        let n = scene.camera.pixel_count();
+        let radius = settings.radius_at(scene, pass);
+        let eta = PI * radius * radius * n as f32;
+        PassConstants {
+            radius,
+            light_paths: n,
+            factors: MisFactors {
+                vm: if settings.merge { eta } else { 0.0 },
+                vc: if settings.connect { 1.0 / eta } else { 0.0 },
+            },
+            vm_normalization: 1.0 / eta,
+        }
+    }
+
+    /// eta = pi r^2 N.
+    pub fn eta(&self) -> f32 {
+        1.0 / self.vm_normalization
+    }
+}
+
+impl Integrator for Vcm {
+    fn name(&self) -> &'static str {
+        if self.settings.connect { "vcm" } else { "bpm" }
+    }
+
+    fn settings(&self) -> String {
+        format!("{:?}", self.settings)
+    }
+
+    fn render(&mut self, ctx: &RenderContext, budget: Budget) -> RenderResult {
+        let scene = ctx.scene;
+        let st = &self.settings;
+        let UVec2 { x: w, y: h } = scene.camera.resolution;
+        let mut film = Film::new(w, h);
+        let invalid = AtomicU64::new(0);
+        let merges = AtomicU64::new(0);
+        let pass = |film: &mut Film, pass: u64| {
+            let pc = PassConstants::new(st, scene, pass);
+            // 1. Light subpaths, a row of path indices per task.
+            let rows: Vec<LightRow> = (0..h as u64)
+                .into_par_iter()
+                .map(|y| {
+                    let lt = LightTracer {
+                        scene,
+                        settings: st,
+                        pc: &pc,
+                        inspector: None,
+                    };
+                    lt.row(ctx.seed, pass, y * w as u64, w as u64)
+                })
+                .collect();
+            let mut splats = Vec::new();
+            let lights = LightPaths::from_rows(rows, &mut splats);
+            // 2. The hash grid over the merging vertices.
+            let grid = st.merge.then(|| build_grid(&lights, pc.radius));
+            merges.fetch_add(
+                grid.as_ref().map_or(0, |g| g.len() as u64),
+                Ordering::Relaxed,
+            );
+            // 3. Camera subpaths, one per pixel, a row per task.
+            film.par_rows_mut().enumerate().for_each(|(y, row)| {
+                let mut ct = CameraTracer::new(scene, st, &pc, &lights, grid.as_ref(), None);
+                for (x, acc) in row.iter_mut().enumerate() {
+                    let k = y * w as usize + x;
+                    let l = camera_sample(&mut ct, ctx.seed, pass, k, x, y);
+                    if is_finite3(l) && l.min_element() >= 0.0 {
+                        *acc += l.as_dvec3();
+                    } else {
+                        invalid.fetch_add(1, Ordering::Relaxed);
+                    }
+                }
+            });
+            film.add_splats(&splats);
+        };
+        let image = |film: &Film, passes: u64| film.to_image(passes as f64, 1.0 / passes as f64);
+        let (passes, seconds) = run_passes_with_snapshots(ctx, budget, &mut film, pass, image);
+        let splat_scale = if passes > 0 { 1.0 / passes as f64 } else { 0.0 };
+        RenderResult {
+            image: film.to_image(passes as f64, splat_scale),
+            spp: passes,
+            passes,
+            seconds,
+            stats: vec![
+                (
+                    "invalid_samples".to_string(),
+                    invalid.load(Ordering::Relaxed).to_string(),
+                ),
+                (
+                    "initial_radius".to_string(),
+                    st.initial_radius(scene).to_string(),
+                ),
+                (
+                    "stored_merge_vertices".to_string(),
+                    merges.load(Ordering::Relaxed).to_string(),
+                ),
+            ],
+        }
+    }
+}
+
+/// One camera sample of pixel `k` = (x, y): its stream, the jittered raster position, the path.
+fn camera_sample(
+    ct: &mut CameraTracer,
+    seed: u64,
+    pass: u64,
+    k: usize,
+    x: usize,
+    y: usize,
+) -> Spectrum {
+    let mut sampler = IndependentSampler::new(seed, pass, k as u64);
+    let jitter = sampler.next_2d();
+    ct.sample(k, Vec2::new(x as f32, y as f32) + jitter, &mut sampler)
+}
+
+fn build_grid(lights: &LightPaths, radius: f32) -> HashGrid {
+    let points: Vec<(Vec3, u32)> = lights
+        .vertices
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| v.mergeable())
+        .map(|(i, v)| (v.p, i as u32))
+        .collect();
+    HashGrid::new(&points, radius)
+}
+
+/// Run pass `pass` of `settings` on one thread, handing every weighted contribution to
+/// `inspector` instead of accumulating an image (for tests of the MIS weights).
+pub fn inspect_pass(
+    scene: &Scene,
+    settings: &VcmSettings,
+    seed: u64,
+    pass: u64,
+    inspector: &mut dyn FnMut(&Record),
+) {
+    let cell = RefCell::new(|r: &Record| inspector(r));
+    let cell: &Inspector = &cell;
+    let pc = PassConstants::new(settings, scene, pass);
+    let UVec2 { x: w, y: h } = scene.camera.resolution;
+    let lt = LightTracer {
+        scene,
+        settings,
+        pc: &pc,
+        inspector: Some(cell),
+    };
+    let rows = vec![lt.row(seed, pass, 0, (w * h) as u64)];
+    let lights = LightPaths::from_rows(rows, &mut Vec::new());
+    let grid = settings.merge.then(|| build_grid(&lights, pc.radius));
+    let mut ct = CameraTracer::new(scene, settings, &pc, &lights, grid.as_ref(), Some(cell));
+    for y in 0..h as usize {
+        for x in 0..w as usize {
+            camera_sample(&mut ct, seed, pass, y * w as usize + x, x, y);
+        }
+    }
+}

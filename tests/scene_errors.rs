@@ -751,3 +751,113 @@ fn valid_media_lights_and_rough_materials_load() {
     assert_eq!(scene.lights.len(), 5);
     assert_eq!(scene.infinite_lights.len(), 2);
 }
+
+// ---------------------------------------------------------------------------------------------
+// Tiled quads (checkerboards of two materials)
+// ---------------------------------------------------------------------------------------------
+
+const BLUE: &str = "[[material]]\nname = \"blue\"\ntype = \"diffuse\"\nalbedo = [0.1, 0.3, 0.6]\n";
+
+#[test]
+fn tiles_without_tile_material() {
+    let text = with(&format!(
+        "[[shape]]\ntype = \"quad\"\nmaterial = \"white\"\ntiles = [4, 4] {MARK}\n"
+    ));
+    check(&text, &["'tiles'", "'tile_material'"]);
+}
+
+#[test]
+fn tile_material_without_tiles() {
+    let text = with(&format!(
+        "{BLUE}[[shape]]\ntype = \"quad\"\nmaterial = \"white\"\ntile_material = \"blue\" {MARK}\n"
+    ));
+    check(&text, &["'tile_material'", "'tiles'"]);
+}
+
+#[test]
+fn tiles_out_of_range() {
+    for tiles in ["[0, 4]", "[4, 2000]"] {
+        let text = with(&format!(
+            "{BLUE}[[shape]]\ntype = \"quad\"\nmaterial = \"white\"\ntile_material = \"blue\"\ntiles = {tiles} {MARK}\n"
+        ));
+        check(&text, &["'tiles'", "[1, 1024]"]);
+    }
+}
+
+#[test]
+fn tiles_of_the_wrong_type() {
+    let text = with(&format!(
+        "{BLUE}[[shape]]\ntype = \"quad\"\nmaterial = \"white\"\ntile_material = \"blue\"\ntiles = [4, \"x\"] {MARK}\n"
+    ));
+    check(&text, &["tiles"]);
+}
+
+#[test]
+fn unknown_tile_material() {
+    let text = with(&format!(
+        "[[shape]]\ntype = \"quad\"\nmaterial = \"white\"\ntiles = [2, 2]\ntile_material = \"blu\" {MARK}\n"
+    ));
+    check(&text, &["unknown material 'blu'", "white"]);
+}
+
+#[test]
+fn tiles_on_a_shape_that_is_not_a_quad() {
+    let text = with(&format!(
+        "{BLUE}[[shape]]\ntype = \"cube\"\nmaterial = \"white\"\ntiles = [2, 2] {MARK}\ntile_material = \"blue\"\n"
+    ));
+    check(&text, &["shape of type 'cube'", "'tiles'"]);
+}
+
+#[test]
+fn tiled_emitter() {
+    let text = with(&format!(
+        "{BLUE}[[shape]]\ntype = \"quad\"\nmaterial = \"white\"\ntiles = [2, 2]\ntile_material = \"blue\"\nemission = [1, 1, 1] {MARK}\n"
+    ));
+    check(&text, &["tiled quad", "'emission'"]);
+}
+
+#[test]
+fn tiled_quad_without_material() {
+    let text = with(&format!(
+        "{BLUE}[[shape]] {MARK}\ntype = \"quad\"\ntiles = [2, 2]\ntile_material = \"blue\"\n"
+    ));
+    check(&text, &["tiled quad", "'material'"]);
+}
+
+#[test]
+fn tiled_quad_is_two_shapes_covering_the_quad() {
+    // A mirroring transform (negative scale) must keep the quad's front side.
+    for scale in ["1", "[-1, 1, 1]"] {
+        let text = with(&format!(
+            "{BLUE}[[shape]]\nname = \"tiles\"\ntype = \"quad\"\norigin = [-1, -1, 0]\nedge_u = [2, 0, 0]\nedge_v = [0, 2, 0]\ntiles = [3, 2]\nmaterial = \"white\"\ntile_material = \"blue\"\ntransform = {{ scale = {scale} }}\n"
+        ));
+        let scene = load_str(&text, "ok.toml", None).unwrap();
+        assert_eq!(scene.shapes.len(), 3, "floor plus two halves");
+        let names: Vec<&str> = scene.shape_info[1..]
+            .iter()
+            .map(|s| s.name.as_str())
+            .collect();
+        assert_eq!(names, ["tiles", "tiles (tiles)"]);
+        let material = |i: usize| {
+            scene.materials[scene.shape_info[i].material as usize]
+                .name
+                .as_str()
+        };
+        assert_eq!((material(1), material(2)), ("white", "blue"));
+        let mut area = 0.0;
+        for (shape, cells) in [(1, 3), (2, 3)] {
+            let ShapeGeometry::Mesh(m) = &scene.shapes[shape] else {
+                panic!("a tiled quad is made of meshes")
+            };
+            assert_eq!(m.indices.len(), 2 * cells);
+            for t in 0..m.indices.len() {
+                assert!(
+                    m.geometric_normal(t).z > 0.999,
+                    "front side along +z ({scale})"
+                );
+            }
+            area += m.area();
+        }
+        assert!((area - 4.0).abs() < 1e-4);
+    }
+}

@@ -29,7 +29,8 @@
 //! g = 0.0                  # Henyey-Greenstein, in (-1, 1)
 //!
 //! [[shape]]
-//! type = "quad"            # quad (origin, edge_u, edge_v), cube, sphere (center, radius),
+//! type = "quad"            # quad (origin, edge_u, edge_v, optional tiles = [nu, nv] with
+//!                          # tile_material), cube, sphere (center, radius),
 //!                          # disk (center, normal, radius, segments), obj (file),
 //!                          # heightfield (size, grid, waves = [{ amplitude, wavelength,
 //!                          # direction = [x, z], phase }])
@@ -51,6 +52,11 @@
 //!                          # radiance or irradiance)
 //! ```
 //! Transforms apply scale, then rotation, then translation. Paths are relative to the scene file.
+//!
+//! A tiled quad (`tiles = [nu, nv]`, `tile_material = "blue"`) is a checkerboard: the quad cut
+//! into `nu` cells along `edge_u` by `nv` along `edge_v`; the cell at `origin` and every cell an
+//! even number of steps from it take `material`, the others `tile_material`. It becomes two
+//! shapes, named after the shape with ` (tiles)` appended to the second; it cannot emit.
 
 use super::{Material, RenderDefaults, Scene, SceneFeatures, ShapeInfo};
 use crate::bsdf::{Bsdf, ConductorFresnel};
@@ -165,6 +171,10 @@ struct ShapeDesc {
     size: Option<Spanned<[f32; 2]>>,
     grid: Option<Spanned<[u32; 2]>>,
     waves: Option<Spanned<Vec<WaveDesc>>>,
+    /// Quads: a checkerboard of `tiles[0]` x `tiles[1]` cells alternating `material` and
+    /// `tile_material`.
+    tiles: Option<Spanned<[u32; 2]>>,
+    tile_material: Option<Spanned<String>>,
     interior: Option<Spanned<String>>,
     exterior: Option<Spanned<String>>,
     /// With `emission`: an area spot light whose radiance falls off with the angle to the normal.
@@ -406,11 +416,18 @@ impl Builder<'_> {
         let mut lights = Vec::new();
         for (i, s) in desc.shape.iter().enumerate() {
             let d = s.get_ref();
-            let geometry = self.shape(s)?;
             let label = d
                 .name
                 .clone()
                 .unwrap_or_else(|| format!("shape #{} ({})", i + 1, d.kind.get_ref()));
+            // A tiled quad is two shapes (one per material); every other shape is one.
+            let parts = match self.tiled_quad(s)? {
+                Some([even, odd]) => vec![
+                    (even, d.material.as_ref(), label.clone()),
+                    (odd, d.tile_material.as_ref(), format!("{label} (tiles)")),
+                ],
+                None => vec![(self.shape(s)?, d.material.as_ref(), label)],
+            };
             let emission = match &d.emission {
                 Some(e) => Some((self.src.non_negative3(e, "emission")?, e.span())),
                 None => None,
@@ -435,70 +452,73 @@ impl Builder<'_> {
             if let (None, Some(c)) = (&emission, d.cone_angle.as_ref().or(d.cone_delta.as_ref())) {
                 return src.err(c.span(), "'cone_angle' and 'cone_delta' make an emissive shape a spot light; this shape has no 'emission'");
             }
-            let material = match &d.material {
-                Some(m) => match by_name.get(m.get_ref()) {
-                    Some(&id) => id,
+            for (geometry, material, label) in parts {
+                let material = match material {
+                    Some(m) => match by_name.get(m.get_ref()) {
+                        Some(&id) => id,
+                        None => {
+                            let known: Vec<&str> =
+                                materials.iter().map(|m| m.name.as_str()).collect();
+                            return src.err(
+                                m.span(),
+                                format!(
+                                    "unknown material '{}' (defined: {})",
+                                    m.get_ref(),
+                                    if known.is_empty() {
+                                        "none".to_string()
+                                    } else {
+                                        known.join(", ")
+                                    }
+                                ),
+                            );
+                        }
+                    },
+                    None if emission.is_some() || null => *black.get_or_insert_with(|| {
+                        materials.push(Material {
+                            name: "<black>".into(),
+                            bsdf: Bsdf::Black,
+                        });
+                        materials.len() as u32 - 1
+                    }),
                     None => {
-                        let known: Vec<&str> = materials.iter().map(|m| m.name.as_str()).collect();
                         return src.err(
-                            m.span(),
-                            format!(
-                                "unknown material '{}' (defined: {})",
-                                m.get_ref(),
-                                if known.is_empty() {
-                                    "none".to_string()
-                                } else {
-                                    known.join(", ")
-                                }
-                            ),
-                        );
-                    }
-                },
-                None if emission.is_some() || null => *black.get_or_insert_with(|| {
-                    materials.push(Material {
-                        name: "<black>".into(),
-                        bsdf: Bsdf::Black,
-                    });
-                    materials.len() as u32 - 1
-                }),
-                None => {
-                    return src.err(
                         s.span(),
                         format!("{label} needs a 'material' (or an 'emission', or 'interior'/'exterior' media for an index-matched boundary)"),
                     );
-                }
-            };
-            let shape_id = shapes.len() as u32;
-            let light = match emission {
-                Some((le, _)) if le != Vec3::ZERO => {
-                    let area = match &geometry {
-                        ShapeGeometry::Mesh(m) => AreaShape::Mesh {
-                            sampler: MeshSampler::new(m),
-                            mesh: m.clone(),
-                        },
-                        ShapeGeometry::Sphere(sp) => AreaShape::Sphere(*sp),
-                    };
-                    let light = if d.cone_angle.is_some() || d.cone_delta.is_some() {
-                        let profile =
-                            self.spot_profile(&d.cone_angle, &d.cone_delta, s.span(), true)?;
-                        AreaLight::with_spot(shape_id, le, area, profile)
-                    } else {
-                        AreaLight::new(shape_id, le, area)
-                    };
-                    lights.push(Light::Area(light));
-                    Some(lights.len() as u32 - 1)
-                }
-                _ => None,
-            };
-            shapes.push(geometry);
-            shape_info.push(ShapeInfo {
-                index: shape_id,
-                name: label,
-                material,
-                light,
-                interface,
-                null,
-            });
+                    }
+                };
+                let shape_id = shapes.len() as u32;
+                let light = match emission {
+                    Some((le, _)) if le != Vec3::ZERO => {
+                        let area = match &geometry {
+                            ShapeGeometry::Mesh(m) => AreaShape::Mesh {
+                                sampler: MeshSampler::new(m),
+                                mesh: m.clone(),
+                            },
+                            ShapeGeometry::Sphere(sp) => AreaShape::Sphere(*sp),
+                        };
+                        let light = if d.cone_angle.is_some() || d.cone_delta.is_some() {
+                            let profile =
+                                self.spot_profile(&d.cone_angle, &d.cone_delta, s.span(), true)?;
+                            AreaLight::with_spot(shape_id, le, area, profile)
+                        } else {
+                            AreaLight::new(shape_id, le, area)
+                        };
+                        lights.push(Light::Area(light));
+                        Some(lights.len() as u32 - 1)
+                    }
+                    _ => None,
+                };
+                shapes.push(geometry);
+                shape_info.push(ShapeInfo {
+                    index: shape_id,
+                    name: label,
+                    material,
+                    light,
+                    interface,
+                    null,
+                });
+            }
         }
 
         let mut environment = false;
@@ -943,6 +963,59 @@ impl Builder<'_> {
         Ok(Transform::new(scale, axis, degrees, translate))
     }
 
+    /// The two checkerboard halves of a quad with `tiles` and `tile_material`, or `None` for
+    /// any other shape (whose keys [`Self::shape`] checks).
+    fn tiled_quad(&self, s: &Spanned<ShapeDesc>) -> Result<Option<[ShapeGeometry; 2]>> {
+        let src = self.src;
+        let d = s.get_ref();
+        if d.kind.get_ref() != "quad" || (d.tiles.is_none() && d.tile_material.is_none()) {
+            return Ok(None);
+        }
+        let (Some(tiles), Some(_)) = (&d.tiles, &d.tile_material) else {
+            let (present, missing) = if d.tiles.is_some() {
+                ("tiles", "tile_material")
+            } else {
+                ("tile_material", "tiles")
+            };
+            let at = at(&d.tiles).or(at(&d.tile_material)).unwrap_or(s.span());
+            return src.err(
+                at,
+                format!("a tiled quad's '{present}' needs '{missing}' too (a checkerboard of 'material' and 'tile_material')"),
+            );
+        };
+        let [nu, nv] = *tiles.get_ref();
+        if !(1..=1024).contains(&nu) || !(1..=1024).contains(&nv) {
+            return src.err(
+                tiles.span(),
+                format!("'tiles' must be two integers in [1, 1024], got [{nu}, {nv}]"),
+            );
+        }
+        if let Some(e) = &d.emission {
+            return src.err(
+                e.span(),
+                "a tiled quad cannot emit ('emission' with 'tiles')",
+            );
+        }
+        if d.material.is_none() {
+            return src.err(
+                s.span(),
+                "a tiled quad needs a 'material' (for the cell at 'origin') beside 'tile_material'",
+            );
+        }
+        // The quad itself (its keys, edges and transform) is checked by `shape`.
+        let ShapeGeometry::Mesh(quad) = self.shape(s)? else {
+            unreachable!("a quad is a mesh")
+        };
+        let [o, a, _, b] = [0, 1, 2, 3].map(|i| quad.positions[i]);
+        let (mut u, mut v, mut tiles) = (a - o, b - o, [nu, nv]);
+        // A mirroring transform turns the front side over: keep it by swapping the edges.
+        if u.cross(v).dot(quad.geometric_normal(0)) < 0.0 {
+            (u, v, tiles) = (v, u, [nv, nu]);
+        }
+        let half = |parity| ShapeGeometry::Mesh(TriangleMesh::tiled_quad(o, u, v, tiles, parity));
+        Ok(Some([half(0), half(1)]))
+    }
+
     fn shape(&self, s: &Spanned<ShapeDesc>) -> Result<ShapeGeometry> {
         let src = self.src;
         let d = s.get_ref();
@@ -962,10 +1035,12 @@ impl Builder<'_> {
             ("size", at(&d.size)),
             ("grid", at(&d.grid)),
             ("waves", at(&d.waves)),
+            ("tiles", at(&d.tiles)),
+            ("tile_material", at(&d.tile_material)),
         ];
         let allowed: &[&str] =
             match kind {
-                "quad" => &["origin", "edge_u", "edge_v"],
+                "quad" => &["origin", "edge_u", "edge_v", "tiles", "tile_material"],
                 "cube" => &[],
                 "sphere" => &["center", "radius"],
                 "disk" => &["center", "normal", "radius", "segments"],

@@ -251,6 +251,8 @@ impl Integrator for Vcm {
         let (passes, seconds) = run_passes_with_snapshots(ctx, budget, &mut film, pass, image);
         let splat_scale = if passes > 0 { 1.0 / passes as f64 } else { 0.0 };
         RenderResult {
+            // No firefly cascade: `--dbor` reports that vcm does not support it.
+            dbor: None,
             image: film.to_image(passes as f64, splat_scale),
             spp: passes,
             passes,

@@ -144,6 +144,16 @@ impl GuideCache {
         &self.kernels[self.guides[l].kernels as usize + v - 2]
     }
 
+    /// Bytes a guide path of `len` vertices (camera included) occupies: header, vertices and
+    /// nodes of g_1 .. g_{L-1}, kernels of the L - 2 later segments, its BVH and alias entries.
+    pub fn bytes_for_length(len: usize) -> usize {
+        std::mem::size_of::<Guide>()
+            + (len - 1) * (std::mem::size_of::<PathVertex>() + std::mem::size_of::<Node>())
+            + (len - 2) * std::mem::size_of::<Kernel>()
+            + 4
+            + 20
+    }
+
     /// Pick a guide path by weight (alias table); returns it and its probability.
     pub fn select(&self, u1: f32, u2: f32) -> (usize, f64) {
         let l = self.alias.sample(u1, u2);

@@ -1,0 +1,119 @@
+//! Cost of the guided density `p_g(X)` against cache size, and bytes per guide path.
+//!
+//! Guide-path caches of 1k, 10k and 100k paths are installed from paths pt forms in the pool
+//! scene (the structures and spatial spread of real caches; equal weights), then `p_g` is
+//! evaluated for the same fixed set of pt paths against each. Prints CPU nanoseconds per
+//! evaluation (the BVH query over first-vertex kernels, the structure cull and the exact
+//! products of every surviving candidate; paths whose structure the cache does not hold cost a
+//! hash lookup and are counted too), the mean number of BVH candidates, and the bytes per
+//! guide path for path lengths 3 to 8.
+//!
+//! ```text
+//! cargo bench --bench guided_pg
+//! ```
+//! Environment: `LODESTAR_BENCH_SCENE` (default scenes/pool.toml).
+
+use lodestar::integrators::bdpt;
+use lodestar::integrators::guided::cache::{GuideCache, Install};
+use lodestar::integrators::guided::kernel;
+use lodestar::integrators::pt::{PathRecorder, PathTracer, PtSettings};
+use lodestar::math::{IndependentSampler, Sampler, luminance};
+use lodestar::path::{MAX_VERTICES, Path};
+use lodestar::render::process_cpu_seconds;
+use lodestar::scene::{Scene, loader};
+
+struct Keep(Vec<Install>);
+
+impl PathRecorder for Keep {
+    fn record(&mut self, path: &Path, _: usize, density: f64, other: f64) {
+        if path.segments() >= 2 && path.f != glam::Vec3::ZERO {
+            self.0
+                .push((path.vertices().to_vec(), luminance(path.f), density + other, 1.0, 0));
+        }
+    }
+}
+
+fn pt_paths(scene: &Scene, want: usize, seed: u64) -> Vec<Install> {
+    let pt = PathTracer {
+        settings: PtSettings::default(),
+    };
+    let mut keep = Keep(Vec::new());
+    let res = scene.camera.resolution;
+    let mut i = 0u64;
+    while keep.0.len() < want {
+        let mut s = IndependentSampler::new(seed, 0, i);
+        let raster = glam::Vec2::new(
+            (i % res.x as u64) as f32,
+            ((i / res.x as u64) % res.y as u64) as f32,
+        ) + s.next_2d();
+        pt.li_recorded(scene, raster, &mut s, Some(&mut keep));
+        i += 1;
+    }
+    keep.0.truncate(want);
+    keep.0
+}
+
+fn main() {
+    let file = std::env::var("LODESTAR_BENCH_SCENE").unwrap_or("scenes/pool.toml".into());
+    let scene = loader::load_file(std::path::Path::new(&file)).unwrap_or_else(|e| {
+        eprintln!("{e}");
+        std::process::exit(2)
+    });
+    let all = pt_paths(&scene, 100_000, 1);
+    let queries: Vec<Path> = pt_paths(&scene, 20_000, 2)
+        .into_iter()
+        .map(|(v, ..)| {
+            let mut p = Path::default();
+            for x in v {
+                p.push(x);
+            }
+            p
+        })
+        .collect();
+    let prepared: Vec<_> = queries
+        .iter()
+        .filter_map(|p| {
+            let y = bdpt::from_path(&scene, p)?;
+            let (sig, nodes) = kernel::structure(&scene, p, MAX_VERTICES)?;
+            Some((y, sig, nodes))
+        })
+        .collect();
+    println!("scene {file}: {} query paths", prepared.len());
+    println!("{:>8} {:>12} {:>14} {:>12} {:>10}", "guides", "build s", "ns per p_g", "candidates", "p_g > 0");
+    for n in [1_000usize, 10_000, 100_000] {
+        let mut installs: Vec<Install> = all.iter().take(n).cloned().collect();
+        for e in &mut installs {
+            e.3 = 1.0 / n as f64;
+        }
+        let t0 = process_cpu_seconds().unwrap_or(0.0);
+        let mut cache = GuideCache::default();
+        cache.install(&scene, installs, 20);
+        let build = process_cpu_seconds().unwrap_or(0.0) - t0;
+        let mut scratch = Vec::new();
+        let (mut candidates, mut nonzero, mut sink) = (0usize, 0usize, 0.0f64);
+        let rounds = 3;
+        let t1 = process_cpu_seconds().unwrap_or(0.0);
+        for _ in 0..rounds {
+            for (y, sig, nodes) in &prepared {
+                let (p, c) = cache.pdf(&scene, y, *sig, nodes, &mut scratch);
+                candidates += c;
+                nonzero += (p > 0.0) as usize;
+                sink += p;
+            }
+        }
+        let secs = process_cpu_seconds().unwrap_or(0.0) - t1;
+        let evals = (rounds * prepared.len()) as f64;
+        println!(
+            "{:>8} {:>12.2} {:>14.0} {:>12.2} {:>10.3}   (checksum {sink:.3e})",
+            cache.len(),
+            build,
+            secs * 1e9 / evals,
+            candidates as f64 / evals,
+            nonzero as f64 / evals
+        );
+    }
+    println!("bytes per guide path by length (vertices incl. camera):");
+    for len in 3..=8 {
+        println!("  {len}: {}", GuideCache::bytes_for_length(len));
+    }
+}

@@ -27,8 +27,13 @@ struct Keep(Vec<Install>);
 impl PathRecorder for Keep {
     fn record(&mut self, path: &Path, _: usize, density: f64, other: f64) {
         if path.segments() >= 2 && path.f != glam::Vec3::ZERO {
-            self.0
-                .push((path.vertices().to_vec(), luminance(path.f), density + other, 1.0, 0));
+            self.0.push((
+                path.vertices().to_vec(),
+                luminance(path.f),
+                density + other,
+                1.0,
+                0,
+            ));
         }
     }
 }
@@ -79,7 +84,10 @@ fn main() {
         })
         .collect();
     println!("scene {file}: {} query paths", prepared.len());
-    println!("{:>8} {:>12} {:>14} {:>12} {:>10}", "guides", "build s", "ns per p_g", "candidates", "p_g > 0");
+    println!(
+        "{:>8} {:>12} {:>14} {:>12} {:>10}",
+        "guides", "build s", "ns per p_g", "candidates", "p_g > 0"
+    );
     for n in [1_000usize, 10_000, 100_000] {
         let mut installs: Vec<Install> = all.iter().take(n).cloned().collect();
         for e in &mut installs {

@@ -669,26 +669,10 @@ fn reference_rows() -> Vec<(String, String, Vec<f64>)> {
 /// beta < 0 the float64 cancellation in the bracket (1 + β²) Φ(β) + β φ(β), whose terms exceed
 /// their sum by ~β⁴/2 while carrying relative rounding errors ~β² eps (from e^{-β²/2}): both
 /// lodestar and scipy are good to ~β⁶ eps / 2 there (up to 3e-8 at β = -26.6; the generator
-/// prints how scipy's values compare with 50-digit ones). Same bound as the generator's, plus
-/// [`erfc_allowance`].
+/// prints how scipy's values compare with 50-digit ones). Same bound as the generator's.
 fn dir3_tolerance(beta: f64) -> f64 {
     1e-9 + if beta < 0.0 {
-        2e-16 * (1.0 + beta * beta).powi(3) + erfc_allowance(beta)
-    } else {
-        0.0
-    }
-}
-
-/// Known inaccuracy, reported to be fixed: `gaussian::erfc(x)` computes `1 − erf(x)` for
-/// 2 <= x < 3 from erf's Maclaurin series (terms up to ~170, so ~2e-14 absolute), which is
-/// only ~1.5e-9 relative near x = 3 (scipy: erfc(2.99) = 2.3525603080640e-5, lodestar
-/// 2.3525603056296e-5). Φ(β) = erfc(-β/√2)/2 inherits it for -3√2 < β <= -2√2, and the
-/// bracket amplifies it by ~(1 + β²)²/2 (3.2e-7 at β = -4.2). Evaluating the continued
-/// fraction from x >= 2 (accurate to 2e-16 there) removes it; then this allowance can go.
-fn erfc_allowance(beta: f64) -> f64 {
-    let x = -beta / std::f64::consts::SQRT_2;
-    if (2.0..3.0).contains(&x) {
-        5e-9 * (1.0 + beta * beta).powi(2) / 2.0
+        2e-16 * (1.0 + beta * beta).powi(3)
     } else {
         0.0
     }

@@ -10,21 +10,17 @@
 //! ```
 //! Environment: `LODESTAR_BENCH_ITERATIONS` (default 2).
 
+mod common;
+
 use lodestar::integrators::{self, IntegratorParams, Options};
 use lodestar::render::Budget;
-use lodestar::scene::{CORNELL_BOX_TOML, loader};
 
 fn main() {
     let iterations: u64 = std::env::var("LODESTAR_BENCH_ITERATIONS")
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(2);
-    let text = CORNELL_BOX_TOML
-        .replace("resolution = [256, 256]", "resolution = [512, 512]")
-        .replace("name = \"black\"\ntype = \"black\"", "name = \"black\"\ntype = \"black\"\n\n[[material]]\nname = \"mirror\"\ntype = \"conductor\"\nreflectance = [0.95, 0.95, 0.95]")
-        .replace("type = \"cube\"\nmaterial = \"white\"", "type = \"cube\"\nmaterial = \"mirror\"");
-    let scene = loader::load_str(&text, "cornell-mirror-512", None).unwrap();
-    assert!(scene.features.specular_surfaces);
+    let scene = common::cornell_mirror_512();
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     println!(
         "{:<16} {:>7} {:>11} {:>16} {:>12}",

@@ -59,22 +59,8 @@ fn cache_of_pt_paths(scene: &Scene, max_depth: u32, n: u64) -> GuideCache {
             }
         }
     }
-    let pt = PathTracer {
-        settings: PtSettings {
-            max_depth,
-            ..PtSettings::default()
-        },
-    };
     let mut keep = Keep(Vec::new());
-    let res = scene.camera.resolution;
-    for i in 0..n {
-        let mut s = IndependentSampler::new(5, 0, i);
-        let raster = glam::Vec2::new(
-            (i % res.x as u64) as f32,
-            ((i / res.x as u64) % res.y as u64) as f32,
-        ) + s.next_2d();
-        pt.li_recorded(scene, raster, &mut s, Some(&mut keep));
-    }
+    trace_pt(scene, max_depth, 5, n, &mut keep, |_| false);
     let n = keep.0.len() as f64;
     for e in &mut keep.0 {
         e.3 = 1.0 / n;
@@ -516,25 +502,8 @@ fn twin_caustic_cache(scene: &Scene, single: bool) -> GuideCache {
             }
         }
     }
-    let pt = PathTracer {
-        settings: PtSettings {
-            max_depth: 6,
-            ..PtSettings::default()
-        },
-    };
     let mut first = First(None);
-    let res = scene.camera.resolution;
-    for i in 0..200_000u64 {
-        let mut s = IndependentSampler::new(21, 0, i);
-        let raster = glam::Vec2::new(
-            (i % res.x as u64) as f32,
-            ((i / res.x as u64) % res.y as u64) as f32,
-        ) + s.next_2d();
-        pt.li_recorded(scene, raster, &mut s, Some(&mut first));
-        if first.0.is_some() {
-            break;
-        }
-    }
+    trace_pt(scene, 6, 21, 200_000, &mut first, |f| f.0.is_some());
     let twin = first.0.expect("pt finds a caustic path");
     let mut cache = GuideCache::default();
     if single {
@@ -543,4 +512,34 @@ fn twin_caustic_cache(scene: &Scene, single: bool) -> GuideCache {
         cache.install(scene, vec![twin.clone(), twin], 10_000);
     }
     cache
+}
+
+/// Trace `n` pt camera paths (pixel i mod the image, stream (seed, 0, i)) into `recorder`,
+/// stopping early once `done` says so.
+fn trace_pt<R: PathRecorder>(
+    scene: &Scene,
+    max_depth: u32,
+    seed: u64,
+    n: u64,
+    recorder: &mut R,
+    done: impl Fn(&R) -> bool,
+) {
+    let pt = PathTracer {
+        settings: PtSettings {
+            max_depth,
+            ..PtSettings::default()
+        },
+    };
+    let res = scene.camera.resolution;
+    for i in 0..n {
+        let mut s = IndependentSampler::new(seed, 0, i);
+        let raster = glam::Vec2::new(
+            (i % res.x as u64) as f32,
+            ((i / res.x as u64) % res.y as u64) as f32,
+        ) + s.next_2d();
+        pt.li_recorded(scene, raster, &mut s, Some(recorder));
+        if done(recorder) {
+            break;
+        }
+    }
 }

@@ -440,8 +440,7 @@ impl GuideCache {
                 _ => 1.0,
             };
             let s = (rho * (90.0 / k + 10.0).max(1.0) + (1.0 - rho) * (90.0 / k + 1.0).max(1.0))
-                * image_scale
-                * debug_scale("LODESTAR_S1") as f32;
+                * image_scale;
             let s = s.max(1.0);
             let footprint = (g1.p - scene.camera.position).length() * pixel_angle;
             self.guides.push(Guide {
@@ -479,22 +478,6 @@ impl GuideCache {
         }
         // Selection probabilities are the weights as given (normalised by the caller; p_g
         // uses exactly these).
-        if std::env::var_os("LODESTAR_DEBUG").is_some() {
-            let full = self
-                .guides
-                .iter()
-                .filter(|g| g.neighbours as usize >= NEIGHBOURS)
-                .count();
-            let mut lens = std::collections::BTreeMap::new();
-            for g in &self.guides {
-                *lens.entry(g.len).or_insert(0) += 1;
-            }
-            eprintln!(
-                "rebuild {iteration}: {} guides, {full} with {NEIGHBOURS} neighbours, {} structures, lengths {lens:?}",
-                self.guides.len(),
-                self.sigs.len()
-            );
-        }
         let w: Vec<f64> = self.guides.iter().map(|g| g.weight).collect();
         self.alias = AliasTable::new(&w);
     }
@@ -579,7 +562,6 @@ impl GuideCache {
         };
         let age = self.guides[l].age as f64;
         let iso = ((90.0 / (age + 2.0)) * kernel_pixel_scale(scene)).max(1.0)
-            * debug_scale("LODESTAR_ISO")
             * if infinite { pixel_angle } else { footprint };
         let isotropic = Kernel::isotropic(iso.min(ceil.sqrt()) as f32);
         if nb.len() < NEIGHBOURS {
@@ -727,31 +709,24 @@ fn kernel_pixel_scale(scene: &Scene) -> f64 {
     (scene.camera.resolution.y as f64 / KERNEL_REFERENCE_HEIGHT).min(1.0)
 }
 
-fn debug_scale(var: &str) -> f64 {
-    std::env::var(var)
-        .ok()
-        .and_then(|v| v.parse().ok())
-        .unwrap_or(1.0)
-}
-
 /// Terms of a path's guided density that do not depend on the guide path (the BSDF-branch
-/// probability and, for surface targets, the BSDF-branch density), computed once per path.
+/// probability and, for surface targets, the BSDF-branch density), computed once per path
+/// for its first [`PathTerms::CACHED`] vertices (on the stack; longer paths recompute the rest).
 #[derive(Default)]
 struct PathTerms {
-    known: u64,
-    values: Vec<(f64, f64)>,
+    known: u32,
+    values: [(f64, f64); PathTerms::CACHED],
 }
 
 impl PathTerms {
+    const CACHED: usize = 16;
+
     fn get(&mut self, v: usize, compute: impl FnOnce() -> (f64, f64)) -> (f64, f64) {
-        if v < 64 && self.known & (1 << v) != 0 {
+        if v < Self::CACHED && self.known & (1 << v) != 0 {
             return self.values[v];
         }
         let t = compute();
-        if v < 64 {
-            if self.values.len() <= v {
-                self.values.resize(v + 1, (0.0, 0.0));
-            }
+        if v < Self::CACHED {
             self.values[v] = t;
             self.known |= 1 << v;
         }

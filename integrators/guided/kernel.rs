@@ -52,15 +52,36 @@ pub enum Node {
 /// Nodes of vertices 1 .. L-1 of a path and their hash; `None` for paths the guider does
 /// not handle (fewer than 3 vertices, not ending on an emitter, or too long).
 pub fn structure(scene: &Scene, path: &Path, max_len: usize) -> Option<(u64, Vec<Node>)> {
+    let nodes = nodes_of(scene, path, max_len)?.collect::<Option<Vec<Node>>>()?;
+    Some((hash_nodes(nodes.iter().copied()), nodes))
+}
+
+/// The structure hash of a path alone, without allocating: what decides whether a cache can
+/// hold the path at all ([`GuideCache::holds`](super::cache::GuideCache::holds)).
+pub fn signature(scene: &Scene, path: &Path, max_len: usize) -> Option<u64> {
+    let mut nodes = nodes_of(scene, path, max_len)?;
+    let mut failed = false;
+    let h = hash_nodes(nodes.by_ref().map_while(|n| {
+        failed |= n.is_none();
+        n
+    }));
+    (!failed).then_some(h)
+}
+
+/// Node of each vertex 1 .. L-1 (`None` items for a vertex the guider does not handle).
+fn nodes_of<'a>(
+    scene: &'a Scene,
+    path: &'a Path,
+    max_len: usize,
+) -> Option<impl Iterator<Item = Option<Node>> + 'a> {
     let vs = path.vertices();
     let l = vs.len();
     if l < 3 || l > max_len {
         return None;
     }
-    let mut nodes = Vec::with_capacity(l - 1);
-    for v in 1..l {
+    Some((1..l).map(move |v| {
         let x = &vs[v];
-        let node = match x.kind {
+        Some(match x.kind {
             VertexKind::Surface { delta, .. } => {
                 if v + 1 >= l {
                     return None;
@@ -80,10 +101,8 @@ pub fn structure(scene: &Scene, path: &Path, max_len: usize) -> Option<(u64, Vec
                 }
             }
             VertexKind::Camera => return None,
-        };
-        nodes.push(node);
-    }
-    Some((hash_nodes(&nodes), nodes))
+        })
+    }))
 }
 
 pub fn reach(light: &Light) -> Reach {
@@ -95,15 +114,14 @@ pub fn reach(light: &Light) -> Reach {
 }
 
 /// FNV-1a over the nodes (a fast first test; equal hashes are confirmed node by node).
-pub fn hash_nodes(nodes: &[Node]) -> u64 {
+pub fn hash_nodes(nodes: impl Iterator<Item = Node>) -> u64 {
     let mut h: u64 = 0xcbf2_9ce4_8422_2325;
     let mut eat = |x: u64| {
         h ^= x;
         h = h.wrapping_mul(0x0000_0100_0000_01b3);
     };
-    eat(nodes.len() as u64);
     for n in nodes {
-        match *n {
+        match n {
             Node::Surface { delta, transmit } => eat(1 + 2 * delta as u64 + 4 * transmit as u64),
             Node::Medium { medium } => eat(8 + ((medium as u64) << 8)),
             Node::Emitter { light, reach } => eat(16 + reach as u64 + ((light as u64) << 8)),

@@ -192,6 +192,11 @@ struct RowOutput {
     samples: Vec<(u32, f32)>,
     candidates: Vec<Candidate>,
     stats: Stats,
+    /// BVH candidates of p_g evaluations (reused).
+    scratch: Vec<u32>,
+    /// Smallest value among the kept candidates once the list has been cut (a smaller one
+    /// cannot enter it).
+    candidate_floor: f64,
 }
 
 /// The estimator of one pass: cache, split and densities.
@@ -233,16 +238,25 @@ impl<'a> Estimator<'a> {
     }
 
     /// p_g of `path` (0 without evaluation when the cache holds no path of its structure).
-    pub fn p_g(&self, path: &Path, y: Option<&[Vertex]>, stats: &mut Stats) -> f64 {
+    /// `scratch` holds the BVH candidates (reused across calls, no allocation per path).
+    pub fn p_g(
+        &self,
+        path: &Path,
+        y: Option<&[Vertex]>,
+        stats: &mut Stats,
+        scratch: &mut Vec<u32>,
+    ) -> f64 {
         if self.cache.is_empty() {
             return 0.0;
+        }
+        // The hash alone (no allocation) rejects every path whose structure the cache lacks.
+        match kernel::signature(self.scene, path, MAX_VERTICES) {
+            Some(sig) if self.cache.holds(sig) => {}
+            _ => return 0.0,
         }
         let Some((sig, nodes)) = kernel::structure(self.scene, path, MAX_VERTICES) else {
             return 0.0;
         };
-        if !self.cache.holds(sig) {
-            return 0.0;
-        }
         let owned;
         let y = match y {
             Some(y) => y,
@@ -254,8 +268,7 @@ impl<'a> Estimator<'a> {
                 None => return 0.0,
             },
         };
-        let mut scratch = Vec::new();
-        let (p, n) = self.cache.pdf(self.scene, y, sig, &nodes, &mut scratch);
+        let (p, n) = self.cache.pdf(self.scene, y, sig, &nodes, scratch);
         stats.pg_evaluations += 1;
         stats.pg_candidates += n as u64;
         p
@@ -272,8 +285,10 @@ impl<'a> Estimator<'a> {
     pub fn guided(
         &self,
         sampler: &mut impl Sampler,
+        want_record: bool,
         stats: &mut Stats,
-    ) -> Option<(u32, Spectrum, Record, usize)> {
+        scratch: &mut Vec<u32>,
+    ) -> Option<(u32, Spectrum, Option<Record>, usize)> {
         stats.guided += 1;
         let g = match sampler::sample_path(self.scene, self.cache, sampler) {
             Ok(g) => g,
@@ -301,19 +316,19 @@ impl<'a> Estimator<'a> {
             return None;
         }
         let p_u = self.p_u(&y);
-        let p_g = self.p_g(&g.path, Some(&y), stats);
+        let p_g = self.p_g(&g.path, Some(&y), stats, scratch);
         let mix = self.mix(p_u, p_g);
         if !(mix > 0.0) {
             stats.failed += 1;
             return None;
         }
         let value = f / mix as f32;
-        let record = Record {
+        let record = want_record.then(|| Record {
             vertices: g.path.vertices().to_vec(),
             f: luminance(f),
             p_u,
             c: luminance(f) as f64 / (self.alpha * p_u + (1.0 - self.alpha) * p_g),
-        };
+        });
         Some((g.path.pixel, value, record, g.guide))
     }
 }
@@ -332,7 +347,9 @@ impl PathRecorder for Collector<'_, '_> {
         if path.f == Spectrum::ZERO || !(p_u > 0.0) {
             return;
         }
-        let p_g = self.est.p_g(path, None, &mut self.out.stats);
+        let p_g = self
+            .est
+            .p_g(path, None, &mut self.out.stats, &mut self.out.scratch);
         let mix = self.est.mix(p_u, p_g);
         let value = path.f.as_dvec3() / mix;
         if !value.is_finite() {
@@ -342,30 +359,34 @@ impl PathRecorder for Collector<'_, '_> {
         if self.learning && path.segments() >= 2 {
             let lum = luminance(value.as_vec3());
             self.out.samples.push((path.pixel, lum));
-            push_candidate(
-                &mut self.out.candidates,
-                Candidate {
-                    record: Record {
-                        vertices: path.vertices().to_vec(),
-                        f: luminance(path.f),
-                        p_u,
-                        c: luminance(path.f) as f64
-                            / (self.est.alpha * p_u + (1.0 - self.est.alpha) * p_g),
-                    },
-                    pixel: path.pixel,
-                    value: lum as f64,
-                    densify: false,
+            let alpha = self.est.alpha;
+            offer_candidate(self.out, lum as f64, || Candidate {
+                record: Record {
+                    vertices: path.vertices().to_vec(),
+                    f: luminance(path.f),
+                    p_u,
+                    c: luminance(path.f) as f64 / (alpha * p_u + (1.0 - alpha) * p_g),
                 },
-            );
+                pixel: path.pixel,
+                value: lum as f64,
+                densify: false,
+            });
         }
     }
 }
 
-fn push_candidate(list: &mut Vec<Candidate>, c: Candidate) {
-    list.push(c);
+/// Keep a candidate among the row's `ROW_CANDIDATES` largest values; `make` (which copies
+/// the path) only runs for a value that can still make it.
+fn offer_candidate(out: &mut RowOutput, value: f64, make: impl FnOnce() -> Candidate) {
+    if value <= out.candidate_floor {
+        return;
+    }
+    let list = &mut out.candidates;
+    list.push(make());
     if list.len() >= 2 * ROW_CANDIDATES {
         list.sort_by(|a, b| b.value.total_cmp(&a.value));
         list.truncate(ROW_CANDIDATES);
+        out.candidate_floor = list[ROW_CANDIDATES - 1].value;
     }
 }
 
@@ -390,7 +411,10 @@ impl GuidedPt {
             .zip(crows.par_iter_mut())
             .enumerate()
             .map(|(y, (row, crow))| {
-                let mut out = RowOutput::default();
+                let mut out = RowOutput {
+                    candidate_floor: f64::NEG_INFINITY,
+                    ..RowOutput::default()
+                };
                 for (x, acc) in row.iter_mut().enumerate() {
                     let index = y as u64 * w as u64 + x as u64;
                     let mut sampler = IndependentSampler::new(ctx.seed, pass, index);
@@ -413,22 +437,22 @@ impl GuidedPt {
                     while j < n_g {
                         let mut gs = IndependentSampler::new(ctx.seed, pass, n_pix + j);
                         if let Some((pixel, value, record, guide)) =
-                            est.guided(&mut gs, &mut out.stats)
+                            est.guided(&mut gs, learning, &mut out.stats, &mut out.scratch)
                         {
                             out.splats.push((pixel, value));
                             if learning {
                                 let lum = luminance(value);
                                 out.samples.push((pixel, lum));
-                                push_candidate(
-                                    &mut out.candidates,
-                                    Candidate {
+                                let densify = (est.cache.guides[guide].neighbours as usize)
+                                    < cache::NEIGHBOURS;
+                                if let Some(record) = record {
+                                    offer_candidate(&mut out, lum as f64, || Candidate {
                                         record,
                                         pixel,
                                         value: lum as f64,
-                                        densify: (est.cache.guides[guide].neighbours as usize)
-                                            < cache::NEIGHBOURS,
-                                    },
-                                );
+                                        densify,
+                                    });
+                                }
                             }
                         }
                         j += n_pix;
@@ -487,12 +511,6 @@ impl GuidedPt {
                     c.densify
                         || cascade.trust(c.pixel, norm(c.value), iteration + 1) <= TRUST_THRESHOLD
                 }));
-            }
-            if std::env::var_os("LODESTAR_DEBUG").is_some() {
-                eprintln!(
-                    "iteration {iteration} worker {w}: {} pass trust",
-                    pool.len()
-                );
             }
             pool.sort_by(|x, y| y.record.c.total_cmp(&x.record.c));
             pool.truncate(self.settings.intake);

@@ -10,7 +10,7 @@
 use crate::bsdf::{Bsdf, ShadingFrame, TransportMode};
 use crate::light::Light;
 use crate::math::Spectrum;
-use crate::scene::{Endpoint, Scene, ShapeInfo, Transmittance};
+use crate::scene::{Endpoint, Scene, ShapeInfo};
 use glam::Vec3;
 
 /// The recursive MIS quantities of a subpath vertex (Georgiev et al. 2012, tech. report
@@ -30,58 +30,9 @@ pub struct Mis {
     pub d_vm: f32,
 }
 
-/// Free flight along an edge: the product of pass probabilities of its medium segments and
-/// its first and last medium segment (as `bdpt`'s edges).
-#[derive(Debug, Clone, Copy)]
-pub struct Edge {
-    pub pass: f32,
-    pub first: Option<(u32, f32)>,
-    pub last: Option<(u32, f32)>,
-}
-
-impl Edge {
-    pub const VACUUM: Edge = Edge {
-        pass: 1.0,
-        first: None,
-        last: None,
-    };
-
-    pub fn along(tr: &Transmittance) -> Edge {
-        Edge {
-            pass: tr.pass,
-            first: tr.first,
-            last: tr.last,
-        }
-    }
-
-    /// Add a segment of length `len` in `medium` (vacuum adds nothing).
-    pub fn push(&mut self, scene: &Scene, medium: Option<u32>, len: f32) {
-        if let Some(m) = medium {
-            self.pass *= scene.media[m as usize].pass_probability(len);
-            self.first.get_or_insert((m, len));
-            self.last = Some((m, len));
-        }
-    }
-
-    /// Free-flight factor of generating the vertex at one end (`at_end`: the end the edge was
-    /// traced to): all pass probabilities, except that a medium vertex is reached by
-    /// scattering in its segment (`mean(sigma_t Tr)` instead of `mean(Tr)`).
-    pub fn factor(&self, scene: &Scene, target_is_medium: bool, at_end: bool) -> f32 {
-        if !target_is_medium {
-            return self.pass;
-        }
-        let Some((m, len)) = (if at_end { self.last } else { self.first }) else {
-            return self.pass;
-        };
-        let m = &scene.media[m as usize];
-        let pass = m.pass_probability(len);
-        if pass <= 0.0 {
-            return 0.0;
-        }
-        let scatter = (m.sigma_t * m.tr(len)).dot(Spectrum::splat(1.0 / 3.0));
-        self.pass / pass * scatter
-    }
-}
+/// Free flight along an edge: bdpt's, shared (pass probabilities, first and last medium
+/// segment, and the free-flight factor of reaching either end).
+pub use crate::integrators::bdpt::vertex::Edge;
 
 /// What scatters at a vertex.
 #[derive(Clone, Copy)]

@@ -424,7 +424,11 @@ fn saved_caches_render_identically_and_bad_files_are_errors() {
     let run = |p: &lodestar::integrators::IntegratorParams, spp: u64, sc: &Scene| {
         lodestar::integrators::render_named(sc, "guided-pt", p, Budget::Spp(spp), 4, 2, false)
     };
-    let learned = run(&params(vec![opt("save_guides", &file)]), 8, &scene).unwrap();
+    // Learned with non-default kernel widths, loaded without them: the file carries them.
+    let widths = || vec!["kernel_width=1.5".to_string(), "first_width=1".to_string()];
+    let mut save = widths();
+    save.push(opt("save_guides", &file));
+    let learned = run(&params(save), 8, &scene).unwrap();
     let loaded = run(&params(vec![opt("load_guides", &file)]), 4, &scene).unwrap();
     assert_eq!(learned.result.passes, 4);
     assert_eq!(loaded.result.passes, 4);
@@ -459,6 +463,10 @@ fn saved_caches_render_identically_and_bad_files_are_errors() {
     );
     let e = load_err("short.guides", &bytes[..bytes.len() - 7], &scene);
     assert!(e.contains("truncated") && e.contains("short.guides"), "{e}");
+    let mut bad_width = bytes.clone();
+    bad_width[24..32].copy_from_slice(&f64::NAN.to_le_bytes());
+    let e = load_err("width.guides", &bad_width, &scene);
+    assert!(e.contains("invalid kernel widths"), "{e}");
     let e = load_err("magic.guides", b"not a cache at all", &scene);
     assert!(e.contains("bad magic"), "{e}");
     let other = util::scene(&CAUSTIC.replace("fov = 40", "fov = 41"));
@@ -541,5 +549,40 @@ fn trace_pt<R: PathRecorder>(
         if done(recorder) {
             break;
         }
+    }
+}
+
+/// Bad guided-pt settings are errors naming the option and what was expected.
+#[test]
+fn bad_guided_options_are_errors() {
+    use lodestar::integrators::{IntegratorParams, Options, build};
+    for (opt, expect) in [
+        (
+            "kernel_width=0",
+            "option 'kernel_width': expected a number > 0",
+        ),
+        (
+            "kernel_width=nan",
+            "option 'kernel_width': expected a number > 0",
+        ),
+        (
+            "first_width=-1",
+            "option 'first_width': expected a number > 0",
+        ),
+        (
+            "first_width=inf",
+            "option 'first_width': expected a number > 0",
+        ),
+        ("alpha=0", "option 'alpha': expected a number in (0, 1]"),
+        ("intake=0", "option 'intake': expected an integer >= 1"),
+    ] {
+        let params = IntegratorParams {
+            max_depth: 6,
+            options: Options::parse(&[opt.to_string()]).unwrap(),
+        };
+        let err = build("guided-pt", &params)
+            .err()
+            .unwrap_or_else(|| panic!("{opt}: accepted"));
+        assert!(err.to_string().contains(expect), "{opt}: {err}");
     }
 }

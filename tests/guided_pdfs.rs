@@ -140,7 +140,7 @@ fn regression(dt: usize, dc: usize, noise: [f64; 3], seed: u64) -> Kernel {
             (y, zz)
         })
         .collect();
-    regression_kernel(&samples, dt, dc, 1e-8, 1e2, 1e-4).expect("a well-posed regression")
+    regression_kernel(&samples, dt, dc, 1e-8, 1e2, 1e-4, 1.0).expect("a well-posed regression")
 }
 
 /// One guide segment g_prev -> g with its frame, the walk's current vertex `o` (not on the

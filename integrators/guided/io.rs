@@ -2,14 +2,15 @@
 //!
 //! Layout (little endian): magic `LSGUIDES`, format version (u32), a fingerprint of the scene
 //! (u64: camera, counts of shapes, triangles, materials, lights, media, bounds), the learning
-//! iteration (u32), the number of guide paths (u32), then per guide path: vertex count (u8),
+//! iteration (u32), the kernel widths (two f64: regression, first vertex; since version 2),
+//! the number of guide paths (u32), then per guide path: vertex count (u8),
 //! age (u16), f (f32), p_u (f64), weight (f64) and its vertices (position, normal, shading
 //! normal as 9 f32, kind tag u8, two u32 ids, delta flag u8). Kernels, neighbours and the
 //! pruning BVH are rebuilt on load, deterministically, so a loaded cache renders exactly like
 //! the one that was saved. A wrong magic or version, a truncated file, a cache learned on
 //! another scene, or ids out of range are errors naming the file.
 
-use super::cache::GuideCache;
+use super::cache::{GuideCache, KernelWidths};
 use crate::error::{Error, Result};
 use crate::path::{Vertex as PathVertex, VertexKind};
 use crate::scene::Scene;
@@ -17,7 +18,7 @@ use glam::Vec3;
 use std::path::Path;
 
 const MAGIC: &[u8; 8] = b"LSGUIDES";
-pub const VERSION: u32 = 1;
+pub const VERSION: u32 = 2;
 
 /// A hash of what a cache depends on in the scene.
 pub fn scene_fingerprint(scene: &Scene) -> u64 {
@@ -52,6 +53,8 @@ pub fn save(scene: &Scene, cache: &GuideCache, file: &Path) -> Result<()> {
     b.extend_from_slice(&VERSION.to_le_bytes());
     b.extend_from_slice(&scene_fingerprint(scene).to_le_bytes());
     b.extend_from_slice(&cache.iteration.to_le_bytes());
+    b.extend_from_slice(&cache.widths.regression.to_le_bytes());
+    b.extend_from_slice(&cache.widths.first_vertex.to_le_bytes());
     b.extend_from_slice(&(cache.guides.len() as u32).to_le_bytes());
     for (l, g) in cache.guides.iter().enumerate() {
         b.push(g.len);
@@ -161,6 +164,17 @@ pub fn load(scene: &Scene, file: &Path) -> Result<GuideCache> {
         )));
     }
     let iteration = r.u32()?;
+    let widths = KernelWidths {
+        regression: r.f64()?,
+        first_vertex: r.f64()?,
+    };
+    if !(widths.regression > 0.0
+        && widths.regression.is_finite()
+        && widths.first_vertex > 0.0
+        && widths.first_vertex.is_finite())
+    {
+        return Err(bad(format!("invalid kernel widths {widths:?}")));
+    }
     let count = r.u32()? as usize;
     let mut entries = Vec::with_capacity(count.min(1 << 20));
     for i in 0..count {
@@ -209,7 +223,7 @@ pub fn load(scene: &Scene, file: &Path) -> Result<GuideCache> {
     if r.at != data.len() {
         return Err(bad(format!("{} trailing bytes", data.len() - r.at)));
     }
-    let mut cache = GuideCache::default();
+    let mut cache = GuideCache::with_widths(widths);
     cache.install(scene, entries, iteration);
     Ok(cache)
 }

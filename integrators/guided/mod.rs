@@ -17,6 +17,8 @@
 //! | learn_fraction  | [0, 1)        | 0.1     | share of the budget spent learning (`--learn-fraction`) |
 //! | max_guides      | integer >= 1  | 100000  | cache capacity; the lightest guide paths go first (`--max-guides`) |
 //! | intake          | integer >= 1  | 100     | outliers kept per worker (band of rows) and iteration |
+//! | kernel_width    | number > 0    | 3       | factor on the conditional Gaussians' standard deviations (1: the spec's; `cache.rs`) |
+//! | first_width     | number > 0    | 2       | factor on the first-vertex kernel's width (1: the spec's) |
 //! | save_guides     | path          | —       | write the learned cache (`--save-guides`) |
 //! | load_guides     | path          | —       | start from a saved cache and skip learning (`--load-guides`) |
 //!
@@ -48,7 +50,7 @@ use crate::render::{
     Budget, Integrator, RenderContext, RenderResult, cascade_rows, run_passes_with_snapshots,
 };
 use crate::scene::Scene;
-use cache::{GuideCache, RebuildParams, Record};
+use cache::{GuideCache, KernelWidths, RebuildParams, Record};
 use glam::{DVec3, UVec2, Vec2};
 use learn::{OutlierCascade, TRUST_THRESHOLD};
 use rayon::prelude::*;
@@ -72,6 +74,7 @@ pub struct GuidedSettings {
     pub max_guides: usize,
     pub intake: usize,
     pub damping: f64,
+    pub widths: KernelWidths,
     pub save_guides: Option<PathBuf>,
     pub load_guides: Option<PathBuf>,
 }
@@ -85,6 +88,7 @@ impl Default for GuidedSettings {
             max_guides: 100_000,
             intake: 100,
             damping: 0.5,
+            widths: KernelWidths::default(),
             save_guides: None,
             load_guides: None,
         }
@@ -98,6 +102,9 @@ pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     let learn_fraction = o.get("learn_fraction", 0.1f64, "a number in [0, 1)")?;
     let max_guides = o.get("max_guides", 100_000usize, "an integer >= 1")?;
     let intake = o.get("intake", 100usize, "an integer >= 1")?;
+    let default_widths = KernelWidths::default();
+    let kernel_width = o.get("kernel_width", default_widths.regression, "a number > 0")?;
+    let first_width = o.get("first_width", default_widths.first_vertex, "a number > 0")?;
     let save = o.get("save_guides", String::new(), "a file path")?;
     let load = o.get("load_guides", String::new(), "a file path")?;
     let bad = |key: &str, expected: &str, got: String| {
@@ -124,6 +131,11 @@ pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     if intake == 0 {
         return bad("intake", "an integer >= 1", "0".into());
     }
+    for (key, v) in [("kernel_width", kernel_width), ("first_width", first_width)] {
+        if !(v > 0.0 && v.is_finite()) {
+            return bad(key, "a number > 0", v.to_string());
+        }
+    }
     let path = |s: String| (!s.is_empty()).then(|| PathBuf::from(s));
     Ok(Box::new(GuidedPt {
         settings: GuidedSettings {
@@ -136,6 +148,10 @@ pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
             learn_fraction,
             max_guides,
             intake,
+            widths: KernelWidths {
+                regression: kernel_width,
+                first_vertex: first_width,
+            },
             save_guides: path(save),
             load_guides: path(load),
             ..GuidedSettings::default()
@@ -559,7 +575,11 @@ impl Integrator for GuidedPt {
         let start = Instant::now();
         let UVec2 { x: w, y: h } = scene.camera.resolution;
         let mut film = Film::new(w, h);
-        let mut cache = self.cache.take().unwrap_or_default();
+        // A loaded cache keeps the kernel widths it was saved with.
+        let mut cache = self
+            .cache
+            .take()
+            .unwrap_or_else(|| GuideCache::with_widths(self.settings.widths));
         let mut stats = Stats::default();
         let mut learn_passes = 0u64;
         // ---- Learning (skipped with a loaded cache) ----

@@ -12,8 +12,8 @@
 use super::cache::GuideCache;
 use super::gaussian::{sample_std_trunc, std_trunc_density};
 use super::kernel::{
-    Node, Reach, bsdf_branch_probability, coords, distance_density, dvec, is_infinite_vertex,
-    segment_frame,
+    MIN_PLANE_COS, Node, Reach, bsdf_branch_probability, coords, distance_density, dvec,
+    is_infinite_vertex, segment_frame,
 };
 use crate::bsdf::TransportMode;
 use crate::geometry::Ray;
@@ -344,7 +344,7 @@ pub fn sample_path(
                 let w = (dvec(p) - dvec(at.pv.p)).normalize();
                 let cos = dvec(seg_frame.n).dot(w);
                 let t_p = dvec(seg_frame.n).dot(dvec(g.p) - dvec(at.pv.p)) / cos;
-                if !(t_p > 0.0) {
+                if !(t_p > 0.0) || cos.abs() < MIN_PLANE_COS {
                     return Err(Failure::Miss);
                 }
                 dir = w.as_vec3();

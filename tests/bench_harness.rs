@@ -161,7 +161,9 @@ fn bench_writes_a_consistent_report() {
             "mse",
             "rmse",
             "rel_mse",
-            "speedup"
+            "speedup",
+            "variance",
+            "var_speedup"
         ]
     );
     assert_eq!(rows.len(), 8);
@@ -204,6 +206,20 @@ fn bench_writes_a_consistent_report() {
     }
     let speedup = num(median_of("pt"), "mse") / num(median_of("bdpt"), "mse");
     assert!(close(num(median_of("bdpt"), "speedup"), speedup, 1e-8));
+    // The seed-pair variance (its formula is unit-tested in bench::report): positive, the
+    // same on every row of an integrator, below the MSE against the reference (which adds the
+    // 256-spp reference's own noise, larger than a run's here), and the variance speed-up is
+    // pt's over bdpt's.
+    for (name, runs) in [("pt", &pt), ("bdpt", &bdpt)] {
+        let v = num(median_of(name), "variance");
+        assert!(v > 0.0, "{name}: {v}");
+        for r in runs.iter() {
+            assert_eq!(num(r, "variance"), v);
+        }
+        assert!(v < num(median_of(name), "mse"), "{name}: {v}");
+    }
+    let var_speedup = num(median_of("pt"), "variance") / num(median_of("bdpt"), "variance");
+    assert!(close(num(median_of("bdpt"), "var_speedup"), var_speedup, 1e-8));
 
     // ---- the images of the first run carry the errors of run 0 ----
     let (reference_img, _) = Image::read_exr(Path::new(&reference)).unwrap();
@@ -280,6 +296,8 @@ fn bench_writes_a_consistent_report() {
         assert!(close(mse, num(median_of(name), "mse"), 1e-4));
         let speedup: f64 = cells[9].parse().unwrap();
         assert!((speedup - num(median_of(name), "speedup")).abs() < 1e-3);
+        let variance: f64 = cells[10].parse().unwrap();
+        assert!(close(variance, num(median_of(name), "variance"), 1e-4));
     }
     let runs_table = doc
         .descendants()

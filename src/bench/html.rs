@@ -106,13 +106,14 @@ fn table(s: &mut String, class: &str, scene: &str, rows: &[Row]) {
     let _ = writeln!(
         s,
         "<table class=\"{class}\">\n<tr><th>scene</th><th>integrator</th><th>run</th><th>seconds</th>\
-         <th>spp</th><th>passes</th><th>MSE</th><th>RMSE</th><th>relMSE</th><th>speedup</th></tr>"
+         <th>spp</th><th>passes</th><th>MSE</th><th>RMSE</th><th>relMSE</th><th>speedup</th>\
+         <th>variance (seeds)</th><th>variance speedup</th></tr>"
     );
     for r in rows {
         let _ = writeln!(
             s,
             "<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.2}</td><td>{}</td><td>{}</td>\
-             <td>{:.4e}</td><td>{:.4e}</td><td>{:.4e}</td><td>{:.3}</td></tr>",
+             <td>{:.4e}</td><td>{:.4e}</td><td>{:.4e}</td><td>{:.3}</td><td>{:.4e}</td><td>{:.3}</td></tr>",
             escape(scene),
             escape(&r.integrator),
             escape(&r.run_label()),
@@ -122,7 +123,9 @@ fn table(s: &mut String, class: &str, scene: &str, rows: &[Row]) {
             r.mse,
             r.rmse,
             r.rel_mse,
-            r.speedup
+            r.speedup,
+            r.variance,
+            r.var_speedup
         );
     }
     s.push_str("</table>\n");

@@ -5,8 +5,11 @@
 //!
 //! Both CSV files have a header line and comma-separated fields (a field with a comma, quote
 //! or newline is quoted, quotes doubled). `report.csv`: `scene, integrator, run, seed, seconds,
-//! spp, passes, mse, rmse, rel_mse, speedup`, where `run` is the run's index or `median` (seed
-//! then gives the first seed). `curves.csv`: `scene, integrator, run, seed, seconds, spp,
+//! spp, passes, mse, rmse, rel_mse, speedup, variance, var_speedup`, where `run` is the run's
+//! index or `median` (seed then gives the first seed); `variance` is the integrator's
+//! reference-free variance estimate from its seeds (`run::seed_pair_variance`, the same on
+//! every row of an integrator, NaN with one run) and `var_speedup` the first integrator's
+//! variance over this one's. `curves.csv`: `scene, integrator, run, seed, seconds, spp,
 //! passes, mse, rmse, rel_mse`.
 
 use super::run::IntegratorRuns;
@@ -33,6 +36,9 @@ pub struct Row {
     pub rmse: f64,
     pub rel_mse: f64,
     pub speedup: f64,
+    /// The integrator's seed-pair variance and the first integrator's over it.
+    pub variance: f64,
+    pub var_speedup: f64,
 }
 
 /// Per-run rows, in integrator order then run order.
@@ -53,6 +59,8 @@ pub fn run_rows(all: &[IntegratorRuns]) -> Vec<Row> {
                 rmse: r.error.rmse,
                 rel_mse: r.error.rel_mse,
                 speedup: first / r.error.mse,
+                variance: ir.variance,
+                var_speedup: all[0].variance / ir.variance,
             });
         }
     }
@@ -80,6 +88,8 @@ pub fn median_rows(all: &[IntegratorRuns]) -> Vec<Row> {
                 rmse: med(ir, |r| r.error.rmse),
                 rel_mse: med(ir, |r| r.error.rel_mse),
                 speedup: first_mse / mse,
+                variance: ir.variance,
+                var_speedup: all[0].variance / ir.variance,
             }
         })
         .collect()
@@ -108,7 +118,7 @@ pub fn table(scene: &str, rows: &[Row]) -> String {
         .max(10);
     let _ = writeln!(
         s,
-        "{:<w$} {:<iw$} {:<14} {:>8} {:>9} {:>9} {:>11} {:>11} {:>11} {:>8}",
+        "{:<w$} {:<iw$} {:<14} {:>8} {:>9} {:>9} {:>11} {:>11} {:>11} {:>8} {:>11} {:>8}",
         "scene",
         "integrator",
         "run",
@@ -118,12 +128,14 @@ pub fn table(scene: &str, rows: &[Row]) -> String {
         "MSE",
         "RMSE",
         "relMSE",
+        "speedup",
+        "var(seeds)",
         "speedup"
     );
     for r in rows {
         let _ = writeln!(
             s,
-            "{:<w$} {:<iw$} {:<14} {:>8.2} {:>9} {:>9} {:>11.4e} {:>11.4e} {:>11.4e} {:>8.3}",
+            "{:<w$} {:<iw$} {:<14} {:>8.2} {:>9} {:>9} {:>11.4e} {:>11.4e} {:>11.4e} {:>8.3} {:>11.4e} {:>8.3}",
             scene,
             r.integrator,
             r.run_label(),
@@ -133,7 +145,9 @@ pub fn table(scene: &str, rows: &[Row]) -> String {
             r.mse,
             r.rmse,
             r.rel_mse,
-            r.speedup
+            r.speedup,
+            r.variance,
+            r.var_speedup
         );
     }
     s
@@ -151,7 +165,7 @@ fn count(x: f64) -> String {
 /// Write `report.csv`: the per-run rows, then the median rows.
 pub fn write_report_csv(path: &Path, scene: &str, all: &[IntegratorRuns]) -> Result<()> {
     let mut s =
-        String::from("scene,integrator,run,seed,seconds,spp,passes,mse,rmse,rel_mse,speedup\n");
+        String::from("scene,integrator,run,seed,seconds,spp,passes,mse,rmse,rel_mse,speedup,variance,var_speedup\n");
     for r in run_rows(all).iter().chain(&median_rows(all)) {
         let run = r.run.map_or("median".to_string(), |k| k.to_string());
         let fields = [
@@ -166,6 +180,8 @@ pub fn write_report_csv(path: &Path, scene: &str, all: &[IntegratorRuns]) -> Res
             format!("{:.9e}", r.rmse),
             format!("{:.9e}", r.rel_mse),
             format!("{:.9e}", r.speedup),
+            format!("{:.9e}", r.variance),
+            format!("{:.9e}", r.var_speedup),
         ];
         s.push_str(&fields.join(","));
         s.push('\n');
@@ -250,6 +266,7 @@ mod tests {
             runs,
             image: Image::new(1, 1),
             metadata: Vec::new(),
+            variance: mses[0] / 2.0,
         }
     }
 
@@ -269,9 +286,27 @@ mod tests {
             (2.0, 5.0, 4.0)
         );
         assert_eq!(med[1].run_label(), "median of 3");
+        // Variance speed-up: the first integrator's seed-pair variance over this one's.
+        assert_eq!((med[0].var_speedup, med[1].var_speedup), (1.0, 4.0));
+        assert_eq!(per_run[4].var_speedup, 4.0);
         let t = table("s.toml", &med);
         assert_eq!(t.lines().count(), 3);
         assert!(t.lines().nth(2).unwrap().contains("3.000"), "{t}");
+    }
+
+    /// The seed-pair variance of three constant images 1, 2, 4 (one pixel, three channels):
+    /// pair MSEs 1, 9, 4, halved and averaged = 14 / 6; one image has none.
+    #[test]
+    fn seed_pair_variance_averages_half_pair_mses() {
+        let img = |v: f32| {
+            let mut i = Image::new(1, 1);
+            i.pixels[0] = glam::Vec3::splat(v);
+            i
+        };
+        let v = crate::bench::run::seed_pair_variance(&[img(1.0), img(2.0), img(4.0)], None);
+        assert!((v.unwrap() - 14.0 / 6.0).abs() < 1e-12);
+        let one = crate::bench::run::seed_pair_variance(&[img(1.0)], None);
+        assert!(one.unwrap().is_nan());
     }
 
     #[test]

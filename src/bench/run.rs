@@ -46,6 +46,11 @@ pub struct IntegratorRuns {
     pub settings: String,
     pub runs: Vec<Run>,
     pub image: Image,
+    /// Per-pixel variance at the budget, estimated without the reference from the final images
+    /// of the runs (seeds): the mean over pairs of `MSE(I_i, I_j) / 2` (NaN with one run).
+    /// For an unbiased integrator it is its expected MSE; the MSE against a reference adds
+    /// the reference's own noise (and bias), which biases speed-ups towards 1.
+    pub variance: f64,
     /// EXR metadata of the first run's image.
     pub metadata: Vec<(String, String)>,
 }
@@ -54,9 +59,11 @@ pub struct IntegratorRuns {
 pub fn run_all(p: &Prepared) -> Result<Vec<IntegratorRuns>> {
     let c = &p.config;
     let mut all: Vec<Option<IntegratorRuns>> = vec![None; c.integrators.len()];
+    let mut finals: Vec<Vec<Image>> = vec![Vec::new(); c.integrators.len()];
     for seed in c.seed..c.seed + c.runs as u64 {
         for (i, name) in c.integrators.iter().enumerate() {
             let (run, image, name, settings) = render_one(p, name, seed)?;
+            finals[i].push(image.clone());
             if c.verbose {
                 eprintln!(
                     "{name} seed {seed}: {} spp in {:.2} s, MSE {:.4e}",
@@ -73,12 +80,35 @@ pub fn run_all(p: &Prepared) -> Result<Vec<IntegratorRuns>> {
                         runs: vec![run],
                         image,
                         metadata,
+                        variance: f64::NAN,
                     })
                 }
             }
         }
     }
+    for (slot, images) in all.iter_mut().zip(&finals) {
+        if let Some(r) = slot {
+            r.variance = seed_pair_variance(images, c.crop)?;
+        }
+    }
     Ok(all.into_iter().flatten().collect())
+}
+
+/// Mean over all pairs of images of `MSE(I_i, I_j) / 2`: for independent renders with the
+/// same expectation, an unbiased estimate of the per-pixel variance (NaN for fewer than two).
+pub fn seed_pair_variance(images: &[Image], crop: Option<crate::metrics::Crop>) -> Result<f64> {
+    let (mut sum, mut pairs) = (0.0, 0usize);
+    for i in 0..images.len() {
+        for j in i + 1..images.len() {
+            sum += compare_crop(&images[i], &images[j], crop)?.mse / 2.0;
+            pairs += 1;
+        }
+    }
+    Ok(if pairs == 0 {
+        f64::NAN
+    } else {
+        sum / pairs as f64
+    })
 }
 
 fn render_one(p: &Prepared, name: &str, seed: u64) -> Result<(Run, Image, String, String)> {

@@ -219,7 +219,11 @@ fn bench_writes_a_consistent_report() {
         assert!(v < num(median_of(name), "mse"), "{name}: {v}");
     }
     let var_speedup = num(median_of("pt"), "variance") / num(median_of("bdpt"), "variance");
-    assert!(close(num(median_of("bdpt"), "var_speedup"), var_speedup, 1e-8));
+    assert!(close(
+        num(median_of("bdpt"), "var_speedup"),
+        var_speedup,
+        1e-8
+    ));
 
     // ---- the images of the first run carry the errors of run 0 ----
     let (reference_img, _) = Image::read_exr(Path::new(&reference)).unwrap();

@@ -164,8 +164,9 @@ fn count(x: f64) -> String {
 
 /// Write `report.csv`: the per-run rows, then the median rows.
 pub fn write_report_csv(path: &Path, scene: &str, all: &[IntegratorRuns]) -> Result<()> {
-    let mut s =
-        String::from("scene,integrator,run,seed,seconds,spp,passes,mse,rmse,rel_mse,speedup,variance,var_speedup\n");
+    let mut s = String::from(
+        "scene,integrator,run,seed,seconds,spp,passes,mse,rmse,rel_mse,speedup,variance,var_speedup\n",
+    );
     for r in run_rows(all).iter().chain(&median_rows(all)) {
         let run = r.run.map_or("median".to_string(), |k| k.to_string());
         let fields = [

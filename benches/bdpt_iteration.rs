@@ -12,14 +12,8 @@
 
 mod common;
 
-use lodestar::integrators::{self, IntegratorParams, Options};
-use lodestar::render::Budget;
-
 fn main() {
-    let iterations: u64 = std::env::var("LODESTAR_BENCH_ITERATIONS")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(2);
+    let iterations = common::iterations();
     let scene = common::cornell_mirror_512();
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     let list = |key: &str, default: String| std::env::var(key).unwrap_or(default);
@@ -42,34 +36,14 @@ fn main() {
     );
     for name in names.split(',').map(str::trim) {
         for &threads in &thread_counts {
-            let params = IntegratorParams {
-                max_depth: 10,
-                options: Options::default(),
-            };
-            let run = integrators::render_named(
-                &scene,
-                name,
-                &params,
-                Budget::Spp(iterations),
-                1,
-                threads,
-                false,
-            );
-            let run = match run {
-                Ok(run) => run,
-                Err(e) => {
+            let (cpu, wall) = common::time_iterations(&scene, name, &[], iterations, threads)
+                .unwrap_or_else(|e| {
                     eprintln!("LODESTAR_BENCH_INTEGRATORS: {e}");
                     std::process::exit(2);
-                }
-            };
-            let (r, cpu) = (run.result, run.cpu_seconds);
+                });
             println!(
                 "{:<6} {:>7} {:>11} {:>16.3} {:>12.3}",
-                name,
-                threads,
-                iterations,
-                cpu / iterations as f64,
-                r.seconds / iterations as f64
+                name, threads, iterations, cpu, wall
             );
         }
     }

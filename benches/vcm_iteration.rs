@@ -12,14 +12,8 @@
 
 mod common;
 
-use lodestar::integrators::{self, IntegratorParams, Options};
-use lodestar::render::Budget;
-
 fn main() {
-    let iterations: u64 = std::env::var("LODESTAR_BENCH_ITERATIONS")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(2);
+    let iterations = common::iterations();
     let scene = common::cornell_mirror_512();
     let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
     println!(
@@ -34,30 +28,16 @@ fn main() {
     ];
     for (name, opts) in runs {
         for threads in [1, cores] {
-            let options = opts.iter().map(|s| s.to_string()).collect::<Vec<_>>();
-            let params = IntegratorParams {
-                max_depth: 10,
-                options: Options::parse(&options).unwrap(),
-            };
-            let run = integrators::render_named(
-                &scene,
-                name,
-                &params,
-                Budget::Spp(iterations),
-                1,
-                threads,
-                false,
-            )
-            .unwrap();
-            let (r, cpu) = (run.result, run.cpu_seconds);
+            let (cpu, wall) = common::time_iterations(&scene, name, opts, iterations, threads)
+                .unwrap_or_else(|e| panic!("{name}: {e}"));
             let label = format!("{name} {}", opts.join(" "));
             println!(
                 "{:<16} {:>7} {:>11} {:>16.3} {:>12.3}",
                 label.trim(),
                 threads,
                 iterations,
-                cpu / iterations as f64,
-                r.seconds / iterations as f64
+                cpu,
+                wall
             );
         }
     }

@@ -152,16 +152,6 @@ fn mse(a: &lodestar::film::Image, b: &lodestar::film::Image) -> f64 {
     lodestar::metrics::compare(a, b).unwrap().mse
 }
 
-fn assert_same_mean(a: &lodestar::film::Image, b: &lodestar::film::Image, what: &str) {
-    let z = util::z_same_mean(a, b);
-    assert!(
-        z.abs().max_element() < 4.5,
-        "{what}: z = {z}, means {} vs {}",
-        a.mean(),
-        b.mean()
-    );
-}
-
 /// With merging off, vcm renders BDPT's image (roulette from the first bounce, as vcm plays
 /// it): per-channel z-test of the pixel differences.
 #[test]
@@ -169,7 +159,7 @@ fn vcm_without_merging_agrees_with_bdpt() {
     let scene = scene_file("cornell-box.toml", 32);
     let bd = util::render(&scene, "bdpt", 6, &["rr_depth=1"], 128, 1, 2).image;
     let vc = util::render(&scene, "vcm", 6, &["merge=false"], 128, 2, 2).image;
-    assert_same_mean(&vc, &bd, "vcm merge=false vs bdpt");
+    util::assert_same_mean(&vc, &bd, "vcm merge=false vs bdpt");
 }
 
 /// On cornell-box and cornell-glossy vcm converges to pt's image: with an initial radius of
@@ -196,7 +186,7 @@ fn vcm_converges_to_pt() {
             "{name}: vcm's MSE {e16} after 16 passes, {e256} after 256"
         );
         let e256 = mse(&vcm, &pt);
-        assert_same_mean(&vcm, &pt, name);
+        util::assert_same_mean(&vcm, &pt, name);
         let own = 0.5 * (mse(&vcm, &vcm2) + mse(&pt, &pt2));
         assert!(
             (e256 / own - 1.0).abs() < 0.35,
@@ -212,7 +202,7 @@ fn bpm_agrees_with_pt() {
     let scene = scene_file("cornell-box.toml", 32);
     let pt = util::render(&scene, "pt", 6, &[], 1024, 6, 2).image;
     let bpm = util::render(&scene, "bpm", 6, &["radius=0.05"], 256, 7, 2).image;
-    assert_same_mean(&bpm, &pt, "bpm vs pt");
+    util::assert_same_mean(&bpm, &pt, "bpm vs pt");
 }
 
 /// Light subpaths traced in parallel into per-row slots, a hash grid built in path order and

@@ -56,6 +56,38 @@ struct At<'s> {
 }
 
 impl<'s> At<'s> {
+    /// A point in `medium`.
+    fn medium(p: Vec3, medium: u32) -> At<'s> {
+        At {
+            pv: PathVertex {
+                p,
+                n: Vec3::ZERO,
+                ns: Vec3::ZERO,
+                kind: VertexKind::Medium { medium },
+            },
+            sp: None,
+            medium: Some(medium),
+        }
+    }
+
+    /// A non-delta emitter vertex at `p` (for lights at infinity `p` = previous + direction and
+    /// `n` the direction), reached through `medium`.
+    fn emitter(p: Vec3, n: Vec3, light: u32, medium: Option<u32>) -> At<'s> {
+        At {
+            pv: PathVertex {
+                p,
+                n,
+                ns: Vec3::ZERO,
+                kind: VertexKind::Emitter {
+                    light,
+                    delta: false,
+                },
+            },
+            sp: None,
+            medium,
+        }
+    }
+
     fn ray(&self, d: Vec3) -> Ray {
         match &self.sp {
             Some(sp) => sp.hit.spawn(d),
@@ -181,19 +213,9 @@ pub fn sample_path(
                 return Err(Failure::Occluded);
             }
             density = std_trunc_density(3, z[0] * z[0] + z[1] * z[1] + z[2] * z[2]) / (s * s * s);
-            let pv = PathVertex {
-                p,
-                n: Vec3::ZERO,
-                ns: Vec3::ZERO,
-                kind: VertexKind::Medium { medium },
-            };
-            path.push(pv);
+            at = At::medium(p, medium);
+            path.push(at.pv);
             path.pixel = scene.camera.pixel_index(raster) as u32;
-            at = At {
-                pv,
-                sp: None,
-                medium: Some(medium),
-            };
             raster
         }
         Node::Surface { delta, .. } => {
@@ -370,16 +392,7 @@ pub fn sample_path(
                 return Err(Failure::Occluded);
             }
             taken = branch_density_w;
-            next = At {
-                pv: PathVertex {
-                    p,
-                    n: Vec3::ZERO,
-                    ns: Vec3::ZERO,
-                    kind: VertexKind::Medium { medium },
-                },
-                sp: None,
-                medium: Some(medium),
-            };
+            next = At::medium(p, medium);
         } else {
             let (sp, medium) = trace(scene, at.ray(dir), start_medium);
             match (node, sp) {
@@ -394,19 +407,7 @@ pub fn sample_path(
                         return Err(Failure::Miss);
                     }
                     taken = branch_density_w;
-                    next = At {
-                        pv: PathVertex {
-                            p: at.pv.p + dir,
-                            n: dir,
-                            ns: Vec3::ZERO,
-                            kind: VertexKind::Emitter {
-                                light,
-                                delta: false,
-                            },
-                        },
-                        sp: None,
-                        medium,
-                    };
+                    next = At::emitter(at.pv.p + dir, dir, light, medium);
                 }
                 (
                     Node::Emitter {
@@ -421,19 +422,7 @@ pub fn sample_path(
                         return Err(Failure::Miss);
                     }
                     taken = branch_density_w * area_factor(at.pv.p, sp.hit.p, sp.hit.ng);
-                    next = At {
-                        pv: PathVertex {
-                            p: sp.hit.p,
-                            n: sp.hit.ng,
-                            ns: Vec3::ZERO,
-                            kind: VertexKind::Emitter {
-                                light,
-                                delta: false,
-                            },
-                        },
-                        sp: None,
-                        medium,
-                    };
+                    next = At::emitter(sp.hit.p, sp.hit.ng, light, medium);
                 }
                 (Node::Surface { delta, .. }, Some(sp)) if !last => {
                     if sp.bsdf.is_black() || sp.bsdf.is_delta() != delta {
@@ -455,7 +444,8 @@ pub fn sample_path(
         // Mixture density at this vertex: the branch taken from sampling-time quantities, the
         // other branch evaluated.
         let other = {
-            let y_now: Vec<Vertex> = vec![
+            // Only y[v-2..=v] matter to the branch densities (index 2 of this window).
+            let y_now = [
                 Vertex::new(Kind::Camera, prev.p, prev.n),
                 x,
                 as_vertex(scene, &next),

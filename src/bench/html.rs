@@ -5,7 +5,7 @@
 //! polyglot), so tests and tools can parse it back.
 
 use super::colormap::{LOG10_MAX, LOG10_MIN, STOPS};
-use super::report::Row;
+use super::report::{COLUMNS, Row};
 use std::fmt::Write as _;
 
 /// What the page shows; paths are relative to the page.
@@ -103,30 +103,17 @@ pub fn page(p: &Page) -> String {
 }
 
 fn table(s: &mut String, class: &str, scene: &str, rows: &[Row]) {
-    let _ = writeln!(
-        s,
-        "<table class=\"{class}\">\n<tr><th>scene</th><th>integrator</th><th>run</th><th>seconds</th>\
-         <th>spp</th><th>passes</th><th>MSE</th><th>RMSE</th><th>relMSE</th><th>speedup</th>\
-         <th>variance (seeds)</th><th>variance speedup</th></tr>"
-    );
+    let _ = write!(s, "<table class=\"{class}\">\n<tr>");
+    for c in COLUMNS {
+        let _ = write!(s, "<th>{}</th>", escape(c));
+    }
+    s.push_str("</tr>\n");
     for r in rows {
-        let _ = writeln!(
-            s,
-            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.2}</td><td>{}</td><td>{}</td>\
-             <td>{:.4e}</td><td>{:.4e}</td><td>{:.4e}</td><td>{:.3}</td><td>{:.4e}</td><td>{:.3}</td></tr>",
-            escape(scene),
-            escape(&r.integrator),
-            escape(&r.run_label()),
-            r.seconds,
-            r.spp,
-            r.passes,
-            r.mse,
-            r.rmse,
-            r.rel_mse,
-            r.speedup,
-            r.variance,
-            r.var_speedup
-        );
+        s.push_str("<tr>");
+        for cell in r.cells(scene) {
+            let _ = write!(s, "<td>{}</td>", escape(&cell));
+        }
+        s.push_str("</tr>\n");
     }
     s.push_str("</table>\n");
 }

@@ -105,50 +105,71 @@ impl Row {
     }
 }
 
+/// Column headers of the bench tables (text and HTML), in [`Row::cells`] order.
+pub const COLUMNS: [&str; 12] = [
+    "scene",
+    "integrator",
+    "run",
+    "seconds",
+    "spp",
+    "passes",
+    "MSE",
+    "RMSE",
+    "relMSE",
+    "speedup",
+    "var(seeds)",
+    "speedup(var)",
+];
+
+impl Row {
+    /// The row's cells as printed, in [`COLUMNS`] order.
+    pub fn cells(&self, scene: &str) -> [String; 12] {
+        [
+            scene.to_string(),
+            self.integrator.clone(),
+            self.run_label(),
+            format!("{:.2}", self.seconds),
+            count(self.spp),
+            count(self.passes),
+            format!("{:.4e}", self.mse),
+            format!("{:.4e}", self.rmse),
+            format!("{:.4e}", self.rel_mse),
+            format!("{:.3}", self.speedup),
+            format!("{:.4e}", self.variance),
+            format!("{:.3}", self.var_speedup),
+        ]
+    }
+}
+
 /// The text table printed by `lodestar bench`: one row per integrator (medians when there
-/// are several runs).
+/// are several runs); text columns left-aligned, numbers right-aligned.
 pub fn table(scene: &str, rows: &[Row]) -> String {
-    let mut s = String::new();
-    let w = scene.len().max(5);
-    let iw = rows
-        .iter()
-        .map(|r| r.integrator.len())
-        .max()
-        .unwrap_or(0)
-        .max(10);
-    let _ = writeln!(
-        s,
-        "{:<w$} {:<iw$} {:<14} {:>8} {:>9} {:>9} {:>11} {:>11} {:>11} {:>8} {:>11} {:>8}",
-        "scene",
-        "integrator",
-        "run",
-        "seconds",
-        "spp",
-        "passes",
-        "MSE",
-        "RMSE",
-        "relMSE",
-        "speedup",
-        "var(seeds)",
-        "speedup"
-    );
-    for r in rows {
-        let _ = writeln!(
-            s,
-            "{:<w$} {:<iw$} {:<14} {:>8.2} {:>9} {:>9} {:>11.4e} {:>11.4e} {:>11.4e} {:>8.3} {:>11.4e} {:>8.3}",
-            scene,
-            r.integrator,
-            r.run_label(),
-            r.seconds,
-            count(r.spp),
-            count(r.passes),
-            r.mse,
-            r.rmse,
-            r.rel_mse,
-            r.speedup,
-            r.variance,
-            r.var_speedup
-        );
+    let cells: Vec<[String; 12]> = rows.iter().map(|r| r.cells(scene)).collect();
+    let widths: Vec<usize> = (0..COLUMNS.len())
+        .map(|c| {
+            cells
+                .iter()
+                .map(|r| r[c].len())
+                .chain([COLUMNS[c].len()])
+                .max()
+                .unwrap_or(0)
+        })
+        .collect();
+    let line = |row: &[String]| {
+        let fields: Vec<String> = row
+            .iter()
+            .enumerate()
+            .map(|(c, f)| match c {
+                0..=2 => format!("{f:<w$}", w = widths[c]),
+                _ => format!("{f:>w$}", w = widths[c]),
+            })
+            .collect();
+        fields.join(" ").trim_end().to_string() + "\n"
+    };
+    let header: Vec<String> = COLUMNS.iter().map(|c| c.to_string()).collect();
+    let mut s = line(&header);
+    for r in &cells {
+        s.push_str(&line(r));
     }
     s
 }

@@ -54,6 +54,18 @@ pub fn z_same_mean(a: &Image, b: &Image) -> DVec3 {
     DVec3::new(ratio(s.x, s2.x), ratio(s.y, s2.y), ratio(s.z, s2.z))
 }
 
+/// Assert that independent renders `a` and `b` have the same expectation: every channel's
+/// [`z_same_mean`] below 4.5 (false-failure rate about 2e-5 for the three channels).
+pub fn assert_same_mean(a: &Image, b: &Image, what: &str) {
+    let z = z_same_mean(a, b);
+    assert!(
+        z.abs().max_element() < 4.5,
+        "{what}: z = {z}, means {} vs {}",
+        a.mean(),
+        b.mean()
+    );
+}
+
 fn ratio(s: f64, s2: f64) -> f64 {
     if s2 == 0.0 { 0.0 } else { s / s2.sqrt() }
 }

@@ -108,6 +108,11 @@ impl Options {
             })
     }
 
+    /// Whether `key` was given.
+    pub fn has(&self, key: &str) -> bool {
+        self.entries.iter().any(|(k, _, _)| k == key)
+    }
+
     /// Typed value of `key`, or `default` when absent.
     pub fn get<T: std::str::FromStr>(&self, key: &str, default: T, expected: &str) -> Result<T> {
         match self.raw(key) {

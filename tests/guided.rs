@@ -575,10 +575,15 @@ fn bad_guided_options_are_errors() {
         ),
         ("alpha=0", "option 'alpha': expected a number in (0, 1]"),
         ("intake=0", "option 'intake': expected an integer >= 1"),
+        (
+            "kernel_width=2,load_guides=x.guides",
+            "option 'kernel_width' has no effect with load_guides",
+        ),
     ] {
+        let opts: Vec<String> = opt.split(',').map(String::from).collect();
         let params = IntegratorParams {
             max_depth: 6,
-            options: Options::parse(&[opt.to_string()]).unwrap(),
+            options: Options::parse(&opts).unwrap(),
         };
         let err = build("guided-pt", &params)
             .err()

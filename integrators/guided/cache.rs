@@ -107,14 +107,6 @@ pub struct KernelWidths {
     pub first_vertex: f64,
 }
 
-impl KernelWidths {
-    /// The spec's kernels.
-    pub const SPEC: KernelWidths = KernelWidths {
-        regression: 1.0,
-        first_vertex: 1.0,
-    };
-}
-
 impl Default for KernelWidths {
     fn default() -> Self {
         KernelWidths {

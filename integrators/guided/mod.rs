@@ -136,6 +136,14 @@ pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
             return bad(key, "a number > 0", v.to_string());
         }
     }
+    for key in ["kernel_width", "first_width"] {
+        if !load.is_empty() && o.has(key) {
+            return Err(Error::new(format!(
+                "option '{key}' has no effect with load_guides: a loaded cache keeps the \
+                 kernel widths it was learned with"
+            )));
+        }
+    }
     let path = |s: String| (!s.is_empty()).then(|| PathBuf::from(s));
     Ok(Box::new(GuidedPt {
         settings: GuidedSettings {

@@ -46,11 +46,10 @@ fn pt_paths(scene: &Scene, want: usize, seed: u64) -> Vec<Install> {
     let res = scene.camera.resolution;
     let mut i = 0u64;
     while keep.0.len() < want {
+        // Raster positions uniform over the image (in scan order, the first 1k paths would
+        // all come from the top rows).
         let mut s = IndependentSampler::new(seed, 0, i);
-        let raster = glam::Vec2::new(
-            (i % res.x as u64) as f32,
-            ((i / res.x as u64) % res.y as u64) as f32,
-        ) + s.next_2d();
+        let raster = s.next_2d() * glam::Vec2::new(res.x as f32, res.y as f32);
         pt.li_recorded(scene, raster, &mut s, Some(&mut keep));
         i += 1;
     }

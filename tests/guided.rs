@@ -3,7 +3,7 @@
 mod util;
 
 use lodestar::integrators::bdpt;
-use lodestar::integrators::guided::cache::{GuideCache, Install};
+use lodestar::integrators::guided::cache::{self, GuideCache, Install};
 use lodestar::integrators::guided::{GuidedPt, GuidedSettings, contribution, kernel, sampler};
 use lodestar::integrators::pt::PtSettings;
 use lodestar::integrators::pt::{PathRecorder, PathTracer};
@@ -74,7 +74,10 @@ fn cache_of_pt_paths(scene: &Scene, max_depth: u32, n: u64) -> GuideCache {
 /// with along its guide path equals the cache's evaluation of that term from the finished
 /// path, and that the pruned p_g equals the sum over every guide path.
 fn check_sampling_matches_evaluation(name: &str, scene: &Scene, max_depth: u32) {
-    let cache = cache_of_pt_paths(scene, max_depth, 600);
+    check_cache_sampling(name, scene, &cache_of_pt_paths(scene, max_depth, 600));
+}
+
+fn check_cache_sampling(name: &str, scene: &Scene, cache: &GuideCache) {
     assert!(cache.len() > 20, "{name}: only {} guide paths", cache.len());
     let (mut ok, mut loose, mut failed) = (0usize, 0usize, 0usize);
     let mut worst = 0.0f64;
@@ -82,7 +85,7 @@ fn check_sampling_matches_evaluation(name: &str, scene: &Scene, max_depth: u32) 
     let mut reasons = std::collections::BTreeMap::new();
     for i in 0..4000u64 {
         let mut s = IndependentSampler::new(11, 0, i);
-        let g = match sampler::sample_path(scene, &cache, &mut s) {
+        let g = match sampler::sample_path(scene, cache, &mut s) {
             Ok(g) => g,
             Err(e) => {
                 failed += 1;
@@ -143,6 +146,53 @@ fn guided_densities_match_their_evaluation_glossy() {
 #[test]
 fn guided_densities_match_their_evaluation_fog() {
     check_sampling_matches_evaluation("fog box", &scene("cornell-fog.toml", 32, |t| t), 5);
+}
+
+/// Where first vertices are dense, each first-vertex kernel is at most as wide as the distance
+/// to the 10th-nearest other first vertex of its structure (never below a pixel footprint),
+/// and sampling and the pruned p_g still agree exactly with the narrowed kernels.
+#[test]
+fn first_vertex_kernels_narrow_where_guides_are_dense() {
+    let scene = scene("cornell-box.toml", 32, |t| t);
+    let cache = cache_of_pt_paths(&scene, 6, 6000);
+    let cam = &scene.camera;
+    let o = cam.position.as_dvec3();
+    let (mut at_bound, mut dense) = (0usize, 0usize);
+    for l in 0..cache.len() {
+        let g1 = cache.vertex(&scene, l, 1).p.as_dvec3();
+        let (dist, w) = ((g1 - o).length(), (g1 - o).normalize());
+        // Brute force over every guide path of the structure, in l's kernel plane.
+        let mut gaps: Vec<f64> = (0..cache.len())
+            .filter(|&j| j != l && cache.nodes_of(j) == cache.nodes_of(l))
+            .map(|j| {
+                let wj = (cache.vertex(&scene, j, 1).p.as_dvec3() - o).normalize();
+                (o + wj * (dist / wj.dot(w)) - g1).length()
+            })
+            .collect();
+        if gaps.len() < cache::SPACING_RANK {
+            continue;
+        }
+        gaps.sort_by(f64::total_cmp);
+        dense += 1;
+        let footprint = dist * cam.pixel_angle() as f64;
+        let bound = gaps[cache::SPACING_RANK - 1].max(footprint);
+        let sigma1 = cache.guides[l].sigma1 as f64;
+        assert!(
+            sigma1 <= bound * (1.0 + 1e-4),
+            "guide {l}: sigma1 {sigma1} above the spacing bound {bound}"
+        );
+        at_bound += ((sigma1 - bound).abs() <= 1e-4 * bound) as usize;
+    }
+    eprintln!(
+        "{} guide paths, {dense} dense, {at_bound} at the spacing bound",
+        cache.len()
+    );
+    assert!(
+        at_bound * 2 > cache.len(),
+        "only {at_bound} of {} first-vertex kernels narrowed",
+        cache.len()
+    );
+    check_cache_sampling("dense glass box", &scene, &cache);
 }
 
 /// guided-pt (learning inside the render) and pt converge to the same image: per-channel

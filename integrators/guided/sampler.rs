@@ -394,6 +394,17 @@ pub fn sample_path(
             taken = branch_density_w;
             next = At::medium(p, medium);
         } else {
+            // A direction a light at infinity does not emit along (outside the sun's cone) is
+            // a miss whatever the ray would hit: decided before tracing it.
+            if let Node::Emitter {
+                light,
+                reach: Reach::Infinite,
+            } = node
+            {
+                if scene.lights[light as usize].le(Vec3::ZERO, dir) == Vec3::ZERO {
+                    return Err(Failure::Miss);
+                }
+            }
             let (sp, medium) = trace(scene, at.ray(dir), start_medium);
             match (node, sp) {
                 (
@@ -403,9 +414,6 @@ pub fn sample_path(
                     },
                     None,
                 ) => {
-                    if scene.lights[light as usize].le(Vec3::ZERO, dir) == Vec3::ZERO {
-                        return Err(Failure::Miss);
-                    }
                     taken = branch_density_w;
                     next = At::emitter(at.pv.p + dir, dir, light, medium);
                 }

@@ -400,10 +400,9 @@ pub fn sample_path(
                 light,
                 reach: Reach::Infinite,
             } = node
+                && scene.lights[light as usize].le(Vec3::ZERO, dir) == Vec3::ZERO
             {
-                if scene.lights[light as usize].le(Vec3::ZERO, dir) == Vec3::ZERO {
-                    return Err(Failure::Miss);
-                }
+                return Err(Failure::Miss);
             }
             let (sp, medium) = trace(scene, at.ray(dir), start_medium);
             match (node, sp) {

@@ -121,6 +121,15 @@ pub struct KernelWidths {
     pub first_vertex: f64,
 }
 
+impl KernelWidths {
+    /// Both factors finite and positive (what options and saved caches must give).
+    pub fn is_valid(&self) -> bool {
+        [self.regression, self.first_vertex]
+            .iter()
+            .all(|&x| x > 0.0 && x.is_finite())
+    }
+}
+
 impl Default for KernelWidths {
     fn default() -> Self {
         KernelWidths {
@@ -532,6 +541,7 @@ impl GuideCache {
                 )
             })
             .collect();
+        let mut narrowed = false;
         for (l, (nb, kernels, spacing)) in per_guide.into_iter().enumerate() {
             self.guides[l].neighbours = nb;
             self.guides[l].kernels = self.kernels.len() as u32;
@@ -543,10 +553,14 @@ impl GuideCache {
                 let footprint = (self.vertices[g.start as usize].p - scene.camera.position)
                     .length()
                     * pixel_angle;
-                g.sigma1 = g.sigma1.min(d.max(footprint));
+                let sigma1 = g.sigma1.min(d.max(footprint));
+                narrowed |= sigma1 < g.sigma1;
+                g.sigma1 = sigma1;
             }
         }
-        self.build_bvh(scene);
+        if narrowed {
+            self.build_bvh(scene);
+        }
         // Selection probabilities are the weights as given (normalised by the caller; p_g
         // uses exactly these).
         let w: Vec<f64> = self.guides.iter().map(|g| g.weight).collect();

@@ -168,11 +168,7 @@ pub fn load(scene: &Scene, file: &Path) -> Result<GuideCache> {
         regression: r.f64()?,
         first_vertex: r.f64()?,
     };
-    if !(widths.regression > 0.0
-        && widths.regression.is_finite()
-        && widths.first_vertex > 0.0
-        && widths.first_vertex.is_finite())
-    {
+    if !widths.is_valid() {
         return Err(bad(format!("invalid kernel widths {widths:?}")));
     }
     let count = r.u32()? as usize;

@@ -25,7 +25,7 @@ use lodestar::scene::{Scene, loader};
 struct Keep(Vec<Install>);
 
 impl PathRecorder for Keep {
-    fn record(&mut self, path: &Path, _: usize, density: f64, other: f64) {
+    fn record(&mut self, path: &Path, _: glam::DVec3, _: usize, density: f64, other: f64) {
         if path.segments() >= 2 && path.f != glam::Vec3::ZERO {
             self.0.push((
                 path.vertices().to_vec(),

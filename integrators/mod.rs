@@ -5,6 +5,7 @@
 pub mod bdpt;
 pub mod guided;
 pub mod pt;
+pub mod unguided;
 pub mod vcm;
 
 use crate::error::{Error, Result};
@@ -39,7 +40,12 @@ pub static REGISTRY: &[Entry] = &[
     Entry {
         name: "guided-pt",
         summary: "selective guided sampling with complete guide paths (Reibold et al. 2018), mixed with pt",
-        build: guided::build,
+        build: guided::build_pt,
+    },
+    Entry {
+        name: "guided-bdpt",
+        summary: "selective guided sampling with complete guide paths, mixed with bdpt (balance heuristic over all techniques)",
+        build: guided::build_bdpt,
     },
     Entry {
         name: "bdpt",

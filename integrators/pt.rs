@@ -39,7 +39,7 @@ use crate::render::{
     Budget, Integrator, PixelEstimator, RenderContext, RenderResult, render_pixel_estimator,
 };
 use crate::scene::{Endpoint, Scene, SurfacePoint};
-use glam::{Vec2, Vec3};
+use glam::{DVec3, Vec2, Vec3};
 
 /// How emitters are reached.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -512,13 +512,14 @@ impl PathTracer {
 
 /// Receives the complete paths `pt` forms (for guiding, and for tests of `pdf_unguided`).
 pub trait PathRecorder {
-    /// `path` runs from the camera to an emitter, with f(X) (the unweighted estimate times
-    /// `density`) and its pixel; `technique` is 0 when the path's continuation hit the emitter
+    /// `path` runs from the camera to an emitter, with its pixel; `f` is f(X) (the unweighted
+    /// estimate times `density`) in f64 (`path.f` holds it rounded to f32, which underflows on
+    /// long paths in small scenes); `technique` is 0 when the path's continuation hit the emitter
     /// and 1 for next-event estimation; `density` is the density pt sampled the path with
     /// (image-wide, in the area / volume / solid-angle measure of DESIGN.md §3, roulette and
     /// free flight included); `other` is the density of pt's other technique for the same
     /// path, so `density + other` is `pdf_unguided(path)`.
-    fn record(&mut self, path: &Path, technique: usize, density: f64, other: f64);
+    fn record(&mut self, path: &Path, f: DVec3, technique: usize, density: f64, other: f64);
 }
 
 /// The path being traced, with its density so far, while recording.
@@ -602,9 +603,10 @@ impl<'r> Recording<'r> {
         if !self.path.push(v) {
             return;
         }
-        self.path.f = estimate * density as f32;
+        let f = estimate.as_dvec3() * density;
+        self.path.f = f.as_vec3();
         self.sink
-            .record(&self.path, technique, density, self.density * other);
+            .record(&self.path, f, technique, density, self.density * other);
         self.path.pop();
     }
 }

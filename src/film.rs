@@ -254,6 +254,13 @@ impl Film {
 
     /// Add splats in the given order (callers merge per-chunk lists in chunk order, so the
     /// result does not depend on the thread count).
+    /// Splats in f64 (the guider's values).
+    pub fn add_splats64(&mut self, splats: &[(u32, glam::DVec3)]) {
+        for (i, v) in splats {
+            self.splat[*i as usize] += *v;
+        }
+    }
+
     pub fn add_splats(&mut self, splats: &[(u32, Spectrum)]) {
         for (i, v) in splats {
             self.splat[*i as usize] += v.as_dvec3();

@@ -23,24 +23,26 @@ fn scene(name: &str, res: u32, edit: impl Fn(String) -> String) -> Scene {
     )))
 }
 
-fn settings(max_depth: u32, learn_fraction: f64) -> GuidedSettings {
+fn settings(learn_fraction: f64) -> GuidedSettings {
     GuidedSettings {
-        pt: PtSettings {
-            max_depth,
-            rr_depth: 5,
-            ..PtSettings::default()
-        },
         learn_fraction,
         ..GuidedSettings::default()
     }
 }
 
+/// guided-pt of `max_depth` (roulette from 5 segments).
+fn guided_pt(max_depth: u32, settings: GuidedSettings, cache: Option<GuideCache>) -> GuidedPt {
+    let pt = PtSettings {
+        max_depth,
+        rr_depth: 5,
+        ..PtSettings::default()
+    };
+    GuidedPt::new(pt, settings, cache)
+}
+
 /// Learn a cache: `spp` passes of which all but the last are learning iterations.
 fn learn(scene: &Scene, max_depth: u32, spp: u64, seed: u64) -> GuideCache {
-    let mut g = GuidedPt {
-        settings: settings(max_depth, 1.0 - 1.0 / spp as f64),
-        cache: None,
-    };
+    let mut g = guided_pt(max_depth, settings(1.0 - 1.0 / spp as f64), None);
     let ctx = RenderContext::new(scene, seed, false);
     g.render(&ctx, Budget::Spp(spp));
     g.cache.take().expect("a cache")
@@ -51,7 +53,7 @@ fn learn(scene: &Scene, max_depth: u32, spp: u64, seed: u64) -> GuideCache {
 fn cache_of_pt_paths(scene: &Scene, max_depth: u32, n: u64) -> GuideCache {
     struct Keep(Vec<Install>);
     impl PathRecorder for Keep {
-        fn record(&mut self, path: &Path, _: usize, density: f64, other: f64) {
+        fn record(&mut self, path: &Path, _: glam::DVec3, _: usize, density: f64, other: f64) {
             if path.segments() >= 2 && path.f != glam::Vec3::ZERO {
                 let f = lodestar::math::luminance(path.f);
                 self.0
@@ -244,13 +246,14 @@ fn guided_vs_reference_z(
 
         cache.skip_in_pdf = Some(most);
     }
-    let mut g = GuidedPt {
-        settings: GuidedSettings {
+    let mut g = guided_pt(
+        max_depth,
+        GuidedSettings {
             alpha,
-            ..settings(max_depth, 0.0)
+            ..settings(0.0)
         },
-        cache: Some(cache),
-    };
+        Some(cache),
+    );
     let ctx = RenderContext::new(scene, 9, false);
     let guided = g.render(&ctx, Budget::Spp(spp));
     let z = if region.is_empty() {
@@ -339,13 +342,14 @@ fn guided_vs_bdpt_t(scene: &Scene, cache: &GuideCache, alpha: f64, broken: bool)
         if broken {
             c.skip_in_pdf = Some(0);
         }
-        let mut integ = GuidedPt {
-            settings: GuidedSettings {
+        let mut integ = guided_pt(
+            6,
+            GuidedSettings {
                 alpha,
-                ..settings(6, 0.0)
+                ..settings(0.0)
             },
-            cache: Some(c),
-        };
+            Some(c),
+        );
         let ctx = RenderContext::new(scene, seed, false);
         g.push(integ.render(&ctx, Budget::Spp(32)).image.mean());
         r.push(
@@ -404,20 +408,18 @@ fn contribution_matches_pt() {
         bad: Vec<String>,
     }
     impl PathRecorder for Check<'_> {
-        fn record(&mut self, path: &Path, technique: usize, _: f64, _: f64) {
-            if path.f == glam::Vec3::ZERO {
+        fn record(&mut self, path: &Path, f_pt: glam::DVec3, technique: usize, _: f64, _: f64) {
+            if f_pt == glam::DVec3::ZERO {
                 return;
             }
             let y = bdpt::from_path(self.scene, path).unwrap();
             let f = contribution::contribution(self.scene, &y, 0);
-            let rel =
-                ((f - path.f).abs() / path.f.abs().max(glam::Vec3::splat(1e-30))).max_element();
+            let rel = ((f - f_pt).abs() / f_pt.abs().max(glam::DVec3::splat(1e-300))).max_element();
             self.n += 1;
             if rel > 2e-3 && self.bad.len() < 4 {
                 self.bad.push(format!(
-                    "k {} technique {technique}: pt {} vs {f}",
+                    "k {} technique {technique}: pt {f_pt} vs {f}",
                     path.segments(),
-                    path.f
                 ));
             }
         }
@@ -548,7 +550,7 @@ fn kernel_pixels(scene: &Scene, cache: &GuideCache, l: usize) -> Vec<usize> {
 fn twin_caustic_cache(scene: &Scene, single: bool) -> GuideCache {
     struct First(Option<Install>);
     impl PathRecorder for First {
-        fn record(&mut self, path: &Path, _: usize, density: f64, other: f64) {
+        fn record(&mut self, path: &Path, _: glam::DVec3, _: usize, density: f64, other: f64) {
             let v = path.vertices();
             let caustic = v.len() == 5
                 && matches!(v[1].kind, VertexKind::Surface { delta: false, .. })

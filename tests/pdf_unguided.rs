@@ -49,7 +49,7 @@ struct Collect<'a> {
 }
 
 impl PathRecorder for Collect<'_> {
-    fn record(&mut self, path: &Path, technique: usize, density: f64, other: f64) {
+    fn record(&mut self, path: &Path, _f: glam::DVec3, technique: usize, density: f64, other: f64) {
         let s = &self.pt.settings;
         let (p, k) = bdpt::technique_densities_of(self.scene, path, s.max_depth, s.rr_depth)
             .expect("a complete path within max_depth");

@@ -34,6 +34,7 @@ pub use strategies::{Heuristic, PathTerms};
 pub use vertex::{Kind, Vertex};
 
 use super::IntegratorParams;
+use super::unguided::PathSink;
 use crate::bsdf::TransportMode;
 use crate::error::{Error, Result};
 use crate::geometry::gamma;
@@ -148,6 +149,22 @@ pub struct Tracer<'a> {
     densities: [f64; MAX_VERTICES],
     pub splats: Vec<(u32, Spectrum)>,
     pub inspector: Option<std::cell::RefCell<Inspector<'a>>>,
+    /// Recording mode ([`Tracer::sample_recorded`]): the weight functions leave the path they
+    /// weigh in `joined` and its densities in `pending`, and return 1 (the raw estimate).
+    recording: bool,
+    pending: Option<Pending>,
+    joined: Vec<Vertex<'a>>,
+    path_buf: Path,
+    /// Pixel of the sample being traced.
+    pixel: u32,
+}
+
+/// Densities of the path a weight function saw in recording mode: its own technique's and
+/// the sum over every technique (BDPT's `pdf_unguided` of the path).
+#[derive(Clone, Copy)]
+struct Pending {
+    p_s: f64,
+    p_u: f64,
 }
 
 /// The densities across the connection edge y_{t-1} - y_t of technique (s, t), each in the
@@ -179,13 +196,86 @@ impl<'a> Tracer<'a> {
             densities: [0.0; MAX_VERTICES],
             splats: Vec::new(),
             inspector: None,
+            recording: false,
+            pending: None,
+            joined: Vec::with_capacity(n),
+            path_buf: Path::default(),
+            pixel: 0,
         }
+    }
+
+    /// One BDPT sample that weighs nothing itself: every complete path a technique forms goes
+    /// to `sink` with f(X) (the technique's raw estimate times its density), the sum of every
+    /// technique's density (`p_u`) and its pixel. The sink forms the weight, e.g. the balance
+    /// heuristic over BDPT's techniques and a guided technique (`integrators::unguided`).
+    pub fn sample_recorded(
+        &mut self,
+        raster: Vec2,
+        sampler: &mut impl Sampler,
+        sink: &mut dyn PathSink,
+    ) {
+        self.recording = true;
+        self.run(raster, sampler, Some(sink));
+        self.recording = false;
+        self.splats.clear();
+    }
+
+    /// Recording mode: keep the path `vertices` (camera first) weighed as technique `s`; the
+    /// raw estimate is returned by the technique and handed on by `deliver`.
+    fn hold<'v>(&mut self, vertices: impl Iterator<Item = &'v Vertex<'a>>, s: usize) -> f64
+    where
+        'a: 'v,
+    {
+        let k = self.terms.k;
+        self.terms.technique_densities(&mut self.densities);
+        let p_s = self.densities[s];
+        let p_u: f64 = self.densities[..=k].iter().sum();
+        self.pending = None;
+        if !(p_s > 0.0 && p_s.is_finite() && p_u.is_finite()) {
+            return 0.0;
+        }
+        self.joined.clear();
+        self.joined.extend(vertices.copied());
+        self.pending = Some(Pending { p_s, p_u });
+        1.0
+    }
+
+    /// Hand the path held by the last weight function, whose raw estimate is `value`, to
+    /// `sink` (recording mode); `pixel` is where it lands (`None`: the traced pixel).
+    fn deliver(&mut self, value: Spectrum, pixel: Option<u32>, sink: &mut (dyn PathSink + '_)) {
+        let Some(p) = self.pending.take() else {
+            return;
+        };
+        if value == Spectrum::ZERO {
+            return;
+        }
+        let f = value.as_dvec3() * p.p_s;
+        let pixel_of_x1 = pixel.unwrap_or(self.pixel);
+        to_path_into(&self.joined, f.as_vec3(), pixel_of_x1, &mut self.path_buf);
+        sink.record(
+            &self.path_buf,
+            Some(&self.joined),
+            f,
+            p.p_u,
+            pixel.is_some(),
+        );
     }
 
     /// One BDPT sample: returns the value for the pixel at `raster` (t >= 2) and pushes the
     /// light-tracing contributions (t = 1) to `splats`.
     pub fn sample(&mut self, raster: Vec2, sampler: &mut impl Sampler) -> Spectrum {
+        self.run(raster, sampler, None)
+    }
+
+    /// The sample loop: with `sink`, paths go there (recording mode) and the return is zero.
+    fn run<'k>(
+        &mut self,
+        raster: Vec2,
+        sampler: &mut impl Sampler,
+        mut sink: Option<&mut (dyn PathSink + 'k)>,
+    ) -> Spectrum {
         let (scene, st) = (self.scene, self.settings);
+        self.pixel = scene.camera.pixel_index(raster) as u32;
         let max_depth = st.max_depth as usize;
         let mut camera = std::mem::take(&mut self.camera);
         let mut light = std::mem::take(&mut self.light);
@@ -223,18 +313,27 @@ impl<'a> Tracer<'a> {
                     continue;
                 }
                 if s == 0 {
-                    l += self.hit_emitter(&camera[..t], &cc[..t]);
+                    l += self.hit_emitter(&camera[..t], &cc[..t], sink.as_deref_mut());
                 } else if t == 1 {
                     if let Some((raster, c)) =
                         self.connect_camera(&camera[..1], &cc[..1], &light[..s], &lc[..s])
                     {
-                        self.splats
-                            .push((scene.camera.pixel_index(raster) as u32, c));
+                        let pixel = scene.camera.pixel_index(raster) as u32;
+                        match sink.as_deref_mut() {
+                            Some(sink) => self.deliver(c, Some(pixel), sink),
+                            None => self.splats.push((pixel, c)),
+                        }
                     }
-                } else if s == 1 {
-                    l += self.next_event(&camera[..t], &cc[..t], sampler);
                 } else {
-                    l += self.connect(&camera[..t], &cc[..t], &light[..s], &lc[..s]);
+                    let c = if s == 1 {
+                        self.next_event(&camera[..t], &cc[..t], sampler)
+                    } else {
+                        self.connect(&camera[..t], &cc[..t], &light[..s], &lc[..s])
+                    };
+                    match sink.as_deref_mut() {
+                        Some(sink) => self.deliver(c, None, sink),
+                        None => l += c,
+                    }
                 }
             }
         }
@@ -245,23 +344,33 @@ impl<'a> Tracer<'a> {
         l
     }
 
-    /// s = 0: the last camera vertex is on an emitter (or at infinity).
-    fn hit_emitter(&mut self, c: &[Vertex<'a>], cc: &[Cached]) -> Spectrum {
+    /// s = 0: the last camera vertex is on an emitter (or at infinity). With `sink`
+    /// (recording mode) each emitter's path goes there and the return is zero.
+    fn hit_emitter<'k>(
+        &mut self,
+        c: &[Vertex<'a>],
+        cc: &[Cached],
+        mut sink: Option<&mut (dyn PathSink + 'k)>,
+    ) -> Spectrum {
         let scene = self.scene;
         let t = c.len();
         let y = &c[t - 1];
         let prev = c[t - 2].p;
         let mut sum = Spectrum::ZERO;
-        let mut add = |light: usize, le: Spectrum, emitter: Vertex<'a>| {
+        let mut add = |tracer: &mut Self, light: usize, le: Spectrum, emitter: Vertex<'a>| {
             if le == Spectrum::ZERO {
                 return;
             }
-            let w = if self.settings.light_tracing {
+            let w = if tracer.settings.light_tracing {
                 1.0
             } else {
-                self.weight_emitter_hit(c, cc, &emitter, light)
+                tracer.weight_emitter_hit(c, cc, &emitter, light)
             };
-            sum += y.beta * le * w as f32;
+            let value = y.beta * le * w as f32;
+            match sink.as_deref_mut() {
+                Some(sink) => tracer.deliver(value, None, sink),
+                None => sum += value,
+            }
         };
         match y.kind {
             Kind::Light { .. } => {
@@ -269,6 +378,7 @@ impl<'a> Tracer<'a> {
                 for &li in &scene.infinite_lights {
                     let le = scene.lights[li].le(Vec3::ZERO, y.n);
                     add(
+                        self,
                         li,
                         le,
                         Vertex {
@@ -283,6 +393,7 @@ impl<'a> Tracer<'a> {
                     let li = li as usize;
                     let le = scene.lights[li].le(y.n, (prev - y.p).normalize());
                     add(
+                        self,
                         li,
                         le,
                         Vertex {
@@ -554,7 +665,11 @@ impl<'a> Tracer<'a> {
             s,
             terms,
         );
-        terms.weight_with(s, self.settings.heuristic, &mut self.densities)
+        if self.recording {
+            return self.hold(c.iter().chain(lp.iter().rev()), s);
+        }
+        self.terms
+            .weight_with(s, self.settings.heuristic, &mut self.densities)
     }
 
     fn inspect(&self, path: impl FnOnce() -> Vec<Vertex<'a>>, s: usize, terms: &PathTerms) {
@@ -609,7 +724,11 @@ impl<'a> Tracer<'a> {
             0,
             terms,
         );
-        terms.weight_with(0, self.settings.heuristic, &mut self.densities)
+        if self.recording {
+            return self.hold(c[..k].iter().chain(std::iter::once(emitter)), 0);
+        }
+        self.terms
+            .weight_with(0, self.settings.heuristic, &mut self.densities)
     }
 }
 
@@ -779,6 +898,13 @@ pub fn from_path<'a>(scene: &'a Scene, path: &Path) -> Option<Vec<Vertex<'a>>> {
 /// BDPT vertices as a `Path` (camera first) with contribution f(X) and pixel.
 pub fn to_path(vertices: &[Vertex], f: Spectrum, pixel: u32) -> Path {
     let mut path = Path::default();
+    to_path_into(vertices, f, pixel, &mut path);
+    path
+}
+
+/// [`to_path`] into an existing path (no fresh 64-vertex array per call).
+pub fn to_path_into(vertices: &[Vertex], f: Spectrum, pixel: u32, path: &mut Path) {
+    path.clear();
     for v in vertices {
         let (kind, ns) = match v.kind {
             Kind::Camera => (VertexKind::Camera, Vec3::ZERO),
@@ -808,7 +934,6 @@ pub fn to_path(vertices: &[Vertex], f: Spectrum, pixel: u32) -> Path {
     }
     path.f = f;
     path.pixel = pixel;
-    path
 }
 
 /// Emitted radiance (area lights; intensity for point and spot lights) towards `w`.

@@ -219,9 +219,19 @@ impl GuideCache {
     }
 
     /// Pick a guide path by weight (alias table); returns it and its probability.
-    pub fn select(&self, u1: f32, u2: f32) -> (usize, f64) {
+    pub fn select(&self, u1: f64, u2: f64) -> (usize, f64) {
         let l = self.alias.sample(u1, u2);
         (l, self.alias.pmf(l))
+    }
+
+    /// Probability that [`Self::select`] picks guide `l`: the one selection pmf, which p_g
+    /// uses too (`Guide::weight` is set to it by `install`).
+    pub fn selection_pmf(&self, l: usize) -> f64 {
+        if self.alias.is_empty() {
+            0.0
+        } else {
+            self.alias.pmf(l)
+        }
     }
 
     /// Bytes held by the cache, per guide path (headers, vertices, nodes, kernels, BVH order).
@@ -561,10 +571,19 @@ impl GuideCache {
         if narrowed {
             self.build_bvh(scene);
         }
-        // Selection probabilities are the weights as given (normalised by the caller; p_g
-        // uses exactly these).
+        // One source of truth for the selection pmf: the alias table normalises the weights
+        // of the guide paths that were installed (a path without structure is dropped above,
+        // so the given weights need not sum to 1 any more), and p_g weighs each guide by
+        // exactly that pmf.
         let w: Vec<f64> = self.guides.iter().map(|g| g.weight).collect();
         self.alias = AliasTable::new(&w);
+        for (l, g) in self.guides.iter_mut().enumerate() {
+            g.weight = if self.alias.is_empty() {
+                0.0
+            } else {
+                self.alias.pmf(l)
+            };
+        }
     }
 
     /// Box of guide `l`'s first-vertex kernel support (truncation radius R).

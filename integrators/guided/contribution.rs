@@ -5,20 +5,23 @@
 //! where `G_end` is `|cos| / d²` at the segment's far end (`1 / d²` at medium points, 1 for
 //! lights at infinity). Delta lights contribute their incident radiance at `x_{k-1}`
 //! (intensity / d², or irradiance for a directional light) in place of `G_end · Le`.
+//!
+//! The product is formed in f64: in a centimetre-scale scene a long path's `Π 1/d²` and its
+//! densities leave f32's range, and an underflow to 0 would silently drop the path.
 
 use crate::bsdf::{Bsdf, ShadingFrame, TransportMode};
 use crate::integrators::bdpt::{Kind, Vertex, endpoint, medium_towards};
 use crate::math::Spectrum;
 use crate::scene::Scene;
-use glam::{Vec2, Vec3};
+use glam::{DVec3, Vec2, Vec3};
 
 /// f(X) of path `y` (camera first, a light last). Segments whose bit is set in
 /// `known_visible` were found by tracing and skip the visibility test in scenes without media;
 /// all others are tested (and attenuated in media). Zero if a segment is blocked.
-pub fn contribution(scene: &Scene, y: &[Vertex], known_visible: u64) -> Spectrum {
+pub fn contribution(scene: &Scene, y: &[Vertex], known_visible: u64) -> DVec3 {
     let k = y.len() - 1;
     let Kind::Light { light } = y[k].kind else {
-        return Spectrum::ZERO;
+        return DVec3::ZERO;
     };
     let lt = &scene.lights[light];
     let dir_to = |j: usize| -> Vec3 {
@@ -29,7 +32,7 @@ pub fn contribution(scene: &Scene, y: &[Vertex], known_visible: u64) -> Spectrum
         }
     };
     let w0 = dir_to(0);
-    let mut f = Spectrum::splat(scene.camera.we(w0) * w0.dot(scene.camera.forward));
+    let mut f = DVec3::splat(scene.camera.we(w0) as f64 * w0.dot(scene.camera.forward) as f64);
     let mut medium = scene.camera_medium;
     for j in 0..k {
         let d = dir_to(j);
@@ -42,9 +45,9 @@ pub fn contribution(scene: &Scene, y: &[Vertex], known_visible: u64) -> Spectrum
         if scene.features.media || !visible {
             let end = (!y[j + 1].is_infinite_light(scene)).then(|| endpoint(&y[j + 1]));
             let Some(tr) = scene.transmittance(&endpoint(&y[j]), end.as_ref(), d, start) else {
-                return Spectrum::ZERO;
+                return DVec3::ZERO;
             };
-            f *= tr.tr;
+            f *= tr.tr.as_dvec3();
             medium = tr.end_medium;
         }
         if j >= 1 {
@@ -58,28 +61,29 @@ pub fn contribution(scene: &Scene, y: &[Vertex], known_visible: u64) -> Spectrum
                     delta_throughput(bsdf, &frame, y[j - 1].p - y[j].p, next - y[j].p)
                 }
                 _ => y[j].f(scene, y[j - 1].p, next, TransportMode::Radiance),
-            };
+            }
+            .as_dvec3();
         }
         if j + 1 == k && lt.is_delta() {
             let Some(ls) = lt.sample_li(y[k - 1].p, Vec2::splat(0.5)) else {
-                return Spectrum::ZERO;
+                return DVec3::ZERO;
             };
-            return f * ls.li;
+            return f * ls.li.as_dvec3();
         }
         if !y[j + 1].is_infinite_light(scene) {
-            let dv = y[j + 1].p - y[j].p;
+            let dv = (y[j + 1].p - y[j].p).as_dvec3();
             let d2 = dv.length_squared();
             let cos = if y[j + 1].n == Vec3::ZERO || y[j + 1].is_medium() {
                 1.0
             } else {
-                y[j + 1].n.dot(dv).abs() / d2.sqrt()
+                y[j + 1].n.as_dvec3().dot(dv).abs() / d2.sqrt()
             };
             f *= cos / d2;
         }
         if let Kind::Medium { medium: m } = y[j + 1].kind {
-            f *= scene.media[m as usize].sigma_s;
+            f *= scene.media[m as usize].sigma_s.as_dvec3();
         }
-        if f == Spectrum::ZERO {
+        if f == DVec3::ZERO {
             return f;
         }
     }
@@ -88,7 +92,7 @@ pub fn contribution(scene: &Scene, y: &[Vertex], known_visible: u64) -> Spectrum
     } else {
         lt.le(y[k].n, (y[k - 1].p - y[k].p).normalize())
     };
-    f * le
+    f * le.as_dvec3()
 }
 
 /// `f_s |cos|` of a specular vertex with the Dirac left out (the measure of DESIGN.md §3):

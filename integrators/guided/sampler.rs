@@ -179,7 +179,7 @@ pub fn sample_path(
     cache: &GuideCache,
     sampler: &mut impl Sampler,
 ) -> Result<GuidedSample, Failure> {
-    let (l, _) = cache.select(sampler.next_1d(), sampler.next_1d());
+    let (l, _) = cache.select(sampler.next_f64(), sampler.next_f64());
     let guide = cache.guides[l];
     let len = guide.len as usize;
     let x0 = scene.camera.position;

@@ -135,6 +135,7 @@ impl Accel {
 
     /// Closest hit along the ray; returns the hit and the barycentrics (b1, b2) for triangles.
     pub fn intersect(&self, ray: &Ray, shapes: &[ShapeGeometry]) -> Option<Hit> {
+        count_ray();
         let bvh = self.bvh.as_ref()?;
         let r = obvhs::ray::Ray::new(Vec3A::from(ray.o), canonical_dir(ray.d), 0.0, ray.t_max);
         let mut hit = RayHit::none();
@@ -156,6 +157,7 @@ impl Accel {
 
     /// True if nothing blocks the open segment from `o` along unit `d` up to `dist`.
     pub fn unoccluded(&self, o: Vec3, d: Vec3, dist: f32) -> bool {
+        count_ray();
         let Some(bvh) = self.bvh.as_ref() else {
             return true;
         };
@@ -165,6 +167,23 @@ impl Accel {
             intersect_prim(&prims[i], r.origin, r.direction, r.tmax).0
         })
     }
+}
+
+thread_local! {
+    static RAYS: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
+}
+
+#[inline]
+fn count_ray() {
+    RAYS.with(|r| r.set(r.get() + 1));
+}
+
+/// Rays (closest-hit and occlusion) the calling thread has traced so far. Differences of two
+/// readings on one thread count the rays of the work in between: a deterministic measure of
+/// cost (the guider compares its techniques' costs with it, where wall time would make the
+/// image depend on the machine's load).
+pub fn rays_traced() -> u64 {
+    RAYS.with(|r| r.get())
 }
 
 /// A visibility test between two surface points, each offset off its own surface.

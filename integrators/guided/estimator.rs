@@ -1,0 +1,311 @@
+//! The guided estimator of one pass: the unguided technique U and the guided technique G
+//! combined by the balance heuristic (DESIGN.md §3, §5).
+//!
+//! A pass draws `n_u` samples of U (one per pixel) and `n_g = n_u (1 − α) / α` guided paths.
+//! Every complete path X that either side forms adds
+//!
+//! ```text
+//!     f(X) / (n_u p_u(X) + n_g p_g(X)) · N_pix  =  f(X) / (p_u(X) + (n_g / n_u) p_g(X))
+//! ```
+//!
+//! to the pixel of x_1, where `p_u` is U's `pdf_unguided` (the sum over its own techniques)
+//! and `p_g` the guided density of the frozen cache. With `n_g = 0` (empty cache, or a share
+//! that turned guiding off) nothing of G is evaluated and the estimator is U's own.
+//!
+//! `p_u` has one source wherever it matters: a path U reports carries U's own density sum; when
+//! its `p_g` is non-zero (so the guided technique could have made it too), `p_u` is
+//! recomputed with `pdf_unguided`, the function guided paths use, so that the weights of all
+//! techniques that can form X come from the same numbers and sum to one.
+
+use super::cache::{GuideCache, Record};
+use super::seeder::{Candidate, LearnRow};
+use super::{contribution, kernel, sampler};
+use crate::integrators::bdpt::{self, Vertex};
+use crate::integrators::unguided::{PathSink, Unguided};
+use crate::math::{Sampler, luminance};
+use crate::path::{MAX_VERTICES, Path};
+use crate::scene::Scene;
+use glam::DVec3;
+
+/// Names of [`Stats::reasons`], in order.
+pub const FAILURE_REASONS: &str = "offimage_miss_structure_scatter_occluded_zero_edge_nonfinite";
+/// Index of the reasons that are not [`sampler::Failure`]s.
+const ZERO: usize = 5;
+const EDGE: usize = 6;
+const NON_FINITE: usize = 7;
+
+/// Counters of one or more passes.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct Stats {
+    pub guided: u64,
+    pub failed: u64,
+    /// Failures by reason ([`FAILURE_REASONS`]): off the image, missed / wrong vertex,
+    /// structure (mode), scatter, occluded medium target, zero contribution, own guide's term
+    /// zero on re-evaluation (a truncation edge), non-finite value.
+    pub reasons: [u64; 8],
+    pub pg_evaluations: u64,
+    pub pg_candidates: u64,
+    /// Unguided paths dropped for a non-finite or negative value.
+    pub invalid: u64,
+    /// Rays traced by the unguided and the guided technique (the share's cost measure).
+    pub rays_u: u64,
+    pub rays_g: u64,
+}
+
+impl Stats {
+    pub fn add(&mut self, o: &Stats) {
+        self.guided += o.guided;
+        self.failed += o.failed;
+        self.pg_evaluations += o.pg_evaluations;
+        self.pg_candidates += o.pg_candidates;
+        self.invalid += o.invalid;
+        self.rays_u += o.rays_u;
+        self.rays_g += o.rays_g;
+        for (a, b) in self.reasons.iter_mut().zip(o.reasons) {
+            *a += b;
+        }
+    }
+
+    fn fail(&mut self, reason: usize) {
+        self.failed += 1;
+        self.reasons[reason] += 1;
+    }
+}
+
+/// A successful guided sample.
+pub struct GuidedValue {
+    pub pixel: u32,
+    pub value: DVec3,
+    /// Guide path followed.
+    pub guide: usize,
+    pub record: Option<Record>,
+}
+
+/// The estimator of one pass: cache, split and densities.
+pub struct Estimator<'a, U: Unguided> {
+    pub scene: &'a Scene,
+    pub unguided: &'a U,
+    pub cache: &'a GuideCache,
+    /// Unguided share α of this pass (1: no guided samples).
+    pub alpha: f64,
+    /// Unguided samples per pass (one per pixel) and guided paths per pass.
+    pub n_u: f64,
+    pub n_g: f64,
+}
+
+impl<'a, U: Unguided> Estimator<'a, U> {
+    /// The estimator with unguided share `alpha` (taken as 1 with an empty cache).
+    pub fn new(scene: &'a Scene, unguided: &'a U, cache: &'a GuideCache, alpha: f64) -> Self {
+        let alpha = if cache.is_empty() { 1.0 } else { alpha };
+        let n_u = unguided.samples_per_pass(scene);
+        Estimator {
+            scene,
+            unguided,
+            cache,
+            alpha,
+            n_u,
+            n_g: (n_u * (1.0 - alpha) / alpha).round(),
+        }
+    }
+
+    /// `(p_u, p_g)` of a path U reported with density sum `p_u` (see the module doc for when
+    /// `p_u` is recomputed). `y` is the path as BDPT vertices if the caller has them;
+    /// `scratch` holds the BVH candidates (reused, no allocation per path).
+    pub fn densities(
+        &self,
+        path: &Path,
+        y: Option<&[Vertex]>,
+        p_u: f64,
+        stats: &mut Stats,
+        scratch: &mut Vec<u32>,
+    ) -> (f64, f64) {
+        if self.n_g == 0.0 {
+            return (p_u, 0.0);
+        }
+        // The hash alone (no allocation) rejects every path whose structure the cache lacks.
+        match kernel::signature(self.scene, path, MAX_VERTICES) {
+            Some(sig) if self.cache.holds(sig) => {}
+            _ => return (p_u, 0.0),
+        }
+        let Some((sig, nodes)) = kernel::structure(self.scene, path, MAX_VERTICES) else {
+            return (p_u, 0.0);
+        };
+        let owned;
+        let y = match y {
+            Some(y) => y,
+            None => match bdpt::from_path(self.scene, path) {
+                Some(v) => {
+                    owned = v;
+                    &owned
+                }
+                None => return (p_u, 0.0),
+            },
+        };
+        let (p_g, n) = self.cache.pdf(self.scene, y, sig, &nodes, scratch);
+        stats.pg_evaluations += 1;
+        stats.pg_candidates += n as u64;
+        if p_g > 0.0 {
+            (self.unguided.pdf_unguided(self.scene, y), p_g)
+        } else {
+            (p_u, 0.0)
+        }
+    }
+
+    /// The denominator of a contribution, `(n_u p_u + n_g p_g) / N_pix`: densities are
+    /// image-wide and a pixel's measurement carries the factor N_pix (one unguided sample per
+    /// pixel and pass gives the usual `f / p_u`).
+    pub fn mix(&self, p_u: f64, p_g: f64) -> f64 {
+        p_u + (self.n_g / self.n_u) * p_g
+    }
+
+    /// The selection value `C = f / (α p_u + (1 − α) p_g)` of a path (luminance of f).
+    pub fn c(&self, f_lum: f64, p_u: f64, p_g: f64) -> f64 {
+        f_lum / (self.alpha * p_u + (1.0 - self.alpha) * p_g)
+    }
+
+    /// One guided sample from stream `sampler`: its pixel and value when it succeeds.
+    pub fn guided(
+        &self,
+        sampler: &mut impl Sampler,
+        want_record: bool,
+        stats: &mut Stats,
+        scratch: &mut Vec<u32>,
+    ) -> Option<GuidedValue> {
+        stats.guided += 1;
+        let g = match sampler::sample_path(self.scene, self.cache, sampler) {
+            Ok(g) => g,
+            Err(e) => {
+                stats.fail(e as usize);
+                return None;
+            }
+        };
+        let Some(y) = bdpt::from_path(self.scene, &g.path) else {
+            stats.fail(sampler::Failure::Structure as usize);
+            return None;
+        };
+        let k = y.len() - 1;
+        let last_delta = matches!(
+            y[k].kind,
+            bdpt::Kind::Light { light } if self.scene.lights[light].is_delta()
+        );
+        let visible = if last_delta {
+            (1u64 << (k - 1)) - 1
+        } else {
+            u64::MAX
+        };
+        let f = contribution::contribution(self.scene, &y, visible);
+        if f == DVec3::ZERO {
+            stats.fail(ZERO);
+            return None;
+        }
+        // Sampling drew the path from the guide's Gaussians with f64 points; evaluation sees
+        // the f32 hit points. Where the two fall on different sides of a truncation edge the
+        // path's own term is 0: such a sample is a failure (value 0), so that what is kept is
+        // exactly where the evaluated density is positive.
+        if self.cache.pdf_given(self.scene, g.guide, &y) == 0.0 {
+            stats.fail(EDGE);
+            return None;
+        }
+        let p_u = self.unguided.pdf_unguided(self.scene, &y);
+        let (sig, nodes) = kernel::structure(self.scene, &g.path, MAX_VERTICES)?;
+        let (p_g, n) = self.cache.pdf(self.scene, &y, sig, &nodes, scratch);
+        stats.pg_evaluations += 1;
+        stats.pg_candidates += n as u64;
+        let value = f / self.mix(p_u, p_g);
+        if !(value.is_finite() && value.min_element() >= 0.0) {
+            stats.fail(NON_FINITE);
+            return None;
+        }
+        let record = want_record.then(|| {
+            let f_lum = luminance(f.as_vec3()) as f64;
+            Record {
+                vertices: g.path.vertices().to_vec(),
+                f: f_lum as f32,
+                p_u,
+                c: self.c(f_lum, p_u, p_g),
+            }
+        });
+        Some(GuidedValue {
+            pixel: g.path.pixel,
+            value,
+            guide: g.guide,
+            record,
+        })
+    }
+}
+
+/// What one row of a pass produces besides its pixels' unguided sums.
+#[derive(Default)]
+pub struct RowOutput {
+    pub splats: Vec<(u32, DVec3)>,
+    pub learn: LearnRow,
+    pub stats: Stats,
+    /// BVH candidates of p_g evaluations (reused).
+    pub scratch: Vec<u32>,
+    /// While measuring the share: the mixed values of this row's pixels (splats aside), U
+    /// alone's values of them, and U alone's splats.
+    pub values: Vec<DVec3>,
+    pub alone: Vec<DVec3>,
+    pub alone_splats: Vec<(u32, DVec3)>,
+}
+
+/// Weighs U's paths for the mixture (a [`PathSink`]).
+pub struct Collector<'e, 'a, U: Unguided> {
+    pub est: &'e Estimator<'a, U>,
+    /// This pixel's value (paths that land in it).
+    pub sum: DVec3,
+    /// What U alone would add to this pixel (`f / p_u`), while measuring the share.
+    pub alone: DVec3,
+    pub learning: bool,
+    pub measuring: bool,
+    pub out: &'e mut RowOutput,
+}
+
+impl<U: Unguided> PathSink for Collector<'_, '_, U> {
+    fn record(&mut self, path: &Path, y: Option<&[Vertex]>, f: DVec3, p_u: f64, splat: bool) {
+        if f == DVec3::ZERO || !(p_u > 0.0) {
+            return;
+        }
+        let out = &mut *self.out;
+        let (p_u, p_g) = self
+            .est
+            .densities(path, y, p_u, &mut out.stats, &mut out.scratch);
+        let value = f / self.est.mix(p_u, p_g);
+        if !(value.is_finite() && value.min_element() >= 0.0) {
+            out.stats.invalid += 1;
+            return;
+        }
+        if splat {
+            out.splats.push((path.pixel, value));
+        } else {
+            self.sum += value;
+        }
+        if self.measuring {
+            let alone = f / p_u;
+            if splat {
+                out.alone_splats.push((path.pixel, alone));
+            } else {
+                self.alone += alone;
+            }
+        }
+        if self.learning && path.segments() >= 2 {
+            let lum = luminance(value.as_vec3()) as f64;
+            out.learn.samples.push((path.pixel, lum as f32));
+            let est = self.est;
+            out.learn.offer(lum, || {
+                let f_lum = luminance(f.as_vec3()) as f64;
+                Candidate {
+                    record: Record {
+                        vertices: path.vertices().to_vec(),
+                        f: f_lum as f32,
+                        p_u,
+                        c: est.c(f_lum, p_u, p_g),
+                    },
+                    pixel: path.pixel,
+                    value: lum,
+                    densify: false,
+                }
+            });
+        }
+    }
+}

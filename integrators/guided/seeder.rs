@@ -1,0 +1,159 @@
+//! How candidate guide paths reach the cache.
+//!
+//! During a learning iteration every row of the image keeps its [`ROW_CANDIDATES`] brightest
+//! paths (unguided and guided alike) and the luminance of every sample; at the end of the
+//! iteration a [`Seeder`] turns these into the records the cache is rebuilt from. The guider
+//! does not know which seeder it has.
+//!
+//! | seeder     | what becomes a guide path |
+//! |------------|---------------------------|
+//! | `outliers` | samples few others of similar brightness back up in their 4 x 4-pixel block (the cascade of `learn.rs`, spec §6.3a); per band of rows the `intake` largest `C` |
+
+use super::cache::Record;
+use super::learn::{OutlierCascade, TRUST_THRESHOLD};
+use crate::scene::Scene;
+
+/// Candidates a row keeps for the seeder (the largest values).
+pub const ROW_CANDIDATES: usize = 48;
+/// Bands of rows that each contribute `intake` outliers per learning iteration.
+pub const WORKERS: usize = 4;
+
+/// One candidate path of a learning pass.
+pub struct Candidate {
+    pub record: Record,
+    /// Pixel of x_1.
+    pub pixel: u32,
+    /// Luminance of the sample's contribution to its pixel.
+    pub value: f64,
+    /// A guided sample of a guide path with fewer than `NEIGHBOURS` neighbours: recorded
+    /// whatever its trust, to densify sparse regions of the cache (spec §6.3a).
+    pub densify: bool,
+}
+
+/// What one row of a learning pass collects for the seeder.
+pub struct LearnRow {
+    /// (pixel, luminance of the contribution) of every sample.
+    pub samples: Vec<(u32, f32)>,
+    pub candidates: Vec<Candidate>,
+    /// Smallest value among the kept candidates once the list has been cut (a smaller one
+    /// cannot enter it).
+    floor: f64,
+}
+
+impl Default for LearnRow {
+    fn default() -> Self {
+        LearnRow {
+            samples: Vec::new(),
+            candidates: Vec::new(),
+            floor: f64::NEG_INFINITY,
+        }
+    }
+}
+
+impl LearnRow {
+    /// Keep a candidate among the row's `ROW_CANDIDATES` largest values; `make` (which copies
+    /// the path) only runs for a value that can still make it.
+    pub fn offer(&mut self, value: f64, make: impl FnOnce() -> Candidate) {
+        if value <= self.floor {
+            return;
+        }
+        let list = &mut self.candidates;
+        list.push(make());
+        if list.len() >= 2 * ROW_CANDIDATES {
+            self.cut();
+        }
+    }
+
+    /// Sort the candidates by value and keep the largest `ROW_CANDIDATES`.
+    pub fn cut(&mut self) {
+        let list = &mut self.candidates;
+        list.sort_by(|a, b| b.value.total_cmp(&a.value));
+        list.truncate(ROW_CANDIDATES);
+        if list.len() == ROW_CANDIDATES {
+            self.floor = list[ROW_CANDIDATES - 1].value;
+        }
+    }
+}
+
+/// The end of one learning iteration, as a seeder sees it.
+pub struct LearnPass<'p> {
+    pub scene: &'p Scene,
+    /// Learning iteration (0: the first, pure unguided).
+    pub iteration: u32,
+    /// Unguided share of the iteration (the C of a record was formed with it).
+    pub alpha: f64,
+    /// Rows in image order.
+    pub rows: &'p mut [LearnRow],
+}
+
+/// A source of guide paths.
+pub trait Seeder: Send + Sync {
+    fn name(&self) -> &'static str;
+    /// The records to rebuild the cache with after a learning iteration.
+    fn harvest(&mut self, pass: LearnPass) -> Vec<Record>;
+}
+
+/// Outlier selection (spec §6.3a): a candidate whose brightness few samples of its block
+/// share is recorded; per band of rows the `intake` largest C.
+pub struct Outliers {
+    pub intake: usize,
+    cascade: Option<OutlierCascade>,
+}
+
+impl Outliers {
+    pub fn new(intake: usize) -> Outliers {
+        Outliers {
+            intake,
+            cascade: None,
+        }
+    }
+}
+
+impl Seeder for Outliers {
+    fn name(&self) -> &'static str {
+        "outliers"
+    }
+
+    fn harvest(&mut self, pass: LearnPass) -> Vec<Record> {
+        let scene = pass.scene;
+        let res = scene.camera.resolution;
+        if pass.iteration == 0 || self.cascade.is_none() {
+            self.cascade = Some(OutlierCascade::new(res.x, res.y));
+        }
+        let cascade = self.cascade.as_mut().expect("made above");
+        let rows = pass.rows;
+        let n_pix = scene.camera.pixel_count() as f64;
+        let total: f64 = rows
+            .iter()
+            .flat_map(|r| r.samples.iter())
+            .map(|s| s.1 as f64)
+            .sum();
+        let mean = total / n_pix;
+        if !(mean > 0.0) {
+            return Vec::new();
+        }
+        let norm = |v: f64| v / (pass.alpha * mean);
+        for r in rows.iter() {
+            for &(pixel, lum) in &r.samples {
+                cascade.add(pixel, norm(lum as f64));
+            }
+        }
+        let h = rows.len();
+        let mut records = Vec::new();
+        for w in 0..WORKERS {
+            let (a, b) = (w * h / WORKERS, (w + 1) * h / WORKERS);
+            let mut pool: Vec<Candidate> = Vec::new();
+            for r in &mut rows[a..b] {
+                pool.extend(r.candidates.drain(..).filter(|c| {
+                    c.densify
+                        || cascade.trust(c.pixel, norm(c.value), pass.iteration + 1)
+                            <= TRUST_THRESHOLD
+                }));
+            }
+            pool.sort_by(|x, y| y.record.c.total_cmp(&x.record.c));
+            pool.truncate(self.intake);
+            records.extend(pool.into_iter().map(|c| c.record));
+        }
+        records
+    }
+}

@@ -1,0 +1,154 @@
+//! What an unguided estimator offers to a technique mixed with it (DESIGN.md §3, §5).
+//!
+//! An [`Unguided`] estimator (pt, bdpt) traces one sample per pixel and pass and reports every
+//! complete path it forms to a [`PathSink`], with the path's measurement contribution f(X)
+//! and `p_u(X)`, the sum of the densities of all its own techniques for that path. It can also
+//! evaluate `p_u` for any path (`pdf_unguided`), including paths another technique made. With
+//! these two, a second technique (the guider, `integrators::guided`) forms the balance
+//! heuristic over both, `f / (n_u p_u + n_g p_g)`, for every path either side finds, without
+//! knowing how the estimator works.
+//!
+//! | estimator | techniques summed in `p_u` |
+//! |-----------|----------------------------|
+//! | `pt`      | the continuation hitting the emitter (s = 0) and next-event estimation (s = 1) |
+//! | `bdpt`    | every (s, t) split (`bdpt::path_terms`) |
+
+use super::bdpt::{self, BdptSettings, Vertex};
+use super::pt::{PathRecorder, PathTracer, PtSettings};
+use crate::math::IndependentSampler;
+use crate::path::{MAX_VERTICES, Path};
+use crate::scene::Scene;
+use glam::{DVec3, Vec2};
+
+/// Receives the complete paths of one unguided sample.
+pub trait PathSink {
+    /// `path` runs camera first to an emitter; its `pixel` is where x_1 projects. `y` is the
+    /// same path as BDPT vertices when the estimator has them (else the sink converts `path`
+    /// if it needs them). `f` is f(X) (We included, f64 end to end), `p_u` the sum of the
+    /// estimator's technique densities for the path (image-wide, one sample of each technique
+    /// per pixel; equal to `pdf_unguided`). `splat`: the path lands in another pixel than the
+    /// one traced.
+    fn record(&mut self, path: &Path, y: Option<&[Vertex]>, f: DVec3, p_u: f64, splat: bool);
+}
+
+/// An unbiased estimator a guided technique can be mixed with.
+pub trait Unguided: Sync + Send {
+    /// Per-thread state (subpath buffers), made once per row.
+    type Tracer<'s>
+    where
+        Self: 's;
+
+    /// Registry name of the estimator alone (`pt`, `bdpt`).
+    fn name(&self) -> &'static str;
+    fn max_depth(&self) -> u32;
+    fn tracer<'s>(&'s self, scene: &'s Scene) -> Self::Tracer<'s>;
+    /// One sample through raster position `raster`; every path it forms goes to `sink`.
+    fn trace(
+        &self,
+        tracer: &mut Self::Tracer<'_>,
+        scene: &Scene,
+        raster: Vec2,
+        sampler: &mut IndependentSampler,
+        sink: &mut dyn PathSink,
+    );
+    /// Sum over the estimator's techniques of their densities for path `y` (camera first,
+    /// a light last); 0 for paths it cannot form (longer than `max_depth`).
+    fn pdf_unguided(&self, scene: &Scene, y: &[Vertex]) -> f64;
+    /// Samples of each technique per pass (n_u): one per pixel.
+    fn samples_per_pass(&self, scene: &Scene) -> f64 {
+        scene.camera.pixel_count() as f64
+    }
+}
+
+/// The technique densities of `y` by BDPT's strategy index s, and k; `None` past `max_depth`.
+fn densities(
+    y: &[Vertex],
+    scene: &Scene,
+    max_depth: u32,
+    rr_depth: u32,
+) -> Option<[f64; MAX_VERTICES]> {
+    let k = y.len().checked_sub(1)?;
+    if k == 0 || k > max_depth as usize {
+        return None;
+    }
+    let mut p = [0.0f64; MAX_VERTICES];
+    bdpt::path_terms(scene, y, rr_depth).technique_densities(&mut p);
+    Some(p)
+}
+
+impl Unguided for PathTracer {
+    type Tracer<'s> = ();
+
+    fn name(&self) -> &'static str {
+        "pt"
+    }
+
+    fn max_depth(&self) -> u32 {
+        self.settings.max_depth
+    }
+
+    fn tracer<'s>(&'s self, _: &'s Scene) {}
+
+    fn trace(
+        &self,
+        _: &mut (),
+        scene: &Scene,
+        raster: Vec2,
+        sampler: &mut IndependentSampler,
+        sink: &mut dyn PathSink,
+    ) {
+        /// pt's recorder hands over each path with `density + other` = its `pdf_unguided`.
+        struct Forward<'k>(&'k mut dyn PathSink);
+        impl PathRecorder for Forward<'_> {
+            fn record(&mut self, path: &Path, f: DVec3, _: usize, density: f64, other: f64) {
+                self.0.record(path, None, f, density + other, false);
+            }
+        }
+        self.li_recorded(scene, raster, sampler, Some(&mut Forward(sink)));
+    }
+
+    /// pt's techniques are BDPT's s = 0 and (two or more segments) s = 1.
+    fn pdf_unguided(&self, scene: &Scene, y: &[Vertex]) -> f64 {
+        let s: &PtSettings = &self.settings;
+        densities(y, scene, s.max_depth, s.rr_depth)
+            .map_or(0.0, |p| p[0] + if y.len() >= 3 { p[1] } else { 0.0 })
+    }
+}
+
+/// BDPT as an unguided estimator: balance heuristic over all its techniques (the power
+/// heuristic does not mix with a further technique by adding its density).
+pub struct BdptUnguided {
+    pub settings: BdptSettings,
+}
+
+impl Unguided for BdptUnguided {
+    type Tracer<'s> = bdpt::Tracer<'s>;
+
+    fn name(&self) -> &'static str {
+        "bdpt"
+    }
+
+    fn max_depth(&self) -> u32 {
+        self.settings.max_depth
+    }
+
+    fn tracer<'s>(&'s self, scene: &'s Scene) -> bdpt::Tracer<'s> {
+        bdpt::Tracer::new(scene, &self.settings)
+    }
+
+    fn trace(
+        &self,
+        tracer: &mut bdpt::Tracer<'_>,
+        _: &Scene,
+        raster: Vec2,
+        sampler: &mut IndependentSampler,
+        sink: &mut dyn PathSink,
+    ) {
+        tracer.sample_recorded(raster, sampler, sink);
+    }
+
+    fn pdf_unguided(&self, scene: &Scene, y: &[Vertex]) -> f64 {
+        let s = &self.settings;
+        densities(y, scene, s.max_depth, s.rr_depth).map_or(0.0, |p| p[..y.len()].iter().sum())
+    }
+}

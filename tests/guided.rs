@@ -2,6 +2,8 @@
 
 mod util;
 
+use util::guided::{CAUSTIC, installs_of, trace_pt, twin_caustic_cache};
+
 use lodestar::integrators::bdpt;
 use lodestar::integrators::guided::cache::{self, GuideCache, Install};
 use lodestar::integrators::guided::{GuidedPt, GuidedSettings, contribution, kernel, sampler};
@@ -10,7 +12,7 @@ use lodestar::integrators::pt::{PathRecorder, PathTracer};
 use lodestar::math::IndependentSampler;
 use lodestar::math::Sampler;
 use lodestar::path::MAX_VERTICES;
-use lodestar::path::{Path, VertexKind};
+use lodestar::path::Path;
 use lodestar::render::{Budget, Integrator, RenderContext};
 use lodestar::scene::Scene;
 
@@ -277,52 +279,6 @@ fn guided_vs_reference_z(
     z
 }
 
-/// A caustic: a glass sphere on a diffuse floor beside a small light, seen from above; pt
-/// finds the caustic only when a floor bounce happens to refract into the light.
-const CAUSTIC: &str = r#"
-[camera]
-position = [0, 2.2, 1.6]
-look_at = [0, 0, 0]
-up = [0, 1, 0]
-fov = 40
-resolution = [48, 48]
-
-[[material]]
-name = "floor"
-type = "diffuse"
-albedo = [0.7, 0.7, 0.7]
-
-[[material]]
-name = "glass"
-type = "dielectric"
-ior = 1.5
-
-[[material]]
-name = "black"
-type = "black"
-
-[[shape]]
-type = "quad"
-origin = [-1.5, 0, -1.5]
-edge_u = [0, 0, 3]
-edge_v = [3, 0, 0]
-material = "floor"
-
-[[shape]]
-type = "sphere"
-center = [0, 0.35, 0]
-radius = 0.35
-material = "glass"
-
-[[shape]]
-type = "quad"
-origin = [0.8, 1.2, -0.2]
-edge_u = [0.4, 0, 0]
-edge_v = [0, 0, 0.4]
-material = "black"
-emission = [50, 50, 50]
-"#;
-
 #[test]
 fn guided_pt_is_unbiased_on_the_glass_cornell_box() {
     let scene = scene("cornell-box.toml", 64, |t| t);
@@ -358,25 +314,8 @@ fn guided_vs_bdpt_t(scene: &Scene, cache: &GuideCache, alpha: f64, broken: bool)
                 .mean(),
         );
     }
-    let stats = |v: &[glam::DVec3]| {
-        let m = v.iter().sum::<glam::DVec3>() / v.len() as f64;
-        let var = v.iter().map(|x| (*x - m) * (*x - m)).sum::<glam::DVec3>() / (v.len() - 1) as f64;
-        (m, var / v.len() as f64)
-    };
-    let ((mg, vg), (mr, vr)) = (stats(&g), stats(&r));
-    let t = (mg - mr) / (vg + vr).map(f64::sqrt);
-    eprintln!("broken {broken}: guided {mg:?} bdpt {mr:?} t {t:?}");
-    t
-}
-
-/// The guide paths of `cache` as installs (vertices, f, p_u, weight, age).
-fn installs_of(scene: &Scene, cache: &GuideCache) -> Vec<Install> {
-    (0..cache.len())
-        .map(|l| {
-            let g = &cache.guides[l];
-            (cache.path_vertices(scene, l), g.f, g.p_u, g.weight, g.age)
-        })
-        .collect()
+    eprintln!("broken {broken}");
+    util::welch_t(&g, &r)
 }
 
 /// guided-pt is unbiased on a caustic, with a learned cache and with a cache that carries
@@ -543,65 +482,6 @@ fn kernel_pixels(scene: &Scene, cache: &GuideCache, l: usize) -> Vec<usize> {
             p.distance(centre) <= radius_px
         })
         .collect()
-}
-
-/// A cache of two copies (or one, `single`) of the first caustic path (floor, two refractions
-/// through the glass sphere, light) pt forms in `scene`.
-fn twin_caustic_cache(scene: &Scene, single: bool) -> GuideCache {
-    struct First(Option<Install>);
-    impl PathRecorder for First {
-        fn record(&mut self, path: &Path, _: glam::DVec3, _: usize, density: f64, other: f64) {
-            let v = path.vertices();
-            let caustic = v.len() == 5
-                && matches!(v[1].kind, VertexKind::Surface { delta: false, .. })
-                && matches!(v[2].kind, VertexKind::Surface { delta: true, .. })
-                && matches!(v[3].kind, VertexKind::Surface { delta: true, .. });
-            if caustic && self.0.is_none() && path.f != glam::Vec3::ZERO {
-                let f = lodestar::math::luminance(path.f);
-                self.0 = Some((v.to_vec(), f, density + other, 0.5, 0));
-            }
-        }
-    }
-    let mut first = First(None);
-    trace_pt(scene, 6, 21, 200_000, &mut first, |f| f.0.is_some());
-    let twin = first.0.expect("pt finds a caustic path");
-    let mut cache = GuideCache::default();
-    if single {
-        cache.install(scene, vec![(twin.0, twin.1, twin.2, 1.0, twin.4)], 10_000);
-    } else {
-        cache.install(scene, vec![twin.clone(), twin], 10_000);
-    }
-    cache
-}
-
-/// Trace `n` pt camera paths (pixel i mod the image, stream (seed, 0, i)) into `recorder`,
-/// stopping early once `done` says so.
-fn trace_pt<R: PathRecorder>(
-    scene: &Scene,
-    max_depth: u32,
-    seed: u64,
-    n: u64,
-    recorder: &mut R,
-    done: impl Fn(&R) -> bool,
-) {
-    let pt = PathTracer {
-        settings: PtSettings {
-            max_depth,
-            ..PtSettings::default()
-        },
-    };
-    let res = scene.camera.resolution;
-    for i in 0..n {
-        let mut s = IndependentSampler::new(seed, 0, i);
-        let raster = glam::Vec2::new(
-            (i % res.x as u64) as f32,
-            ((i / res.x as u64) % res.y as u64) as f32,
-        ) + s.next_2d();
-        pt.li_recorded(scene, raster, &mut s, Some(recorder));
-        if done(recorder) {
-            break;
-        }
-    }
 }
 
 /// Bad guided-pt settings are errors naming the option and what was expected.

@@ -207,7 +207,10 @@ impl<'a, U: Unguided> Estimator<'a, U> {
             return None;
         }
         let p_u = self.unguided.pdf_unguided(self.scene, &y);
-        let (sig, nodes) = kernel::structure(self.scene, &g.path, MAX_VERTICES)?;
+        let Some((sig, nodes)) = kernel::structure(self.scene, &g.path, MAX_VERTICES) else {
+            stats.fail(sampler::Failure::Structure as usize);
+            return None;
+        };
         let (p_g, n) = self.cache.pdf(self.scene, &y, sig, &nodes, scratch);
         stats.pg_evaluations += 1;
         stats.pg_candidates += n as u64;

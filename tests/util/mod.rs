@@ -3,6 +3,8 @@
 
 #![allow(dead_code)]
 
+pub mod guided;
+
 use glam::DVec3;
 use lodestar::film::Image;
 use lodestar::integrators::{self, IntegratorParams, Options};
@@ -101,4 +103,18 @@ pub fn assert_constant_image(img: &Image, expected: [f64; 3], label: &str) {
             se[c]
         );
     }
+}
+
+/// Welch's t per channel of "the samples `a` and `b` (independent renders' image means) have
+/// the same expectation".
+pub fn welch_t(a: &[DVec3], b: &[DVec3]) -> DVec3 {
+    let stats = |v: &[DVec3]| {
+        let m = v.iter().sum::<DVec3>() / v.len() as f64;
+        let var = v.iter().map(|x| (*x - m) * (*x - m)).sum::<DVec3>() / (v.len() - 1) as f64;
+        (m, var / v.len() as f64)
+    };
+    let ((ma, va), (mb, vb)) = (stats(a), stats(b));
+    let t = (ma - mb) / (va + vb).map(f64::sqrt);
+    eprintln!("welch: {ma:?} vs {mb:?}, t {t:?}");
+    t
 }

@@ -1,0 +1,333 @@
+//! guided-bdpt: BDPT's techniques report f(X) exactly, the MIS weights of all of BDPT's
+//! techniques plus the guided one sum to one, the estimator converges to bdpt's image (and a
+//! broken p_g is caught), bad options are errors.
+
+mod util;
+
+use glam::DVec3;
+use lodestar::integrators::bdpt::{self, BdptSettings, Heuristic, Tracer, Vertex};
+use lodestar::integrators::guided::cache::{GuideCache, Install};
+use lodestar::integrators::guided::{Estimator, GuidedBdpt, GuidedSettings, Stats, contribution};
+use lodestar::integrators::unguided::{BdptUnguided, PathSink, Unguided};
+use lodestar::math::{IndependentSampler, Sampler, luminance};
+use lodestar::path::{MAX_VERTICES, Path};
+use lodestar::render::{Budget, Integrator, RenderContext};
+use lodestar::scene::Scene;
+use util::guided::{CAUSTIC, installs_of, twin_caustic_cache};
+
+const MAX_DEPTH: u32 = 6;
+
+fn bdpt_settings() -> BdptSettings {
+    BdptSettings {
+        max_depth: MAX_DEPTH,
+        rr_depth: 5,
+        heuristic: Heuristic::Balance,
+        light_tracing: false,
+    }
+}
+
+fn box_scene(name: &str, res: u32) -> Scene {
+    let text =
+        std::fs::read_to_string(format!("{}/scenes/{name}", env!("CARGO_MANIFEST_DIR"))).unwrap();
+    util::scene(&text.replace(
+        "resolution = [256, 256]",
+        &format!("resolution = [{res}, {res}]"),
+    ))
+}
+
+/// Run `n` BDPT samples (pixel i mod the image, stream (seed, 0, i)) in recording mode.
+fn trace_bdpt(scene: &Scene, seed: u64, n: u64, sink: &mut dyn PathSink) {
+    let settings = bdpt_settings();
+    let mut tracer = Tracer::new(scene, &settings);
+    let res = scene.camera.resolution;
+    for i in 0..n {
+        let mut s = IndependentSampler::new(seed, 0, i);
+        let raster = glam::Vec2::new(
+            (i % res.x as u64) as f32,
+            ((i / res.x as u64) % res.y as u64) as f32,
+        ) + s.next_2d();
+        tracer.sample_recorded(raster, &mut s, sink);
+    }
+}
+
+/// A cache of every third path of two or more segments that BDPT forms from `n` samples
+/// (light-tracing paths included, camera first), equal weights, installed as after many
+/// learning iterations.
+fn cache_of_bdpt_paths(scene: &Scene, n: u64) -> GuideCache {
+    struct Keep(Vec<Install>, usize);
+    impl PathSink for Keep {
+        fn record(&mut self, path: &Path, _: Option<&[Vertex]>, f: DVec3, p_u: f64, _: bool) {
+            if path.segments() >= 2 && f != DVec3::ZERO {
+                self.1 += 1;
+                if self.1 % 3 == 0 {
+                    let lum = luminance(f.as_vec3());
+                    self.0.push((path.vertices().to_vec(), lum, p_u, 1.0, 0));
+                }
+            }
+        }
+    }
+    let mut keep = Keep(Vec::new(), 0);
+    trace_bdpt(scene, 5, n, &mut keep);
+    let mut cache = GuideCache::default();
+    cache.install(scene, keep.0, 10_000);
+    cache
+}
+
+/// For every path BDPT forms in `scene` with a frozen cache of BDPT's own paths:
+/// * f(X) as the technique reports it equals f(X) from the vertices (so its density p_s, by
+///   which the raw estimate is multiplied, is the technique's);
+/// * the balance weights of all BDPT techniques (densities from scratch, `path_terms`) with
+///   the denominator the estimator forms for a path BDPT found, plus the guided technique's
+///   with the denominator a guided sample of the same path gets, sum to 1;
+/// * where p_g > 0, both sides use the same p_u, bit for bit.
+///
+/// Tolerances: f(X) 2e-3 relative (f32 hit points and densities); the weight sum 1e-3 (BDPT's
+/// cached f32 densities against `path_terms`). Leaving n_g p_g out of the unguided paths'
+/// denominator puts the sum at 1 + the guided weight, which is checked to be large on many paths.
+fn check_weights(name: &str, scene: &Scene) {
+    let cache = cache_of_bdpt_paths(scene, 3000);
+    assert!(cache.len() > 50, "{name}: {} guide paths", cache.len());
+    let u = BdptUnguided {
+        settings: bdpt_settings(),
+    };
+    let est = Estimator::new(scene, &u, &cache, 0.5);
+    assert_eq!(
+        est.n_g, est.n_u,
+        "alpha 0.5 gives one guided path per pixel"
+    );
+    struct Check<'e, 'a> {
+        scene: &'a Scene,
+        est: &'e Estimator<'a, BdptUnguided>,
+        stats: Stats,
+        scratch: Vec<u32>,
+        n: usize,
+        guided_heavy: usize,
+        bad: Vec<String>,
+    }
+    impl PathSink for Check<'_, '_> {
+        fn record(&mut self, path: &Path, y: Option<&[Vertex]>, f: DVec3, p_u: f64, _: bool) {
+            let (scene, est) = (self.scene, self.est);
+            let y = y.expect("bdpt hands over its vertices");
+            let k = y.len() - 1;
+            self.n += 1;
+            let fx = contribution::contribution(scene, y, 0);
+            let rel = ((f - fx).abs() / fx.abs().max(DVec3::splat(1e-300))).max_element();
+            if rel > 2e-3 && self.bad.len() < 6 {
+                self.bad
+                    .push(format!("k {k}: f reported {f}, from vertices {fx}"));
+            }
+            let (p_u_mix, p_g) =
+                est.densities(path, Some(y), p_u, &mut self.stats, &mut self.scratch);
+            let mut p = [0.0f64; MAX_VERTICES];
+            bdpt::path_terms(scene, y, 5).technique_densities(&mut p);
+            let bdpt_weights: f64 = p[..=k].iter().sum::<f64>() / est.mix(p_u_mix, p_g);
+            let p_u_guided = est.unguided.pdf_unguided(scene, y);
+            let r = est.n_g / est.n_u;
+            let guided_weight = r * p_g / est.mix(p_u_guided, p_g);
+            if guided_weight > 0.05 {
+                self.guided_heavy += 1;
+            }
+            if p_g > 0.0 && p_u_mix != p_u_guided && self.bad.len() < 6 {
+                self.bad
+                    .push(format!("k {k}: p_u {p_u_mix} vs {p_u_guided}"));
+            }
+            let sum = bdpt_weights + guided_weight;
+            if (sum - 1.0).abs() > 1e-3 && self.bad.len() < 6 {
+                self.bad.push(format!(
+                    "k {k}: weights sum to {sum} (bdpt {bdpt_weights}, guided {guided_weight})"
+                ));
+            }
+        }
+    }
+    let mut check = Check {
+        scene,
+        est: &est,
+        stats: Stats::default(),
+        scratch: Vec::new(),
+        n: 0,
+        guided_heavy: 0,
+        bad: Vec::new(),
+    };
+    trace_bdpt(scene, 77, 1500, &mut check);
+    eprintln!(
+        "{name}: {} paths, {} with guided weight > 0.05, {} guide paths",
+        check.n,
+        check.guided_heavy,
+        cache.len()
+    );
+    assert!(check.n > 2000, "{name}: only {} paths", check.n);
+    assert!(
+        check.guided_heavy > 20,
+        "{name}: the guided technique weighs little on {} paths only: the test would not see a missing term",
+        check.guided_heavy
+    );
+    assert!(check.bad.is_empty(), "{name}:\n{}", check.bad.join("\n"));
+}
+
+#[test]
+fn mis_weights_with_the_guided_technique_sum_to_one_glass() {
+    check_weights("cornell-box", &box_scene("cornell-box.toml", 16));
+}
+
+#[test]
+fn mis_weights_with_the_guided_technique_sum_to_one_glossy() {
+    check_weights("cornell-glossy", &box_scene("cornell-glossy.toml", 16));
+}
+
+#[test]
+fn mis_weights_with_the_guided_technique_sum_to_one_fog() {
+    check_weights("cornell-fog", &box_scene("cornell-fog.toml", 16));
+}
+
+/// Welch's t of "guided-bdpt (frozen `cache`, split `alpha`) and bdpt have the same image
+/// mean", per channel, from 8 renders of each (seeds 1..=8): whole-image means across seeds,
+/// as caustics make pixel values heavy-tailed. `broken` leaves guide path 0 out of p_g.
+fn guided_bdpt_vs_bdpt_t(
+    scene: &Scene,
+    cache: &GuideCache,
+    alpha: f64,
+    broken: bool,
+    spp: (u64, u64),
+) -> DVec3 {
+    let k = 8u64;
+    let (mut g, mut r) = (Vec::new(), Vec::new());
+    for seed in 1..=k {
+        let mut c = GuideCache::default();
+        c.install(scene, installs_of(scene, cache), 10_000);
+        if broken {
+            c.skip_in_pdf = Some(0);
+        }
+        let settings = GuidedSettings {
+            alpha,
+            learn_fraction: 0.0,
+            ..GuidedSettings::default()
+        };
+        let mut integ = GuidedBdpt::new(bdpt_settings(), settings, Some(c));
+        let ctx = RenderContext::new(scene, seed, false);
+        g.push(integ.render(&ctx, Budget::Spp(spp.0)).image.mean());
+        r.push(
+            util::render(scene, "bdpt", MAX_DEPTH, &[], spp.1, 100 + seed, 2)
+                .image
+                .mean(),
+        );
+    }
+    util::welch_t(&g, &r)
+}
+
+/// guided-bdpt is unbiased on a caustic with a cache that carries the caustic (one caustic
+/// path twice, weights 1/2, most samples guided); leaving the path out of the evaluation is
+/// caught by the same test. |t| < 6 with 8 + 8 renders: false-failure rate below 1e-3 for the
+/// three channels (t with about 14 degrees of freedom).
+#[test]
+fn guided_bdpt_is_unbiased_on_a_caustic_and_a_broken_pg_is_caught() {
+    let scene = util::scene(CAUSTIC);
+    let t = guided_bdpt_vs_bdpt_t(
+        &scene,
+        &twin_caustic_cache(&scene, false),
+        0.05,
+        false,
+        (16, 32),
+    );
+    assert!(t.abs().max_element() < 6.0, "t {t:?}");
+    let tb = guided_bdpt_vs_bdpt_t(
+        &scene,
+        &twin_caustic_cache(&scene, true),
+        0.05,
+        true,
+        (16, 32),
+    );
+    assert!(
+        tb.abs().max_element() > 6.0,
+        "the broken p_g went unnoticed: t {tb:?}"
+    );
+}
+
+/// On the Cornell box (nothing hard but the glass sphere) guided-bdpt, learning its own cache
+/// inside the render, converges to bdpt's image: per-pixel z-test of the mean difference,
+/// |z| < 4.5 (false-failure rate about 2e-5 for three channels).
+#[test]
+fn guided_bdpt_agrees_with_bdpt_on_the_cornell_box() {
+    let scene = box_scene("cornell-box.toml", 32);
+    let guided = util::render(
+        &scene,
+        "guided-bdpt",
+        MAX_DEPTH,
+        &["learn_fraction=0.5", "share=fixed"],
+        32,
+        3,
+        2,
+    );
+    let reference = util::render(&scene, "bdpt", MAX_DEPTH, &[], 64, 4, 2);
+    let stat = |k: &str| {
+        guided
+            .stats
+            .iter()
+            .find(|s| s.0 == k)
+            .map(|s| s.1.clone())
+            .unwrap()
+    };
+    let guided_samples: u64 = stat("guided_samples").parse().unwrap();
+    assert!(
+        guided_samples > 10_000,
+        "no guided samples: {:?}",
+        guided.stats
+    );
+    util::assert_same_mean(&guided.image, &reference.image, "guided-bdpt vs bdpt");
+}
+
+/// A cache learned by guided-pt renders in guided-bdpt (guide paths are complete paths,
+/// whichever estimator found them), and the render stays unbiased.
+#[test]
+fn a_guided_pt_cache_loads_into_guided_bdpt() {
+    let scene = util::scene(CAUSTIC);
+    let dir = std::env::temp_dir().join(format!("lodestar-gb-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("pt.guides");
+    let save = format!("save_guides={}", file.display());
+    util::render(
+        &scene,
+        "guided-pt",
+        MAX_DEPTH,
+        &[&save, "learn_fraction=0.5"],
+        16,
+        1,
+        2,
+    );
+    let load = format!("load_guides={}", file.display());
+    let g = util::render(&scene, "guided-bdpt", MAX_DEPTH, &[&load], 64, 2, 2);
+    let b = util::render(&scene, "bdpt", MAX_DEPTH, &[], 64, 3, 2);
+    let n: usize = g
+        .stats
+        .iter()
+        .find(|s| s.0 == "guide_paths")
+        .unwrap()
+        .1
+        .parse()
+        .unwrap();
+    assert!(n > 0, "the loaded cache is empty");
+    util::assert_same_mean(&g.image, &b.image, "guided-bdpt with guided-pt's cache");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// `-O mis=power` with guided-bdpt is an error that says why.
+#[test]
+fn power_heuristic_with_guided_bdpt_is_an_error() {
+    use lodestar::integrators::{IntegratorParams, Options, build};
+    let params = IntegratorParams {
+        max_depth: 6,
+        options: Options::parse(&["mis=power".to_string()]).unwrap(),
+    };
+    let err = build("guided-bdpt", &params)
+        .err()
+        .expect("mis=power accepted");
+    assert!(
+        err.to_string()
+            .contains("option 'mis': guided-bdpt needs 'balance'"),
+        "{err}"
+    );
+    let params = IntegratorParams {
+        max_depth: 6,
+        options: Options::parse(&["mis=balance".to_string()]).unwrap(),
+    };
+    assert!(build("guided-bdpt", &params).is_ok());
+}

@@ -59,7 +59,7 @@ fn cache_of_bdpt_paths(scene: &Scene, n: u64) -> GuideCache {
         fn record(&mut self, path: &Path, _: Option<&[Vertex]>, f: DVec3, p_u: f64, _: bool) {
             if path.segments() >= 2 && f != DVec3::ZERO {
                 self.1 += 1;
-                if self.1 % 3 == 0 {
+                if self.1.is_multiple_of(3) {
                     let lum = luminance(f.as_vec3());
                     self.0.push((path.vertices().to_vec(), lum, p_u, 1.0, 0));
                 }

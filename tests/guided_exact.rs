@@ -176,7 +176,7 @@ emission = [1e6, 1e6, 1e6]
             let y = bdpt::from_path(self.scene, path).unwrap();
             let fx = contribution::contribution(self.scene, &y, 0);
             let rel = ((f - fx).abs() / f.abs()).max_element();
-            if !(rel < 1e-2) && self.bad.len() < 4 {
+            if (rel.is_nan() || rel >= 1e-2) && self.bad.len() < 4 {
                 self.bad
                     .push(format!("k {}: pt {f} vs {fx}", path.segments()));
             }

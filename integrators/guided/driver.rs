@@ -6,26 +6,18 @@
 //! for its unguided sample and guided sample j the stream (seed, pass, N_pix + j), with j
 //! handled by the row of pixel j mod N_pix, so images do not depend on the thread count.
 //!
-//! **The guided share (`share = auto`, the default).** At the end of learning the guider
-//! decides whether the guided technique pays for itself, from the learning passes that had a
-//! cache (the later half of them, whose caches are closest to the final one). For each it
-//! knows, pixel by pixel, the mixed estimate and what U alone would have given from the same
-//! unguided samples (`f / p_u`), so both variances come from the same samples:
-//! `V = Σ_pixels E[X²] − Σ μ²`. Costs are counted in rays (deterministic, unlike wall time,
-//! so a render under `--spp` stays reproducible): U's rays; for the mixture also the guided
-//! samples' rays and `PG_CANDIDATE_RAYS` per p_g candidate evaluated. Guiding stays on with
-//! share α when `V_mix · cost_mix < V_U · cost_U`, and is off otherwise (α = 1: no guided
-//! sample and no p_g evaluation, the estimator is U's own). When it is off, the learning
-//! passes (each an unbiased estimate of the image) are kept in the image instead of being
-//! discarded, unless `--dbor` asked for the re-weighted image of the render passes. The
-//! decision is global, not per image region. `share = fixed` always uses α; a loaded cache
-//! (no learning) uses α.
+//! **The guided share.** With `share = auto` (the default) the render's ratio of guided to
+//! unguided samples is chosen at the end of learning from what the learning passes measured
+//! (`share.rs`); when it is 0 (guiding does not pay) the learning passes, each an unbiased
+//! estimate, are kept in the image instead of being discarded, unless `--dbor` asked for the
+//! re-weighted image of the render passes. `share = fixed`, and a loaded cache (no learning),
+//! use `alpha`.
 
 use super::cache::{self, GuideCache, RebuildParams};
 use super::estimator::{Collector, Estimator, FAILURE_REASONS, RowOutput, Stats};
 use super::io;
 use super::seeder::{Candidate, LearnPass, LearnRow, Seeder};
-use super::{GuidedSettings, Share};
+use super::{GuidedSettings, Share, share};
 use crate::dbor::Cascade;
 use crate::error::Result;
 use crate::film::Film;
@@ -44,10 +36,6 @@ use std::time::Instant;
 /// (seed, iteration, ...): a render with a loaded cache repeats the render phase of the run
 /// that saved it.
 const RENDER_STREAMS: u64 = 1 << 40;
-/// Cost of one p_g candidate term in rays (measured: a candidate's factors cost 50-80 ns, a
-/// ray in the shipped scenes 150-700 ns; `benches/guided_pg.rs`).
-const PG_CANDIDATE_RAYS: f64 = 0.25;
-
 /// The guided integrator over unguided estimator `U` and seeder `S`.
 pub struct Guided<U: Unguided, S: Seeder> {
     pub name: &'static str,
@@ -58,63 +46,9 @@ pub struct Guided<U: Unguided, S: Seeder> {
     pub cache: Option<GuideCache>,
 }
 
-/// Per-pixel luminance of one pass's mixed estimate and of U alone from the same samples.
-type PassImages = (Vec<f64>, Vec<f64>);
-
-/// Second moments and costs of one measured learning pass.
-struct PassMeasure {
-    /// Σ_pixels lum(X)² of the mixed estimate and of U alone.
-    m2_mix: f64,
-    m2_alone: f64,
-    cost_mix: f64,
-    cost_alone: f64,
-}
-
-/// What the share decision saw.
-#[derive(Default)]
-struct ShareMeter {
-    passes: Vec<PassMeasure>,
-    /// Per-pixel sum of lum(mixed) over the measured passes (for Σ μ²).
-    sum: Vec<f64>,
-}
-
-impl ShareMeter {
-    fn add(&mut self, mixed: &[f64], alone: &[f64], stats: &Stats) {
-        if self.sum.is_empty() {
-            self.sum = vec![0.0; mixed.len()];
-        }
-        for (s, m) in self.sum.iter_mut().zip(mixed) {
-            *s += m;
-        }
-        self.passes.push(PassMeasure {
-            m2_mix: mixed.iter().map(|x| x * x).sum(),
-            m2_alone: alone.iter().map(|x| x * x).sum(),
-            cost_mix: (stats.rays_u + stats.rays_g) as f64
-                + PG_CANDIDATE_RAYS * stats.pg_candidates as f64,
-            cost_alone: stats.rays_u as f64,
-        });
-    }
-
-    /// (guiding pays, V_mix · cost_mix / (V_U · cost_U)); `None` without measured passes.
-    fn decide(&self) -> Option<(bool, f64)> {
-        let n = self.passes.len();
-        if n == 0 {
-            return None;
-        }
-        let mean2: f64 = self
-            .sum
-            .iter()
-            .map(|s| (s / n as f64) * (s / n as f64))
-            .sum();
-        let late = &self.passes[n / 2..];
-        let k = late.len() as f64;
-        let avg = |f: fn(&PassMeasure) -> f64| late.iter().map(f).sum::<f64>() / k;
-        let v_mix = (avg(|p| p.m2_mix) - mean2).max(0.0);
-        let v_alone = (avg(|p| p.m2_alone) - mean2).max(0.0);
-        let ratio = (v_mix * avg(|p| p.cost_mix)) / (v_alone * avg(|p| p.cost_alone));
-        Some((ratio < 1.0 || !ratio.is_finite() && v_alone > 0.0, ratio))
-    }
-}
+/// What a measured pass returns: per pixel, U's luminance under each ratio of `share.rs`;
+/// and Σ g(r)² of its guided samples.
+type PassGrid = (Vec<[f64; share::N]>, [f64; share::N]);
 
 impl<U: Unguided, S: Seeder> Guided<U, S> {
     /// One pass: U per pixel plus the guided samples; returns per-row outputs in row order
@@ -129,7 +63,7 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
         pass: u64,
         learning: bool,
         measure: bool,
-    ) -> (Vec<RowOutput>, Option<PassImages>) {
+    ) -> (Vec<RowOutput>, Option<PassGrid>) {
         let scene = ctx.scene;
         let UVec2 { x: w, .. } = scene.camera.resolution;
         let n_pix = scene.camera.pixel_count() as u64;
@@ -150,18 +84,17 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
                     let mut col = Collector {
                         est,
                         sum: DVec3::ZERO,
-                        alone: DVec3::ZERO,
+                        grid: [0.0; share::N],
                         learning,
                         measuring: measure,
                         out: &mut out,
                     };
                     self.unguided
                         .trace(&mut tracer, scene, raster, &mut sampler, &mut col);
-                    let (sum, alone) = (col.sum, col.alone);
+                    let (sum, grid) = (col.sum, col.grid);
                     *acc += sum;
                     if measure {
-                        out.values.push(sum);
-                        out.alone.push(alone);
+                        out.grid.push(grid);
                     }
                     if let Some(cell) = crow.get_mut(x) {
                         Cascade::splat_into(cell, sum.as_vec3());
@@ -175,6 +108,12 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
                         let g = est.guided(&mut gs, learning, &mut out.stats, &mut out.scratch);
                         if let Some(g) = g {
                             out.splats.push((g.pixel, g.value));
+                            if measure {
+                                let v = share::values(g.f_lum, g.p_u, g.p_g);
+                                for (m, x) in out.guided_m2.iter_mut().zip(v) {
+                                    *m += x * x;
+                                }
+                            }
                             if learning {
                                 let lum = luminance(g.value.as_vec3()) as f64;
                                 out.learn.samples.push((g.pixel, lum as f32));
@@ -200,21 +139,23 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
             .collect::<Vec<RowOutput>>();
         drop(crows);
         let measured = measure.then(|| {
-            let (mut mixed, mut alone) = (vec![0.0f64; n_pix as usize], vec![0.0; n_pix as usize]);
+            let mut image = vec![[0.0f64; share::N]; n_pix as usize];
+            let mut guided_m2 = [0.0; share::N];
             for (y, r) in rows.iter().enumerate() {
                 let row = y * w as usize;
-                for (x, (v, a)) in r.values.iter().zip(&r.alone).enumerate() {
-                    mixed[row + x] += lum64(*v);
-                    alone[row + x] += lum64(*a);
+                for (x, v) in r.grid.iter().enumerate() {
+                    image[row + x] = *v;
                 }
-                for &(p, v) in &r.splats {
-                    mixed[p as usize] += lum64(v);
+                for (p, v) in &r.grid_splats {
+                    for (a, b) in image[*p as usize].iter_mut().zip(v) {
+                        *a += b;
+                    }
                 }
-                for &(p, v) in &r.alone_splats {
-                    alone[p as usize] += lum64(v);
+                for (a, b) in guided_m2.iter_mut().zip(r.guided_m2) {
+                    *a += b;
                 }
             }
-            (mixed, alone)
+            (image, guided_m2)
         });
         for r in &rows {
             film.add_splats64(&r.splats);
@@ -228,9 +169,6 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
     }
 }
 
-fn lum64(v: DVec3) -> f64 {
-    luminance(v.as_vec3()) as f64
-}
 
 fn stat(k: &str, v: impl ToString) -> (String, String) {
     (k.to_string(), v.to_string())
@@ -278,7 +216,7 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
             .unwrap_or_else(|| GuideCache::with_widths(st.widths));
         let mut stats = Stats::default();
         let mut learn_passes = 0u64;
-        let mut meter = ShareMeter::default();
+        let mut meter = share::ShareMeter::default();
         // ---- Learning (skipped with a loaded cache) ----
         let learning = cache.is_empty() && st.learn_fraction > 0.0;
         if learning {
@@ -303,8 +241,8 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
                         pass_stats.add(&r.stats);
                     }
                     stats.add(&pass_stats);
-                    if let Some((mixed, alone)) = measured {
-                        meter.add(&mixed, &alone, &pass_stats);
+                    if let Some((image, guided_m2)) = measured {
+                        meter.add(image, guided_m2, est.n_u, &pass_stats);
                     }
                     let alpha = est.alpha;
                     let mut learn_rows: Vec<LearnRow> = rows.into_iter().map(|r| r.learn).collect();
@@ -344,10 +282,7 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
         let learn_seconds = start.elapsed().as_secs_f64();
         // ---- The guided share, from what learning measured ----
         let decision = meter.decide();
-        let alpha = match decision {
-            Some((false, _)) => 1.0,
-            _ => st.alpha,
-        };
+        let alpha = decision.as_ref().map_or(st.alpha, |d| 1.0 / (1.0 + d.ratio));
         // Guiding off: the learning passes are U's passes plus unbiased guided ones; keep
         // them (unless the DBOR image of the render passes was asked for).
         let keep_learning = alpha == 1.0 && decision.is_some() && !ctx.dbor;
@@ -400,9 +335,19 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
             stat("render_seconds", format!("{render_seconds:.3}")),
             stat("unguided_share", format!("{:.3}", est.alpha)),
             stat(
-                "share_cost_ratio",
-                decision.map_or("-".to_string(), |d| format!("{:.3}", d.1)),
+                "share_relative_cost",
+                decision.as_ref().map_or("-".to_string(), |d| {
+                    let cells: Vec<String> = share::RATIOS
+                        .iter()
+                        .zip(d.relative)
+                        .map(|(r, c)| format!("{r:.3}:{c:.3}"))
+                        .collect();
+                    cells.join("/")
+                }),
             ),
+            stat("rays_unguided", rs.rays_u),
+            stat("rays_guided", rs.rays_g),
+            stat("pg_candidates", rs.pg_candidates),
             stat("learning_passes_kept", kept),
             stat("guided_samples", rs.guided),
             stat(

@@ -19,6 +19,7 @@
 
 use super::cache::{GuideCache, Record};
 use super::seeder::{Candidate, LearnRow};
+use super::share;
 use super::{contribution, kernel, sampler};
 use crate::integrators::bdpt::{self, Vertex};
 use crate::integrators::unguided::{PathSink, Unguided};
@@ -45,6 +46,9 @@ pub struct Stats {
     pub reasons: [u64; 8],
     pub pg_evaluations: u64,
     pub pg_candidates: u64,
+    /// Of `pg_evaluations` and `pg_candidates`, those of guided samples.
+    pub pg_evaluations_guided: u64,
+    pub pg_candidates_guided: u64,
     /// Unguided paths dropped for a non-finite or negative value.
     pub invalid: u64,
     /// Rays traced by the unguided and the guided technique (the share's cost measure).
@@ -58,6 +62,8 @@ impl Stats {
         self.failed += o.failed;
         self.pg_evaluations += o.pg_evaluations;
         self.pg_candidates += o.pg_candidates;
+        self.pg_candidates_guided += o.pg_candidates_guided;
+        self.pg_evaluations_guided += o.pg_evaluations_guided;
         self.invalid += o.invalid;
         self.rays_u += o.rays_u;
         self.rays_g += o.rays_g;
@@ -79,6 +85,10 @@ pub struct GuidedValue {
     /// Guide path followed.
     pub guide: usize,
     pub record: Option<Record>,
+    /// Luminance of f(X) and the densities (for the share's measurements).
+    pub f_lum: f64,
+    pub p_u: f64,
+    pub p_g: f64,
 }
 
 /// The estimator of one pass: cache, split and densities.
@@ -214,25 +224,28 @@ impl<'a, U: Unguided> Estimator<'a, U> {
         let (p_g, n) = self.cache.pdf(self.scene, &y, sig, &nodes, scratch);
         stats.pg_evaluations += 1;
         stats.pg_candidates += n as u64;
+        stats.pg_candidates_guided += n as u64;
+        stats.pg_evaluations_guided += 1;
         let value = f / self.mix(p_u, p_g);
         if !(value.is_finite() && value.min_element() >= 0.0) {
             stats.fail(NON_FINITE);
             return None;
         }
-        let record = want_record.then(|| {
-            let f_lum = luminance(f.as_vec3()) as f64;
-            Record {
+        let f_lum = luminance(f.as_vec3()) as f64;
+        let record = want_record.then(|| Record {
                 vertices: g.path.vertices().to_vec(),
                 f: f_lum as f32,
                 p_u,
                 c: self.c(f_lum, p_u, p_g),
-            }
         });
         Some(GuidedValue {
             pixel: g.path.pixel,
             value,
             guide: g.guide,
             record,
+            f_lum,
+            p_u,
+            p_g,
         })
     }
 }
@@ -245,11 +258,11 @@ pub struct RowOutput {
     pub stats: Stats,
     /// BVH candidates of p_g evaluations (reused).
     pub scratch: Vec<u32>,
-    /// While measuring the share: the mixed values of this row's pixels (splats aside), U
-    /// alone's values of them, and U alone's splats.
-    pub values: Vec<DVec3>,
-    pub alone: Vec<DVec3>,
-    pub alone_splats: Vec<(u32, DVec3)>,
+    /// While measuring the share (`share.rs`): per pixel of the row what U's sample adds to
+    /// it under each ratio, U's splats likewise, and Σ g(r)² of the row's guided samples.
+    pub grid: Vec<[f64; share::N]>,
+    pub grid_splats: Vec<(u32, [f64; share::N])>,
+    pub guided_m2: [f64; share::N],
 }
 
 /// Weighs U's paths for the mixture (a [`PathSink`]).
@@ -257,8 +270,8 @@ pub struct Collector<'e, 'a, U: Unguided> {
     pub est: &'e Estimator<'a, U>,
     /// This pixel's value (paths that land in it).
     pub sum: DVec3,
-    /// What U alone would add to this pixel (`f / p_u`), while measuring the share.
-    pub alone: DVec3,
+    /// What U's sample adds to this pixel under each ratio, while measuring the share.
+    pub grid: [f64; share::N],
     pub learning: bool,
     pub measuring: bool,
     pub out: &'e mut RowOutput,
@@ -284,11 +297,13 @@ impl<U: Unguided> PathSink for Collector<'_, '_, U> {
             self.sum += value;
         }
         if self.measuring {
-            let alone = f / p_u;
+            let v = share::values(luminance(f.as_vec3()) as f64, p_u, p_g);
             if splat {
-                out.alone_splats.push((path.pixel, alone));
+                out.grid_splats.push((path.pixel, v));
             } else {
-                self.alone += alone;
+                for (a, b) in self.grid.iter_mut().zip(v) {
+                    *a += b;
+                }
             }
         }
         if self.learning && path.segments() >= 2 {

@@ -66,6 +66,7 @@ pub mod kernel;
 pub mod learn;
 pub mod sampler;
 pub mod seeder;
+pub mod share;
 
 pub use driver::Guided;
 pub use estimator::{Estimator, Stats};

@@ -1,0 +1,165 @@
+//! The guided share: how many guided paths per unguided sample the render spends, chosen from
+//! what the learning passes measured (`share = auto`).
+//!
+//! A pass with `n_u` unguided samples and `n_g = r n_u` guided ones estimates pixel p by
+//! `X_p = U_p(r) + G_p(r)`: U's sample of the pixel (every path it forms weighted by
+//! `f / (p_u + r p_g)`) plus the guided samples that land there. The two parts use independent
+//! streams, so the image's total variance is
+//!
+//! ```text
+//!     V(r) = Σ_p (E[U_p(r)²] − E[U_p(r)]²)  +  r n_u E[g(r)²]  (− Σ_p E[G_p]² / (r n_u), negligible)
+//! ```
+//!
+//! with `g(r) = f / (p_u + r p_g)` the value of one guided sample. Every quantity can be
+//! evaluated for any ratio r from one learning pass at the ratio it ran with: each unguided
+//! path and each guided sample carries f, p_u and p_g. `E[U_p²]` comes from the pass itself,
+//! `Σ_p E[U_p]²` without bias from the product of two consecutive passes' `U_p`, `E[g²]`
+//! from the pass's guided samples. The cost of a pass is counted in rays (deterministic, so an
+//! `--spp` render is reproducible, unlike with wall time): U's rays; with r > 0 also
+//! `PG_EVALUATION_RAYS` per p_g evaluation and `PG_CANDIDATE_RAYS` per candidate term on U's
+//! paths; and per guided sample its rays, `GUIDED_SAMPLE_RAYS` for the work around them (path
+//! building, f(X), p_u), and its own p_g evaluation. The render uses the ratio of [`RATIOS`] with the least `V(r) · cost(r)`,
+//! estimated from the later half of the measured learning passes (the caches closest to the
+//! final one). r = 0 turns guiding off: the estimator is U's own and nothing of the guider
+//! is evaluated. The choice is global, not per image region.
+
+use super::estimator::Stats;
+
+/// Ratios n_g / n_u the render may use (unguided share α = 1 / (1 + r): 1, 0.9, 0.8, 2/3,
+/// 0.5, 1/3, 0.25).
+pub const RATIOS: [f64; 7] = [0.0, 1.0 / 9.0, 0.25, 0.5, 1.0, 2.0, 3.0];
+pub const N: usize = RATIOS.len();
+
+/// Costs in units of one of U's rays (with its shading): one p_g evaluation (structure, path
+/// conversion, BVH query), one candidate term of it, one guided sample beyond its rays.
+/// Calibrated from single-thread renders at α = 1 and α = 0.5 of cornell-box, dining and pool
+/// with guided-pt and guided-bdpt (12 spp, `-O share=fixed`): with these values the model
+/// gives the measured extra time of the guided passes to within 25 % in all six.
+pub const PG_EVALUATION_RAYS: f64 = 2.0;
+pub const PG_CANDIDATE_RAYS: f64 = 0.05;
+pub const GUIDED_SAMPLE_RAYS: f64 = 3.5;
+
+/// The luminance an unguided path or guided sample adds to its pixel under each ratio.
+pub fn values(f_lum: f64, p_u: f64, p_g: f64) -> [f64; N] {
+    RATIOS.map(|r| {
+        let v = f_lum / (p_u + r * p_g);
+        if v.is_finite() { v } else { 0.0 }
+    })
+}
+
+/// A measured learning pass, reduced.
+struct Measured {
+    /// Σ_p U_p(r)² per ratio.
+    m2: [f64; N],
+    /// Σ_p U_p(r) U'_p(r) with the previous measured pass (None for the first).
+    cross: Option<[f64; N]>,
+    /// E[g(r)²] over the pass's guided samples.
+    g2: [f64; N],
+    n_u: f64,
+    rays_u: f64,
+    /// p_g evaluations and candidates for U's paths.
+    eval_u: f64,
+    cand_u: f64,
+    /// Per guided sample: rays, p_g evaluations and candidates.
+    rays_g: f64,
+    eval_g: f64,
+    cand_g: f64,
+}
+
+/// The share decision's evidence.
+#[derive(Default)]
+pub struct ShareMeter {
+    passes: Vec<Measured>,
+    previous: Vec<[f64; N]>,
+}
+
+/// The ratio chosen and the relative inefficiency `V · cost` of every ratio (1 for r = 0).
+#[derive(Debug, Clone)]
+pub struct Decision {
+    pub ratio: f64,
+    pub relative: [f64; N],
+}
+
+impl ShareMeter {
+    /// Add one learning pass: per-pixel `U_p(r)` (`image`), the guided samples' Σ g(r)²,
+    /// and the pass's counters.
+    pub fn add(&mut self, image: Vec<[f64; N]>, guided_m2: [f64; N], n_u: f64, stats: &Stats) {
+        let mut m2 = [0.0; N];
+        for v in &image {
+            for i in 0..N {
+                m2[i] += v[i] * v[i];
+            }
+        }
+        let cross = (self.previous.len() == image.len()).then(|| {
+            let mut c = [0.0; N];
+            for (a, b) in image.iter().zip(&self.previous) {
+                for i in 0..N {
+                    c[i] += a[i] * b[i];
+                }
+            }
+            c
+        });
+        let n_g = stats.guided.max(1) as f64;
+        self.passes.push(Measured {
+            m2,
+            cross,
+            g2: guided_m2.map(|x| x / n_g),
+            n_u,
+            rays_u: stats.rays_u as f64,
+            eval_u: (stats.pg_evaluations - stats.pg_evaluations_guided) as f64,
+            cand_u: (stats.pg_candidates - stats.pg_candidates_guided) as f64,
+            rays_g: stats.rays_g as f64 / n_g,
+            eval_g: stats.pg_evaluations_guided as f64 / n_g,
+            cand_g: stats.pg_candidates_guided as f64 / n_g,
+        });
+        self.previous = image;
+    }
+
+    /// The ratio of least `V · cost`; `None` without measured passes.
+    pub fn decide(&self) -> Option<Decision> {
+        let n = self.passes.len();
+        if n == 0 {
+            return None;
+        }
+        let late = &self.passes[n / 2..];
+        let k = late.len() as f64;
+        let with_cross: Vec<&Measured> = late.iter().filter(|m| m.cross.is_some()).collect();
+        let mut score = [0.0; N];
+        for i in 0..N {
+            let r = RATIOS[i];
+            let avg = |f: &dyn Fn(&Measured) -> f64| late.iter().map(f).sum::<f64>() / k;
+            // Σ μ² from the cross products (0 with a single measured pass: then second
+            // moments are compared, which favours no ratio in particular).
+            let mean2 = if with_cross.is_empty() {
+                0.0
+            } else {
+                with_cross
+                    .iter()
+                    .map(|m| m.cross.expect("filtered")[i])
+                    .sum::<f64>()
+                    / with_cross.len() as f64
+            };
+            let v = (avg(&|m| m.m2[i]) - mean2).max(0.0) + r * avg(&|m| m.n_u * m.g2[i]);
+            let guided = avg(&|m| {
+                m.n_u
+                    * (m.rays_g
+                        + GUIDED_SAMPLE_RAYS
+                        + PG_EVALUATION_RAYS * m.eval_g
+                        + PG_CANDIDATE_RAYS * m.cand_g)
+            });
+            let on_u = avg(&|m| PG_EVALUATION_RAYS * m.eval_u + PG_CANDIDATE_RAYS * m.cand_u);
+            let cost = avg(&|m| m.rays_u) + if r > 0.0 { on_u + r * guided } else { 0.0 };
+            score[i] = v * cost;
+        }
+        let base = score[0];
+        let relative = score.map(|s| if base > 0.0 { s / base } else { 1.0 });
+        let best = (0..N)
+            .filter(|&i| relative[i].is_finite())
+            .min_by(|&a, &b| relative[a].total_cmp(&relative[b]).then(a.cmp(&b)))
+            .unwrap_or(0);
+        Some(Decision {
+            ratio: RATIOS[best],
+            relative,
+        })
+    }
+}

@@ -4,6 +4,7 @@
 
 pub mod bdpt;
 pub mod guided;
+pub mod paths;
 pub mod pt;
 pub mod unguided;
 pub mod vcm;

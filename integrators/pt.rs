@@ -560,15 +560,9 @@ impl<'r> Recording<'r> {
         let conv = if infinite {
             1.0
         } else {
-            let d = v.p - last;
-            let d2 = d.length_squared();
-            if v.n == Vec3::ZERO {
-                1.0 / d2
-            } else {
-                v.n.dot(d).abs() / (d2 * d2.sqrt())
-            }
+            super::paths::area_factor(last, v.p, v.n)
         };
-        self.density * (self.pdf_w * conv * ff * self.q) as f64
+        self.density * conv * (self.pdf_w * ff * self.q) as f64
     }
 
     fn arrive(&mut self, scene: &Scene, v: PathVertex, ff: f32) {

@@ -8,30 +8,10 @@
 use super::vertex::{Edge, Kind, Vertex, pdf_both};
 use crate::bsdf::TransportMode;
 use crate::geometry::{Ray, offset_origin};
+pub use crate::integrators::paths::{continuation, local_continuation, roulette};
 use crate::math::{Sampler, Spectrum};
 use crate::scene::Scene;
 use glam::{Vec2, Vec3};
-
-/// Russian-roulette continuation probability when leaving `v` (1 before `rr_depth`).
-pub fn continuation(scene: &Scene, v: &Vertex, segments: usize, rr_depth: u32) -> f32 {
-    roulette(local_continuation(scene, v), segments, rr_depth)
-}
-
-/// The continuation probability of `v` once roulette applies (its surface's or medium's).
-pub fn local_continuation(scene: &Scene, v: &Vertex) -> f32 {
-    match v.kind {
-        Kind::Surface { bsdf, .. } => bsdf.continuation(),
-        Kind::Medium { medium } => scene.media[medium as usize].continuation(),
-        Kind::Camera | Kind::Light { .. } => 1.0,
-    }
-}
-
-/// The local continuation probability `q` applied after `segments` segments: 1 before
-/// `rr_depth`, `q` from then on.
-#[inline]
-pub fn roulette(q: f32, segments: usize, rr_depth: u32) -> f32 {
-    if (segments as u32) < rr_depth { 1.0 } else { q }
-}
 
 /// The camera subpath through raster position `raster`, at most `max_vertices` vertices.
 pub fn camera_subpath<'a>(

@@ -10,8 +10,10 @@
 //! unguided samples is chosen at the end of learning from what the learning passes measured
 //! (`share.rs`); when it is 0 (guiding does not pay) the learning passes, each an unbiased
 //! estimate, are kept in the image instead of being discarded, unless `--dbor` asked for the
-//! re-weighted image of the render passes. `share = fixed`, and a loaded cache (no learning),
-//! use `alpha`.
+//! re-weighted image of the render passes. When after three learning iterations every ratio
+//! with guided samples loses to U alone by more than 25 %, learning stops there (unless a
+//! cache is to be saved): a scene with nothing to guide costs a few passes, not the learning
+//! budget. `share = fixed`, and a loaded cache (no learning), use `alpha`.
 
 use super::cache::{self, GuideCache, RebuildParams};
 use super::estimator::{Collector, Estimator, FAILURE_REASONS, RowOutput, Stats};
@@ -36,6 +38,11 @@ use std::time::Instant;
 /// (seed, iteration, ...): a render with a loaded cache repeats the render phase of the run
 /// that saved it.
 const RENDER_STREAMS: u64 = 1 << 40;
+/// Learning iterations (two of them measured) after which learning may stop early, and
+/// the margin by which every ratio with guided samples must lose to U alone for it to stop.
+const EARLY_STOP_ITERATIONS: u64 = 3;
+const EARLY_STOP_MARGIN: f64 = 1.25;
+
 /// The guided integrator over unguided estimator `U` and seeder `S`.
 pub struct Guided<U: Unguided, S: Seeder> {
     pub name: &'static str,
@@ -169,7 +176,6 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
     }
 }
 
-
 fn stat(k: &str, v: impl ToString) -> (String, String) {
     (k.to_string(), v.to_string())
 }
@@ -216,6 +222,7 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
             .unwrap_or_else(|| GuideCache::with_widths(st.widths));
         let mut stats = Stats::default();
         let mut learn_passes = 0u64;
+        let mut rebuild_seconds = 0.0;
         let mut meter = share::ShareMeter::default();
         // ---- Learning (skipped with a loaded cache) ----
         let learning = cache.is_empty() && st.learn_fraction > 0.0;
@@ -261,6 +268,18 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
                         Budget::Spp(n) => k >= n,
                         Budget::Seconds(s) => start.elapsed().as_secs_f64() >= s,
                     };
+                    // Nothing to guide: once three measured passes agree that no ratio pays
+                    // (by a margin), stop learning and render with U (not when a cache is to
+                    // be saved: that asks for the whole learning phase).
+                    if !done && k >= EARLY_STOP_ITERATIONS && st.save_guides.is_none() {
+                        let hopeless = meter.decide().is_some_and(|d| {
+                            d.ratio == 0.0 && d.relative[1..].iter().all(|&c| c > EARLY_STOP_MARGIN)
+                        });
+                        if hopeless {
+                            break;
+                        }
+                    }
+                    let rebuild_start = Instant::now();
                     cache.rebuild(
                         scene,
                         records,
@@ -272,6 +291,7 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
                             max_guides: st.max_guides,
                         },
                     );
+                    rebuild_seconds += rebuild_start.elapsed().as_secs_f64();
                     if done {
                         break;
                     }
@@ -282,7 +302,9 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
         let learn_seconds = start.elapsed().as_secs_f64();
         // ---- The guided share, from what learning measured ----
         let decision = meter.decide();
-        let alpha = decision.as_ref().map_or(st.alpha, |d| 1.0 / (1.0 + d.ratio));
+        let alpha = decision
+            .as_ref()
+            .map_or(st.alpha, |d| 1.0 / (1.0 + d.ratio));
         // Guiding off: the learning passes are U's passes plus unbiased guided ones; keep
         // them (unless the DBOR image of the render passes was asked for).
         let keep_learning = alpha == 1.0 && decision.is_some() && !ctx.dbor;
@@ -332,6 +354,7 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
             ),
             stat("learning_iterations", learn_passes),
             stat("learning_seconds", format!("{learn_seconds:.3}")),
+            stat("cache_rebuild_seconds", format!("{rebuild_seconds:.3}")),
             stat("render_seconds", format!("{render_seconds:.3}")),
             stat("unguided_share", format!("{:.3}", est.alpha)),
             stat(

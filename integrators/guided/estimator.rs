@@ -233,10 +233,10 @@ impl<'a, U: Unguided> Estimator<'a, U> {
         }
         let f_lum = luminance(f.as_vec3()) as f64;
         let record = want_record.then(|| Record {
-                vertices: g.path.vertices().to_vec(),
-                f: f_lum as f32,
-                p_u,
-                c: self.c(f_lum, p_u, p_g),
+            vertices: g.path.vertices().to_vec(),
+            f: f_lum as f32,
+            p_u,
+            c: self.c(f_lum, p_u, p_g),
         });
         Some(GuidedValue {
             pixel: g.path.pixel,

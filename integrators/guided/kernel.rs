@@ -15,6 +15,7 @@
 use super::gaussian::{R, std_trunc_density};
 use crate::bsdf::TransportMode;
 use crate::integrators::bdpt::{Kind, Vertex, vertex::to_measure};
+use crate::integrators::paths::area_factor;
 use crate::light::Light;
 use crate::math::Frame;
 use crate::path::{Path, Vertex as PathVertex, VertexKind};
@@ -401,9 +402,7 @@ pub fn gaussian_branch_density(
     if pdf_w == 0.0 {
         return 0.0;
     }
-    let d = dvec(next.p) - dvec(x.p);
-    let d2 = d.length_squared();
-    pdf_w * dvec(next.n).dot(d).abs() / (d2 * d2.sqrt())
+    pdf_w * area_factor(x.p, next.p, next.n)
 }
 
 /// Whether `v` of a path is a light at infinity.

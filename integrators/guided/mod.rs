@@ -57,7 +57,6 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
 
 pub mod cache;
-pub mod contribution;
 pub mod driver;
 pub mod estimator;
 pub mod gaussian;
@@ -68,6 +67,7 @@ pub mod sampler;
 pub mod seeder;
 pub mod share;
 
+pub use crate::integrators::paths::contribution;
 pub use driver::Guided;
 pub use estimator::{Estimator, Stats};
 pub use seeder::{Outliers, Seeder};

@@ -18,10 +18,11 @@ use super::kernel::{
 use crate::bsdf::TransportMode;
 use crate::geometry::Ray;
 use crate::integrators::bdpt::{Kind, Vertex};
+use crate::integrators::paths::area_factor;
 use crate::math::{Frame, Sampler};
 use crate::path::{Path, Vertex as PathVertex, VertexKind};
 use crate::scene::{Endpoint, Scene, SurfacePoint};
-use glam::{DVec3, Vec2, Vec3};
+use glam::{Vec2, Vec3};
 
 /// Why a guided sample failed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -160,17 +161,6 @@ fn surface_vertex(sp: &SurfacePoint) -> PathVertex {
 
 fn to_world(f: &Frame, origin: Vec3, c: [f64; 3]) -> Vec3 {
     (dvec(origin) + dvec(f.s) * c[0] + dvec(f.t) * c[1] + dvec(f.n) * c[2]).as_vec3()
-}
-
-/// |cos| at `x` (normal `n`, zero in media) towards `from`, over the squared distance.
-fn area_factor(from: Vec3, x: Vec3, n: Vec3) -> f64 {
-    let d: DVec3 = dvec(x) - dvec(from);
-    let d2 = d.length_squared();
-    if n == Vec3::ZERO {
-        1.0 / d2
-    } else {
-        dvec(n).dot(d).abs() / (d2 * d2.sqrt())
-    }
 }
 
 /// Draw one guided path from `cache` (which must not be empty).

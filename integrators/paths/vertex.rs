@@ -259,16 +259,11 @@ pub fn to_measure(scene: &Scene, pdf_w: f32, from: Vec3, to: &Vertex) -> f32 {
     if to.is_infinite_light(scene) {
         return pdf_w;
     }
-    let d = to.p - from;
-    let d2 = d.length_squared();
-    if d2 == 0.0 {
+    if to.p == from {
         return 0.0;
     }
-    let mut pdf = pdf_w / d2;
-    if to.n != Vec3::ZERO && !to.is_medium() {
-        pdf *= to.n.dot(d).abs() / d2.sqrt();
-    }
-    pdf
+    let n = if to.is_medium() { Vec3::ZERO } else { to.n };
+    (pdf_w as f64 * super::area_factor(from, to.p, n)) as f32
 }
 
 /// Density (in `next`'s measure; no roulette, no free flight) with which vertex `v`, reached

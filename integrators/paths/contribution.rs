@@ -9,8 +9,8 @@
 //! The product is formed in f64: in a centimetre-scale scene a long path's `Π 1/d²` and its
 //! densities leave f32's range, and an underflow to 0 would silently drop the path.
 
+use super::{Kind, Vertex, area_factor, endpoint, medium_towards};
 use crate::bsdf::{Bsdf, ShadingFrame, TransportMode};
-use crate::integrators::bdpt::{Kind, Vertex, endpoint, medium_towards};
 use crate::math::Spectrum;
 use crate::scene::Scene;
 use glam::{DVec3, Vec2, Vec3};
@@ -71,14 +71,12 @@ pub fn contribution(scene: &Scene, y: &[Vertex], known_visible: u64) -> DVec3 {
             return f * ls.li.as_dvec3();
         }
         if !y[j + 1].is_infinite_light(scene) {
-            let dv = (y[j + 1].p - y[j].p).as_dvec3();
-            let d2 = dv.length_squared();
-            let cos = if y[j + 1].n == Vec3::ZERO || y[j + 1].is_medium() {
-                1.0
+            let n = if y[j + 1].is_medium() {
+                Vec3::ZERO
             } else {
-                y[j + 1].n.as_dvec3().dot(dv).abs() / d2.sqrt()
+                y[j + 1].n
             };
-            f *= cos / d2;
+            f *= area_factor(y[j].p, y[j + 1].p, n);
         }
         if let Kind::Medium { medium: m } = y[j + 1].kind {
             f *= scene.media[m as usize].sigma_s.as_dvec3();

@@ -8,15 +8,25 @@
 //! hash lookup and are counted too), the mean number of BVH candidates, and the bytes per
 //! guide path for path lengths 3 to 8.
 //!
+//! Then the cost of guiding BDPT: CPU nanoseconds per BDPT sample (one camera and one light
+//! subpath, every connection) plain, in recording mode with an empty cache (the sink's
+//! overhead alone), and with the 10k cache (p_g of every path whose structure the cache
+//! holds), once querying the first-vertex BVH for every such path and once per distinct x_1
+//! (every technique with t >= 2 shares the camera ray's hit): p_g evaluations, BVH queries
+//! and candidates per sample.
+//!
 //! ```text
 //! cargo bench --bench guided_pg
 //! ```
 //! Environment: `LODESTAR_BENCH_SCENE` (default scenes/pool.toml).
 
-use lodestar::integrators::bdpt;
+use lodestar::integrators::bdpt::{self, BdptSettings, Heuristic, Tracer};
+use lodestar::integrators::guided::Estimator;
 use lodestar::integrators::guided::cache::{GuideCache, Install};
+use lodestar::integrators::guided::estimator::{Collector, RowOutput};
 use lodestar::integrators::guided::kernel;
 use lodestar::integrators::pt::{PathRecorder, PathTracer, PtSettings};
+use lodestar::integrators::unguided::BdptUnguided;
 use lodestar::math::{IndependentSampler, Sampler, luminance};
 use lodestar::path::{MAX_VERTICES, Path};
 use lodestar::render::process_cpu_seconds;
@@ -122,5 +132,87 @@ fn main() {
     println!("bytes per guide path by length (vertices incl. camera):");
     for len in 3..=8 {
         println!("  {len}: {}", GuideCache::bytes_for_length(len));
+    }
+    bdpt_cost(&scene, &all);
+}
+
+/// CPU ns per BDPT sample: plain, recording without and with a 10k cache (BVH per path or
+/// per x_1).
+fn bdpt_cost(scene: &Scene, all: &[Install]) {
+    let settings = BdptSettings {
+        max_depth: 8,
+        rr_depth: 5,
+        heuristic: Heuristic::Balance,
+        light_tracing: false,
+    };
+    let u = BdptUnguided {
+        settings: settings.clone(),
+    };
+    let n = 10_000usize;
+    let mut installs: Vec<Install> = all.iter().take(n).cloned().collect();
+    for e in &mut installs {
+        e.3 = 1.0 / n as f64;
+    }
+    let mut cache = GuideCache::default();
+    cache.install(scene, installs, 20);
+    let empty = GuideCache::default();
+    let res = scene.camera.resolution;
+    let samples = 40_000u64;
+    let raster =
+        |s: &mut IndependentSampler| s.next_2d() * glam::Vec2::new(res.x as f32, res.y as f32);
+    println!("BDPT samples ({samples}, max_depth 8), CPU ns per sample:");
+    // Plain BDPT.
+    let mut tracer = Tracer::new(scene, &settings);
+    let t0 = process_cpu_seconds().unwrap_or(0.0);
+    let mut sink = glam::Vec3::ZERO;
+    for i in 0..samples {
+        let mut s = IndependentSampler::new(3, 0, i);
+        let r = raster(&mut s);
+        sink += tracer.sample(r, &mut s);
+        tracer.splats.clear();
+    }
+    let plain = process_cpu_seconds().unwrap_or(0.0) - t0;
+    println!(
+        "  {:<34} {:>8.0}   (checksum {:.3e})",
+        "plain bdpt",
+        plain * 1e9 / samples as f64,
+        sink.x
+    );
+    for (label, cache, no_reuse) in [
+        ("recording, empty cache", &empty, false),
+        ("10k guides, BVH query per path", &cache, true),
+        ("10k guides, BVH query per x_1", &cache, false),
+    ] {
+        let est = Estimator::new(scene, &u, cache, 0.5);
+        let mut out = RowOutput::default();
+        out.candidates.no_reuse = no_reuse;
+        let mut tracer = Tracer::new(scene, &settings);
+        let t0 = process_cpu_seconds().unwrap_or(0.0);
+        let mut sum = glam::DVec3::ZERO;
+        for i in 0..samples {
+            let mut s = IndependentSampler::new(3, 0, i);
+            let r = raster(&mut s);
+            let mut col = Collector {
+                est: &est,
+                sum: glam::DVec3::ZERO,
+                grid: Default::default(),
+                learning: false,
+                measuring: false,
+                out: &mut out,
+            };
+            tracer.sample_recorded(r, &mut s, &mut col);
+            sum += col.sum;
+        }
+        let secs = process_cpu_seconds().unwrap_or(0.0) - t0;
+        let st = &out.stats;
+        println!(
+            "  {:<34} {:>8.0}   p_g evaluations {:.3}, BVH queries {:.3}, candidates {:.1} per sample (checksum {:.3e})",
+            label,
+            secs * 1e9 / samples as f64,
+            st.pg_evaluations as f64 / samples as f64,
+            st.bvh_queries as f64 / samples as f64,
+            st.pg_candidates as f64 / samples as f64,
+            sum.x
+        );
     }
 }

@@ -7,6 +7,7 @@ mod util;
 use glam::DVec3;
 use lodestar::integrators::bdpt::{self, BdptSettings, Heuristic, Tracer, Vertex};
 use lodestar::integrators::guided::cache::{GuideCache, Install};
+use lodestar::integrators::guided::estimator::X1Candidates;
 use lodestar::integrators::guided::{Estimator, GuidedBdpt, GuidedSettings, Stats, contribution};
 use lodestar::integrators::unguided::{BdptUnguided, PathSink, Unguided};
 use lodestar::math::{IndependentSampler, Sampler, luminance};
@@ -99,7 +100,7 @@ fn check_weights(name: &str, scene: &Scene) {
         scene: &'a Scene,
         est: &'e Estimator<'a, BdptUnguided>,
         stats: Stats,
-        scratch: Vec<u32>,
+        candidates: X1Candidates,
         n: usize,
         guided_heavy: usize,
         bad: Vec<String>,
@@ -117,7 +118,7 @@ fn check_weights(name: &str, scene: &Scene) {
                     .push(format!("k {k}: f reported {f}, from vertices {fx}"));
             }
             let (p_u_mix, p_g) =
-                est.densities(path, Some(y), p_u, &mut self.stats, &mut self.scratch);
+                est.densities(path, Some(y), p_u, &mut self.stats, &mut self.candidates);
             let mut p = [0.0f64; MAX_VERTICES];
             bdpt::path_terms(scene, y, 5).technique_densities(&mut p);
             let bdpt_weights: f64 = p[..=k].iter().sum::<f64>() / est.mix(p_u_mix, p_g);
@@ -143,7 +144,7 @@ fn check_weights(name: &str, scene: &Scene) {
         scene,
         est: &est,
         stats: Stats::default(),
-        scratch: Vec::new(),
+        candidates: X1Candidates::default(),
         n: 0,
         guided_heavy: 0,
         bad: Vec::new(),

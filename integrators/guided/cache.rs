@@ -158,6 +158,9 @@ pub struct GuideCache {
     /// Testing hook: leave this guide path out of `pdf` (a deliberately wrong p_g, which the
     /// unbiasedness test must detect). Never set by the renderer.
     pub skip_in_pdf: Option<usize>,
+    /// The ratio n_g / n_u the learning run chose for rendering (`share.rs`); a loaded cache
+    /// renders with it, so it repeats the render phase of the run that saved it.
+    pub learned_ratio: Option<f64>,
 }
 
 impl GuideCache {
@@ -345,9 +348,26 @@ impl GuideCache {
             return (0.0, 0);
         }
         self.candidates(scene, y[1].p, scratch);
+        (self.pdf_among(scene, y, sig, nodes, scratch), scratch.len())
+    }
+
+    /// [`Self::pdf`] over `candidates`, which must be [`Self::candidates`] of `y[1].p` (they
+    /// depend on the direction from the camera to x_1 alone, so every path of one camera
+    /// sample shares them).
+    pub fn pdf_among(
+        &self,
+        scene: &Scene,
+        y: &[Vertex],
+        sig: u64,
+        nodes: &[Node],
+        candidates: &[u32],
+    ) -> f64 {
+        if self.is_empty() || !self.holds(sig) {
+            return 0.0;
+        }
         let mut terms = PathTerms::default();
         let mut sum = 0.0;
-        for &l in scratch.iter() {
+        for &l in candidates {
             let l = l as usize;
             let g = &self.guides[l];
             if g.sig != sig
@@ -359,7 +379,7 @@ impl GuideCache {
             }
             sum += g.weight * self.pdf_given_with(scene, l, y, &mut terms);
         }
-        (sum, scratch.len())
+        sum
     }
 
     /// p_g by summing over every guide path (no pruning): the reference for tests.

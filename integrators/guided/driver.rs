@@ -13,7 +13,8 @@
 //! re-weighted image of the render passes. When after three learning iterations every ratio
 //! with guided samples loses to U alone by more than 25 %, learning stops there (unless a
 //! cache is to be saved): a scene with nothing to guide costs a few passes, not the learning
-//! budget. `share = fixed`, and a loaded cache (no learning), use `alpha`.
+//! budget. A loaded cache renders with the share its learning run chose (saved with it);
+//! `share = fixed` uses `alpha`.
 
 use super::cache::{self, GuideCache, RebuildParams};
 use super::estimator::{Collector, Estimator, FAILURE_REASONS, RowOutput, Stats};
@@ -112,7 +113,7 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
                     let mut j = index;
                     while j < n_g {
                         let mut gs = IndependentSampler::new(ctx.seed, pass, n_pix + j);
-                        let g = est.guided(&mut gs, learning, &mut out.stats, &mut out.scratch);
+                        let g = est.guided(&mut gs, learning, &mut out.stats, &mut out.candidates);
                         if let Some(g) = g {
                             out.splats.push((g.pixel, g.value));
                             if measure {
@@ -302,9 +303,15 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
         let learn_seconds = start.elapsed().as_secs_f64();
         // ---- The guided share, from what learning measured ----
         let decision = meter.decide();
-        let alpha = decision
-            .as_ref()
-            .map_or(st.alpha, |d| 1.0 / (1.0 + d.ratio));
+        if let Some(d) = &decision {
+            cache.learned_ratio = Some(d.ratio);
+        }
+        // A loaded cache renders with the share its learning run chose.
+        let ratio = match st.share {
+            Share::Auto => decision.as_ref().map(|d| d.ratio).or(cache.learned_ratio),
+            Share::Fixed => None,
+        };
+        let alpha = ratio.map_or(st.alpha, |r| 1.0 / (1.0 + r));
         // Guiding off: the learning passes are U's passes plus unbiased guided ones; keep
         // them (unless the DBOR image of the render passes was asked for).
         let keep_learning = alpha == 1.0 && decision.is_some() && !ctx.dbor;

@@ -26,7 +26,7 @@ use crate::integrators::unguided::{PathSink, Unguided};
 use crate::math::{Sampler, luminance};
 use crate::path::{MAX_VERTICES, Path};
 use crate::scene::Scene;
-use glam::DVec3;
+use glam::{DVec3, Vec3};
 
 /// Names of [`Stats::reasons`], in order.
 pub const FAILURE_REASONS: &str = "offimage_miss_structure_scatter_occluded_zero_edge_nonfinite";
@@ -51,6 +51,8 @@ pub struct Stats {
     pub pg_candidates_guided: u64,
     /// Unguided paths dropped for a non-finite or negative value.
     pub invalid: u64,
+    /// Queries of the first-vertex BVH (one per distinct x_1 with `X1Candidates::reuse`).
+    pub bvh_queries: u64,
     /// Rays traced by the unguided and the guided technique (the share's cost measure).
     pub rays_u: u64,
     pub rays_g: u64,
@@ -65,6 +67,7 @@ impl Stats {
         self.pg_candidates_guided += o.pg_candidates_guided;
         self.pg_evaluations_guided += o.pg_evaluations_guided;
         self.invalid += o.invalid;
+        self.bvh_queries += o.bvh_queries;
         self.rays_u += o.rays_u;
         self.rays_g += o.rays_g;
         for (a, b) in self.reasons.iter_mut().zip(o.reasons) {
@@ -75,6 +78,29 @@ impl Stats {
     fn fail(&mut self, reason: usize) {
         self.failed += 1;
         self.reasons[reason] += 1;
+    }
+}
+
+/// The BVH candidates of the last x_1 queried. All paths of one unguided sample whose first
+/// vertex is the camera ray's hit share x_1 (pt: every path; bdpt: every technique with
+/// t >= 2), and the candidates depend on x_1 alone, so one query serves them all.
+#[derive(Default)]
+pub struct X1Candidates {
+    x1: Option<Vec3>,
+    list: Vec<u32>,
+    /// Query the BVH for every path instead (for measuring what the reuse saves).
+    pub no_reuse: bool,
+}
+
+impl X1Candidates {
+    /// The candidates of `x1`, queried only when it differs from the last one.
+    pub fn of(&mut self, cache: &GuideCache, scene: &Scene, x1: Vec3, stats: &mut Stats) -> &[u32] {
+        if self.no_reuse || self.x1 != Some(x1) {
+            cache.candidates(scene, x1, &mut self.list);
+            self.x1 = Some(x1);
+            stats.bvh_queries += 1;
+        }
+        &self.list
     }
 }
 
@@ -120,14 +146,14 @@ impl<'a, U: Unguided> Estimator<'a, U> {
 
     /// `(p_u, p_g)` of a path U reported with density sum `p_u` (see the module doc for when
     /// `p_u` is recomputed). `y` is the path as BDPT vertices if the caller has them;
-    /// `scratch` holds the BVH candidates (reused, no allocation per path).
+    /// `candidates` holds the BVH candidates of the last x_1 (no allocation per path).
     pub fn densities(
         &self,
         path: &Path,
         y: Option<&[Vertex]>,
         p_u: f64,
         stats: &mut Stats,
-        scratch: &mut Vec<u32>,
+        candidates: &mut X1Candidates,
     ) -> (f64, f64) {
         if self.n_g == 0.0 {
             return (p_u, 0.0);
@@ -151,9 +177,10 @@ impl<'a, U: Unguided> Estimator<'a, U> {
                 None => return (p_u, 0.0),
             },
         };
-        let (p_g, n) = self.cache.pdf(self.scene, y, sig, &nodes, scratch);
+        let list = candidates.of(self.cache, self.scene, y[1].p, stats);
+        let p_g = self.cache.pdf_among(self.scene, y, sig, &nodes, list);
         stats.pg_evaluations += 1;
-        stats.pg_candidates += n as u64;
+        stats.pg_candidates += list.len() as u64;
         if p_g > 0.0 {
             (self.unguided.pdf_unguided(self.scene, y), p_g)
         } else {
@@ -179,7 +206,7 @@ impl<'a, U: Unguided> Estimator<'a, U> {
         sampler: &mut impl Sampler,
         want_record: bool,
         stats: &mut Stats,
-        scratch: &mut Vec<u32>,
+        candidates: &mut X1Candidates,
     ) -> Option<GuidedValue> {
         stats.guided += 1;
         let g = match sampler::sample_path(self.scene, self.cache, sampler) {
@@ -221,7 +248,11 @@ impl<'a, U: Unguided> Estimator<'a, U> {
             stats.fail(sampler::Failure::Structure as usize);
             return None;
         };
-        let (p_g, n) = self.cache.pdf(self.scene, &y, sig, &nodes, scratch);
+        let list = candidates.of(self.cache, self.scene, y[1].p, stats);
+        let (p_g, n) = (
+            self.cache.pdf_among(self.scene, &y, sig, &nodes, list),
+            list.len(),
+        );
         stats.pg_evaluations += 1;
         stats.pg_candidates += n as u64;
         stats.pg_candidates_guided += n as u64;
@@ -256,8 +287,8 @@ pub struct RowOutput {
     pub splats: Vec<(u32, DVec3)>,
     pub learn: LearnRow,
     pub stats: Stats,
-    /// BVH candidates of p_g evaluations (reused).
-    pub scratch: Vec<u32>,
+    /// BVH candidates of the last x_1 (reused).
+    pub candidates: X1Candidates,
     /// While measuring the share (`share.rs`): per pixel of the row what U's sample adds to
     /// it under each ratio, U's splats likewise, and Σ g(r)² of the row's guided samples.
     pub grid: Vec<[f64; share::N]>,
@@ -285,7 +316,7 @@ impl<U: Unguided> PathSink for Collector<'_, '_, U> {
         let out = &mut *self.out;
         let (p_u, p_g) = self
             .est
-            .densities(path, y, p_u, &mut out.stats, &mut out.scratch);
+            .densities(path, y, p_u, &mut out.stats, &mut out.candidates);
         let value = f / self.est.mix(p_u, p_g);
         if !(value.is_finite() && value.min_element() >= 0.0) {
             out.stats.invalid += 1;

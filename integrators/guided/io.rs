@@ -3,7 +3,8 @@
 //! Layout (little endian): magic `LSGUIDES`, format version (u32), a fingerprint of the scene
 //! (u64: camera, counts of shapes, triangles, materials, lights, media, bounds), the learning
 //! iteration (u32), the kernel widths (two f64: regression, first vertex; since version 2),
-//! the number of guide paths (u32), then per guide path: vertex count (u8),
+//! the guided share the learning run chose (f64 ratio n_g / n_u, -1 for none; since version
+//! 3), the number of guide paths (u32), then per guide path: vertex count (u8),
 //! age (u16), f (f32), p_u (f64), weight (f64) and its vertices (position, normal, shading
 //! normal as 9 f32, kind tag u8, two u32 ids, delta flag u8). Kernels, neighbours and the
 //! pruning BVH are rebuilt on load, deterministically, so a loaded cache renders exactly like
@@ -18,7 +19,7 @@ use glam::Vec3;
 use std::path::Path;
 
 const MAGIC: &[u8; 8] = b"LSGUIDES";
-pub const VERSION: u32 = 2;
+pub const VERSION: u32 = 3;
 
 /// A hash of what a cache depends on in the scene.
 pub fn scene_fingerprint(scene: &Scene) -> u64 {
@@ -55,6 +56,7 @@ pub fn save(scene: &Scene, cache: &GuideCache, file: &Path) -> Result<()> {
     b.extend_from_slice(&cache.iteration.to_le_bytes());
     b.extend_from_slice(&cache.widths.regression.to_le_bytes());
     b.extend_from_slice(&cache.widths.first_vertex.to_le_bytes());
+    b.extend_from_slice(&cache.learned_ratio.unwrap_or(-1.0).to_le_bytes());
     b.extend_from_slice(&(cache.guides.len() as u32).to_le_bytes());
     for (l, g) in cache.guides.iter().enumerate() {
         b.push(g.len);
@@ -171,6 +173,14 @@ pub fn load(scene: &Scene, file: &Path) -> Result<GuideCache> {
     if !widths.is_valid() {
         return Err(bad(format!("invalid kernel widths {widths:?}")));
     }
+    let ratio = r.f64()?;
+    let learned_ratio = if ratio == -1.0 {
+        None
+    } else if ratio.is_finite() && ratio >= 0.0 {
+        Some(ratio)
+    } else {
+        return Err(bad(format!("invalid guided share ratio {ratio}")));
+    };
     let count = r.u32()? as usize;
     let mut entries = Vec::with_capacity(count.min(1 << 20));
     for i in 0..count {
@@ -221,5 +231,6 @@ pub fn load(scene: &Scene, file: &Path) -> Result<GuideCache> {
     }
     let mut cache = GuideCache::with_widths(widths);
     cache.install(scene, entries, iteration);
+    cache.learned_ratio = learned_ratio;
     Ok(cache)
 }

@@ -186,14 +186,12 @@ emission = [1e6, 1e6, 1e6]
                 .map(|w| w[0].p.distance(w[1].p))
                 .fold(f32::INFINITY, f32::min);
             let tolerance = if shortest >= 10.0 { 1e-2 } else { 1.0 };
-            if fx == DVec3::ZERO || rel.is_nan() || rel >= tolerance {
-                if self.bad.len() < 4 {
-                    self.bad.push(format!(
-                        "k {} technique {technique}: pt {f} vs {fx} {:?}",
-                        path.segments(),
-                        path.vertices().iter().map(|v| v.p).collect::<Vec<_>>()
-                    ));
-                }
+            if (fx == DVec3::ZERO || rel.is_nan() || rel >= tolerance) && self.bad.len() < 4 {
+                self.bad.push(format!(
+                    "k {} technique {technique}: pt {f} vs {fx} {:?}",
+                    path.segments(),
+                    path.vertices().iter().map(|v| v.p).collect::<Vec<_>>()
+                ));
             }
         }
     }

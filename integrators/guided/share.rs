@@ -18,9 +18,9 @@
 //! `--spp` render is reproducible, unlike with wall time): U's rays; with r > 0 also
 //! `PG_EVALUATION_RAYS` per p_g evaluation and `PG_CANDIDATE_RAYS` per candidate term on U's
 //! paths; and per guided sample its rays, `GUIDED_SAMPLE_RAYS` for the work around them (path
-//! building, f(X), p_u), and its own p_g evaluation. The render uses the ratio of [`RATIOS`] with the least `V(r) · cost(r)`,
-//! estimated from the later half of the measured learning passes (the caches closest to the
-//! final one). r = 0 turns guiding off: the estimator is U's own and nothing of the guider
+//! building, f(X), p_u), and its own p_g evaluation. The render uses the ratio of [`RATIOS`]
+//! with the least `V(r) · cost(r)`, estimated from the later half of the measured learning
+//! passes (the caches closest to the final one), if that is below [`MARGIN`] times U's own. r = 0 turns guiding off: the estimator is U's own and nothing of the guider
 //! is evaluated. The choice is global, not per image region.
 
 use super::estimator::Stats;
@@ -38,6 +38,11 @@ pub const N: usize = RATIOS.len();
 pub const PG_EVALUATION_RAYS: f64 = 2.0;
 pub const PG_CANDIDATE_RAYS: f64 = 0.05;
 pub const GUIDED_SAMPLE_RAYS: f64 = 3.5;
+
+/// Guiding is turned on only for a predicted `V · cost` below this share of U's alone: the
+/// estimate is noisy and the learning passes were paid already (measured on ajar, 60 s: a
+/// predicted gain of a few per cent turned into a 0.83x loss for guided-pt).
+pub const MARGIN: f64 = 0.85;
 
 /// The luminance an unguided path or guided sample adds to its pixel under each ratio.
 pub fn values(f_lum: f64, p_u: f64, p_g: f64) -> [f64; N] {
@@ -156,6 +161,7 @@ impl ShareMeter {
         let best = (0..N)
             .filter(|&i| relative[i].is_finite())
             .min_by(|&a, &b| relative[a].total_cmp(&relative[b]).then(a.cmp(&b)))
+            .filter(|&i| relative[i] < MARGIN)
             .unwrap_or(0);
         Some(Decision {
             ratio: RATIOS[best],

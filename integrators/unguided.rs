@@ -51,6 +51,17 @@ pub trait Unguided: Sync + Send {
         sampler: &mut IndependentSampler,
         sink: &mut dyn PathSink,
     );
+    /// U's own estimate of the pixel at `raster` (its own MIS weights, nothing recorded):
+    /// what the guider renders with when it has no guided samples to mix in. Splats
+    /// (light-tracing paths) are pushed to `splats`.
+    fn estimate(
+        &self,
+        tracer: &mut Self::Tracer<'_>,
+        scene: &Scene,
+        raster: Vec2,
+        sampler: &mut IndependentSampler,
+        splats: &mut Vec<(u32, DVec3)>,
+    ) -> DVec3;
     /// Sum over the estimator's techniques of their densities for path `y` (camera first,
     /// a light last); 0 for paths it cannot form (longer than `max_depth`).
     fn pdf_unguided(&self, scene: &Scene, y: &[Vertex]) -> f64;
@@ -107,6 +118,17 @@ impl Unguided for PathTracer {
         self.li_recorded(scene, raster, sampler, Some(&mut Forward(sink)));
     }
 
+    fn estimate(
+        &self,
+        _: &mut (),
+        scene: &Scene,
+        raster: Vec2,
+        sampler: &mut IndependentSampler,
+        _: &mut Vec<(u32, DVec3)>,
+    ) -> DVec3 {
+        finite(self.li(scene, raster, sampler).as_dvec3())
+    }
+
     /// pt's techniques are BDPT's s = 0 and (two or more segments) s = 1.
     fn pdf_unguided(&self, scene: &Scene, y: &[Vertex]) -> f64 {
         let s: &PtSettings = &self.settings;
@@ -147,8 +169,35 @@ impl Unguided for BdptUnguided {
         tracer.sample_recorded(raster, sampler, sink);
     }
 
+    fn estimate(
+        &self,
+        tracer: &mut bdpt::Tracer<'_>,
+        _: &Scene,
+        raster: Vec2,
+        sampler: &mut IndependentSampler,
+        splats: &mut Vec<(u32, DVec3)>,
+    ) -> DVec3 {
+        let v = tracer.sample(raster, sampler);
+        for (p, c) in tracer.splats.drain(..) {
+            let c = finite(c.as_dvec3());
+            if c != DVec3::ZERO {
+                splats.push((p, c));
+            }
+        }
+        finite(v.as_dvec3())
+    }
+
     fn pdf_unguided(&self, scene: &Scene, y: &[Vertex]) -> f64 {
         let s = &self.settings;
         densities(y, scene, s.max_depth, s.rr_depth).map_or(0.0, |p| p[..y.len()].iter().sum())
+    }
+}
+
+/// `v` if finite and non-negative, else 0 (as the pass drivers drop invalid samples).
+fn finite(v: DVec3) -> DVec3 {
+    if v.is_finite() && v.min_element() >= 0.0 {
+        v
+    } else {
+        DVec3::ZERO
     }
 }

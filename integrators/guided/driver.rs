@@ -76,6 +76,7 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
         let UVec2 { x: w, .. } = scene.camera.resolution;
         let n_pix = scene.camera.pixel_count() as u64;
         let n_g = est.n_g as u64;
+        let plain = n_g == 0 && !learning && !measure;
         let mut crows = cascade_rows(cascade, scene.camera.resolution.y);
         let rows = film
             .par_rows_mut()
@@ -89,17 +90,29 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
                     let mut sampler = IndependentSampler::new(ctx.seed, pass, index);
                     let raster = Vec2::new(x as f32, y as f32) + sampler.next_2d();
                     let rays = rays_traced();
-                    let mut col = Collector {
-                        est,
-                        sum: DVec3::ZERO,
-                        grid: [0.0; share::N],
-                        learning,
-                        measuring: measure,
-                        out: &mut out,
+                    let (sum, grid) = if plain {
+                        // Nothing of the guider to evaluate: U's own estimator, as fast as U.
+                        let v = self.unguided.estimate(
+                            &mut tracer,
+                            scene,
+                            raster,
+                            &mut sampler,
+                            &mut out.splats,
+                        );
+                        (v, [0.0; share::N])
+                    } else {
+                        let mut col = Collector {
+                            est,
+                            sum: DVec3::ZERO,
+                            grid: [0.0; share::N],
+                            learning,
+                            measuring: measure,
+                            out: &mut out,
+                        };
+                        self.unguided
+                            .trace(&mut tracer, scene, raster, &mut sampler, &mut col);
+                        (col.sum, col.grid)
                     };
-                    self.unguided
-                        .trace(&mut tracer, scene, raster, &mut sampler, &mut col);
-                    let (sum, grid) = (col.sum, col.grid);
                     *acc += sum;
                     if measure {
                         out.grid.push(grid);

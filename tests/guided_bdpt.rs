@@ -332,3 +332,25 @@ fn power_heuristic_with_guided_bdpt_is_an_error() {
     };
     assert!(build("guided-bdpt", &params).is_ok());
 }
+
+/// guided-bdpt and guided-pt, learning and choosing their share inside the render, give
+/// bit-identical images on 1 and 2 threads (the share is decided from counted rays, not time).
+#[test]
+fn guided_renders_do_not_depend_on_the_thread_count() {
+    let scene = util::scene(CAUSTIC);
+    for name in ["guided-bdpt", "guided-pt"] {
+        let one = util::render(&scene, name, MAX_DEPTH, &["learn_fraction=0.5"], 8, 5, 1);
+        let two = util::render(&scene, name, MAX_DEPTH, &["learn_fraction=0.5"], 8, 5, 2);
+        assert!(
+            one.image.pixels == two.image.pixels,
+            "{name}: 1 and 2 threads differ"
+        );
+        let share = |r: &lodestar::render::RenderResult| {
+            r.stats
+                .iter()
+                .find(|s| s.0 == "share_relative_cost")
+                .map(|s| s.1.clone())
+        };
+        assert_eq!(share(&one), share(&two), "{name}");
+    }
+}

@@ -10,11 +10,11 @@ use lodestar::integrators::guided::cache::{GuideCache, Install};
 use lodestar::integrators::guided::estimator::X1Candidates;
 use lodestar::integrators::guided::{Estimator, GuidedBdpt, GuidedSettings, Stats, contribution};
 use lodestar::integrators::unguided::{BdptUnguided, PathSink, Unguided};
-use lodestar::math::{IndependentSampler, Sampler, luminance};
+use lodestar::math::luminance;
 use lodestar::path::{MAX_VERTICES, Path};
 use lodestar::render::{Budget, Integrator, RenderContext};
 use lodestar::scene::Scene;
-use util::guided::{CAUSTIC, installs_of, twin_caustic_cache};
+use util::guided::{CAUSTIC, installs_of, sample_stream, twin_caustic_cache};
 
 const MAX_DEPTH: u32 = 6;
 
@@ -40,13 +40,8 @@ fn box_scene(name: &str, res: u32) -> Scene {
 fn trace_bdpt(scene: &Scene, seed: u64, n: u64, sink: &mut dyn PathSink) {
     let settings = bdpt_settings();
     let mut tracer = Tracer::new(scene, &settings);
-    let res = scene.camera.resolution;
     for i in 0..n {
-        let mut s = IndependentSampler::new(seed, 0, i);
-        let raster = glam::Vec2::new(
-            (i % res.x as u64) as f32,
-            ((i / res.x as u64) % res.y as u64) as f32,
-        ) + s.next_2d();
+        let (raster, mut s) = sample_stream(scene, seed, i);
         tracer.sample_recorded(raster, &mut s, sink);
     }
 }

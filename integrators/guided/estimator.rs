@@ -239,20 +239,20 @@ impl<'a, U: Unguided> Estimator<'a, U> {
         // the f32 hit points. Where the two fall on different sides of a truncation edge the
         // path's own term is 0: such a sample is a failure (value 0), so that what is kept is
         // exactly where the evaluated density is positive.
-        if self.cache.pdf_given(self.scene, g.guide, &y) == 0.0 {
-            stats.fail(EDGE);
-            return None;
-        }
-        let p_u = self.unguided.pdf_unguided(self.scene, &y);
         let Some((sig, nodes)) = kernel::structure(self.scene, &g.path, MAX_VERTICES) else {
             stats.fail(sampler::Failure::Structure as usize);
             return None;
         };
         let list = candidates.of(self.cache, self.scene, y[1].p, stats);
-        let (p_g, n) = (
-            self.cache.pdf_among(self.scene, &y, sig, &nodes, list),
-            list.len(),
-        );
+        let n = list.len();
+        let (p_g, own) = self
+            .cache
+            .pdf_and_term(self.scene, &y, sig, &nodes, list, Some(g.guide));
+        if own == 0.0 {
+            stats.fail(EDGE);
+            return None;
+        }
+        let p_u = self.unguided.pdf_unguided(self.scene, &y);
         stats.pg_evaluations += 1;
         stats.pg_candidates += n as u64;
         stats.pg_candidates_guided += n as u64;

@@ -108,16 +108,23 @@ pub fn trace_pt<R: PathRecorder>(
             ..PtSettings::default()
         },
     };
-    let res = scene.camera.resolution;
     for i in 0..n {
-        let mut s = IndependentSampler::new(seed, 0, i);
-        let raster = glam::Vec2::new(
-            (i % res.x as u64) as f32,
-            ((i / res.x as u64) % res.y as u64) as f32,
-        ) + s.next_2d();
+        let (raster, mut s) = sample_stream(scene, seed, i);
         pt.li_recorded(scene, raster, &mut s, Some(recorder));
         if done(recorder) {
             break;
         }
     }
+}
+
+/// Sample i of a test trace: stream (seed, 0, i) and a jittered raster position in pixel
+/// i mod the image.
+pub fn sample_stream(scene: &Scene, seed: u64, i: u64) -> (glam::Vec2, IndependentSampler) {
+    let res = scene.camera.resolution;
+    let mut s = IndependentSampler::new(seed, 0, i);
+    let raster = glam::Vec2::new(
+        (i % res.x as u64) as f32,
+        ((i / res.x as u64) % res.y as u64) as f32,
+    ) + s.next_2d();
+    (raster, s)
 }

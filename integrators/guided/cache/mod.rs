@@ -364,24 +364,45 @@ impl GuideCache {
         nodes: &[Node],
         candidates: &[u32],
     ) -> f64 {
-        if self.is_empty() || !self.holds(sig) {
-            return 0.0;
-        }
+        self.pdf_and_term(scene, y, sig, nodes, candidates, None).0
+    }
+
+    /// [`Self::pdf_among`], and also `p(X | own)` of guide `own` (a guided sample's own guide,
+    /// whose term the sum computes anyway; 0 without `own`).
+    pub fn pdf_and_term(
+        &self,
+        scene: &Scene,
+        y: &[Vertex],
+        sig: u64,
+        nodes: &[Node],
+        candidates: &[u32],
+        own: Option<usize>,
+    ) -> (f64, f64) {
         let mut terms = PathTerms::default();
+        let mut own_term = None;
         let mut sum = 0.0;
-        for &l in candidates {
-            let l = l as usize;
-            let g = &self.guides[l];
-            if g.sig != sig
-                || g.weight == 0.0
-                || self.nodes_of(l) != nodes
-                || self.skip_in_pdf == Some(l)
-            {
-                continue;
+        if !self.is_empty() && self.holds(sig) {
+            for &l in candidates {
+                let l = l as usize;
+                let g = &self.guides[l];
+                if g.sig != sig || g.weight == 0.0 || self.nodes_of(l) != nodes {
+                    continue;
+                }
+                let term = self.pdf_given_with(scene, l, y, &mut terms);
+                if own == Some(l) {
+                    own_term = Some(term);
+                }
+                if self.skip_in_pdf != Some(l) {
+                    sum += g.weight * term;
+                }
             }
-            sum += g.weight * self.pdf_given_with(scene, l, y, &mut terms);
         }
-        sum
+        // The own guide is a candidate unless rounding put x_1 just outside its box.
+        let own_term = match (own, own_term) {
+            (Some(l), None) => self.pdf_given_with(scene, l, y, &mut terms),
+            (_, t) => t.unwrap_or(0.0),
+        };
+        (sum, own_term)
     }
 
     /// p_g by summing over every guide path (no pruning): the reference for tests.

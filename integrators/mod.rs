@@ -4,6 +4,7 @@
 
 pub mod bdpt;
 pub mod guided;
+pub mod mcmc;
 pub mod paths;
 pub mod pt;
 pub mod unguided;
@@ -52,6 +53,16 @@ pub static REGISTRY: &[Entry] = &[
         name: "bdpt",
         summary: "bidirectional path tracing: all (s, t) techniques, full MIS, media",
         build: bdpt::build,
+    },
+    Entry {
+        name: "pssmlt",
+        summary: "primary-sample-space Metropolis light transport over pt (Kelemen et al. 2002)",
+        build: mcmc::build_pssmlt,
+    },
+    Entry {
+        name: "mmlt",
+        summary: "multiplexed Metropolis light transport over bdpt's techniques (Hachisuka et al. 2014)",
+        build: mcmc::build_mmlt,
     },
     Entry {
         name: "vcm",

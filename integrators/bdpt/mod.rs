@@ -26,6 +26,7 @@
 //! ```
 
 mod cache;
+mod technique;
 mod walk;
 
 pub use super::paths::vertex;
@@ -46,6 +47,7 @@ use crate::render::{Budget, Integrator, RenderContext, RenderResult, RowTracer, 
 use crate::scene::{Endpoint, Scene};
 use cache::{Cached, cache_subpath};
 use glam::{Vec2, Vec3};
+pub use technique::TECHNIQUE_STREAMS;
 use vertex::{ConnectionEnd, Edge, connection_end, measure_factor, pdf, to_measure};
 use walk::roulette;
 
@@ -116,6 +118,23 @@ impl Integrator for Bdpt {
 
     fn render(&mut self, ctx: &RenderContext, budget: Budget) -> RenderResult {
         render_rows(ctx, budget, || Tracer::new(ctx.scene, &self.settings))
+    }
+}
+
+/// Next-event density of a light subpath's first vertex from its second (`nee_k` of every
+/// technique with s >= 2); 0 for subpaths of fewer than two vertices.
+fn light_nee(scene: &Scene, light: &[Vertex]) -> f64 {
+    match (light.first(), light.get(1)) {
+        (
+            Some(
+                l0 @ Vertex {
+                    kind: Kind::Light { light },
+                    ..
+                },
+            ),
+            Some(l1),
+        ) => nee_density(scene, l1, l0, *light),
+        _ => 0.0,
     }
 }
 
@@ -294,18 +313,7 @@ impl<'a> Tracer<'a> {
         walk::light_subpath(scene, max_depth + 1, st.rr_depth, sampler, &mut light);
         cache_subpath(scene, &camera, st.rr_depth, &mut cc);
         cache_subpath(scene, &light, st.rr_depth, &mut lc);
-        self.light_nee = match (light.first(), light.get(1)) {
-            (
-                Some(
-                    l0 @ Vertex {
-                        kind: Kind::Light { light },
-                        ..
-                    },
-                ),
-                Some(l1),
-            ) => nee_density(scene, l1, l0, *light),
-            _ => 0.0,
-        };
+        self.light_nee = light_nee(scene, &light);
         let mut l = Spectrum::ZERO;
         for t in 1..=camera.len() {
             for s in 0..=light.len() {

@@ -23,6 +23,10 @@ pub trait Sampler {
         let lo = self.next_1d() as f64;
         hi + lo * (1.0 / (1u64 << 24) as f64)
     }
+    /// Switch to stream `index` of a sample: Markov-chain samplers keep each stream's
+    /// dimensions apart (camera walk, light walk, connections), so a change in the number of
+    /// numbers one part draws does not shift the next part's; independent samplers ignore it.
+    fn start_stream(&mut self, _index: u32) {}
 }
 
 /// SplitMix64 finaliser: a bijective 64-bit mix.

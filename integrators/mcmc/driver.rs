@@ -1,0 +1,441 @@
+//! The Metropolis driver shared by `pssmlt` and `mmlt`: bootstrap, chains, passes, splats.
+//!
+//! A [`Target`] maps primary samples to a contribution on the image, in one or more groups
+//! (pssmlt: one; mmlt: one per path length). The driver
+//! 1. **bootstraps** each group from `bootstrap` independent samples: their mean importance
+//!    `b_g` (importance = luminance of the contribution) is the group's normalisation, and
+//!    the samples are kept as candidate chain starts;
+//! 2. **allots** every pass `N_pix` mutations (one per pixel, so `--spp` counts mutations per
+//!    pixel) to the groups in proportion to `b_g`, deterministically (`m_g`, at least one per
+//!    group with `b_g > 0`), spread over `c_g` chains, each started at a bootstrap sample
+//!    drawn in proportion to its importance (a start from the stationary distribution, so no
+//!    start-up bias) and then continued on its own stream;
+//! 3. **mutates**: each step proposes a large step (probability `large_step`) or a small
+//!    step, accepts with `a = min(1, I(y) / I(x))`, and splats both states with expected
+//!    values: `a f(y) / I(y)` and `(1 − a) f(x) / I(x)`, times `N_pix b_g / m_g`. A state of
+//!    zero importance (only reachable when nothing else is) accepts any proposal and splats
+//!    nothing; nothing is clamped.
+//!
+//! The image after P passes is the splat sum over P. Every chain owns its streams and its
+//! splats are added in chain order, so the image is bit-identical for any thread count.
+//! The bootstrap counts against a time budget.
+
+use super::primary::{PrimarySampler, SmallStep};
+use crate::film::Image;
+use crate::math::{Sampler, luminance, stream_seed};
+use crate::render::{Budget, RenderContext, RenderResult, run_passes_with_snapshots};
+use crate::scene::Scene;
+use glam::DVec3;
+use rand::RngExt;
+use rayon::prelude::*;
+use std::time::Instant;
+
+/// Stream keys of the bootstrap, the chain starts and the chains (far from render passes).
+const BOOTSTRAP_KEY: u64 = 0x4d43_4d43_0000_0000;
+const START_KEY: u64 = 0x4d43_4d43_1000_0000;
+const CHAIN_KEY: u64 = 0x4d43_4d43_2000_0000;
+
+/// A contribution to the image: the pixel it lands in and its RGB value.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Contribution {
+    pub pixel: u32,
+    pub value: DVec3,
+}
+
+impl Contribution {
+    pub const ZERO: Contribution = Contribution {
+        pixel: 0,
+        value: DVec3::ZERO,
+    };
+
+    /// The chain's target density (up to b): luminance, 0 for invalid values.
+    pub fn importance(&self) -> f64 {
+        let v = self.value;
+        if v.is_finite() && v.min_element() >= 0.0 {
+            luminance(v.as_vec3()) as f64
+        } else {
+            0.0
+        }
+    }
+}
+
+/// What a chain explores: a deterministic function of the primary samples.
+pub trait Target: Sync {
+    /// Per-thread scratch (subpath buffers).
+    type Scratch<'s>
+    where
+        Self: 's;
+    fn scratch(&self) -> Self::Scratch<'_>;
+    /// Sampler streams the target reads (`Sampler::start_stream`).
+    fn streams(&self) -> u32;
+    /// Number of chain groups, each with its own normalisation.
+    fn groups(&self) -> usize;
+    /// Group `group`'s contribution for the sampler's numbers (read from the start).
+    fn eval<S: Sampler>(
+        &self,
+        scratch: &mut Self::Scratch<'_>,
+        group: usize,
+        sampler: &mut S,
+    ) -> Contribution;
+}
+
+/// Options of the Metropolis integrators.
+#[derive(Debug, Clone, PartialEq)]
+pub struct McmcSettings {
+    /// Bootstrap samples per group (default 100 000).
+    pub bootstrap: u64,
+    /// Number of chains over all groups (default 1024).
+    pub chains: u64,
+    /// Probability of a large step (default 0.3).
+    pub large_step: f64,
+    pub small_step: SmallStep,
+}
+
+impl Default for McmcSettings {
+    fn default() -> Self {
+        McmcSettings {
+            bootstrap: 100_000,
+            chains: 1024,
+            large_step: 0.3,
+            small_step: SmallStep::default(),
+        }
+    }
+}
+
+/// One chain: its primary samples and current state.
+pub struct Chain {
+    pub group: usize,
+    pub sampler: PrimarySampler,
+    pub current: Contribution,
+    pub importance: f64,
+    /// Mutations per pass.
+    pub mutations: u64,
+    /// Splat factor `N_pix b_g / m_g`.
+    pub scale: f64,
+}
+
+/// Counters of one render.
+#[derive(Debug, Default, Clone, Copy)]
+pub struct Counters {
+    pub mutations: u64,
+    pub accepted: u64,
+    pub large: u64,
+    pub large_accepted: u64,
+    pub zero_proposals: u64,
+    /// Sum of the large steps' importances (independent samples of b).
+    pub large_importance: f64,
+}
+
+impl Counters {
+    fn add(&mut self, o: &Counters) {
+        self.large_importance += o.large_importance;
+        self.mutations += o.mutations;
+        self.accepted += o.accepted;
+        self.large += o.large;
+        self.large_accepted += o.large_accepted;
+        self.zero_proposals += o.zero_proposals;
+    }
+}
+
+/// The bootstrap of one group: `b_g` and the importance of every sample.
+pub struct Bootstrap {
+    pub b: f64,
+    pub importance: Vec<f64>,
+}
+
+/// The key of bootstrap sample `i` of group `g`.
+pub fn bootstrap_key(seed: u64, group: usize, i: u64) -> u64 {
+    stream_seed(seed, BOOTSTRAP_KEY + group as u64, i)
+}
+
+/// Evaluate `n` independent samples of every group.
+pub fn bootstrap<T: Target>(target: &T, seed: u64, n: u64, s: &McmcSettings) -> Vec<Bootstrap> {
+    (0..target.groups())
+        .map(|g| {
+            let importance: Vec<f64> = (0..n)
+                .into_par_iter()
+                .map_init(
+                    || target.scratch(),
+                    |scratch, i| {
+                        let key = bootstrap_key(seed, g, i);
+                        let mut sampler =
+                            PrimarySampler::new(key, target.streams(), s.small_step, s.large_step);
+                        target.eval(scratch, g, &mut sampler).importance()
+                    },
+                )
+                .collect();
+            let b = importance.iter().sum::<f64>() / n.max(1) as f64;
+            Bootstrap { b, importance }
+        })
+        .collect()
+}
+
+/// Chains over all groups after the bootstrap: group g gets `m_g` mutations per pass (of
+/// `per_pass`) and `c_g` chains, each started at a bootstrap sample chosen by importance.
+pub fn start_chains<T: Target>(
+    target: &T,
+    boot: &[Bootstrap],
+    seed: u64,
+    per_pass: u64,
+    pixels: f64,
+    s: &McmcSettings,
+) -> Vec<Chain> {
+    let b: f64 = boot.iter().map(|g| g.b).sum();
+    if b <= 0.0 || !b.is_finite() {
+        return Vec::new();
+    }
+    let mut plan = Vec::new(); // (group, mutations of this chain)
+    for (g, bg) in boot.iter().enumerate() {
+        if bg.b <= 0.0 {
+            continue;
+        }
+        let m = ((per_pass as f64 * bg.b / b).round() as u64).max(1);
+        let c = ((s.chains as f64 * bg.b / b).round() as u64).clamp(1, m);
+        for j in 0..c {
+            plan.push((g, m / c + u64::from(j < m % c), m));
+        }
+    }
+    plan.into_par_iter()
+        .enumerate()
+        .map_init(
+            || target.scratch(),
+            |scratch, (id, (g, mutations, m))| {
+                let cdf = &boot[g].importance;
+                let u =
+                    super::primary::rng(stream_seed(seed, START_KEY, id as u64)).random::<f64>();
+                let i = pick_by_importance(cdf, boot[g].b * cdf.len() as f64, u);
+                let mut sampler = PrimarySampler::new(
+                    bootstrap_key(seed, g, i as u64),
+                    target.streams(),
+                    s.small_step,
+                    s.large_step,
+                );
+                let current = target.eval(scratch, g, &mut sampler);
+                sampler.accept();
+                sampler.reseed(stream_seed(seed, CHAIN_KEY, id as u64));
+                Chain {
+                    group: g,
+                    importance: current.importance(),
+                    sampler,
+                    current,
+                    mutations,
+                    scale: pixels * boot[g].b / m as f64,
+                }
+            },
+        )
+        .collect()
+}
+
+/// Index i with probability `w[i] / total` for a uniform `u` (a linear scan: once per chain).
+fn pick_by_importance(w: &[f64], total: f64, u: f64) -> usize {
+    let target = u * total;
+    let mut acc = 0.0;
+    let mut last = 0;
+    for (i, &x) in w.iter().enumerate() {
+        if x > 0.0 {
+            acc += x;
+            last = i;
+            if acc > target {
+                return i;
+            }
+        }
+    }
+    last
+}
+
+/// `chain.mutations` Metropolis steps; splats go to `splats` (pixel, value).
+pub fn advance<T: Target>(
+    target: &T,
+    scratch: &mut T::Scratch<'_>,
+    chain: &mut Chain,
+    splats: &mut Vec<(u32, DVec3)>,
+    counters: &mut Counters,
+) {
+    for _ in 0..chain.mutations {
+        let sampler = &mut chain.sampler;
+        sampler.start_iteration();
+        let large = sampler.is_large_step();
+        let proposal = target.eval(scratch, chain.group, sampler);
+        let ip = proposal.importance();
+        let ix = chain.importance;
+        let a = if ix > 0.0 { (ip / ix).min(1.0) } else { 1.0 };
+        if ip > 0.0 {
+            splats.push((proposal.pixel, proposal.value * (a * chain.scale / ip)));
+        } else {
+            counters.zero_proposals += 1;
+        }
+        if ix > 0.0 && a < 1.0 {
+            let x = &chain.current;
+            splats.push((x.pixel, x.value * ((1.0 - a) * chain.scale / ix)));
+        }
+        counters.mutations += 1;
+        if large {
+            counters.large += 1;
+            counters.large_importance += ip;
+        }
+        // Zero-importance proposals are never accepted from a state that has importance.
+        if ip > 0.0 && (a >= 1.0 || sampler.uniform() < a) {
+            sampler.accept();
+            chain.current = proposal;
+            chain.importance = ip;
+            counters.accepted += 1;
+            counters.large_accepted += u64::from(large);
+        } else {
+            sampler.reject();
+        }
+    }
+}
+
+/// The splat sums of each group and what refines its normalisation.
+struct Accumulated {
+    sums: Vec<Vec<DVec3>>,
+    per_group: Vec<Counters>,
+}
+
+impl Accumulated {
+    /// b_g from the bootstrap and every large step so far (both are independent samples).
+    fn b(&self, boot: &[Bootstrap], g: usize) -> f64 {
+        let (c, n) = (&self.per_group[g], boot[g].importance.len() as f64);
+        (boot[g].b * n + c.large_importance) / (n + c.large as f64)
+    }
+
+    /// The image after `passes` passes: each group's splats rescaled from its bootstrap b_g
+    /// (which the splats carry) to the refined one.
+    fn image(&self, boot: &[Bootstrap], w: u32, h: u32, passes: u64) -> Image {
+        let mut px = vec![DVec3::ZERO; (w * h) as usize];
+        for (g, sums) in self.sums.iter().enumerate() {
+            if sums.is_empty() || boot[g].b <= 0.0 {
+                continue;
+            }
+            let scale = self.b(boot, g) / boot[g].b / passes.max(1) as f64;
+            for (p, s) in px.iter_mut().zip(sums) {
+                *p += *s * scale;
+            }
+        }
+        Image {
+            width: w,
+            height: h,
+            pixels: px.into_iter().map(|p| p.as_vec3()).collect(),
+        }
+    }
+}
+
+/// Render `target` with Metropolis chains under `budget` (passes of `N_pix` mutations).
+pub fn render<T: Target>(
+    target: &T,
+    settings: &McmcSettings,
+    ctx: &RenderContext,
+    budget: Budget,
+) -> RenderResult {
+    let scene: &Scene = ctx.scene;
+    let (w, h) = (scene.camera.resolution.x, scene.camera.resolution.y);
+    let pixels = scene.camera.pixel_count() as f64;
+    let t0 = Instant::now();
+    let boot = bootstrap(target, ctx.seed, settings.bootstrap, settings);
+    let mut chains = start_chains(target, &boot, ctx.seed, pixels as u64, pixels, settings);
+    let boot_seconds = t0.elapsed().as_secs_f64();
+    let budget = match budget {
+        Budget::Seconds(s) => Budget::Seconds((s - boot_seconds).max(0.0)),
+        b => b,
+    };
+    let groups = boot.len();
+    let mut acc = Accumulated {
+        sums: (0..groups)
+            .map(|g| {
+                if chains.iter().any(|c| c.group == g) {
+                    vec![DVec3::ZERO; (w * h) as usize]
+                } else {
+                    Vec::new()
+                }
+            })
+            .collect(),
+        per_group: vec![Counters::default(); groups],
+    };
+    let pass = |acc: &mut Accumulated, _pass: u64| {
+        let out: Vec<(Vec<(u32, DVec3)>, Counters)> = chains
+            .par_iter_mut()
+            .map_init(
+                || target.scratch(),
+                |scratch, chain| {
+                    let mut splats = Vec::with_capacity(2 * chain.mutations as usize);
+                    let mut c = Counters::default();
+                    advance(target, scratch, chain, &mut splats, &mut c);
+                    (splats, c)
+                },
+            )
+            .collect();
+        for (chain, (splats, c)) in chains.iter().zip(&out) {
+            let sums = &mut acc.sums[chain.group];
+            for &(p, v) in splats {
+                sums[p as usize] += v;
+            }
+            acc.per_group[chain.group].add(c);
+        }
+    };
+    let image = |acc: &Accumulated, passes: u64| acc.image(&boot, w, h, passes);
+    let (passes, seconds) = run_passes_with_snapshots(ctx, budget, &mut acc, pass, image);
+    let mut c = Counters::default();
+    for g in &acc.per_group {
+        c.add(g);
+    }
+    let b: f64 = (0..groups).map(|g| acc.b(&boot, g)).sum();
+    let b_boot: f64 = boot.iter().map(|g| g.b).sum();
+    let rate = |a: u64, n: u64| if n > 0 { a as f64 / n as f64 } else { 0.0 };
+    let stats = vec![
+        ("mcmc_b".to_string(), format!("{b:.6e}")),
+        ("mcmc_b_bootstrap".to_string(), format!("{b_boot:.6e}")),
+        (
+            "mcmc_b_per_group".to_string(),
+            (0..groups)
+                .map(|g| format!("{:.3e}", acc.b(&boot, g)))
+                .collect::<Vec<_>>()
+                .join(" "),
+        ),
+        (
+            "mcmc_b_bootstrap_rel_stderr".to_string(),
+            format!("{:.3e}", rel_stderr(&boot)),
+        ),
+        (
+            "mcmc_bootstrap".to_string(),
+            format!("{} x {} groups", settings.bootstrap, groups),
+        ),
+        (
+            "mcmc_bootstrap_seconds".to_string(),
+            format!("{boot_seconds:.3}"),
+        ),
+        ("mcmc_chains".to_string(), chains.len().to_string()),
+        ("mcmc_mutations".to_string(), c.mutations.to_string()),
+        (
+            "mcmc_acceptance".to_string(),
+            format!("{:.4}", rate(c.accepted, c.mutations)),
+        ),
+        (
+            "mcmc_large_step_acceptance".to_string(),
+            format!("{:.4}", rate(c.large_accepted, c.large)),
+        ),
+        (
+            "mcmc_zero_proposals".to_string(),
+            c.zero_proposals.to_string(),
+        ),
+    ];
+    RenderResult {
+        image: acc.image(&boot, w, h, passes),
+        spp: passes,
+        passes,
+        seconds: seconds + boot_seconds,
+        stats,
+        dbor: None,
+    }
+}
+
+/// Relative standard error of the bootstrap's total b (groups are independent).
+fn rel_stderr(boot: &[Bootstrap]) -> f64 {
+    let (mut b, mut var) = (0.0, 0.0);
+    for g in boot {
+        let n = g.importance.len() as f64;
+        let m2 = g.importance.iter().map(|x| x * x).sum::<f64>() / n;
+        var += (m2 - g.b * g.b).max(0.0) / n;
+        b += g.b;
+    }
+    if b > 0.0 { var.sqrt() / b } else { 0.0 }
+}

@@ -1,0 +1,92 @@
+//! `pssmlt`: primary-sample-space Metropolis over `pt` (Kelemen et al. 2002). The target of
+//! a state is one pt sample: its first two numbers place the sample on the image, the rest
+//! drive `PathTracer::li`. Options: see the module above.
+
+use super::driver::{self, Contribution, McmcSettings, Target};
+use crate::error::{Error, Result};
+use crate::integrators::IntegratorParams;
+use crate::integrators::pt::{PathTracer, PtSettings};
+use crate::math::Sampler;
+use crate::render::{Budget, Integrator, RenderContext, RenderResult};
+use crate::scene::Scene;
+use glam::Vec2;
+
+pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
+    let o = &params.options;
+    let rr_depth = o.get("rr_depth", 5u32, "an integer >= 1")?;
+    if rr_depth == 0 {
+        return Err(Error::new(
+            "option 'rr_depth': expected an integer >= 1, got 0",
+        ));
+    }
+    Ok(Box::new(Pssmlt {
+        pt: PathTracer {
+            settings: PtSettings {
+                max_depth: params.max_depth,
+                rr_depth,
+                ..PtSettings::default()
+            },
+        },
+        settings: super::settings(o)?,
+    }))
+}
+
+pub struct Pssmlt {
+    pub pt: PathTracer,
+    pub settings: McmcSettings,
+}
+
+/// One pt sample as a function of primary samples.
+pub struct PssTarget<'a> {
+    pub pt: &'a PathTracer,
+    pub scene: &'a Scene,
+}
+
+/// The raster position of two primary samples, anywhere on the image.
+pub fn raster_of(scene: &Scene, u: Vec2) -> Vec2 {
+    u * scene.camera.resolution.as_vec2()
+}
+
+impl Target for PssTarget<'_> {
+    type Scratch<'s>
+        = ()
+    where
+        Self: 's;
+
+    fn scratch(&self) {}
+
+    fn streams(&self) -> u32 {
+        1
+    }
+
+    fn groups(&self) -> usize {
+        1
+    }
+
+    fn eval<S: Sampler>(&self, _: &mut (), _: usize, sampler: &mut S) -> Contribution {
+        let raster = raster_of(self.scene, sampler.next_2d());
+        let l = self.pt.li(self.scene, raster, sampler);
+        Contribution {
+            pixel: self.scene.camera.pixel_index(raster) as u32,
+            value: l.as_dvec3(),
+        }
+    }
+}
+
+impl Integrator for Pssmlt {
+    fn name(&self) -> &'static str {
+        "pssmlt"
+    }
+
+    fn settings(&self) -> String {
+        format!("{:?} {:?}", self.pt.settings, self.settings)
+    }
+
+    fn render(&mut self, ctx: &RenderContext, budget: Budget) -> RenderResult {
+        let target = PssTarget {
+            pt: &self.pt,
+            scene: ctx.scene,
+        };
+        driver::render(&target, &self.settings, ctx, budget)
+    }
+}

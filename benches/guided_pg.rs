@@ -198,6 +198,7 @@ fn bdpt_cost(scene: &Scene, all: &[Install]) {
                 grid: Default::default(),
                 learning: false,
                 measuring: false,
+                source: lodestar::integrators::guided::seeder::Source::Guided,
                 out: &mut out,
             };
             tracer.sample_recorded(r, &mut s, &mut col);

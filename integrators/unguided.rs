@@ -15,7 +15,7 @@
 
 use super::bdpt::{self, BdptSettings, Vertex};
 use super::pt::{PathRecorder, PathTracer, PtSettings};
-use crate::math::IndependentSampler;
+use crate::math::{IndependentSampler, Sampler};
 use crate::path::{MAX_VERTICES, Path};
 use crate::scene::Scene;
 use glam::{DVec3, Vec2};
@@ -48,7 +48,7 @@ pub trait Unguided: Sync + Send {
         tracer: &mut Self::Tracer<'_>,
         scene: &Scene,
         raster: Vec2,
-        sampler: &mut IndependentSampler,
+        sampler: &mut impl Sampler,
         sink: &mut dyn PathSink,
     );
     /// U's own estimate of the pixel at `raster` (its own MIS weights, nothing recorded):
@@ -105,7 +105,7 @@ impl Unguided for PathTracer {
         _: &mut (),
         scene: &Scene,
         raster: Vec2,
-        sampler: &mut IndependentSampler,
+        sampler: &mut impl Sampler,
         sink: &mut dyn PathSink,
     ) {
         /// pt's recorder hands over each path with `density + other` = its `pdf_unguided`.
@@ -163,7 +163,7 @@ impl Unguided for BdptUnguided {
         tracer: &mut bdpt::Tracer<'_>,
         _: &Scene,
         raster: Vec2,
-        sampler: &mut IndependentSampler,
+        sampler: &mut impl Sampler,
         sink: &mut dyn PathSink,
     ) {
         tracer.sample_recorded(raster, sampler, sink);

@@ -96,6 +96,9 @@ struct RenderArgs {
     /// guided-pt: render with this saved cache instead of learning one (-O load_guides=).
     #[arg(long)]
     load_guides: Option<PathBuf>,
+    /// guided-pt, guided-bdpt: where guide paths come from, `outliers` or `mcmc` (-O seeder=).
+    #[arg(long)]
+    seeder: Option<String>,
     /// Also write the image re-weighted by Zirr et al.'s firefly cascade (b = 8, kappa = 32)
     /// as out.dbor.exr beside out.exr (biased; the plain sum of the cascade is the image).
     #[arg(long)]
@@ -110,12 +113,13 @@ impl RenderArgs {
     fn all_options(&self) -> Vec<String> {
         let mut o = self.options.clone();
         let path = |p: &PathBuf| p.to_string_lossy().into_owned();
-        let flags: [(&str, Option<String>); 5] = [
+        let flags: [(&str, Option<String>); 6] = [
             ("alpha", self.alpha.map(|v| v.to_string())),
             ("learn_fraction", self.learn_fraction.map(|v| v.to_string())),
             ("max_guides", self.max_guides.map(|v| v.to_string())),
             ("save_guides", self.save_guides.as_ref().map(path)),
             ("load_guides", self.load_guides.as_ref().map(path)),
+            ("seeder", self.seeder.clone()),
         ];
         for (k, v) in flags {
             if let Some(v) = v {

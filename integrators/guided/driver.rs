@@ -19,7 +19,7 @@
 use super::cache::{self, GuideCache, RebuildParams};
 use super::estimator::{Collector, Estimator, FAILURE_REASONS, RowOutput, Stats};
 use super::io;
-use super::seeder::{Candidate, LearnPass, LearnRow, Seeder};
+use super::seeder::{Candidate, Explore, LearnPass, LearnRow, Seeder, Source};
 use super::{GuidedSettings, Share, share};
 use crate::dbor::Cascade;
 use crate::error::Result;
@@ -107,6 +107,7 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
                             grid: [0.0; share::N],
                             learning,
                             measuring: measure,
+                            source: Source::Unguided { pass, index },
                             out: &mut out,
                         };
                         self.unguided
@@ -146,6 +147,7 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
                                         pixel: g.pixel,
                                         value: lum,
                                         densify,
+                                        source: Source::Guided,
                                     });
                                 }
                             }
@@ -267,6 +269,12 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
                     }
                     let alpha = est.alpha;
                     let mut learn_rows: Vec<LearnRow> = rows.into_iter().map(|r| r.learn).collect();
+                    let explore = Explore {
+                        seed: ctx.seed,
+                        iteration: k as u32,
+                        est: &est,
+                    };
+                    self.seeder.explore(explore, &mut learn_rows);
                     let records = self.seeder.harvest(LearnPass {
                         scene,
                         iteration: k as u32,
@@ -366,7 +374,7 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
         let rs = render_stats.into_inner();
         let total = (kept + passes).max(1);
         let image = film.to_image(total as f64, 1.0 / total as f64);
-        let out_stats = vec![
+        let mut out_stats = vec![
             stat("guide_paths", cache.len()),
             stat(
                 "bytes_per_guide_path",
@@ -412,6 +420,8 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
                 format!("{:?}", rs.reasons),
             ),
         ];
+        out_stats.push(stat("seeder", self.seeder.name()));
+        out_stats.extend(self.seeder.stats());
         self.cache = Some(cache);
         RenderResult {
             dbor: cascade.map(|c| c.reweighted(passes.max(1) as f64)),

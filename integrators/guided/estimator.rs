@@ -18,7 +18,7 @@
 //! techniques that can form X come from the same numbers and sum to one.
 
 use super::cache::{GuideCache, Record};
-use super::seeder::{Candidate, LearnRow};
+use super::seeder::{Candidate, LearnRow, Source};
 use super::share;
 use super::{contribution, kernel, sampler};
 use crate::integrators::bdpt::{self, Vertex};
@@ -305,6 +305,9 @@ pub struct Collector<'e, 'a, U: Unguided> {
     pub grid: [f64; share::N],
     pub learning: bool,
     pub measuring: bool,
+    /// What made the sample being traced (the Markov-chain seeder starts chains at
+    /// candidates whose unguided stream replays them).
+    pub source: Source,
     pub out: &'e mut RowOutput,
 }
 
@@ -340,7 +343,7 @@ impl<U: Unguided> PathSink for Collector<'_, '_, U> {
         if self.learning && path.segments() >= 2 {
             let lum = luminance(value.as_vec3()) as f64;
             out.learn.samples.push((path.pixel, lum as f32));
-            let est = self.est;
+            let (est, source) = (self.est, self.source);
             out.learn.offer(lum, || {
                 let f_lum = luminance(f.as_vec3()) as f64;
                 Candidate {
@@ -353,6 +356,7 @@ impl<U: Unguided> PathSink for Collector<'_, '_, U> {
                     pixel: path.pixel,
                     value: lum,
                     densify: false,
+                    source,
                 }
             });
         }

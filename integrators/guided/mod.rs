@@ -13,6 +13,7 @@
 //!
 //! Where to read: `estimator.rs` (the mixture, one pass's densities and a guided sample),
 //! `driver.rs` (learning, the share, passes), `seeder.rs` (which paths become guides),
+//! `chains.rs` (the Markov-chain seeder),
 //! `cache.rs` (storage, weights, p_g), `kernel.rs` (structures, Gaussians), `sampler.rs`
 //! (building a guided path), `contribution.rs` (f(X) from vertices), `io.rs` (saved caches);
 //! U's side is `integrators/unguided.rs`.
@@ -29,6 +30,9 @@
 //! | intake          | integer >= 1  | 100     | outliers kept per worker (band of rows) and iteration |
 //! | kernel_width    | number > 0    | 3       | factor on the conditional Gaussians' standard deviations (1: the spec's; `cache.rs`) |
 //! | first_width     | number > 0    | 2       | factor on the first-vertex kernel's width (1: the spec's) |
+//! | seeder          | `outliers` / `mcmc` | `outliers` | where guide paths come from: the passes' outliers, or also Markov chains started at them (`chains.rs`, `--seeder`) |
+//! | chain_share     | number > 0    | 0.25    | `mcmc`: chain steps per learning iteration, per pixel |
+//! | chain_large_step | [0, 1]       | 0.1     | `mcmc`: large-step probability of the chains |
 //! | save_guides     | path          | —       | write the learned cache (`--save-guides`) |
 //! | load_guides     | path          | —       | start from a saved cache and skip learning (`--load-guides`) |
 //!
@@ -57,6 +61,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
 
 pub mod cache;
+pub mod chains;
 pub mod driver;
 pub mod estimator;
 pub mod gaussian;
@@ -68,6 +73,7 @@ pub mod seeder;
 pub mod share;
 
 pub use crate::integrators::paths::contribution;
+pub use chains::{ChainSettings, Mcmc};
 pub use driver::Guided;
 pub use estimator::{Estimator, Stats};
 pub use seeder::{Outliers, Seeder};
@@ -107,6 +113,9 @@ pub struct GuidedSettings {
     pub widths: KernelWidths,
     pub save_guides: Option<PathBuf>,
     pub load_guides: Option<PathBuf>,
+    /// Where guide paths come from: `None` the outliers of the passes, else also the
+    /// Markov chains of `chains.rs` with these settings.
+    pub chains: Option<ChainSettings>,
 }
 
 impl Default for GuidedSettings {
@@ -121,17 +130,23 @@ impl Default for GuidedSettings {
             widths: KernelWidths::default(),
             save_guides: None,
             load_guides: None,
+            chains: None,
         }
     }
 }
 
-impl GuidedPt {
-    /// guided-pt with pt settings `pt`, guider settings `settings` and, optionally, a cache
-    /// to render with instead of learning one.
-    pub fn new(pt: PtSettings, settings: GuidedSettings, cache: Option<GuideCache>) -> Self {
+impl<S: Seeder> Guided<PathTracer, S> {
+    /// guided-pt with pt settings `pt`, guider settings `settings`, seeder `seeder` and,
+    /// optionally, a cache to render with instead of learning one.
+    pub fn over_pt(
+        pt: PtSettings,
+        settings: GuidedSettings,
+        seeder: S,
+        cache: Option<GuideCache>,
+    ) -> Self {
         Guided {
             name: "guided-pt",
-            seeder: Outliers::new(settings.intake),
+            seeder,
             unguided: PathTracer { settings: pt },
             settings,
             cache,
@@ -139,13 +154,18 @@ impl GuidedPt {
     }
 }
 
-impl GuidedBdpt {
-    /// guided-bdpt with bdpt settings `bdpt` (balance heuristic), guider settings `settings`
-    /// and, optionally, a cache to render with.
-    pub fn new(bdpt: BdptSettings, settings: GuidedSettings, cache: Option<GuideCache>) -> Self {
+impl<S: Seeder> Guided<BdptUnguided, S> {
+    /// guided-bdpt with bdpt settings `bdpt` (balance heuristic), guider settings
+    /// `settings`, seeder `seeder` and, optionally, a cache to render with.
+    pub fn over_bdpt(
+        bdpt: BdptSettings,
+        settings: GuidedSettings,
+        seeder: S,
+        cache: Option<GuideCache>,
+    ) -> Self {
         Guided {
             name: "guided-bdpt",
-            seeder: Outliers::new(settings.intake),
+            seeder,
             unguided: BdptUnguided {
                 settings: BdptSettings {
                     heuristic: Heuristic::Balance,
@@ -156,6 +176,22 @@ impl GuidedBdpt {
             settings,
             cache,
         }
+    }
+}
+
+impl GuidedPt {
+    /// guided-pt fed by outliers (see [`Guided::over_pt`]).
+    pub fn new(pt: PtSettings, settings: GuidedSettings, cache: Option<GuideCache>) -> Self {
+        let seeder = Outliers::new(settings.intake);
+        Guided::over_pt(pt, settings, seeder, cache)
+    }
+}
+
+impl GuidedBdpt {
+    /// guided-bdpt fed by outliers (see [`Guided::over_bdpt`]).
+    pub fn new(bdpt: BdptSettings, settings: GuidedSettings, cache: Option<GuideCache>) -> Self {
+        let seeder = Outliers::new(settings.intake);
+        Guided::over_bdpt(bdpt, settings, seeder, cache)
     }
 }
 
@@ -176,6 +212,14 @@ fn options(params: &IntegratorParams) -> Result<(GuidedSettings, u32)> {
     let first_width = o.get("first_width", default_widths.first_vertex, "a number > 0")?;
     let save = o.get("save_guides", String::new(), "a file path")?;
     let load = o.get("load_guides", String::new(), "a file path")?;
+    let seeder = o.choice("seeder", "outliers", &["outliers", "mcmc"])?;
+    let defaults = ChainSettings::default();
+    let chain_share = o.get("chain_share", defaults.share, "a number > 0")?;
+    let chain_large_step = o.get(
+        "chain_large_step",
+        defaults.large_step,
+        "a number in [0, 1]",
+    )?;
     let bad = |key: &str, expected: &str, got: String| {
         Err(Error::new(format!(
             "option '{key}': expected {expected}, got {got}"
@@ -193,6 +237,25 @@ fn options(params: &IntegratorParams) -> Result<(GuidedSettings, u32)> {
             "a number in [0, 1)",
             learn_fraction.to_string(),
         );
+    }
+    if !(chain_share > 0.0 && chain_share.is_finite()) {
+        return bad("chain_share", "a number > 0", chain_share.to_string());
+    }
+    if !(0.0..=1.0).contains(&chain_large_step) {
+        return bad(
+            "chain_large_step",
+            "a number in [0, 1]",
+            chain_large_step.to_string(),
+        );
+    }
+    if seeder != "mcmc" {
+        for key in ["chain_share", "chain_large_step"] {
+            if o.has(key) {
+                return Err(Error::new(format!(
+                    "option '{key}' belongs to seeder=mcmc (the seeder is '{seeder}')"
+                )));
+            }
+        }
     }
     if max_guides == 0 {
         return bad("max_guides", "an integer >= 1", "0".into());
@@ -226,6 +289,10 @@ fn options(params: &IntegratorParams) -> Result<(GuidedSettings, u32)> {
         },
         save_guides: path(save),
         load_guides: path(load),
+        chains: (seeder == "mcmc").then_some(ChainSettings {
+            share: chain_share,
+            large_step: chain_large_step,
+        }),
         ..GuidedSettings::default()
     };
     Ok((settings, rr_depth))
@@ -238,7 +305,13 @@ pub fn build_pt(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
         rr_depth,
         ..PtSettings::default()
     };
-    Ok(Box::new(GuidedPt::new(pt, settings, None)))
+    Ok(match settings.chains {
+        Some(chains) => {
+            let seeder = Mcmc::new(settings.intake, chains);
+            Box::new(Guided::over_pt(pt, settings, seeder, None))
+        }
+        None => Box::new(GuidedPt::new(pt, settings, None)),
+    })
 }
 
 pub fn build_bdpt(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
@@ -260,5 +333,11 @@ pub fn build_bdpt(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
         heuristic: Heuristic::Balance,
         light_tracing: false,
     };
-    Ok(Box::new(GuidedBdpt::new(bdpt, settings, None)))
+    Ok(match settings.chains {
+        Some(chains) => {
+            let seeder = Mcmc::new(settings.intake, chains);
+            Box::new(Guided::over_bdpt(bdpt, settings, seeder, None))
+        }
+        None => Box::new(GuidedBdpt::new(bdpt, settings, None)),
+    })
 }

@@ -8,9 +8,12 @@
 //! | seeder     | what becomes a guide path |
 //! |------------|---------------------------|
 //! | `outliers` | samples few others of similar brightness back up in their 4 x 4-pixel block (the cascade of `learn.rs`, spec §6.3a); per band of rows the `intake` largest `C` |
+//! | `mcmc`     | the same test over the passes' candidates and the states of Markov chains started at earlier outliers (`chains.rs`) |
 
 use super::cache::Record;
+use super::estimator::Estimator;
 use super::learn::{OutlierCascade, TRUST_THRESHOLD};
+use crate::integrators::unguided::Unguided;
 use crate::scene::Scene;
 
 /// Candidates a row keeps for the seeder (the largest values).
@@ -28,6 +31,18 @@ pub struct Candidate {
     /// A guided sample of a guide path with fewer than `NEIGHBOURS` neighbours: recorded
     /// whatever its trust, to densify sparse regions of the cache (spec §6.3a).
     pub densify: bool,
+    pub source: Source,
+}
+
+/// Which sampling made a candidate.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Source {
+    /// U's sample from stream (seed, pass, index) of a learning pass (which replays it).
+    Unguided { pass: u64, index: u64 },
+    /// A guided sample.
+    Guided,
+    /// A state of a seeder's Markov chain.
+    Chain,
 }
 
 /// What one row of a learning pass collects for the seeder.
@@ -86,11 +101,27 @@ pub struct LearnPass<'p> {
     pub rows: &'p mut [LearnRow],
 }
 
+/// What a seeder may use after a learning pass to make candidates of its own.
+pub struct Explore<'e, 'a, U: Unguided> {
+    pub seed: u64,
+    /// Learning iteration (0: the first, pure unguided).
+    pub iteration: u32,
+    /// The estimator of the pass (its cache and share weigh the candidates' C).
+    pub est: &'e Estimator<'a, U>,
+}
+
 /// A source of guide paths.
 pub trait Seeder: Send + Sync {
     fn name(&self) -> &'static str;
+    /// After a learning pass, before `harvest`: add candidates of the seeder's own making to
+    /// `rows` (default: none).
+    fn explore<U: Unguided>(&mut self, _explore: Explore<'_, '_, U>, _rows: &mut [LearnRow]) {}
     /// The records to rebuild the cache with after a learning iteration.
     fn harvest(&mut self, pass: LearnPass) -> Vec<Record>;
+    /// Counters for the render's statistics (default: none).
+    fn stats(&self) -> Vec<(String, String)> {
+        Vec::new()
+    }
 }
 
 /// Outlier selection (spec §6.3a): a candidate whose brightness few samples of its block
@@ -115,6 +146,13 @@ impl Seeder for Outliers {
     }
 
     fn harvest(&mut self, pass: LearnPass) -> Vec<Record> {
+        self.select(pass).into_iter().map(|c| c.record).collect()
+    }
+}
+
+impl Outliers {
+    /// The candidates that pass the outlier test, per band of rows the `intake` largest C.
+    pub fn select(&mut self, pass: LearnPass) -> Vec<Candidate> {
         let scene = pass.scene;
         let res = scene.camera.resolution;
         if pass.iteration == 0 || self.cascade.is_none() {
@@ -152,7 +190,7 @@ impl Seeder for Outliers {
             }
             pool.sort_by(|x, y| y.record.c.total_cmp(&x.record.c));
             pool.truncate(self.intake);
-            records.extend(pool.into_iter().map(|c| c.record));
+            records.extend(pool);
         }
         records
     }

@@ -94,6 +94,23 @@ impl PrimarySampler {
         }
     }
 
+    /// A chain (one stream) whose initial state begins with `prefix` (dimensions 0, 1, ...)
+    /// and continues with fresh uniforms from `key`'s stream: a chain started at a sample
+    /// another sampler made, replayed from the numbers that sampler drew.
+    pub fn with_prefix(prefix: &[f64], key: u64, small: SmallStep, p_large: f64) -> Self {
+        let mut s = PrimarySampler::new(key, 1, small, p_large);
+        s.dims = prefix
+            .iter()
+            .map(|&v| Dim {
+                value: wrap(v),
+                stamp: 1,
+                backup_value: wrap(v),
+                backup_stamp: 1,
+            })
+            .collect();
+        s
+    }
+
     /// Continue the chain with numbers from `key`'s stream (after its initial state was
     /// reproduced from a bootstrap key that other chains may share).
     pub fn reseed(&mut self, key: u64) {

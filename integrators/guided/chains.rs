@@ -1,0 +1,242 @@
+//! The Markov-chain seeder (`seeder = mcmc`): guide paths from chains that explore around
+//! the outliers found so far.
+//!
+//! After each learning pass (from iteration 1 on), [`CHAINS`] Metropolis chains run in the
+//! primary sample space of U's own sample (the first two numbers place it on the image, the
+//! rest are what U reads), with the pass's estimator as target: a state's importance is the
+//! luminance of everything its sample adds to the image under the current mixture (every
+//! path's `f / (n_u p_u + n_g p_g)`), so chains linger where the current cache and U together
+//! still leave large contributions. Each chain starts at an outlier of an earlier iteration
+//! that U found, drawn in proportion to its C, by replaying that sample's stream (seed, pass,
+//! pixel) exactly; it then takes Kelemen small steps and, with probability `large_step`
+//! (0.1), a fresh sample. The paths of every state a chain evaluates are offered like a pass's
+//! samples (each row keeps its brightest) and go through the same outlier test as the pass's
+//! own candidates (`Outliers::select`: trust against the iteration's cascade, then per band of
+//! rows the `intake` largest C); chain states are not added to the cascade's statistics, since
+//! they are not uniform samples.
+//!
+//! **Steps per learning iteration: `chain_share` x N_pix (default 0.25 N_pix)**, spread over
+//! the chains (`CHAINS` = 32, so 512 steps each at 256 x 256). A step costs about one U sample
+//! plus the p_g of its paths, so this is a quarter of a learning pass: the passes, which give
+//! the cascade its statistics and find new outliers everywhere in the image, stay the larger
+//! part of learning, while each chain takes enough steps (hundreds) to move along the
+//! caustic it started in and find the neighbouring paths its guide path needs (the kernels
+//! are built from 10 neighbours of the same structure).
+//!
+//! For guided-bdpt the chains run over BDPT's whole sample (Kelemen's original PSSMLT over
+//! BDPT), not over `mmlt`'s single techniques: an outlier found by a BDPT sample is replayed
+//! from its stream exactly, which a single-technique state could not be.
+//!
+//! Guide paths only shape the guided proposal (p_g is evaluated exactly and U stays in the
+//! mixture), so the chains need no detailed balance with the image: the render stays unbiased
+//! whatever they find.
+
+use super::cache::Record;
+use super::estimator::{Collector, RowOutput};
+use super::seeder::{Explore, LearnPass, LearnRow, Outliers, Seeder, Source};
+use super::share;
+use crate::integrators::mcmc::{PrimarySampler, SmallStep};
+use crate::integrators::unguided::Unguided;
+use crate::math::{IndependentSampler, Sampler, luminance, stream_seed};
+use glam::{DVec3, Vec2};
+use rand::RngExt;
+use rayon::prelude::*;
+
+/// Chains per learning iteration.
+pub const CHAINS: usize = 32;
+/// Numbers of an outlier's stream replayed into a chain's initial state (more than any U
+/// sample of `MAX_VERTICES` vertices reads); later dimensions are fresh.
+const PREFIX: usize = 1024;
+/// Unguided outliers kept as chain starts (the most recent).
+const POOL: usize = 8192;
+/// Stream keys of the seeder's chains.
+const CHAIN_KEY: u64 = 0x5345_4544_0000_0000;
+
+/// Settings of the chain seeder.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ChainSettings {
+    /// Chain steps per learning iteration, per pixel (default 0.25).
+    pub share: f64,
+    /// Large-step probability (default 0.1).
+    pub large_step: f64,
+}
+
+impl Default for ChainSettings {
+    fn default() -> Self {
+        ChainSettings {
+            share: 0.25,
+            large_step: 0.1,
+        }
+    }
+}
+
+/// Outlier selection fed by the learning passes and by Markov chains started at outliers.
+pub struct Mcmc {
+    outliers: Outliers,
+    settings: ChainSettings,
+    /// Outliers U found in earlier iterations: (pass, pixel index, C).
+    pool: Vec<(u64, u64, f64)>,
+    steps: u64,
+    accepted: u64,
+    offered: u64,
+    kept: u64,
+}
+
+impl Mcmc {
+    pub fn new(intake: usize, settings: ChainSettings) -> Mcmc {
+        Mcmc {
+            outliers: Outliers::new(intake),
+            settings,
+            pool: Vec::new(),
+            steps: 0,
+            accepted: 0,
+            offered: 0,
+            kept: 0,
+        }
+    }
+}
+
+/// Importance of a chain state: the luminance of all its sample adds to the image.
+fn evaluate<U: Unguided>(
+    explore: &Explore<'_, '_, U>,
+    tracer: &mut U::Tracer<'_>,
+    out: &mut RowOutput,
+    sampler: &mut PrimarySampler,
+) -> f64 {
+    let est = explore.est;
+    let scene = est.scene;
+    sampler.restart();
+    let raster = sampler.next_2d() * scene.camera.resolution.as_vec2();
+    let mut col = Collector {
+        est,
+        sum: DVec3::ZERO,
+        grid: [0.0; share::N],
+        learning: true,
+        measuring: false,
+        source: Source::Chain,
+        out: &mut *out,
+    };
+    est.unguided.trace(tracer, scene, raster, sampler, &mut col);
+    let mut value = luminance(col.sum.as_vec3()) as f64;
+    for (_, v) in out.splats.drain(..) {
+        value += luminance(v.as_vec3()) as f64;
+    }
+    // Chain states are not uniform samples: they stay out of the cascade's statistics.
+    out.learn.samples.clear();
+    value
+}
+
+/// The initial state of a chain at U's sample (seed, pass, index): the raster position it
+/// traced, as a fraction of the image, then the numbers U read from the stream.
+fn replayed_state(seed: u64, pass: u64, index: u64, res: glam::UVec2) -> Vec<f64> {
+    let mut s = IndependentSampler::new(seed, pass, index);
+    let (x, y) = ((index % res.x as u64) as f32, (index / res.x as u64) as f32);
+    let raster = Vec2::new(x, y) + s.next_2d();
+    let mut v = Vec::with_capacity(PREFIX);
+    v.push((raster.x / res.x as f32) as f64);
+    v.push((raster.y / res.y as f32) as f64);
+    v.extend((2..PREFIX).map(|_| s.next_1d() as f64));
+    v
+}
+
+impl Seeder for Mcmc {
+    fn name(&self) -> &'static str {
+        "mcmc"
+    }
+
+    fn explore<U: Unguided>(&mut self, explore: Explore<'_, '_, U>, rows: &mut [LearnRow]) {
+        if self.pool.is_empty() {
+            return;
+        }
+        let scene = explore.est.scene;
+        let res = scene.camera.resolution;
+        let total_c: f64 = self.pool.iter().map(|p| p.2).sum();
+        let steps_total = (self.settings.share * scene.camera.pixel_count() as f64).ceil() as u64;
+        let steps = steps_total.div_ceil(CHAINS as u64);
+        let (pool, st, it) = (&self.pool, self.settings, explore.iteration as u64);
+        let seed = explore.seed;
+        let results: Vec<(Vec<super::seeder::Candidate>, u64)> = (0..CHAINS as u64)
+            .into_par_iter()
+            .map(|j| {
+                let key = stream_seed(seed, CHAIN_KEY + it, j);
+                let mut pick = crate::integrators::mcmc::primary::rng(key);
+                let u = pick.random::<f64>() * total_c;
+                let mut acc = 0.0;
+                let start = pool
+                    .iter()
+                    .find(|p| {
+                        acc += p.2;
+                        acc > u
+                    })
+                    .unwrap_or(&pool[pool.len() - 1]);
+                let prefix = replayed_state(seed, start.0, start.1, res);
+                let mut sampler = PrimarySampler::with_prefix(
+                    &prefix,
+                    key ^ 1,
+                    SmallStep::default(),
+                    st.large_step,
+                );
+                let mut tracer = explore.est.unguided.tracer(scene);
+                let mut out = RowOutput::default();
+                let mut current = evaluate(&explore, &mut tracer, &mut out, &mut sampler);
+                sampler.accept();
+                let mut accepted = 0;
+                for _ in 0..steps {
+                    sampler.start_iteration();
+                    let proposal = evaluate(&explore, &mut tracer, &mut out, &mut sampler);
+                    let a = if current > 0.0 {
+                        (proposal / current).min(1.0)
+                    } else {
+                        1.0
+                    };
+                    if proposal > 0.0 && (a >= 1.0 || sampler.uniform() < a) {
+                        sampler.accept();
+                        current = proposal;
+                        accepted += 1;
+                    } else {
+                        sampler.reject();
+                    }
+                }
+                out.learn.cut();
+                (out.learn.candidates, accepted)
+            })
+            .collect();
+        self.steps += steps * CHAINS as u64;
+        for (candidates, accepted) in results {
+            self.accepted += accepted;
+            self.offered += candidates.len() as u64;
+            for c in candidates {
+                let row = (c.pixel / res.x) as usize;
+                if let Some(r) = rows.get_mut(row) {
+                    r.candidates.push(c);
+                }
+            }
+        }
+    }
+
+    fn harvest(&mut self, pass: LearnPass) -> Vec<Record> {
+        let selected = self.outliers.select(pass);
+        for c in &selected {
+            match c.source {
+                Source::Unguided { pass, index } => self.pool.push((pass, index, c.record.c)),
+                Source::Chain => self.kept += 1,
+                Source::Guided => {}
+            }
+        }
+        if self.pool.len() > POOL {
+            self.pool.drain(..self.pool.len() - POOL);
+        }
+        self.pool.retain(|p| p.2 > 0.0 && p.2.is_finite());
+        selected.into_iter().map(|c| c.record).collect()
+    }
+
+    fn stats(&self) -> Vec<(String, String)> {
+        let s = |k: &str, v: u64| (k.to_string(), v.to_string());
+        vec![
+            s("seeder_chain_steps", self.steps),
+            s("seeder_chain_accepted", self.accepted),
+            s("seeder_chain_candidates", self.offered),
+            s("seeder_chain_guides", self.kept),
+        ]
+    }
+}

@@ -128,7 +128,7 @@ fn evaluate<U: Unguided>(
 
 /// The initial state of a chain at U's sample (seed, pass, index): the raster position it
 /// traced, as a fraction of the image, then the numbers U read from the stream.
-fn replayed_state(seed: u64, pass: u64, index: u64, res: glam::UVec2) -> Vec<f64> {
+pub fn replayed_state(seed: u64, pass: u64, index: u64, res: glam::UVec2) -> Vec<f64> {
     let mut s = IndependentSampler::new(seed, pass, index);
     let (x, y) = ((index % res.x as u64) as f32, (index / res.x as u64) as f32);
     let raster = Vec2::new(x, y) + s.next_2d();

@@ -5,7 +5,7 @@
 //!
 //! | setting | default | meaning |
 //! |---|---|---|
-//! | `integrators` | required | registry names; the first is the baseline of the speed-up |
+//! | `integrators` | required | registry names, each optionally with options as `name:key=value:key=value` (e.g. `guided-pt:seeder=mcmc`); the first is the baseline of the speed-up |
 //! | `seconds` | required | wall-clock budget per render |
 //! | `reference` | required | EXR of the scene's converged image, same resolution |
 //! | `runs` | 1 | seeds per integrator; the report gives medians |
@@ -99,11 +99,9 @@ pub fn prepare(config: BenchConfig) -> Result<Prepared> {
     }
     let scene = loader::load_file(&c.scene)?;
     let max_depth = c.max_depth.unwrap_or(scene.render.max_depth);
-    for name in &c.integrators {
-        let params = IntegratorParams {
-            max_depth,
-            options: Options::default(),
-        };
+    for entry in &c.integrators {
+        let (name, options) = split_entry(entry).map_err(|e| e.context("--integrators"))?;
+        let params = IntegratorParams { max_depth, options };
         integrators::build(name, &params).map_err(|e| e.context("--integrators"))?;
     }
     let (reference, _) = Image::read_exr(&c.reference)?;
@@ -175,7 +173,7 @@ pub fn write_outputs(p: &Prepared, results: &[run::IntegratorRuns]) -> Result<()
         .write_png(&images.join("reference.png"), c.exposure)?;
     let mut listed = Vec::new();
     for ir in results {
-        let file = |suffix: &str| format!("images/{}{suffix}", ir.name);
+        let file = |suffix: &str| format!("images/{}{suffix}", file_stem(&ir.name));
         let (exr, png, err) = (file(".exr"), file(".png"), file(".error.png"));
         ir.image.write_exr(&c.out.join(&exr), &ir.metadata)?;
         ir.image.write_png(&c.out.join(&png), c.exposure)?;
@@ -215,4 +213,17 @@ pub fn default_out(scene: &Path) -> PathBuf {
         .file_stem()
         .map_or("scene".into(), |s| s.to_string_lossy().into_owned());
     PathBuf::from(format!("bench-{stem}"))
+}
+
+/// An `--integrators` entry `name[:key=value]...` as the registry name and its options.
+pub fn split_entry(entry: &str) -> Result<(&str, Options)> {
+    let mut parts = entry.split(':');
+    let name = parts.next().unwrap_or_default();
+    let options: Vec<String> = parts.map(str::to_string).collect();
+    Ok((name, Options::parse(&options)?))
+}
+
+/// A file name for an entry's images (`:` and `=` replaced).
+pub fn file_stem(entry: &str) -> String {
+    entry.replace([':', '='], "_")
 }

@@ -8,7 +8,7 @@
 use super::Prepared;
 use crate::error::Result;
 use crate::film::Image;
-use crate::integrators::{self, IntegratorParams, Options, RunSettings};
+use crate::integrators::{self, IntegratorParams, RunSettings};
 use crate::metrics::{Comparison, compare_crop};
 use crate::render::Budget;
 use crate::snapshot::{Snapshot, Snapshots};
@@ -126,9 +126,10 @@ fn render_one(p: &Prepared, name: &str, seed: u64) -> Result<(Run, Image, String
     };
     let times: Vec<f64> = CURVE_FRACTIONS.iter().map(|f| f * c.seconds).collect();
     let snapshots = Snapshots::new(&times, &sink)?;
+    let (registry_name, options) = super::split_entry(name)?;
     let params = IntegratorParams {
         max_depth: p.max_depth,
-        options: Options::default(),
+        options,
     };
     let settings = RunSettings {
         dbor: false,
@@ -139,7 +140,7 @@ fn render_one(p: &Prepared, name: &str, seed: u64) -> Result<(Run, Image, String
     };
     let named = integrators::render_named_with(
         &p.scene,
-        name,
+        registry_name,
         &params,
         Budget::Seconds(c.seconds),
         &settings,
@@ -166,7 +167,8 @@ fn render_one(p: &Prepared, name: &str, seed: u64) -> Result<(Run, Image, String
         error,
         curve,
     };
-    Ok((run, r.image, named.name.to_string(), named.settings))
+    // The entry (with its options) names the row, so two settings of one integrator differ.
+    Ok((run, r.image, name.to_string(), named.settings))
 }
 
 fn metadata(p: &Prepared, name: &str, settings: &str, run: &Run) -> Vec<(String, String)> {

@@ -150,3 +150,37 @@ fn lt_agrees_with_pt_in_the_fog_box() {
     let lt = util::render(&scene, "lt", 6, &[], 256, 8, 2).image;
     util::assert_same_mean(&lt, &pt, "lt vs pt");
 }
+
+/// The two samples that rendered NaN pixels on fog-dragon (seed 0; pass 7, pixel 72965 and
+/// pass 28, pixel 30998 of 3M searched): a free flight of length exactly 0 (uniform 0) put
+/// a medium vertex on the floor vertex it left, and the zero-length edge gave NaN densities
+/// and directions. Both are finite now (`HomogeneousMedium::sample_distance` draws t > 0).
+#[test]
+fn fog_dragon_samples_that_were_nan_are_finite() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/fog-dragon.toml");
+    let scene = lodestar::scene::loader::load_file(&path).unwrap();
+    let settings = BdptSettings {
+        max_depth: scene.render.max_depth,
+        rr_depth: 5,
+        heuristic: Heuristic::Balance,
+        light_tracing: false,
+    };
+    let mut tracer = Tracer::new(&scene, &settings);
+    let w = scene.camera.resolution.x as u64;
+    for (pass, index) in [(7u64, 72965u64), (28, 30998)] {
+        let mut s = IndependentSampler::new(0, pass, index);
+        let pixel = glam::Vec2::new((index % w) as f32, (index / w) as f32);
+        let v = tracer.sample(pixel + s.next_2d(), &mut s);
+        assert!(
+            v.is_finite() && v.min_element() >= 0.0,
+            "pass {pass} pixel {index}: {v}"
+        );
+        for (p, c) in tracer.splats.drain(..) {
+            assert!(c.is_finite() && c.min_element() >= 0.0, "splat to {p}: {c}");
+        }
+        assert!(
+            v.max_element() > 0.0,
+            "the sample no longer reaches the light: not a regression test"
+        );
+    }
+}

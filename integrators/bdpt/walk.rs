@@ -187,6 +187,12 @@ fn walk<'a>(
             }
             None => return,
         };
+        // A vertex that f32 cannot tell apart from the one before it (a free flight of a few
+        // ulps from a surface) leaves the edge between them without a direction or 1 / d²:
+        // the walk ends before it (probability about sigma_t times an ulp per segment).
+        if !((v.p - prev_p).length_squared() >= f32::MIN_POSITIVE) {
+            return;
+        }
         // Densities from positions (the same function every technique uses): of v from the
         // last vertex, and of the vertex before that from the last vertex given v.
         let (fwd, rev) = pdf_both(scene, &path[n - 1], (n >= 2).then(|| &path[n - 2]), &v);

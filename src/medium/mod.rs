@@ -110,8 +110,11 @@ impl HomogeneousMedium {
     pub fn sample_distance(&self, t_max: f32, u_channel: f32, u: f32) -> FreeFlight {
         let c = ((u_channel * 3.0) as usize).min(2);
         let sigma = self.sigma_t[c];
+        // u moved half a grid step of an f32 uniform into (0, 1), so that t > 0: t = 0 (u = 0,
+        // one sample in 2^24) put the scattering vertex on the surface the segment leaves,
+        // a zero-length edge whose direction and 1 / d² are undefined (NaN in BDPT's MIS).
         let t = if sigma > 0.0 {
-            -(1.0 - u).ln() / sigma
+            -(-(u + HALF_STEP)).ln_1p() / sigma
         } else {
             f32::INFINITY
         };
@@ -137,6 +140,9 @@ impl HomogeneousMedium {
         }
     }
 }
+
+/// Half the spacing of f32 uniforms in [0, 1) (2^-25).
+const HALF_STEP: f32 = 1.0 / (1u32 << 25) as f32;
 
 #[inline]
 fn mean(v: Spectrum) -> f32 {
@@ -180,6 +186,21 @@ mod tests {
             (pass - expect_pass).abs().max_element() < 0.02,
             "{pass} vs {expect_pass}"
         );
+    }
+
+    /// The extreme uniforms give finite, strictly positive distances (u = 0 gave t = 0: a
+    /// scattering vertex on the surface the segment leaves).
+    #[test]
+    fn free_flight_distances_are_positive_and_finite() {
+        let m = HomogeneousMedium::new("m", Vec3::splat(0.5), Vec3::splat(0.5), 0.0);
+        for u in [0.0, 0.5, 1.0 - f32::EPSILON / 2.0] {
+            let f = m.sample_distance(f32::INFINITY, 0.0, u);
+            assert!(
+                f.scattered && f.t > 0.0 && f.t.is_finite(),
+                "u {u}: t {}",
+                f.t
+            );
+        }
     }
 
     #[test]

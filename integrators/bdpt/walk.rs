@@ -190,7 +190,8 @@ fn walk<'a>(
         // A vertex that f32 cannot tell apart from the one before it (a free flight of a few
         // ulps from a surface) leaves the edge between them without a direction or 1 / d²:
         // the walk ends before it (probability about sigma_t times an ulp per segment).
-        if !((v.p - prev_p).length_squared() >= f32::MIN_POSITIVE) {
+        let d2 = (v.p - prev_p).length_squared();
+        if d2.is_nan() || d2 < f32::MIN_POSITIVE {
             return;
         }
         // Densities from positions (the same function every technique uses): of v from the

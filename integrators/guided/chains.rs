@@ -10,10 +10,12 @@
 //! that U found, drawn in proportion to its C, by replaying that sample's stream (seed, pass,
 //! pixel) exactly; it then takes Kelemen small steps and, with probability `large_step`
 //! (0.1), a fresh sample. The paths of every state a chain evaluates are offered like a pass's
-//! samples (each row keeps its brightest) and go through the same outlier test as the pass's
+//! samples (each chain keeps its brightest) and go through the same outlier test as the pass's
 //! own candidates (`Outliers::select`: trust against the iteration's cascade, then per band of
-//! rows the `intake` largest C); chain states are not added to the cascade's statistics, since
-//! they are not uniform samples.
+//! rows the `intake` largest C, chain states ranked apart from the passes' candidates so that
+//! they add guide paths around the outliers without displacing outliers elsewhere in the
+//! image); chain states are not added to the cascade's statistics, since they are not uniform
+//! samples.
 //!
 //! **Steps per learning iteration: `chain_share` x N_pix (default 0.25 N_pix)**, spread over
 //! the chains (`CHAINS` = 32, so 512 steps each at 256 x 256). A step costs about one U sample
@@ -198,7 +200,15 @@ impl Seeder for Mcmc {
                     }
                 }
                 out.learn.cut();
-                (out.learn.candidates, accepted)
+                // A chain's states sample one neighbourhood: together they weigh what one
+                // outlier would (their C shared among them), so the guided samples they draw
+                // stay spread like the outliers'.
+                let mut candidates = out.learn.candidates;
+                let share = 1.0 / candidates.len().max(1) as f64;
+                for c in &mut candidates {
+                    c.record.c *= share;
+                }
+                (candidates, accepted)
             })
             .collect();
         self.steps += steps * CHAINS as u64;

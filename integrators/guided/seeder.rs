@@ -151,7 +151,8 @@ impl Seeder for Outliers {
 }
 
 impl Outliers {
-    /// The candidates that pass the outlier test, per band of rows the `intake` largest C.
+    /// The candidates that pass the outlier test, per band of rows the `intake` largest C
+    /// (and, separately, the `intake` largest of the chain states among them).
     pub fn select(&mut self, pass: LearnPass) -> Vec<Candidate> {
         let scene = pass.scene;
         let res = scene.camera.resolution;
@@ -188,9 +189,17 @@ impl Outliers {
                             <= TRUST_THRESHOLD
                 }));
             }
-            pool.sort_by(|x, y| y.record.c.total_cmp(&x.record.c));
-            pool.truncate(self.intake);
+            // Chain states compete among themselves: they cluster around the outliers their
+            // chains started at, and would otherwise crowd the passes' outliers out of the
+            // intake (the cache's coverage of the image).
+            let (mut chains, mut pool): (Vec<Candidate>, Vec<Candidate>) =
+                pool.into_iter().partition(|c| c.source == Source::Chain);
+            for list in [&mut pool, &mut chains] {
+                list.sort_by(|x, y| y.record.c.total_cmp(&x.record.c));
+                list.truncate(self.intake);
+            }
             records.extend(pool);
+            records.extend(chains);
         }
         records
     }

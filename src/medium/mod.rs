@@ -114,7 +114,7 @@ impl HomogeneousMedium {
         // one sample in 2^24) put the scattering vertex on the surface the segment leaves,
         // a zero-length edge whose direction and 1 / d² are undefined (NaN in BDPT's MIS).
         let t = if sigma > 0.0 {
-            -(-(u + HALF_STEP)).ln_1p() / sigma
+            (-(-(u as f64 + HALF_STEP)).ln_1p() / sigma as f64) as f32
         } else {
             f32::INFINITY
         };
@@ -141,8 +141,9 @@ impl HomogeneousMedium {
     }
 }
 
-/// Half the spacing of f32 uniforms in [0, 1) (2^-25).
-const HALF_STEP: f32 = 1.0 / (1u32 << 25) as f32;
+/// Half the spacing of f32 uniforms in [0, 1) (2^-25); added in f64, where u + 2^-25 < 1
+/// for every f32 u < 1 (in f32 the largest u would round up to 1 and give t = inf).
+const HALF_STEP: f64 = 1.0 / (1u32 << 25) as f64;
 
 #[inline]
 fn mean(v: Spectrum) -> f32 {

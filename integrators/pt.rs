@@ -73,6 +73,13 @@ impl Default for PtSettings {
 }
 
 pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
+    Ok(Box::new(PathTracer {
+        settings: settings(params)?,
+    }))
+}
+
+/// pt's settings from `max_depth` and the options of the table above (also `pssmlt`'s).
+pub fn settings(params: &IntegratorParams) -> Result<PtSettings> {
     let o = &params.options;
     let strategy = match o.choice("strategy", "mis", &["mis", "bsdf", "nee"])? {
         "bsdf" => Strategy::Bsdf,
@@ -85,13 +92,11 @@ pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
             "option 'rr_depth': expected an integer >= 1, got 0",
         ));
     }
-    Ok(Box::new(PathTracer {
-        settings: PtSettings {
-            max_depth: params.max_depth,
-            rr_depth,
-            strategy,
-        },
-    }))
+    Ok(PtSettings {
+        max_depth: params.max_depth,
+        rr_depth,
+        strategy,
+    })
 }
 
 pub struct PathTracer {

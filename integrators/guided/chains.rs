@@ -37,6 +37,7 @@ use super::cache::Record;
 use super::estimator::{Collector, RowOutput};
 use super::seeder::{Explore, LearnPass, LearnRow, Outliers, Seeder, Source};
 use super::share;
+use crate::integrators::mcmc::driver::pick_by_importance;
 use crate::integrators::mcmc::{PrimarySampler, SmallStep};
 use crate::integrators::unguided::Unguided;
 use crate::math::{IndependentSampler, Sampler, luminance, stream_seed};
@@ -152,7 +153,8 @@ impl Seeder for Mcmc {
         }
         let scene = explore.est.scene;
         let res = scene.camera.resolution;
-        let total_c: f64 = self.pool.iter().map(|p| p.2).sum();
+        let weights: Vec<f64> = self.pool.iter().map(|p| p.2).collect();
+        let total_c: f64 = weights.iter().sum();
         let steps_total = (self.settings.share * scene.camera.pixel_count() as f64).ceil() as u64;
         let steps = steps_total.div_ceil(CHAINS as u64);
         let (pool, st, it) = (&self.pool, self.settings, explore.iteration as u64);
@@ -162,15 +164,7 @@ impl Seeder for Mcmc {
             .map(|j| {
                 let key = stream_seed(seed, CHAIN_KEY + it, j);
                 let mut pick = crate::integrators::mcmc::primary::rng(key);
-                let u = pick.random::<f64>() * total_c;
-                let mut acc = 0.0;
-                let start = pool
-                    .iter()
-                    .find(|p| {
-                        acc += p.2;
-                        acc > u
-                    })
-                    .unwrap_or(&pool[pool.len() - 1]);
+                let start = &pool[pick_by_importance(&weights, total_c, pick.random::<f64>())];
                 let prefix = replayed_state(seed, start.0, start.1, res);
                 let mut sampler = PrimarySampler::with_prefix(
                     &prefix,

@@ -155,12 +155,14 @@ pub fn bootstrap<T: Target>(target: &T, seed: u64, n: u64, s: &McmcSettings) -> 
             let importance: Vec<f64> = (0..n)
                 .into_par_iter()
                 .map_init(
-                    || target.scratch(),
-                    |scratch, i| {
-                        let key = bootstrap_key(seed, g, i);
-                        let mut sampler =
-                            PrimarySampler::new(key, target.streams(), s.small_step, s.large_step);
-                        target.eval(scratch, g, &mut sampler).importance()
+                    || {
+                        let sampler =
+                            PrimarySampler::new(0, target.streams(), s.small_step, s.large_step);
+                        (target.scratch(), sampler)
+                    },
+                    |(scratch, sampler), i| {
+                        sampler.reset(bootstrap_key(seed, g, i));
+                        target.eval(scratch, g, sampler).importance()
                     },
                 )
                 .collect();
@@ -227,7 +229,7 @@ pub fn start_chains<T: Target>(
 }
 
 /// Index i with probability `w[i] / total` for a uniform `u` (a linear scan: once per chain).
-fn pick_by_importance(w: &[f64], total: f64, u: f64) -> usize {
+pub fn pick_by_importance(w: &[f64], total: f64, u: f64) -> usize {
     let target = u * total;
     let mut acc = 0.0;
     let mut last = 0;

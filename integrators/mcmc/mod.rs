@@ -21,7 +21,7 @@
 //! | small_step | `kelemen` / `gaussian`  | `kelemen`| small-step kernel |
 //! | s1, s2     | 0 < s1 <= s2 < 1        | 1/1024, 1/64 | Kelemen's smallest and largest step |
 //! | sigma      | number in (0, 1)        | 0.01     | deviation of the Gaussian step |
-//! | rr_depth   | integer >= 1            | 5 (pssmlt), off (mmlt) | roulette as in `pt` (`mmlt` walks fixed lengths and never plays it) |
+//! | rr_depth, strategy | as in `pt`      | as in `pt` | `pssmlt`: pt's own settings (`mmlt` walks fixed lengths and never plays roulette) |
 //! | mis        | `balance` / `power`     | `balance`| `mmlt`: MIS heuristic among the techniques of a length |
 //!
 //! ```text

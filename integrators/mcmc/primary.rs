@@ -41,6 +41,10 @@ impl Default for SmallStep {
     }
 }
 
+/// PCG stream selectors of a chain's initial state and of its continuation (`reseed`).
+const INITIAL_STREAM: u64 = 0x0a02_bdbf_7bb3_c0a7;
+const CHAIN_STREAM: u64 = 0x5851_f42d_4c95_7f2d;
+
 /// Most missed Kelemen steps applied to one dimension at once.
 const MAX_COMBINED_KELEMEN: u64 = 16;
 
@@ -81,7 +85,7 @@ impl PrimarySampler {
     /// reproduced exactly by the chain's first evaluation).
     pub fn new(key: u64, streams: u32, small: SmallStep, p_large: f64) -> PrimarySampler {
         PrimarySampler {
-            rng: Pcg32::new(key, 0x0a02_bdbf_7bb3_c0a7),
+            rng: Pcg32::new(key, INITIAL_STREAM),
             dims: Vec::new(),
             iteration: 0,
             last_large: 0,
@@ -92,6 +96,18 @@ impl PrimarySampler {
             stream: 0,
             index: 0,
         }
+    }
+
+    /// Start over as `PrimarySampler::new(key, ..)` would, keeping the dimension buffer
+    /// (the bootstrap evaluates many fresh states with one sampler per thread).
+    pub fn reset(&mut self, key: u64) {
+        self.rng = Pcg32::new(key, INITIAL_STREAM);
+        self.dims.clear();
+        self.iteration = 0;
+        self.last_large = 0;
+        self.large = true;
+        self.stream = 0;
+        self.index = 0;
     }
 
     /// A chain (one stream) whose initial state begins with `prefix` (dimensions 0, 1, ...)
@@ -114,7 +130,7 @@ impl PrimarySampler {
     /// Continue the chain with numbers from `key`'s stream (after its initial state was
     /// reproduced from a bootstrap key that other chains may share).
     pub fn reseed(&mut self, key: u64) {
-        self.rng = Pcg32::new(key, 0x5851_f42d_4c95_7f2d);
+        self.rng = Pcg32::new(key, CHAIN_STREAM);
     }
 
     /// Start the next proposal: a large step with probability `p_large`, else a small step.

@@ -1,33 +1,23 @@
 //! `pssmlt`: primary-sample-space Metropolis over `pt` (Kelemen et al. 2002). The target of
 //! a state is one pt sample: its first two numbers place the sample on the image, the rest
-//! drive `PathTracer::li`. Options: see the module above.
+//! drive `PathTracer::li`. Options: the chain options of the module above and pt's own
+//! (`rr_depth`, `strategy`).
 
 use super::driver::{self, Contribution, McmcSettings, Target};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::integrators::IntegratorParams;
-use crate::integrators::pt::{PathTracer, PtSettings};
+use crate::integrators::pt::PathTracer;
 use crate::math::Sampler;
 use crate::render::{Budget, Integrator, RenderContext, RenderResult};
 use crate::scene::Scene;
 use glam::Vec2;
 
 pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
-    let o = &params.options;
-    let rr_depth = o.get("rr_depth", 5u32, "an integer >= 1")?;
-    if rr_depth == 0 {
-        return Err(Error::new(
-            "option 'rr_depth': expected an integer >= 1, got 0",
-        ));
-    }
     Ok(Box::new(Pssmlt {
         pt: PathTracer {
-            settings: PtSettings {
-                max_depth: params.max_depth,
-                rr_depth,
-                ..PtSettings::default()
-            },
+            settings: crate::integrators::pt::settings(params)?,
         },
-        settings: super::settings(o)?,
+        settings: super::settings(&params.options)?,
     }))
 }
 

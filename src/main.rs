@@ -6,7 +6,7 @@ use lodestar::error::{Error, Result};
 use lodestar::film::Image;
 use lodestar::integrators::{self, IntegratorParams, Options, RunSettings};
 use lodestar::metrics::Crop;
-use lodestar::path::MAX_VERTICES;
+use lodestar::path::{depth_label, parse_max_depth};
 use lodestar::render::Budget;
 use lodestar::scene::{Scene, loader};
 use lodestar::snapshot::{self, Snapshot, Snapshots};
@@ -62,9 +62,9 @@ struct RenderArgs {
     /// Worker threads (default: all cores). The image does not depend on it.
     #[arg(long, allow_negative_numbers = true)]
     threads: Option<usize>,
-    /// Maximum number of path segments; default: the scene's.
+    /// Maximum number of path segments, -1 for no limit; default: the scene's.
     #[arg(long, allow_negative_numbers = true)]
-    max_depth: Option<u32>,
+    max_depth: Option<i64>,
     /// Output EXR (default: <scene name>.exr).
     #[arg(short, long)]
     output: Option<PathBuf>,
@@ -155,9 +155,9 @@ struct BenchArgs {
     /// Worker threads (default: all cores).
     #[arg(long, allow_negative_numbers = true)]
     threads: Option<usize>,
-    /// Maximum number of path segments; default: the scene's.
+    /// Maximum number of path segments, -1 for no limit; default: the scene's.
     #[arg(long, allow_negative_numbers = true)]
-    max_depth: Option<u32>,
+    max_depth: Option<i64>,
     /// Measure every error over the pixels [x0, x1) x [y0, y1) only.
     #[arg(long, value_name = "x0,y0,x1,y1")]
     crop: Option<String>,
@@ -251,14 +251,7 @@ fn render(args: RenderArgs) -> Result<()> {
     if args.threads == Some(0) {
         return Err(Error::new("--threads must be at least 1"));
     }
-    if let Some(d) = args.max_depth
-        && (d == 0 || d as usize >= MAX_VERTICES)
-    {
-        return Err(Error::new(format!(
-            "--max-depth must be in [1, {}], got {d}",
-            MAX_VERTICES - 1
-        )));
-    }
+    let max_depth = cli_max_depth(args.max_depth)?;
     if !args.exposure.is_finite() {
         return Err(Error::new("--exposure must be a finite number"));
     }
@@ -291,7 +284,7 @@ fn render(args: RenderArgs) -> Result<()> {
         .clone()
         .unwrap_or_else(|| scene.render.integrator.clone());
     let params = IntegratorParams {
-        max_depth: args.max_depth.unwrap_or(scene.render.max_depth),
+        max_depth: max_depth.unwrap_or(scene.render.max_depth),
         options: Options::parse(&args.all_options())?,
     };
     let budget = match (args.spp, args.time) {
@@ -414,7 +407,7 @@ fn bench(args: BenchArgs) -> Result<()> {
         threads: args
             .threads
             .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get())),
-        max_depth: args.max_depth,
+        max_depth: cli_max_depth(args.max_depth)?,
         crop,
         exposure: args.exposure,
         verbose: !args.quiet,
@@ -464,7 +457,15 @@ fn info(path: &Path) -> Result<()> {
     println!("features    {}", s.features);
     println!(
         "defaults    integrator {}, max_depth {}, spp {}",
-        s.render.integrator, s.render.max_depth, s.render.spp
+        s.render.integrator,
+        depth_label(s.render.max_depth),
+        s.render.spp
     );
     Ok(())
+}
+
+/// `--max-depth`: an integer >= 1, or -1 for no limit.
+fn cli_max_depth(d: Option<i64>) -> Result<Option<u32>> {
+    d.map(|d| parse_max_depth(d).map_err(|e| Error::new(format!("--max-depth {e}"))))
+        .transpose()
 }

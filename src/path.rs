@@ -10,8 +10,47 @@
 use crate::math::Spectrum;
 use glam::Vec3;
 
-/// Maximum number of vertices of a path (so `max_depth` is at most `MAX_VERTICES - 1`).
+/// Maximum number of vertices of a stored path: what keeps whole paths (the guided
+/// integrators, mmlt) take `max_depth` up to `MAX_VERTICES - 1`; pt, lt, bdpt and vcm take any.
 pub const MAX_VERTICES: usize = 64;
+
+/// `max_depth` meaning "no limit" (Mitsuba's -1): Russian roulette alone ends paths (every
+/// continuation probability is at most `bsdf::MAX_CONTINUATION`, so they do end).
+pub const UNLIMITED_DEPTH: u32 = u32::MAX;
+
+/// A `max_depth` as users write it: an integer >= 1, or -1 for no limit.
+pub fn parse_max_depth(v: i64) -> Result<u32, String> {
+    match v {
+        -1 => Ok(UNLIMITED_DEPTH),
+        1.. if v < UNLIMITED_DEPTH as i64 => Ok(v as u32),
+        _ => Err(format!(
+            "must be an integer >= 1 (below {UNLIMITED_DEPTH}), or -1 for no limit; got {v}"
+        )),
+    }
+}
+
+/// `max_depth` for messages and file headers: the number, or "unlimited".
+pub fn depth_label(d: u32) -> String {
+    if d == UNLIMITED_DEPTH {
+        "unlimited".to_string()
+    } else {
+        d.to_string()
+    }
+}
+
+/// The error of an integrator that stores whole paths when `max_depth` exceeds what a stored
+/// path holds.
+pub fn check_stored_depth(who: &str, max_depth: u32) -> Result<(), String> {
+    if max_depth as usize >= MAX_VERTICES {
+        return Err(format!(
+            "{who} stores whole paths of at most {MAX_VERTICES} vertices, so max_depth must be \
+             at most {}; got {}",
+            MAX_VERTICES - 1,
+            depth_label(max_depth)
+        ));
+    }
+    Ok(())
+}
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum VertexKind {

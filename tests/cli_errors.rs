@@ -160,8 +160,55 @@ fn max_depth_zero() {
 }
 
 #[test]
-fn max_depth_too_large() {
-    render_fails(&["--max-depth", "1000"], 1, &["--max-depth", "got 1000"]);
+fn max_depth_below_minus_one() {
+    render_fails(
+        &["--max-depth", "-2"],
+        1,
+        &["--max-depth", "-1 for no limit", "got -2"],
+    );
+}
+
+/// Mitsuba's usual 64 and "no limit" render with pt, lt, bdpt and vcm; what stores whole paths
+/// (the guided integrators, mmlt) names its own limit.
+#[test]
+fn max_depth_64_and_unlimited() {
+    for depth in ["64", "-1", "1000"] {
+        for integrator in ["pt", "lt", "bdpt", "vcm"] {
+            let t = TempDir::new();
+            let exr = t.s("x.exr");
+            let args = [
+                "render",
+                TINY,
+                "-o",
+                &exr,
+                "--quiet",
+                "--spp",
+                "1",
+                "--max-depth",
+                depth,
+                "--integrator",
+                integrator,
+            ];
+            let out = run(&args);
+            assert!(
+                out.status.success(),
+                "{integrator} --max-depth {depth}: {}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+        }
+    }
+    for integrator in ["guided-pt", "guided-bdpt", "mmlt"] {
+        render_fails(
+            &["--max-depth", "-1", "--integrator", integrator],
+            1,
+            &["max_depth must be at most 63", "got unlimited"],
+        );
+        render_fails(
+            &["--max-depth", "64", "--integrator", integrator],
+            1,
+            &["max_depth must be at most 63", "got 64"],
+        );
+    }
 }
 
 #[test]

@@ -18,8 +18,10 @@
 //! | rr_depth  | integer >= 1         | 5         | roulette on subpaths of this many segments or more |
 //! | mis       | `balance` / `power`  | `balance` | MIS heuristic (`bdpt` only) |
 //!
-//! Limits: light subpaths start in vacuum (an emitter inside a medium is not supported); `lt`
-//! cannot see lights at infinity directly, nor anything seen through a specular surface.
+//! Light subpaths start in the medium around the light (`Scene::light_medium`); lights at
+//! infinity seen through a world medium send none (they are attenuated to nothing).
+//!
+//! Limits: `lt` cannot see lights at infinity directly, nor anything seen through a specular surface.
 //!
 //! ```text
 //! lodestar render scenes/cornell-box.toml --integrator bdpt --spp 64 -O mis=power
@@ -166,7 +168,7 @@ pub struct Tracer<'a> {
     light_nee: f64,
     terms: PathTerms,
     /// Scratch for the technique densities of the current connection.
-    densities: [f64; MAX_VERTICES],
+    densities: Vec<f64>,
     pub splats: Vec<(u32, Spectrum)>,
     pub inspector: Option<std::cell::RefCell<Inspector<'a>>>,
     /// Recording mode ([`Tracer::sample_recorded`]): the weight functions leave the path they
@@ -203,7 +205,10 @@ struct Bridge {
 
 impl<'a> Tracer<'a> {
     pub fn new(scene: &'a Scene, settings: &'a BdptSettings) -> Tracer<'a> {
-        let n = settings.max_depth as usize + 2;
+        // Room for typical paths; longer ones grow the buffers (max_depth may be unlimited).
+        let n = (settings.max_depth as usize)
+            .saturating_add(2)
+            .min(MAX_VERTICES);
         Tracer {
             scene,
             settings,
@@ -213,7 +218,7 @@ impl<'a> Tracer<'a> {
             light_cache: Vec::with_capacity(n),
             light_nee: 0.0,
             terms: PathTerms::new(0),
-            densities: [0.0; MAX_VERTICES],
+            densities: Vec::new(),
             splats: Vec::new(),
             inspector: None,
             recording: false,
@@ -247,6 +252,7 @@ impl<'a> Tracer<'a> {
         'a: 'v,
     {
         let k = self.terms.k;
+        self.densities.resize(self.densities.len().max(k + 1), 0.0);
         self.terms.technique_densities(&mut self.densities);
         let p_s = self.densities[s];
         let p_u: f64 = self.densities[..=k].iter().sum();
@@ -677,6 +683,7 @@ impl<'a> Tracer<'a> {
         if self.recording {
             return self.hold(c.iter().chain(lp.iter().rev()), s);
         }
+        self.densities.resize(self.densities.len().max(k + 1), 0.0);
         self.terms
             .weight_with(s, self.settings.heuristic, &mut self.densities)
     }
@@ -736,6 +743,7 @@ impl<'a> Tracer<'a> {
         if self.recording {
             return self.hold(c[..k].iter().chain(std::iter::once(emitter)), 0);
         }
+        self.densities.resize(self.densities.len().max(k + 1), 0.0);
         self.terms
             .weight_with(0, self.settings.heuristic, &mut self.densities)
     }

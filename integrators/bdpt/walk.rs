@@ -59,6 +59,9 @@ pub fn light_subpath<'a>(
         return;
     };
     let l = &scene.lights[light];
+    if !scene.light_reaches_scene(light) {
+        return;
+    }
     let Some(e) = l.sample_le(u_pos, u_dir) else {
         return;
     };
@@ -67,16 +70,16 @@ pub fn light_subpath<'a>(
     }
     let infinite = l.is_infinite();
     let origin_pdf = pmf * if infinite { e.pdf_dir } else { e.pdf_pos };
+    let n0 = if infinite { -e.dir } else { e.n };
+    // The medium around the light (the side the ray leaves into when the light bounds media).
+    let medium = scene.light_medium(light, n0, e.dir);
     path.push(Vertex {
         p_err: crate::geometry::gamma(8) * e.p.abs(), // The light vertex's throughput is 1 / its density; emission is applied when leaving.
         beta: Spectrum::splat(1.0 / origin_pdf),
         delta: l.is_delta(),
         pdf_fwd: origin_pdf,
-        ..Vertex::new(
-            Kind::Light { light },
-            e.p,
-            if infinite { -e.dir } else { e.n },
-        )
+        medium,
+        ..Vertex::new(Kind::Light { light }, e.p, n0)
     });
     let cos = if e.n == Vec3::ZERO {
         1.0
@@ -84,7 +87,6 @@ pub fn light_subpath<'a>(
         e.n.dot(e.dir).abs()
     };
     let beta = e.le * cos / (pmf * e.pdf_pos * e.pdf_dir);
-    // Light paths start in vacuum (emitters in media are not supported yet).
     let origin = if e.n == Vec3::ZERO || infinite {
         e.p
     } else {
@@ -95,7 +97,7 @@ pub fn light_subpath<'a>(
         Ray::new(origin, e.dir),
         beta,
         TransportMode::Importance,
-        None,
+        medium,
         max_vertices,
         rr_depth,
         sampler,

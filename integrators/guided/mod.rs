@@ -197,6 +197,7 @@ impl GuidedBdpt {
 
 /// Options every guided integrator reads, and U's roulette depth.
 fn options(params: &IntegratorParams) -> Result<(GuidedSettings, u32)> {
+    crate::path::check_stored_depth("a guided integrator", params.max_depth).map_err(Error::new)?;
     let o = &params.options;
     let rr_depth = o.get("rr_depth", 5u32, "an integer >= 1")?;
     let alpha = o.get("alpha", 0.5f64, "a number in (0, 1]")?;

@@ -8,7 +8,7 @@
 
 use super::driver::{self, Contribution, McmcSettings, Target};
 use super::pssmlt::raster_of;
-use crate::error::Result;
+use crate::error::{Error, Result};
 use crate::integrators::IntegratorParams;
 use crate::integrators::bdpt::{BdptSettings, Heuristic, TECHNIQUE_STREAMS, Tracer};
 use crate::math::Sampler;
@@ -16,6 +16,8 @@ use crate::render::{Budget, Integrator, RenderContext, RenderResult};
 use crate::scene::Scene;
 
 pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
+    // One chain group per path length, each with its own bootstrap: lengths must be few.
+    crate::path::check_stored_depth("mmlt", params.max_depth).map_err(Error::new)?;
     let o = &params.options;
     let heuristic = match o.choice("mis", "balance", &["balance", "power"])? {
         "power" => Heuristic::Power,

@@ -326,6 +326,6 @@ pub fn medium_towards(scene: &Scene, v: &Vertex, d: Vec3) -> Option<u32> {
         Kind::Medium { medium } => Some(medium),
         Kind::Surface { info, .. } => info.interface.map_or(v.medium, |mi| mi.crossing(d, v.n)),
         Kind::Camera => scene.camera_medium,
-        Kind::Light { .. } => None,
+        Kind::Light { light } => scene.light_medium(light, v.n, d),
     }
 }

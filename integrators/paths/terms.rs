@@ -18,8 +18,6 @@
 //! `p(s)^2 / sum p^2`; `sum p` is also BDPT's `pdf_unguided` for the path (one sample of
 //! each technique per pixel and pass).
 
-use crate::path::MAX_VERTICES;
-
 /// MIS heuristic.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Heuristic {
@@ -30,11 +28,11 @@ pub enum Heuristic {
 /// Per-vertex inputs of [`technique_densities`] for one path of `k` segments.
 pub struct PathTerms {
     pub k: usize,
-    pub pc: [f64; MAX_VERTICES],
-    pub pl: [f64; MAX_VERTICES],
+    pub pc: Vec<f64>,
+    pub pl: Vec<f64>,
     pub nee_k: f64,
     /// A connection can end at y_j.
-    pub connectible: [bool; MAX_VERTICES],
+    pub connectible: Vec<bool>,
     /// The camera walk can hit y_k (an emitter that is not a delta).
     pub hittable: bool,
 }
@@ -43,18 +41,24 @@ impl PathTerms {
     pub fn new(k: usize) -> PathTerms {
         PathTerms {
             k,
-            pc: [0.0; MAX_VERTICES],
-            pl: [0.0; MAX_VERTICES],
+            pc: vec![0.0; k + 1],
+            pl: vec![0.0; k + 1],
             nee_k: 0.0,
-            connectible: [false; MAX_VERTICES],
+            connectible: vec![false; k + 1],
             hittable: false,
         }
     }
 
     /// Start over for a path of `k` segments: zero densities, nothing connectible (only the
-    /// entries a path of `k` segments uses are touched, so reusing one `PathTerms` is cheap).
+    /// entries a path of `k` segments uses are touched, so reusing one `PathTerms` is cheap;
+    /// the storage grows to the longest path seen).
     pub fn reset(&mut self, k: usize) {
         self.k = k;
+        if self.pc.len() <= k {
+            self.pc.resize(k + 1, 0.0);
+            self.pl.resize(k + 1, 0.0);
+            self.connectible.resize(k + 1, false);
+        }
         self.pc[..=k].fill(0.0);
         self.pl[..=k].fill(0.0);
         self.connectible[..=k].fill(false);
@@ -63,7 +67,8 @@ impl PathTerms {
     }
 
     /// `out[s]` = density of technique s, for s = 0..=k (other entries are left alone).
-    pub fn technique_densities(&self, out: &mut [f64; MAX_VERTICES]) {
+    /// `out` needs at least `k + 1` entries.
+    pub fn technique_densities(&self, out: &mut [f64]) {
         let k = self.k;
         // First the light-side suffix: out[s] = prod_{j >= t} pl[j] with t = k + 1 - s.
         let mut suf = 1.0f64;
@@ -96,13 +101,14 @@ impl PathTerms {
 
     /// MIS weight of technique `s` for this path.
     pub fn weight(&self, s: usize, heuristic: Heuristic) -> f64 {
-        let mut p = [0.0f64; MAX_VERTICES];
+        let mut p = vec![0.0f64; self.k + 1];
         self.weight_with(s, heuristic, &mut p)
     }
 
     /// [`PathTerms::weight`], with `p` as scratch for the technique densities (so a caller
     /// that keeps one need not clear a fresh array per path).
-    pub fn weight_with(&self, s: usize, heuristic: Heuristic, p: &mut [f64; MAX_VERTICES]) -> f64 {
+    /// (`p` needs at least `k + 1` entries.)
+    pub fn weight_with(&self, s: usize, heuristic: Heuristic, p: &mut [f64]) -> f64 {
         self.technique_densities(p);
         let own = p[s];
         if own == 0.0 || !own.is_finite() {

@@ -113,6 +113,9 @@ impl<'a> LightTracer<'a, '_> {
             return;
         };
         let l = &scene.lights[li];
+        if !scene.light_reaches_scene(li) {
+            return;
+        }
         let Some(e) = l.sample_le(u_pos, u_dir) else {
             return;
         };
@@ -162,6 +165,7 @@ impl<'a> LightTracer<'a, '_> {
             hittable(l),
             self.pc.factors,
         );
+        walk.medium = scene.light_medium(li, n0, e.dir);
         while let Step::Vertex { v, .. } = walk.trace(scene, sampler) {
             if let Some(f) = full.as_deref_mut() {
                 f.push(v.path_vertex());
@@ -212,9 +216,12 @@ impl<'a> LightTracer<'a, '_> {
             n: e.n,
             err,
         };
-        let Some(tr) =
-            scene.transmittance(&start, Some(&Endpoint::point(cam.position)), cs.wi, None)
-        else {
+        let Some(tr) = scene.transmittance(
+            &start,
+            Some(&Endpoint::point(cam.position)),
+            cs.wi,
+            scene.light_medium(li, e.n, cs.wi),
+        ) else {
             return;
         };
         let cos_cam = cam.forward.dot(-cs.wi);

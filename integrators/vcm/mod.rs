@@ -34,7 +34,8 @@
 //! | alpha  | number in (0, 1]  | 0.75                                   | radius schedule exponent (1: fixed radius) |
 //! | merge  | `true` / `false`  | `true`                                 | merging on (`vcm` only; `false` gives BDPT's techniques) |
 //!
-//! Limits: as `bdpt`, light subpaths start in vacuum; no merging in media.
+//! Light subpaths start in the medium around the light, as in `bdpt`. Limits: no merging in
+//! media.
 //!
 //! ```text
 //! lodestar render scenes/cornell-box.toml --integrator vcm --spp 64 -O radius=0.01

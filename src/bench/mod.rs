@@ -28,7 +28,6 @@ use crate::error::{Error, Result};
 use crate::film::Image;
 use crate::integrators::{self, IntegratorParams, Options};
 use crate::metrics::Crop;
-use crate::path::MAX_VERTICES;
 use crate::scene::{Scene, loader};
 use std::path::{Path, PathBuf};
 
@@ -89,13 +88,10 @@ pub fn prepare(config: BenchConfig) -> Result<Prepared> {
             )));
         }
     }
-    if let Some(d) = c.max_depth
-        && (d == 0 || d as usize >= MAX_VERTICES)
-    {
-        return Err(Error::new(format!(
-            "--max-depth must be in [1, {}], got {d}",
-            MAX_VERTICES - 1
-        )));
+    if c.max_depth == Some(0) {
+        return Err(Error::new(
+            "--max-depth must be at least 1 (or -1 for no limit)",
+        ));
     }
     let scene = loader::load_file(&c.scene)?;
     let max_depth = c.max_depth.unwrap_or(scene.render.max_depth);

@@ -82,7 +82,7 @@ impl HomogeneousMedium {
         );
         albedo
             .max_element()
-            .clamp(crate::bsdf::MIN_CONTINUATION, 1.0)
+            .clamp(crate::bsdf::MIN_CONTINUATION, crate::bsdf::MAX_CONTINUATION)
     }
 
     /// Transmittance over distance `d`.

@@ -72,7 +72,6 @@ use crate::light::{
 };
 use crate::math::Frame;
 use crate::medium::{HomogeneousMedium, MediumInterface};
-use crate::path::MAX_VERTICES;
 use glam::{UVec2, Vec2, Vec3};
 use serde::Deserialize;
 use std::collections::HashMap;
@@ -113,7 +112,7 @@ struct CameraDesc {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct RenderDesc {
-    max_depth: Option<Spanned<u32>>,
+    max_depth: Option<Spanned<i64>>,
     spp: Option<Spanned<u32>>,
     integrator: Option<Spanned<String>>,
 }
@@ -576,7 +575,8 @@ impl Builder<'_> {
             emissive_geometry: lights.iter().any(|l| matches!(l, Light::Area(_))),
         };
         let accel = Accel::build(&shapes);
-        Ok(Scene {
+        let light_count = lights.len();
+        let mut scene = Scene {
             source: src.name.to_string(),
             light_sampler: LightSampler::new(&lights),
             camera,
@@ -586,13 +586,17 @@ impl Builder<'_> {
             lights,
             infinite_lights,
             media,
+            world_medium,
             camera_medium: world_medium,
+            light_media: vec![world_medium; light_count],
             accel,
             features,
             center,
             radius,
             render,
-        })
+        };
+        scene.locate_media();
+        Ok(scene)
     }
 
     /// Reject keys that are present but not `allowed` for this type, at the line of the first.
@@ -800,14 +804,10 @@ impl Builder<'_> {
         let mut out = RenderDefaults::default();
         let Some(r) = r else { return Ok(out) };
         if let Some(d) = &r.max_depth {
-            let v = *d.get_ref();
-            if v == 0 || v as usize >= MAX_VERTICES {
-                return self.src.err(
-                    d.span(),
-                    format!("'max_depth' must be in [1, {}], got {v}", MAX_VERTICES - 1),
-                );
+            match crate::path::parse_max_depth(*d.get_ref()) {
+                Ok(v) => out.max_depth = v,
+                Err(e) => return self.src.err(d.span(), format!("'max_depth' {e}")),
             }
-            out.max_depth = v;
         }
         if let Some(s) = &r.spp {
             if *s.get_ref() == 0 {

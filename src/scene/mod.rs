@@ -70,8 +70,13 @@ pub struct Scene {
     /// ray can see.
     pub infinite_lights: Vec<usize>,
     pub media: Vec<HomogeneousMedium>,
-    /// The world medium, which the camera is in.
+    /// The medium filling the world outside every medium boundary (`world_medium`).
+    pub world_medium: Option<u32>,
+    /// The medium the camera is in (`medium_at` its position).
     pub camera_medium: Option<u32>,
+    /// Per light, the medium its emitted rays start in, for lights whose shape is not itself a
+    /// medium boundary (see `light_medium`).
+    pub light_media: Vec<Option<u32>>,
     pub accel: Accel,
     pub features: SceneFeatures,
     /// Bounding sphere of the geometry.
@@ -170,6 +175,90 @@ impl Scene {
             Some(mi) => mi.crossing(d, sp.hit.ng),
             None => current,
         }
+    }
+
+    /// The medium containing point `p`: the medium on the near side of the first medium
+    /// boundary met along a ray from `p` (surfaces without media are passed through), or the
+    /// world medium when no boundary is met. Three fixed directions vote, so a ray slipping
+    /// through a crack between two triangles cannot decide alone. Used once per light and for
+    /// the camera at load time, not per sample.
+    pub fn medium_at(&self, p: Vec3) -> Option<u32> {
+        if !self.features.media {
+            return None;
+        }
+        const DIRS: [Vec3; 3] = [
+            Vec3::new(0.267_261_24, 0.534_522_5, 0.801_783_7),
+            Vec3::new(-0.872_871_5, 0.218_217_9, -0.436_435_8),
+            Vec3::new(0.301_511_34, -0.904_534_03, 0.301_511_34),
+        ];
+        let votes = DIRS.map(|d| self.first_boundary_side(p, d));
+        if votes[1] == votes[2] {
+            votes[1]
+        } else {
+            votes[0]
+        }
+    }
+
+    /// Medium on the near side of the first medium boundary along the ray from `p` in `d`.
+    fn first_boundary_side(&self, p: Vec3, d: Vec3) -> Option<u32> {
+        let mut o = p;
+        // A bounded number of crossings of surfaces without media.
+        for _ in 0..1024 {
+            let ray = Ray {
+                o,
+                d,
+                t_max: f32::INFINITY,
+            };
+            let Some(sp) = self.intersect(&ray) else {
+                break;
+            };
+            if let Some(mi) = &sp.info.interface {
+                return mi.crossing(-d, sp.hit.ng);
+            }
+            o = offset_origin(sp.hit.p, sp.hit.p_err, sp.hit.ng, d);
+        }
+        self.world_medium
+    }
+
+    /// The medium a ray emitted by `light` at a point with normal `n` along `d` starts in: the
+    /// side `d` leaves into when the emitting shape bounds media, else the medium around the
+    /// light (`light_media`).
+    pub fn light_medium(&self, light: usize, n: Vec3, d: Vec3) -> Option<u32> {
+        if let Light::Area(a) = &self.lights[light]
+            && let Some(mi) = &self.shape_info[a.shape as usize].interface
+        {
+            return mi.crossing(d, n);
+        }
+        self.light_media[light]
+    }
+
+    /// Whether light paths can leave `light` at all: a light at infinity seen through a world
+    /// medium is infinitely far inside it and attenuated to nothing (as camera paths find when
+    /// they escape), so light paths from it are not started.
+    pub fn light_reaches_scene(&self, light: usize) -> bool {
+        !(self.lights[light].is_infinite() && self.world_medium.is_some())
+    }
+
+    /// Fill `camera_medium` and `light_media` by `medium_at` (after the accelerator is built).
+    pub(crate) fn locate_media(&mut self) {
+        self.camera_medium = self.medium_at(self.camera.position);
+        let media: Vec<Option<u32>> = (0..self.lights.len())
+            .map(|i| {
+                let l = &self.lights[i];
+                if l.is_infinite() {
+                    return self.world_medium;
+                }
+                match l.sample_le(glam::Vec2::splat(0.5), glam::Vec2::splat(0.5)) {
+                    Some(e) if e.n != Vec3::ZERO => {
+                        let err = crate::geometry::gamma(8) * e.p.abs();
+                        self.medium_at(offset_origin(e.p, err, e.n, e.dir))
+                    }
+                    Some(e) => self.medium_at(e.p),
+                    None => self.world_medium,
+                }
+            })
+            .collect();
+        self.light_media = media;
     }
 
     /// Transmittance from `a` to `b` (or from `a` to infinity along unit `dir` when `b` is

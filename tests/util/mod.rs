@@ -118,3 +118,65 @@ pub fn welch_t(a: &[DVec3], b: &[DVec3]) -> DVec3 {
     eprintln!("welch: {ma:?} vs {mb:?}, t {t:?}");
     t
 }
+
+/// Means of `block` x `block` pixel tiles (the last row and column of tiles may be smaller).
+pub fn block_means(img: &Image, block: u32) -> Vec<DVec3> {
+    let (bw, bh) = (img.width.div_ceil(block), img.height.div_ceil(block));
+    let mut sums = vec![(DVec3::ZERO, 0u32); (bw * bh) as usize];
+    for y in 0..img.height {
+        for x in 0..img.width {
+            let b = &mut sums[((y / block) * bw + x / block) as usize];
+            b.0 += img.pixels[(y * img.width + x) as usize].as_dvec3();
+            b.1 += 1;
+        }
+    }
+    sums.into_iter().map(|(s, n)| s / n as f64).collect()
+}
+
+/// Assert that two sets of independently seeded renders have the same expected image, tile by
+/// tile: for every `block` x `block` tile and channel, Welch's t of the renders' tile means
+/// (pixels within one render may be correlated, as in lt and vcm whose light paths splat
+/// anywhere, so only the renders are taken as independent), its two-sided p-value from
+/// Student's t with the Welch-Satterthwaite degrees of freedom, and a Bonferroni bound over
+/// all tiles and channels at a family-wise false-failure rate of 1e-4. Energy moved between
+/// tiles fails here even when the whole-image mean agrees.
+pub fn assert_same_image(a: &[Image], b: &[Image], block: u32, what: &str) {
+    use statrs::distribution::{ContinuousCDF, StudentsT};
+    assert!(
+        a.len() >= 3 && b.len() >= 3,
+        "{what}: need at least 3 renders a side"
+    );
+    let tiles = |v: &[Image]| v.iter().map(|i| block_means(i, block)).collect::<Vec<_>>();
+    let (ta, tb) = (tiles(a), tiles(b));
+    let n_tiles = ta[0].len();
+    let alpha = 1e-4 / (3 * n_tiles) as f64;
+    let stats = |t: &[Vec<DVec3>], i: usize, c: usize| {
+        let n = t.len() as f64;
+        let m = t.iter().map(|r| r[i][c]).sum::<f64>() / n;
+        let var = t.iter().map(|r| (r[i][c] - m).powi(2)).sum::<f64>() / (n - 1.0);
+        (m, var / n, n - 1.0)
+    };
+    let mut worst = (1.0f64, 0usize, 0usize, 0.0f64, 0.0f64);
+    for i in 0..n_tiles {
+        for c in 0..3 {
+            let ((ma, va, da), (mb, vb, db)) = (stats(&ta, i, c), stats(&tb, i, c));
+            let se2 = va + vb;
+            let p = if se2 == 0.0 {
+                if ma == mb { 1.0 } else { 0.0 }
+            } else {
+                let t = (ma - mb) / se2.sqrt();
+                let dof = se2 * se2 / (va * va / da + vb * vb / db);
+                let st = StudentsT::new(0.0, 1.0, dof.max(1.0)).unwrap();
+                2.0 * st.cdf(-t.abs())
+            };
+            if p < worst.0 {
+                worst = (p, i, c, ma, mb);
+            }
+        }
+    }
+    let (p, i, c, ma, mb) = worst;
+    assert!(
+        p >= alpha,
+        "{what}: tile {i} channel {c} differs: means {ma} vs {mb}, p = {p:.2e} < {alpha:.2e}"
+    );
+}

@@ -490,6 +490,14 @@ impl PathTracer {
         } else {
             power_heuristic(p_light, pdf_scatter * t.pass)
         };
+        if crate::check::enabled() {
+            use crate::check::{Technique, density, value, weight};
+            let nee = Technique::named("pt next-event");
+            density(nee, p_light as f64);
+            density(nee, pdf_scatter as f64);
+            weight(nee, w as f64);
+            value(nee, f * t.tr * ls.li * (w / p_light));
+        }
         f * t.tr * ls.li * (w / p_light)
     }
 
@@ -505,13 +513,15 @@ impl PathTracer {
         if prev.delta {
             return 1.0; // no other strategy can produce this path
         }
-        match self.settings.strategy {
+        let w = match self.settings.strategy {
             Strategy::Bsdf => 1.0,
             Strategy::Nee => 0.0,
             Strategy::Mis => {
                 power_heuristic(prev.pdf * pass, scene.light_sampler.pmf(light) * pdf_li())
             }
-        }
+        };
+        crate::check::weight(crate::check::Technique::named("pt emitter hit"), w as f64);
+        w
     }
 }
 

@@ -255,16 +255,33 @@ impl Film {
     /// Add splats in the given order (callers merge per-chunk lists in chunk order, so the
     /// result does not depend on the thread count).
     /// Splats in f64 (the guider's values).
-    pub fn add_splats64(&mut self, splats: &[(u32, glam::DVec3)]) {
+    /// Returns the number of splats left out for being non-finite or negative (as invalid
+    /// pixel samples are: one would spoil its pixel for good).
+    pub fn add_splats64(&mut self, splats: &[(u32, glam::DVec3)]) -> u64 {
+        let mut invalid = 0;
         for (i, v) in splats {
-            self.splat[*i as usize] += *v;
+            crate::check::value(crate::check::Technique::named("splat"), v.as_vec3());
+            if v.is_finite() && v.min_element() >= 0.0 {
+                self.splat[*i as usize] += *v;
+            } else {
+                invalid += 1;
+            }
         }
+        invalid
     }
 
-    pub fn add_splats(&mut self, splats: &[(u32, Spectrum)]) {
+    /// Add light-tracing splats; returns the number left out as in [`Film::add_splats64`].
+    pub fn add_splats(&mut self, splats: &[(u32, Spectrum)]) -> u64 {
+        let mut invalid = 0;
         for (i, v) in splats {
-            self.splat[*i as usize] += v.as_dvec3();
+            crate::check::value(crate::check::Technique::named("splat"), *v);
+            if v.is_finite() && v.min_element() >= 0.0 {
+                self.splat[*i as usize] += v.as_dvec3();
+            } else {
+                invalid += 1;
+            }
         }
+        invalid
     }
 
     /// The image: pixel sums divided by `samples_per_pixel`, plus splats times `splat_scale`.

@@ -106,6 +106,11 @@ struct RenderArgs {
     /// No progress bar.
     #[arg(short, long)]
     quiet: bool,
+    /// Validate every sample value, splat, technique density and MIS weight while rendering
+    /// (finite, non-negative, weights in [0, 1]); print the violations per technique at the
+    /// end and exit with an error when there were any.
+    #[arg(long)]
+    check: bool,
 }
 
 impl RenderArgs {
@@ -330,6 +335,9 @@ fn render(args: RenderArgs) -> Result<()> {
         progress: !args.quiet,
         snapshots: (!snapshot_times.is_empty()).then_some(&snapshots),
     };
+    if args.check {
+        lodestar::check::enable();
+    }
     let run = integrators::render_named_with(&scene, &name, &params, budget, &run_settings)?;
     let missed = snapshots.finish()?;
     let result = &run.result;
@@ -387,6 +395,40 @@ fn render(args: RenderArgs) -> Result<()> {
             "note: the render ended before snapshot time(s) {} s",
             list.join(", ")
         );
+    }
+    let invalid: u64 = result
+        .stats
+        .iter()
+        .filter(|(k, _)| k.starts_with("invalid_"))
+        .filter_map(|(_, v)| v.parse::<u64>().ok())
+        .sum();
+    if invalid > 0 && !args.check {
+        eprintln!(
+            "warning: {invalid} samples were non-finite or negative and left out of the image; \
+             --check lists the techniques that made them"
+        );
+    }
+    if args.check {
+        return check_report(run.name);
+    }
+    Ok(())
+}
+
+/// `--check`: print what was checked and every violation; an error when there were any.
+fn check_report(integrator: &str) -> Result<()> {
+    let (checked, violations) = lodestar::check::report();
+    let total: u64 = violations.iter().map(|v| v.2.count).sum();
+    eprintln!("check: {integrator}: {checked} quantities checked, {total} violations");
+    for (technique, kind, tally) in &violations {
+        eprintln!(
+            "check: {integrator}: {technique}: {kind}: {} (first {})",
+            tally.count, tally.first
+        );
+    }
+    if total > 0 {
+        return Err(Error::new(format!(
+            "--check: {total} violations in {integrator} (listed above)"
+        )));
     }
     Ok(())
 }

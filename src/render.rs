@@ -232,6 +232,7 @@ pub fn render_rows<T: RowTracer>(
                     let mut sampler = IndependentSampler::new(ctx.seed, pass, index);
                     let jitter = crate::math::Sampler::next_2d(&mut sampler);
                     let l = tracer.sample(Vec2::new(x as f32, y as f32) + jitter, &mut sampler);
+                    crate::check::value(crate::check::Technique::named("pixel sample"), l);
                     if is_finite3(l) && l.min_element() >= 0.0 {
                         *acc += l.as_dvec3();
                         if let Some(cell) = crow.get_mut(x) {
@@ -246,7 +247,7 @@ pub fn render_rows<T: RowTracer>(
             .collect();
         drop(crows);
         for row in &splats {
-            film.add_splats(row);
+            invalid.fetch_add(film.add_splats(row), Ordering::Relaxed);
             if let Some(c) = &mut cascade {
                 for &(p, v) in row {
                     c.add(p, v);

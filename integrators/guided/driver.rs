@@ -181,7 +181,9 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
             (image, guided_m2)
         });
         for r in &rows {
-            film.add_splats64(&r.splats);
+            // The estimator has left out (and counted) every non-finite value already.
+            let dropped = film.add_splats64(&r.splats);
+            debug_assert_eq!(dropped, 0);
             if let Some(c) = cascade {
                 for &(p, v) in &r.splats {
                     c.add(p, v.as_vec3());

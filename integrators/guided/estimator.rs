@@ -192,6 +192,17 @@ impl<'a, U: Unguided> Estimator<'a, U> {
     /// image-wide and a pixel's measurement carries the factor N_pix (one unguided sample per
     /// pixel and pass gives the usual `f / p_u`).
     pub fn mix(&self, p_u: f64, p_g: f64) -> f64 {
+        if crate::check::enabled() {
+            use crate::check::{Technique, density, weight};
+            let (u, g) = (Technique::named("unguided"), Technique::named("guided"));
+            density(u, p_u);
+            density(g, p_g);
+            let m = p_u + (self.n_g / self.n_u) * p_g;
+            if m > 0.0 {
+                weight(u, p_u / m);
+                weight(g, (self.n_g / self.n_u) * p_g / m);
+            }
+        }
         p_u + (self.n_g / self.n_u) * p_g
     }
 

@@ -110,6 +110,11 @@ impl PathTerms {
     /// (`p` needs at least `k + 1` entries.)
     pub fn weight_with(&self, s: usize, heuristic: Heuristic, p: &mut [f64]) -> f64 {
         self.technique_densities(p);
+        if crate::check::enabled() {
+            for (s, &q) in p[..=self.k].iter().enumerate() {
+                crate::check::density(crate::check::Technique::st("bdpt", s, self.k + 1 - s), q);
+            }
+        }
         let own = p[s];
         if own == 0.0 || !own.is_finite() {
             return 0.0;
@@ -121,10 +126,12 @@ impl PathTerms {
             Heuristic::Balance => ratios.sum(),
             Heuristic::Power => ratios.map(|r| r * r).sum(),
         };
-        if sum.is_finite() && sum > 0.0 {
+        let w = if sum.is_finite() && sum > 0.0 {
             1.0 / sum
         } else {
             0.0
-        }
+        };
+        crate::check::weight(crate::check::Technique::st("bdpt", s, self.k + 1 - s), w);
+        w
     }
 }

@@ -141,6 +141,7 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
             };
             1.0 / (1.0 + w_cam)
         };
+        crate::check::weight(crate::check::Technique::named("vcm emitter hit"), w as f64);
         if self.inspector.is_some() {
             self.record_emitter(0, li, v.p, v.n, false, w);
         }
@@ -235,6 +236,7 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
         let w_cam =
             p_origin * p_rev_v / p_nee * (merge + m.d_vcm + m.d_vc * v.pdf_w(scene, ls.wi, v.wo));
         let w = 1.0 / (w_light + 1.0 + w_cam);
+        crate::check::weight(crate::check::Technique::named("vcm next-event"), w as f64);
         if self.inspector.is_some() {
             self.record_emitter(1, li, y_p, y_n, l.is_delta(), w);
         }
@@ -284,6 +286,7 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
                 + v.mis.d_vcm
                 + v.mis.d_vc * v.pdf_w(scene, dir, v.wo));
         let w = 1.0 / (w_light + 1.0 + w_cam);
+        crate::check::weight(crate::check::Technique::named("vcm connection"), w as f64);
         if let Some(insp) = self.inspector {
             let light = &self.lights.full[k][..=y.depth as usize];
             self.record(insp, Technique::Connect { s: light.len() }, light, w);
@@ -314,6 +317,7 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
             let w_light = y.mis.d_vcm * vc + y.mis.d_vm * v.pdf_w(scene, v.wo, y.wo);
             let w_cam = v.mis.d_vcm * vc + v.mis.d_vm * v.pdf_w(scene, y.wo, v.wo);
             let w = 1.0 / (w_light + 1.0 + w_cam);
+            crate::check::weight(crate::check::Technique::named("vcm merge"), w as f64);
             sum += f * y.beta * w;
             if let Some(insp) = self.inspector {
                 let full = &self.lights.full[self.lights.owner[index as usize] as usize];

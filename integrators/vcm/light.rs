@@ -233,6 +233,7 @@ impl<'a> LightTracer<'a, '_> {
             0.0
         };
         let w = 1.0 / (1.0 + w_cam);
+        crate::check::weight(crate::check::Technique::named("vcm light origin"), w as f64);
         let pixel = cam.pixel_index(cs.raster) as u32;
         splats.push((pixel, c * w));
         self.record(Technique::Connect { s: 1 }, &[*origin], w);
@@ -277,6 +278,10 @@ impl<'a> LightTracer<'a, '_> {
         };
         let w_light = p_cam * (merge + v.mis.d_vcm + v.mis.d_vc * pdf_rev);
         let w = 1.0 / (1.0 + w_light);
+        crate::check::weight(
+            crate::check::Technique::named("vcm light tracing"),
+            w as f64,
+        );
         splats.push((cam.pixel_index(cs.raster) as u32, c * w));
         if let Some(full) = full {
             self.record(Technique::Connect { s: full.len() }, full, w);

@@ -239,6 +239,7 @@ impl Integrator for Vcm {
                 for (x, acc) in row.iter_mut().enumerate() {
                     let k = y * w as usize + x;
                     let l = camera_sample(&mut ct, ctx.seed, pass, k, x, y);
+                    crate::check::value(crate::check::Technique::named("pixel sample"), l);
                     if is_finite3(l) && l.min_element() >= 0.0 {
                         *acc += l.as_dvec3();
                     } else {
@@ -246,7 +247,7 @@ impl Integrator for Vcm {
                     }
                 }
             });
-            film.add_splats(&splats);
+            invalid.fetch_add(film.add_splats(&splats), Ordering::Relaxed);
         };
         let image = |film: &Film, passes: u64| film.to_image(passes as f64, 1.0 / passes as f64);
         let (passes, seconds) = run_passes_with_snapshots(ctx, budget, &mut film, pass, image);

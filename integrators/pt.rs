@@ -384,11 +384,7 @@ impl PathTracer {
     /// terminates the path. A local rule keeps the path's density computable from the path
     /// alone (`pdf_unguided`), in both directions, like BDPT's.
     fn roulette_probability(&self, depth: u32, q: f32) -> f32 {
-        if depth < self.settings.rr_depth {
-            1.0
-        } else {
-            q.min(1.0)
-        }
+        super::paths::roulette(q.min(1.0), depth as usize, self.settings.rr_depth)
     }
 
     fn roulette(
@@ -398,7 +394,8 @@ impl PathTracer {
         beta: &mut Spectrum,
         sampler: &mut impl Sampler,
     ) -> bool {
-        if depth < self.settings.rr_depth || q >= 1.0 {
+        let q = self.roulette_probability(depth, q);
+        if q >= 1.0 {
             return true;
         }
         if sampler.next_1d() >= q {

@@ -15,7 +15,8 @@ use glam::Vec3;
 pub const MAX_VERTICES: usize = 64;
 
 /// `max_depth` meaning "no limit" (Mitsuba's -1): Russian roulette alone ends paths (every
-/// continuation probability is at most `bsdf::MAX_CONTINUATION`, so they do end).
+/// continuation probability is capped below 1 on long paths, so they do end: see
+/// `integrators::paths::roulette` and vcm's `deep_continuation`).
 pub const UNLIMITED_DEPTH: u32 = u32::MAX;
 
 /// A `max_depth` as users write it: an integer >= 1, or -1 for no limit.

@@ -31,3 +31,62 @@ fn splatting_integrators_are_bit_identical_across_thread_counts() {
         assert!(one.mean().x > 0.0);
     }
 }
+
+/// Every integrator, in a scene with a medium, with learning inside the render for the guided
+/// ones and the firefly cascade (`--dbor`) on: bit-identical images (and DBOR images) for 1, 2
+/// and 3 threads.
+#[test]
+fn every_integrator_in_fog_with_dbor_is_bit_identical_for_1_2_3_threads() {
+    use lodestar::integrators::{self, IntegratorParams, Options, RunSettings};
+    use lodestar::render::Budget;
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/cornell-fog.toml"
+    ))
+    .unwrap()
+    .replace("resolution = [256, 256]", "resolution = [12, 12]");
+    let scene = util::scene(&text);
+    for (name, options, spp) in [
+        ("pt", vec![], 4),
+        ("lt", vec![], 4),
+        ("bdpt", vec![], 4),
+        ("vcm", vec![], 4),
+        ("bpm", vec![], 4),
+        ("guided-pt", vec!["learn_fraction=0.5"], 8),
+        ("guided-bdpt", vec!["learn_fraction=0.5"], 8),
+        ("guided-pt", vec!["learn_fraction=0.5", "seeder=mcmc"], 8),
+        ("pssmlt", vec!["bootstrap=2000", "chains=8"], 2),
+        ("mmlt", vec!["bootstrap=2000", "chains=8"], 2),
+    ] {
+        let run = |threads: usize| {
+            let options: Vec<String> = options.iter().map(|s| s.to_string()).collect();
+            let params = IntegratorParams {
+                max_depth: 5,
+                options: Options::parse(&options).unwrap(),
+            };
+            let run = RunSettings {
+                seed: 5,
+                threads,
+                progress: false,
+                snapshots: None,
+                dbor: !name.ends_with("mlt"),
+            };
+            integrators::render_named_with(&scene, name, &params, Budget::Spp(spp), &run)
+                .unwrap()
+                .result
+        };
+        let one = run(1);
+        assert!(one.image.mean().max_element() > 0.0, "{name}: black");
+        for threads in [2, 3] {
+            let other = run(threads);
+            assert_eq!(
+                one.image, other.image,
+                "{name} {options:?}: 1 vs {threads} threads"
+            );
+            assert_eq!(
+                one.dbor, other.dbor,
+                "{name}: DBOR image, 1 vs {threads} threads"
+            );
+        }
+    }
+}

@@ -44,6 +44,9 @@ struct Collect<'a> {
     checked: usize,
     /// Paths whose two densities differ by more than 1e-3 (relative).
     loose: usize,
+    /// Paths whose pdf_unguided differs from the sampler's two densities' sum by more than
+    /// 1e-3 (relative).
+    loose_total: usize,
     worst: f64,
     failures: Vec<String>,
 }
@@ -74,8 +77,18 @@ impl PathRecorder for Collect<'_> {
         // pt's techniques are s = 0 and next-event estimation (s = 1 with t >= 2); s = 1 on a
         // one-segment path would be light tracing, which pt does not do.
         let nee = if k >= 2 { p[1] } else { 0.0 };
+        // pt's pdf_unguided against what the sampler reported: the density it drew the path
+        // with plus the other technique's (not against its own definition from `p`).
         let total = self.pt.pdf_unguided(self.scene, path);
-        assert!((total - (p[0] + nee)).abs() <= 1e-9 * total);
+        let sampled_total = density + other;
+        if (total - sampled_total).abs() > 1e-3 * total {
+            self.loose_total += 1;
+        }
+        if (total - sampled_total).abs() > 5e-2 * total && self.failures.len() < 5 {
+            self.failures.push(format!(
+                "k {k}: pdf_unguided {total} vs sampled {density} + other {other}"
+            ));
+        }
         // The other technique's density, reported by the sampler, is the other term.
         let expected_other = if technique == 0 { nee } else { p[0] };
         let rel_other = (expected_other - other).abs() / total.max(1e-300);
@@ -105,6 +118,7 @@ fn pt_densities_equal_its_pdf_unguided_terms() {
             pt: &pt,
             checked: 0,
             loose: 0,
+            loose_total: 0,
             worst: 0.0,
             failures: Vec::new(),
         };
@@ -120,6 +134,12 @@ fn pt_densities_equal_its_pdf_unguided_terms() {
             c.loose,
             c.checked,
             c.worst
+        );
+        assert!(
+            c.loose_total * 100 <= c.checked,
+            "{name}: pdf_unguided differs from the sampled densities by more than 1e-3 on {} of {} paths",
+            c.loose_total,
+            c.checked
         );
         assert!(
             c.failures.is_empty(),

@@ -154,12 +154,22 @@ fn mse(a: &lodestar::film::Image, b: &lodestar::film::Image) -> f64 {
 
 /// With merging off, vcm renders BDPT's image (roulette from the first bounce, as vcm plays
 /// it): per-channel z-test of the pixel differences.
+///
+/// Then tile by tile over 5 seeded renders each (vcm's pixels share light paths;
+/// `util::assert_same_image`, family-wise false-failure rate 1e-4), with its control: vcm's
+/// images mirrored left to right must fail.
 #[test]
 fn vcm_without_merging_agrees_with_bdpt() {
     let scene = scene_file("cornell-box.toml", 32);
     let bd = util::render(&scene, "bdpt", 6, &["rr_depth=1"], 128, 1, 2).image;
     let vc = util::render(&scene, "vcm", 6, &["merge=false"], 128, 2, 2).image;
     util::assert_same_mean(&vc, &bd, "vcm merge=false vs bdpt");
+    let scene = scene_file("cornell-box.toml", 16);
+    let bd = util::seeded_renders(&scene, "bdpt", 6, &["rr_depth=1"], 64, 5, 10);
+    let vc = util::seeded_renders(&scene, "vcm", 6, &["merge=false"], 64, 5, 20);
+    util::assert_same_image(&bd, &vc, 4, "vcm merge=false vs bdpt");
+    let flipped: Vec<_> = vc.iter().map(util::mirrored).collect();
+    assert!(util::differs(&bd, &flipped, 4), "mirrored vcm passes");
 }
 
 /// On cornell-box and cornell-glossy vcm converges to pt's image: with an initial radius of
@@ -197,12 +207,25 @@ fn vcm_converges_to_pt() {
 
 /// bpm (merging only) converges to pt's image on the Cornell box with its glass sphere
 /// (caustics and paths seen through the sphere included).
+///
+/// Then tile by tile over 6 seeded renders each (`util::assert_same_image`, family-wise
+/// false-failure rate 1e-4); the control, bpm with a huge fixed radius (0.5, alpha = 1: the
+/// kernel blurs across the walls' colour edges and the sphere), must fail.
 #[test]
 fn bpm_agrees_with_pt() {
     let scene = scene_file("cornell-box.toml", 32);
     let pt = util::render(&scene, "pt", 6, &[], 1024, 6, 2).image;
     let bpm = util::render(&scene, "bpm", 6, &["radius=0.05"], 256, 7, 2).image;
     util::assert_same_mean(&bpm, &pt, "bpm vs pt");
+    let scene = scene_file("cornell-box.toml", 16);
+    let pt = util::seeded_renders(&scene, "pt", 6, &[], 256, 6, 10);
+    let bpm = util::seeded_renders(&scene, "bpm", 6, &["radius=0.05"], 64, 6, 20);
+    util::assert_same_image(&pt, &bpm, 4, "bpm vs pt");
+    let blurred = util::seeded_renders(&scene, "bpm", 6, &["radius=0.5", "alpha=1"], 64, 6, 30);
+    assert!(
+        util::differs(&pt, &blurred, 4),
+        "bpm with radius 0.5 passes"
+    );
 }
 
 /// Light subpaths traced in parallel into per-row slots, a hash grid built in path order and

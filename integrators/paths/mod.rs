@@ -51,11 +51,28 @@ pub fn local_continuation(scene: &Scene, v: &Vertex) -> f32 {
     }
 }
 
+/// Subpath length (segments) from which every continuation probability is at most
+/// [`DEEP_CONTINUATION`]: between perfect mirrors or inside glass (local probability 1) paths
+/// then still end, so `max_depth` can be unlimited. No path within the stored-path limit
+/// (`MAX_VERTICES - 1` segments) reaches it, so depth-limited renders are unchanged.
+pub const DEEP_SEGMENTS: usize = crate::path::MAX_VERTICES;
+
+/// Largest continuation probability past [`DEEP_SEGMENTS`] (Mitsuba caps every step at 0.95).
+pub const DEEP_CONTINUATION: f32 = 0.99;
+
 /// The local continuation probability `q` applied after `segments` segments: 1 before
-/// `rr_depth`, `q` from then on.
+/// `rr_depth`, `q` from then on, at most [`DEEP_CONTINUATION`] past [`DEEP_SEGMENTS`]. A
+/// function of the vertex and its distance from the subpath's start only, so BDPT's densities
+/// apply it from either end.
 #[inline]
 pub fn roulette(q: f32, segments: usize, rr_depth: u32) -> f32 {
-    if (segments as u32) < rr_depth { 1.0 } else { q }
+    if segments >= DEEP_SEGMENTS {
+        q.min(DEEP_CONTINUATION)
+    } else if (segments as u32) < rr_depth {
+        1.0
+    } else {
+        q
+    }
 }
 
 /// The technique densities of a complete path y_0 (pinhole) .. y_k (a `Kind::Light` vertex),

@@ -70,6 +70,7 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
             });
         }
         let mut walk = Walk::camera(scene, ray, pdf_we);
+        walk.q_cap = super::walk::deep_continuation(self.settings.max_depth);
         let mut l = Spectrum::ZERO;
         // No vertex so far where merging could take over (bpm counts emitter hits only then).
         let mut no_merge_vertex = true;

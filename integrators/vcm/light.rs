@@ -166,6 +166,7 @@ impl<'a> LightTracer<'a, '_> {
             self.pc.factors,
         );
         walk.medium = scene.light_medium(li, n0, e.dir);
+        walk.q_cap = super::walk::deep_continuation(st.max_depth);
         while let Step::Vertex { v, .. } = walk.trace(scene, sampler) {
             if let Some(f) = full.as_deref_mut() {
                 f.push(v.path_vertex());

@@ -65,6 +65,8 @@ pub struct Vertex<'a> {
     pub medium: Option<u32>,
     /// Segments from the subpath's origin (the pinhole or the light).
     pub depth: u32,
+    /// Cap on the continuation probability (the walk's `q_cap`).
+    pub q_cap: f32,
 }
 
 impl<'a> Vertex<'a> {
@@ -132,11 +134,11 @@ impl<'a> Vertex<'a> {
                 } else {
                     bsdf.pdf(&frame, wo, wi, TransportMode::Radiance)
                 };
-                p * bsdf.continuation()
+                p * bsdf.continuation().min(self.q_cap)
             }
             Scatter::Medium { medium } => {
                 let m = &scene.media[medium as usize];
-                m.phase.eval(wo, wi) * m.continuation()
+                m.phase.eval(wo, wi) * m.continuation().min(self.q_cap)
             }
         }
     }
@@ -149,6 +151,7 @@ impl<'a> Vertex<'a> {
             Scatter::Surface { bsdf, .. } => bsdf.continuation(),
             Scatter::Medium { medium } => scene.media[medium as usize].continuation(),
         }
+        .min(self.q_cap)
     }
 
     /// The vertex as one end of a visibility test.

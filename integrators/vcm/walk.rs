@@ -55,6 +55,21 @@ pub struct Walk {
     /// The light point the walk started from, (light, point, normal): its next-event density
     /// from the first vertex multiplies that vertex's `d_vcm`.
     nee_origin: Option<(usize, Vec3, Vec3)>,
+    /// Cap on every vertex's continuation probability (see [`deep_continuation`]).
+    pub q_cap: f32,
+}
+
+/// vcm's cap on continuation probabilities for a depth limit of `max_depth`: 1 within the
+/// stored-path limit, `paths::DEEP_CONTINUATION` beyond (an unlimited depth included), so
+/// that paths end between perfect mirrors. vcm plays roulette from the first bounce with a
+/// local probability (its MIS recursion needs densities that do not depend on which end a
+/// vertex is counted from), so the cap is a property of the render, not of the vertex depth.
+pub fn deep_continuation(max_depth: u32) -> f32 {
+    if (max_depth as usize) < crate::path::MAX_VERTICES {
+        1.0
+    } else {
+        crate::integrators::paths::DEEP_CONTINUATION
+    }
 }
 
 impl Walk {
@@ -75,6 +90,7 @@ impl Walk {
             use_d2: true,
             prev_is_medium: false,
             nee_origin: None,
+            q_cap: 1.0,
         }
     }
 
@@ -116,6 +132,7 @@ impl Walk {
             use_d2: !infinite,
             prev_is_medium: false,
             nee_origin: Some((li, p, n)),
+            q_cap: 1.0,
         }
     }
 
@@ -197,6 +214,7 @@ impl Walk {
             scatter,
             medium: self.medium,
             depth: self.depth,
+            q_cap: self.q_cap,
         };
         let ff_fwd = edge.factor(scene, v.is_medium(), true);
         let cos = v.cos(self.ray.d);

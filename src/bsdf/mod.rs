@@ -36,10 +36,6 @@ use glam::{Vec2, Vec3};
 
 /// Lowest Russian-roulette continuation probability (caps the weight boost at 20x).
 pub const MIN_CONTINUATION: f32 = 0.05;
-/// Largest continuation probability (Mitsuba caps at 0.95): even between perfect mirrors or
-/// inside glass, a path past the roulette depth ends with probability at least 1 %, so paths
-/// end without a depth limit.
-pub const MAX_CONTINUATION: f32 = 0.99;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum TransportMode {
@@ -183,8 +179,8 @@ impl Bsdf {
     }
 
     /// Russian-roulette continuation probability of a path leaving this surface: the largest
-    /// channel of its reflectance (1 for dielectrics and Fresnel conductors), clamped to
-    /// [`MIN_CONTINUATION`, `MAX_CONTINUATION`]. It depends on the surface only, not on the directions or the path,
+    /// channel of its reflectance (1 for dielectrics and Fresnel conductors), at least
+    /// [`MIN_CONTINUATION`]. It depends on the surface only, not on the directions or the path,
     /// so the density of any complete path, roulette included, can be computed from either end.
     pub fn continuation(&self) -> f32 {
         let q = match self {
@@ -199,7 +195,7 @@ impl Bsdf {
             | Bsdf::Dielectric { .. }
             | Bsdf::RoughDielectric { .. } => 1.0,
         };
-        q.clamp(MIN_CONTINUATION, MAX_CONTINUATION)
+        q.clamp(MIN_CONTINUATION, 1.0)
     }
 
     /// Sample `wi` given `wo`. `u_lobe` picks a lobe, `u` the direction. `None` if the sample

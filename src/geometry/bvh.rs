@@ -56,6 +56,9 @@ pub enum ShapeGeometry {
 pub struct Accel {
     bvh: Option<CwBvh>,
     prims: Vec<Prim>,
+    /// The BVH is built and traversed in coordinates multiplied by this power of two (see
+    /// [`bvh_scale`]); primitives and hits stay in world space.
+    scale: f32,
     /// Seconds spent building.
     pub build_seconds: f64,
 }
@@ -111,8 +114,14 @@ impl Accel {
             return Accel {
                 bvh: None,
                 prims,
+                scale: 1.0,
                 build_seconds: 0.0,
             };
+        }
+        let scale = bvh_scale(&bounds);
+        for b in &mut bounds {
+            b.0.min *= scale;
+            b.0.max *= scale;
         }
         let mut core = Duration::ZERO;
         let bvh =
@@ -125,6 +134,7 @@ impl Accel {
         Accel {
             bvh: Some(bvh),
             prims: ordered,
+            scale,
             build_seconds: start.elapsed().as_secs_f64(),
         }
     }
@@ -137,22 +147,26 @@ impl Accel {
     pub fn intersect(&self, ray: &Ray, shapes: &[ShapeGeometry]) -> Option<Hit> {
         count_ray();
         let bvh = self.bvh.as_ref()?;
-        let r = obvhs::ray::Ray::new(Vec3A::from(ray.o), canonical_dir(ray.d), 0.0, ray.t_max);
+        let (s, o, d) = (self.scale, Vec3A::from(ray.o), canonical_dir(ray.d));
+        let r = obvhs::ray::Ray::new(o * s, d, 0.0, ray.t_max * s);
         let mut hit = RayHit::none();
         let mut best_uv = Vec2::ZERO;
         let prims = &self.prims;
+        // obvhs works in scaled distances; primitives are tested in world space (exact
+        // conversions: the scale is a power of two).
         let found = bvh.ray_traverse(r, &mut hit, |r, i| {
-            let (t, uv) = intersect_prim(&prims[i], r.origin, r.direction, r.tmax);
-            if t < r.tmax {
+            let t_max = r.tmax / s;
+            let (t, uv) = intersect_prim(&prims[i], o, d, t_max);
+            if t < t_max {
                 best_uv = uv;
             }
-            t
+            t * s
         });
         if !found {
             return None;
         }
         let prim = &self.prims[hit.primitive_id as usize];
-        Some(surface_hit(prim, ray, hit.t, best_uv, shapes))
+        Some(surface_hit(prim, ray, hit.t / s, best_uv, shapes))
     }
 
     /// True if nothing blocks the open segment from `o` along unit `d` up to `dist`.
@@ -161,11 +175,10 @@ impl Accel {
         let Some(bvh) = self.bvh.as_ref() else {
             return true;
         };
-        let r = obvhs::ray::Ray::new(Vec3A::from(o), canonical_dir(d), 0.0, dist);
+        let (s, o, d) = (self.scale, Vec3A::from(o), canonical_dir(d));
+        let r = obvhs::ray::Ray::new(o * s, d, 0.0, dist * s);
         let prims = &self.prims;
-        bvh.ray_traverse_miss(r, |r, i| {
-            intersect_prim(&prims[i], r.origin, r.direction, r.tmax).0
-        })
+        bvh.ray_traverse_miss(r, |r, i| intersect_prim(&prims[i], o, d, r.tmax / s).0 * s)
     }
 }
 
@@ -184,6 +197,22 @@ fn count_ray() {
 /// image depend on the machine's load).
 pub fn rays_traced() -> u64 {
     RAYS.with(|r| r.get())
+}
+
+/// The power of two by which BVH coordinates are multiplied: the scene's largest extent
+/// becomes about 2^20. obvhs 0.4's node test clamps the ray's entry distance to an absolute
+/// 1e-4 (`cwbvh::node::EPSILON`), so in world units it would skip every box within 1e-4 of a
+/// ray's origin: rays between surfaces closer than that (all of them in a scene a few
+/// millimetres across) missed their hits. Scaled, the blind distance is about 1e-10 of the
+/// scene's extent, whatever its units.
+fn bvh_scale(bounds: &[Bounds]) -> f32 {
+    let mut all = bounds[0].0;
+    for b in bounds {
+        all = all.union(&b.0);
+    }
+    let extent = (all.max - all.min).max_element().max(f32::MIN_POSITIVE);
+    let exp = (20 - extent.log2().ceil() as i32).clamp(-100, 100);
+    2f32.powi(exp)
 }
 
 /// A visibility test between two surface points, each offset off its own surface.

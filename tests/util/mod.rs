@@ -180,3 +180,105 @@ pub fn assert_same_image(a: &[Image], b: &[Image], block: u32, what: &str) {
         "{what}: tile {i} channel {c} differs: means {ma} vs {mb}, p = {p:.2e} < {alpha:.2e}"
     );
 }
+
+/// The Cornell box text at `resolution` with every length multiplied by `scale` and every
+/// position then moved by `offset` along each axis (a scene far from the origin).
+pub fn transformed_cornell(scale: f64, offset: f64, resolution: u32) -> String {
+    let mut out = String::new();
+    for line in lodestar::scene::CORNELL_BOX_TOML.lines() {
+        let key = line.split('=').next().unwrap_or("").trim();
+        let moved = match key {
+            "position" | "look_at" | "origin" | "center" => {
+                map_numbers(line, |v| v * scale + offset)
+            }
+            "edge_u" | "edge_v" | "radius" => map_numbers(line, |v| v * scale),
+            "transform" => {
+                // Scale and translation follow the scene; the rotation does not.
+                let (head, rest) = line.split_once("rotate").unwrap();
+                let (rot, tail) = rest.split_once("},").unwrap();
+                format!(
+                    "{}rotate{rot}}},{}",
+                    map_numbers(head, |v| v * scale),
+                    map_numbers(tail, |v| v * scale + offset)
+                )
+            }
+            _ => line.to_string(),
+        };
+        out.push_str(&moved);
+        out.push('\n');
+    }
+    out.replace(
+        "resolution = [256, 256]",
+        &format!("resolution = [{resolution}, {resolution}]"),
+    )
+}
+
+/// Apply `f` to every number in `text` (keys hold no digits).
+fn map_numbers(text: &str, f: impl Fn(f64) -> f64) -> String {
+    let mut out = String::new();
+    let mut num = String::new();
+    let flush = |num: &mut String, out: &mut String| {
+        if !num.is_empty() {
+            let v: f64 = num.parse().unwrap();
+            out.push_str(&format!("{:e}", f(v)));
+            num.clear();
+        }
+    };
+    for c in text.chars() {
+        let continues = match c {
+            '0'..='9' | '.' => true,
+            '-' => num.is_empty() || num.ends_with('e'),
+            'e' => num.ends_with(|d: char| d.is_ascii_digit()),
+            _ => false,
+        };
+        if continues {
+            num.push(c);
+        } else {
+            flush(&mut num, &mut out);
+            out.push(c);
+        }
+    }
+    flush(&mut num, &mut out);
+    out
+}
+
+/// `seeds` renders of `name` (seeds `seed0`, `seed0 + 1`, ...), each with no invalid sample.
+pub fn seeded_renders(
+    scene: &Scene,
+    name: &str,
+    max_depth: u32,
+    options: &[&str],
+    spp: u64,
+    seeds: u64,
+    seed0: u64,
+) -> Vec<Image> {
+    (0..seeds)
+        .map(|i| {
+            let r = render(scene, name, max_depth, options, spp, seed0 + i, 2);
+            for (k, v) in &r.stats {
+                if k.starts_with("invalid_") {
+                    assert_eq!(v, "0", "{name} (seed {}): {k}", seed0 + i);
+                }
+            }
+            r.image
+        })
+        .collect()
+}
+
+/// The image mirrored left to right: the same mean with energy moved between pixels (the
+/// control of the per-tile comparisons).
+pub fn mirrored(img: &Image) -> Image {
+    let mut out = img.clone();
+    for y in 0..img.height {
+        for x in 0..img.width {
+            out.pixels[(y * img.width + x) as usize] =
+                img.pixels[(y * img.width + img.width - 1 - x) as usize];
+        }
+    }
+    out
+}
+
+/// Whether [`assert_same_image`] rejects `a` against `b` (for controls that must fail).
+pub fn differs(a: &[Image], b: &[Image], block: u32) -> bool {
+    std::panic::catch_unwind(|| assert_same_image(a, b, block, "control")).is_err()
+}

@@ -82,8 +82,8 @@ fn samples(dt: usize, dc: usize, noise: [f64; 3], spread: [f64; 3], n: usize) ->
 
 /// Condition numbers of the conditional covariance from 1e2 to 1e12, in 2D and 3D: the kernel
 /// caps its anisotropy (`MAX_ANISOTROPY`) where f32 eigenvectors would no longer invert their
-/// own warp, so the densities agree to 1e-3 whatever the input (without the cap, 1e9 gives
-/// errors of order one).
+/// own warp, so the densities agree to 1e-3 whatever the input (without the cap, a condition
+/// number of 1e9 already puts them 2e-3 apart).
 #[test]
 fn ill_conditioned_covariances() {
     for cond in [1e2f64, 1e6, 1e9, 1e12] {

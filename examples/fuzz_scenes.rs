@@ -14,6 +14,9 @@
 //! to `OUT_DIR/crashes` (at most 3 per distinct failure) with a `.txt` beside it saying what
 //! happened. Run it under a memory limit (`ulimit -v`) so that absurd allocations fail.
 //!
+//! With `FUZZ_RENDER=1` in the environment every accepted scene is also rendered with `pt`
+//! and `bdpt` (1 spp, 6 x 6 pixels) and must give a finite image.
+//!
 //! Exit status 1 when anything failed.
 
 #[path = "../tests/fuzz_support/mod.rs"]

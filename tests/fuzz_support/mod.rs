@@ -382,6 +382,35 @@ fn check_scene(scene: &Scene) -> Result<(), String> {
     Ok(())
 }
 
+/// Render an accepted scene with `pt` and `bdpt` at 1 spp on a 6 x 6 image (the scene's own
+/// camera, resolution replaced): the image must be finite. Off by default in the fuzzer
+/// (`FUZZ_RENDER=1`): it tests the integrators on odd scenes, not the loader.
+pub fn render_check(mut scene: Scene) -> Result<(), String> {
+    use lodestar::integrators::{IntegratorParams, Options, build};
+    use lodestar::render::{Budget, RenderContext};
+    let c = scene.camera;
+    scene.camera = lodestar::camera::Camera::new(
+        c.position,
+        c.position + c.forward,
+        c.up,
+        c.fov_y_degrees,
+        glam::UVec2::new(6, 6),
+    );
+    for name in ["pt", "bdpt"] {
+        let params = IntegratorParams {
+            max_depth: 6,
+            options: Options::default(),
+        };
+        let mut integrator = build(name, &params).map_err(|e| e.to_string())?;
+        let ctx = RenderContext::new(&scene, 7, false);
+        let mean = integrator.render(&ctx, Budget::Spp(1)).image.mean();
+        if !mean.is_finite() {
+            return Err(format!("{name} rendered an image of mean {mean}"));
+        }
+    }
+    Ok(())
+}
+
 /// Load one input. `path` holds its bytes; for [`Kind::Toml`] `dir` resolves mesh paths, for
 /// [`Kind::Obj`] the file is copied as `fuzz.obj` into `dir` and loaded by a wrapper scene.
 /// `Err` is a finding: the loader accepted something it should not have.
@@ -410,6 +439,9 @@ pub fn run_input(kind: Kind, path: &Path, dir: &Path, emissive: bool) -> Result<
     match result {
         Ok(scene) => {
             check_scene(&scene)?;
+            if std::env::var_os("FUZZ_RENDER").is_some() {
+                render_check(scene)?;
+            }
             Ok(Outcome::Loaded)
         }
         Err(e) => {

@@ -119,13 +119,20 @@ impl PathTerms {
         if own == 0.0 || !own.is_finite() {
             return 0.0;
         }
-        // Ratios to the own density keep the sum in range whatever the densities' scale.
+        // Ratios to the own density keep the sum in range whatever the densities' scale. The
+        // own ratio is exactly 1 (not `own * (1 / own)`, which can round below 1 and give a
+        // weight above 1), so the sum is at least 1 and the weight at most 1.
         let inv_own = 1.0 / own;
-        let ratios = p[..=self.k].iter().map(|&q| q * inv_own);
-        let sum: f64 = match heuristic {
-            Heuristic::Balance => ratios.sum(),
-            Heuristic::Power => ratios.map(|r| r * r).sum(),
-        };
+        let ratios = p[..=self.k]
+            .iter()
+            .enumerate()
+            .filter(|&(j, _)| j != s)
+            .map(|(_, &q)| q * inv_own);
+        let sum: f64 = 1.0
+            + match heuristic {
+                Heuristic::Balance => ratios.sum::<f64>(),
+                Heuristic::Power => ratios.map(|r| r * r).sum::<f64>(),
+            };
         let w = if sum.is_finite() && sum > 0.0 {
             1.0 / sum
         } else {

@@ -21,7 +21,12 @@ pub fn square_to_disk_concentric(u: Vec2) -> Vec2 {
 /// Cosine-weighted hemisphere around +z.
 pub fn square_to_cosine_hemisphere(u: Vec2) -> Vec3 {
     let d = square_to_disk_concentric(u);
-    let z = (1.0 - d.length_squared()).max(0.0).sqrt();
+    // z = sqrt(1 - r^2) = sqrt((1 - r)(1 + r)) with 1 - r computed exactly: the concentric
+    // map's radius is max |2 u_i - 1|, so 1 - r = 2 min(u_x, 1 - u_x, u_y, 1 - u_y) (exact in
+    // floating point). `1 - |d|^2` would round to 0 for u_i below about 3e-8 and put the
+    // sample on the rim with pdf 0.
+    let one_minus_r = 2.0 * u.x.min(1.0 - u.x).min(u.y).min(1.0 - u.y).max(0.0);
+    let z = (one_minus_r * (2.0 - one_minus_r)).max(0.0).sqrt();
     Vec3::new(d.x, d.y, z)
 }
 

@@ -78,6 +78,36 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use toml::Spanned;
 
+/// Largest accepted |coordinate| of any point of the scene (vertices after their transform,
+/// sphere bounds, camera, point and spot lights). Beyond it f32 ray tracing means nothing and
+/// extents, areas and BVH bounds overflow to infinity.
+pub const MAX_COORDINATE: f32 = 1e12;
+
+/// Accepted range of each |component| of a transform's `scale`: keeps the normal matrix (the
+/// inverse transpose) and the triangle areas finite and non-zero.
+pub const SCALE_RANGE: (f32, f32) = (1e-9, 1e9);
+
+/// Most triangles a scene may have, all shapes together (2^24, about 16.8 million). Loading
+/// and the BVH take about 350 bytes per triangle at peak, so this bounds the memory of
+/// loading at about 6 GB; beyond it the loader says so instead of dying of an allocation
+/// failure.
+pub const MAX_TRIANGLES: usize = 1 << 24;
+
+/// The unit vector along `v`, for any finite non-zero `v` (`Vec3::normalize` overflows or
+/// underflows for lengths beyond about 1e19 or below 1e-19).
+fn unit_vector(v: Vec3) -> Option<Vec3> {
+    let m = v.abs().max_element();
+    if !(m > 0.0 && m.is_finite()) {
+        return None;
+    }
+    (v / m).try_normalize()
+}
+
+/// Whether every coordinate of `p` is finite and within [`MAX_COORDINATE`].
+fn in_bounds(p: Vec3) -> bool {
+    p.abs().max_element() <= MAX_COORDINATE
+}
+
 type V3 = Spanned<[f32; 3]>;
 
 #[derive(Deserialize)]
@@ -413,6 +443,7 @@ impl Builder<'_> {
         let mut shapes = Vec::new();
         let mut shape_info = Vec::new();
         let mut lights = Vec::new();
+        let mut triangles = 0usize;
         for (i, s) in desc.shape.iter().enumerate() {
             let d = s.get_ref();
             let label = d
@@ -427,6 +458,29 @@ impl Builder<'_> {
                 ],
                 None => vec![(self.shape(s)?, d.material.as_ref(), label)],
             };
+            for (geometry, _, label) in &parts {
+                if let ShapeGeometry::Mesh(m) = geometry {
+                    triangles += m.indices.len();
+                    if triangles > MAX_TRIANGLES {
+                        return src.err(
+                            s.span(),
+                            format!("{label} brings the scene to {triangles} triangles; at most {MAX_TRIANGLES} (2^24) are supported"),
+                        );
+                    }
+                }
+                let outside = match geometry {
+                    ShapeGeometry::Mesh(m) => m.positions.iter().copied().find(|&p| !in_bounds(p)),
+                    ShapeGeometry::Sphere(sp) => [sp.center - sp.radius, sp.center + sp.radius]
+                        .into_iter()
+                        .find(|&p| !in_bounds(p)),
+                };
+                if let Some(p) = outside {
+                    return src.err(
+                        s.span(),
+                        format!("{label} reaches {p} (after its transform); every point of a shape must lie within +-{MAX_COORDINATE:e} per axis"),
+                    );
+                }
+            }
             let emission = match &d.emission {
                 Some(e) => Some((self.src.non_negative3(e, "emission")?, e.span())),
                 None => None,
@@ -650,19 +704,24 @@ impl Builder<'_> {
             }
         };
         self.only(&what, &keys, allowed)?;
-        let position = || {
-            src.finite3(
-                src.required(&d.position, span.clone(), "position", &what)?,
-                "position",
-            )
+        let position = || -> Result<Vec3> {
+            let v = src.required(&d.position, span.clone(), "position", &what)?;
+            let p = src.finite3(v, "position")?;
+            if !in_bounds(p) {
+                return src.err(
+                    v.span(),
+                    format!("'position' must lie within +-{MAX_COORDINATE:e} per axis, got {p}"),
+                );
+            }
+            Ok(p)
         };
         let direction = || -> Result<Vec3> {
             let v = src.required(&d.direction, span.clone(), "direction", &what)?;
             let dir = src.finite3(v, "direction")?;
-            if dir.length_squared() == 0.0 {
-                return src.err(v.span(), "'direction' must be non-zero");
+            match unit_vector(dir) {
+                Some(d) => Ok(d),
+                None => src.err(v.span(), "'direction' must be non-zero"),
             }
-            Ok(dir.normalize())
         };
         Ok(match kind {
             "point" => Light::Point(PointLight {
@@ -764,10 +823,25 @@ impl Builder<'_> {
         let d = c.get_ref();
         let position = src.finite3(&d.position, "position")?;
         let look_at = src.finite3(&d.look_at, "look_at")?;
+        for (p, v, key) in [
+            (position, &d.position, "position"),
+            (look_at, &d.look_at, "look_at"),
+        ] {
+            if !in_bounds(p) {
+                return src.err(
+                    v.span(),
+                    format!(
+                        "camera '{key}' must lie within +-{MAX_COORDINATE:e} per axis, got {p}"
+                    ),
+                );
+            }
+        }
         let up = match &d.up {
             Some(u) => src.finite3(u, "up")?,
             None => Vec3::Y,
         };
+        // Unit length whatever its magnitude (zero stays zero and is rejected below).
+        let up = unit_vector(up).unwrap_or(Vec3::ZERO);
         let fov = *d.fov.get_ref();
         if !(fov > 0.0 && fov < 180.0) {
             return src.err(
@@ -779,19 +853,20 @@ impl Builder<'_> {
         if w == 0 || h == 0 || w > 16384 || h > 16384 {
             return src.err(
                 d.resolution.span(),
-                format!("'resolution' must be two integers in [1, 16384], got [{w}, {h}]"),
+                format!("'resolution' must be two integers in [1, 16384] (at most 2^28 pixels), got [{w}, {h}]"),
             );
         }
         let forward = look_at - position;
-        if forward.length_squared() == 0.0 {
-            return src.err(d.look_at.span(), "'look_at' must differ from 'position'");
-        }
-        if forward
-            .normalize()
-            .cross(up.normalize_or_zero())
-            .length_squared()
-            < 1e-10
-        {
+        // `Camera::new` normalises `look_at - position`: its length must not underflow.
+        let Some(forward) = forward.try_normalize() else {
+            return src.err(
+                d.look_at.span(),
+                format!(
+                    "'look_at' must differ from 'position' (by more than 1e-18), got {look_at} and {position}"
+                ),
+            );
+        };
+        if forward.cross(up).length_squared() < 1e-10 {
             return src.err(
                 d.up.as_ref().map_or(c.span(), |u| u.span()),
                 "'up' must not be zero or parallel to the viewing direction",
@@ -933,10 +1008,11 @@ impl Builder<'_> {
                     ScaleDesc::Uniform(x) => Vec3::splat(*x),
                     ScaleDesc::PerAxis(a) => Vec3::from(*a),
                 };
-                if !v.is_finite() || v.x == 0.0 || v.y == 0.0 || v.z == 0.0 {
+                let (lo, hi) = SCALE_RANGE;
+                if !v.is_finite() || v.abs().min_element() < lo || v.abs().max_element() > hi {
                     return src.err(
                         s.span(),
-                        "'scale' must be finite and non-zero in every axis",
+                        format!("'scale' must be finite with every |component| in [{lo:e}, {hi:e}], got {v}"),
                     );
                 }
                 v
@@ -947,12 +1023,12 @@ impl Builder<'_> {
             Some(r) => {
                 let a = Vec3::from(r.get_ref().axis);
                 let deg = r.get_ref().degrees;
-                if !a.is_finite() || a.length_squared() == 0.0 || !deg.is_finite() {
+                let (Some(a), true) = (unit_vector(a), deg.is_finite()) else {
                     return src.err(
                         r.span(),
                         "'rotate' needs a finite non-zero 'axis' and finite 'degrees'",
                     );
-                }
+                };
                 (a, deg)
             }
         };
@@ -1106,12 +1182,12 @@ impl Builder<'_> {
             "disk" => {
                 let c = opt3(&d.center, "center", Vec3::ZERO)?;
                 let n = opt3(&d.normal, "normal", Vec3::Z)?;
-                if n.length_squared() == 0.0 {
+                let Some(n) = unit_vector(n) else {
                     return src.err(
                         d.normal.as_ref().unwrap().span(),
                         "'normal' must be non-zero",
                     );
-                }
+                };
                 let r = radius(1.0)?;
                 let segments = d.segments.as_ref().map_or(64, |s| *s.get_ref());
                 if !(3..=100_000).contains(&segments) {
@@ -1120,7 +1196,7 @@ impl Builder<'_> {
                         "'segments' must be in [3, 100000]",
                     );
                 }
-                let f = Frame::from_z(n.normalize());
+                let f = Frame::from_z(n);
                 let mut m = TriangleMesh::disk(segments);
                 for p in &mut m.positions {
                     *p = c + f.to_world(*p * r);
@@ -1162,6 +1238,12 @@ impl Builder<'_> {
                             return src.err(
                                 g.span(),
                                 format!("'grid' must be two integers in [1, 4096], got [{x}, {z}]"),
+                            );
+                        }
+                        if 2 * x as usize * z as usize > MAX_TRIANGLES {
+                            return src.err(
+                                g.span(),
+                                format!("'grid' = [{x}, {z}] makes {} triangles; a scene may have at most {MAX_TRIANGLES} (2^24)", 2 * x as usize * z as usize),
                             );
                         }
                         UVec2::new(x, z)

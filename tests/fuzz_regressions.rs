@@ -96,6 +96,7 @@ fn expected_errors() -> Vec<(&'static str, &'static str)> {
             "tiny-look-at-distance.toml",
             "'look_at' must differ from 'position'",
         ),
+        ("infinite-light-power.toml", "the light's power overflows"),
     ]
 }
 

@@ -557,6 +557,13 @@ impl Builder<'_> {
                         } else {
                             AreaLight::new(shape_id, le, area)
                         };
+                        let power = light.power();
+                        if !power.is_finite() {
+                            return src.err(
+                                d.emission.as_ref().map_or(s.span(), |e| e.span()),
+                                format!("{label}: the emitted power (emission x area) overflows to {power}; lower 'emission' or the shape's size"),
+                            );
+                        }
                         lights.push(Light::Area(light));
                         Some(lights.len() as u32 - 1)
                     }
@@ -575,6 +582,7 @@ impl Builder<'_> {
         }
 
         let mut environment = false;
+        let n_shape_lights = lights.len();
         for l in &desc.light {
             let light = self.light(l)?;
             if matches!(light, Light::Environment(_)) {
@@ -609,6 +617,17 @@ impl Builder<'_> {
         };
         for l in &mut lights {
             l.set_scene_bounds(center, radius);
+        }
+        // Lights are chosen in proportion to their power; that of lights at infinity grows
+        // with the scene's bounding sphere, so check it now.
+        for (l, d) in lights[n_shape_lights..].iter().zip(&desc.light) {
+            let power = l.power();
+            if !power.is_finite() {
+                return src.err(
+                    d.span(),
+                    format!("the light's power overflows to {power}; lower its 'intensity', 'radiance' or 'irradiance' (or the scene's size, for lights at infinity)"),
+                );
+            }
         }
 
         let uses_media = world_medium.is_some()

@@ -368,10 +368,8 @@ fn check_scene(scene: &Scene) -> Result<(), String> {
         let _ = scene.intersect(&r);
     }
     for (i, l) in scene.lights.iter().enumerate() {
-        // An infinite power (emission near f32's limit) is accepted on purpose: main's
-        // `--check` reports the overflowing values it leads to (tests/check.rs).
         let p = l.power();
-        if p.is_nan() || p < 0.0 {
+        if !(p.is_finite() && p >= 0.0) {
             return Err(format!("accepted a scene whose light {i} has power {p}"));
         }
     }

@@ -199,79 +199,24 @@ fn first_vertex_kernels_narrow_where_guides_are_dense() {
     check_cache_sampling("dense glass box", &scene, &cache);
 }
 
-/// guided-pt (learning inside the render) and pt converge to the same image: per-channel
+/// guided-pt (with a learned cache, alpha 0.5) and pt converge to the same image: per-channel
 /// z-test of the mean pixel difference, |z| < 4.5 (false-failure rate about 2e-5 for three
-/// channels). `broken` leaves one guide path out of p_g.
-fn guided_vs_pt_z(scene: &Scene, spp: u64, cache: GuideCache, broken: bool) -> glam::DVec3 {
-    guided_vs_reference_z(scene, ("pt", spp), spp, 0.5, cache, broken)
-}
-
-/// As [`guided_vs_pt_z`] against `reference` (integrator, spp), guided-pt with split `alpha`.
-fn guided_vs_reference_z(
-    scene: &Scene,
-    reference: (&str, u64),
-    spp: u64,
-    alpha: f64,
-    cache: GuideCache,
-    broken: bool,
-) -> glam::DVec3 {
+/// channels). Its control is not here: on a caustic, pixel values are so heavy-tailed that
+/// this z stays below 4 even for a broken p_g that makes the image 18x too bright (measured),
+/// so the broken-p_g control is the Welch t over seeds of the caustic test below.
+fn guided_vs_pt_z(scene: &Scene, spp: u64, cache: GuideCache) -> glam::DVec3 {
     let max_depth = 6;
-    let pt = util::render(scene, reference.0, max_depth, &[], reference.1, 1, 2);
-    let mut cache = cache;
-    // With the twin cache, the z-test looks at the pixels of the twin's first-vertex kernel
-    // (where all guided samples land), whether or not p_g is broken.
-    let region: Vec<usize> = if cache.len() <= 2 {
-        kernel_pixels(scene, &cache, 0)
-    } else {
-        Vec::new()
+    let pt = util::render(scene, "pt", max_depth, &[], spp, 1, 2);
+    let settings = GuidedSettings {
+        alpha: 0.5,
+        ..settings(0.0)
     };
-    if broken {
-        // The guide path that yields the most successful guided samples: its samples lose
-        // their guided density, so they are weighted as if only pt could have made them.
-        // Rank guide paths by the share of the guided density they alone provide on the
-        // samples they produce (what leaving them out would add to the image).
-        let mut own = vec![0.0f64; cache.len()];
-        let mut scratch = Vec::new();
-        for i in 0..4000u64 {
-            let mut s = IndependentSampler::new(13, 0, i);
-            if let Ok(g) = sampler::sample_path(scene, &cache, &mut s) {
-                let y = bdpt::from_path(scene, &g.path).unwrap();
-                let (sig, nodes) = kernel::structure(scene, &g.path, MAX_VERTICES).unwrap();
-                let (p_g, _) = cache.pdf(scene, &y, sig, &nodes, &mut scratch);
-                let mine = cache.guides[g.guide].weight * cache.pdf_given(scene, g.guide, &y);
-                own[g.guide] += mine / p_g;
-            }
-        }
-        let most = (0..cache.len())
-            .max_by(|&a, &b| own[a].total_cmp(&own[b]).then(a.cmp(&b)))
-            .unwrap();
-
-        cache.skip_in_pdf = Some(most);
-    }
-    let mut g = guided_pt(
-        max_depth,
-        GuidedSettings {
-            alpha,
-            ..settings(0.0)
-        },
-        Some(cache),
-    );
+    let mut g = guided_pt(max_depth, settings, Some(cache));
     let ctx = RenderContext::new(scene, 9, false);
     let guided = g.render(&ctx, Budget::Spp(spp));
-    let z = if region.is_empty() {
-        util::z_same_mean(&guided.image, &pt.image)
-    } else {
-        let pick = |img: &lodestar::film::Image| {
-            let mut out = lodestar::film::Image::new(region.len() as u32, 1);
-            for (o, &i) in out.pixels.iter_mut().zip(&region) {
-                *o = img.pixels[i];
-            }
-            out
-        };
-        util::z_same_mean(&pick(&guided.image), &pick(&pt.image))
-    };
+    let z = util::z_same_mean(&guided.image, &pt.image);
     eprintln!(
-        "broken {broken}: z {z:?}, means {:?} vs {:?}, stats {:?}",
+        "z {z:?}, means {:?} vs {:?}, stats {:?}",
         guided.image.mean(),
         pt.image.mean(),
         guided.stats
@@ -282,7 +227,7 @@ fn guided_vs_reference_z(
 #[test]
 fn guided_pt_is_unbiased_on_the_glass_cornell_box() {
     let scene = scene("cornell-box.toml", 64, |t| t);
-    let z = guided_vs_pt_z(&scene, 64, learn(&scene, 6, 12, 2), false);
+    let z = guided_vs_pt_z(&scene, 64, learn(&scene, 6, 12, 2));
     assert!(z.abs().max_element() < 4.5, "z {z:?}");
 }
 
@@ -326,7 +271,7 @@ fn guided_vs_bdpt_t(scene: &Scene, cache: &GuideCache, alpha: f64, broken: bool)
 #[test]
 fn guided_pt_is_unbiased_on_a_caustic_and_a_broken_pg_is_caught() {
     let scene = util::scene(CAUSTIC);
-    let z = guided_vs_pt_z(&scene, 64, learn(&scene, 6, 12, 2), false);
+    let z = guided_vs_pt_z(&scene, 64, learn(&scene, 6, 12, 2));
     assert!(z.abs().max_element() < 4.5, "z {z:?}");
     let t = guided_vs_bdpt_t(&scene, &twin_caustic_cache(&scene, false), 0.05, false);
     assert!(t.abs().max_element() < 6.0, "t {t:?}");
@@ -466,24 +411,6 @@ fn saved_caches_render_identically_and_bad_files_are_errors() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// Pixels within the truncation radius of guide `l`'s first-vertex kernel.
-fn kernel_pixels(scene: &Scene, cache: &GuideCache, l: usize) -> Vec<usize> {
-    let g1 = cache.vertex(scene, l, 1).p;
-    let cam = &scene.camera;
-    let dist = (g1 - cam.position).length();
-    let radius_px = 3.0 * cache.guides[l].sigma1 / (dist * cam.pixel_angle());
-    let centre = cam
-        .world_to_raster(g1)
-        .expect("the guide's first vertex is on the image");
-    let (w, h) = (cam.resolution.x as usize, cam.resolution.y as usize);
-    (0..w * h)
-        .filter(|&i| {
-            let p = glam::Vec2::new((i % w) as f32 + 0.5, (i / w) as f32 + 0.5);
-            p.distance(centre) <= radius_px
-        })
-        .collect()
-}
-
 /// Bad guided-pt settings are errors naming the option and what was expected.
 #[test]
 fn bad_guided_options_are_errors() {
@@ -522,4 +449,21 @@ fn bad_guided_options_are_errors() {
             .unwrap_or_else(|| panic!("{opt}: accepted"));
         assert!(err.to_string().contains(expect), "{opt}: {err}");
     }
+}
+
+/// guided-pt end to end (learning inside the render) in the fog box converges to bdpt's image
+/// tile by tile over 5 seeded renders each (`util::assert_same_image`, family-wise
+/// false-failure rate 1e-4; no invalid sample or path in any render). Control: guided-pt's
+/// images mirrored left to right must fail the same comparison.
+#[test]
+fn guided_pt_learning_in_fog_agrees_with_bdpt_tile_by_tile() {
+    let scene = scene("cornell-fog.toml", 16, |t| t);
+    let guided = util::seeded_renders(&scene, "guided-pt", 6, &["learn_fraction=0.25"], 128, 5, 40);
+    let bdpt = util::seeded_renders(&scene, "bdpt", 6, &[], 64, 5, 50);
+    util::assert_same_image(&bdpt, &guided, 4, "guided-pt (learning) vs bdpt in fog");
+    let flipped: Vec<_> = guided.iter().map(util::mirrored).collect();
+    assert!(
+        util::differs(&bdpt, &flipped, 4),
+        "mirrored guided-pt passes"
+    );
 }

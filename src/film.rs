@@ -254,34 +254,31 @@ impl Film {
 
     /// Add splats in the given order (callers merge per-chunk lists in chunk order, so the
     /// result does not depend on the thread count).
-    /// Splats in f64 (the guider's values).
-    /// Returns the number of splats left out for being non-finite or negative (as invalid
-    /// pixel samples are: one would spoil its pixel for good).
+    /// Splats in f64 (the guider's values). Returns the number of splats left out for being
+    /// non-finite or negative (as invalid pixel samples are: one would spoil its pixel for good).
     pub fn add_splats64(&mut self, splats: &[(u32, glam::DVec3)]) -> u64 {
-        let mut invalid = 0;
-        for (i, v) in splats {
-            crate::check::value(crate::check::Technique::named("splat"), v.as_vec3());
-            if v.is_finite() && v.min_element() >= 0.0 {
-                self.splat[*i as usize] += *v;
-            } else {
-                invalid += 1;
-            }
-        }
-        invalid
+        splats
+            .iter()
+            .filter(|&&(i, v)| !self.add_splat(i, v))
+            .count() as u64
     }
 
     /// Add light-tracing splats; returns the number left out as in [`Film::add_splats64`].
     pub fn add_splats(&mut self, splats: &[(u32, Spectrum)]) -> u64 {
-        let mut invalid = 0;
-        for (i, v) in splats {
-            crate::check::value(crate::check::Technique::named("splat"), *v);
-            if v.is_finite() && v.min_element() >= 0.0 {
-                self.splat[*i as usize] += v.as_dvec3();
-            } else {
-                invalid += 1;
-            }
+        splats
+            .iter()
+            .filter(|&&(i, v)| !self.add_splat(i, v.as_dvec3()))
+            .count() as u64
+    }
+
+    /// One splat, checked (`--check`) and added if finite and non-negative.
+    fn add_splat(&mut self, i: u32, v: glam::DVec3) -> bool {
+        crate::check::value(crate::check::Technique::named("splat"), v.as_vec3());
+        let ok = v.is_finite() && v.min_element() >= 0.0;
+        if ok {
+            self.splat[i as usize] += v;
         }
-        invalid
+        ok
     }
 
     /// The image: pixel sums divided by `samples_per_pixel`, plus splats times `splat_scale`.

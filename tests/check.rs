@@ -141,3 +141,80 @@ emission = [1, 1, 1]
         );
     }
 }
+
+/// End to end through the command line: a point light of intensity 1e36 a millimetre above a
+/// floor, seen through a 0.1-degree lens, makes radiance beyond f32's range (I / d^2 = 1e42)
+/// in every pixel, a scene the loader accepts (the light's power, 1.3e37, is finite). With
+/// `--check` the render lists the invalid values per technique and exits non-zero; without it,
+/// it exits 0 and warns that samples were left out. Control: the same scene with the light
+/// at 1e30 checks clean.
+#[test]
+fn check_exit_status_end_to_end() {
+    let scene = |intensity: &str| {
+        format!(
+            r#"
+[camera]
+position = [0, 0, 3]
+look_at = [0, 0, 0]
+fov = 0.1
+resolution = [16, 16]
+[render]
+max_depth = 4
+[[material]]
+name = "white"
+type = "diffuse"
+albedo = [0.5, 0.5, 0.5]
+[[shape]]
+type = "quad"
+origin = [-1, -1, 1]
+edge_u = [2, 0, 0]
+edge_v = [0, 2, 0]
+material = "white"
+[[light]]
+type = "point"
+position = [0, 0, 1.001]
+intensity = [{intensity}, {intensity}, {intensity}]
+"#
+        )
+    };
+    let dir = std::env::temp_dir();
+    let render = |intensity: &str, check: bool| {
+        let path = dir.join(format!(
+            "lodestar-check-e2e-{}-{intensity}.toml",
+            std::process::id()
+        ));
+        std::fs::write(&path, scene(intensity)).unwrap();
+        let out = out_path(&format!("e2e-{intensity}-{check}"));
+        let mut args = vec!["render", path.to_str().unwrap(), "--spp", "2", "--quiet"];
+        args.extend(["-o", out.to_str().unwrap()]);
+        if check {
+            args.push("--check");
+        }
+        let o = run(&args);
+        let _ = std::fs::remove_file(&out);
+        let _ = std::fs::remove_file(&path);
+        (
+            o.status.success(),
+            String::from_utf8_lossy(&o.stderr).into_owned(),
+        )
+    };
+    let (ok, stderr) = render("1e36", true);
+    assert!(!ok, "--check with invalid values must fail: {stderr}");
+    assert!(
+        stderr.contains("pt next-event: value not finite"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("--check:") && stderr.contains("violations"),
+        "{stderr}"
+    );
+    let (ok, stderr) = render("1e36", false);
+    assert!(ok, "{stderr}");
+    assert!(
+        stderr.contains("non-finite or negative and left out"),
+        "{stderr}"
+    );
+    let (ok, stderr) = render("1e30", true);
+    assert!(ok, "{stderr}");
+    assert!(stderr.contains(", 0 violations"), "{stderr}");
+}

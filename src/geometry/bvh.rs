@@ -252,26 +252,28 @@ fn intersect_prim(p: &Prim, o: Vec3A, d: Vec3A, t_max: f32) -> (f32, Vec2) {
         };
         return (s.intersect(o.into(), d.into(), t_max), Vec2::ZERO);
     }
-    // Möller-Trumbore.
+    // Möller-Trumbore, comparing the scaled barycentrics with det and dividing only on a hit.
     let pvec = d.cross(p.c);
     let det = p.b.dot(pvec);
     if det == 0.0 || !det.is_finite() {
         return (f32::INFINITY, Vec2::ZERO);
     }
-    let inv_det = 1.0 / det;
     let tvec = o - p.a;
-    let u = tvec.dot(pvec) * inv_det;
-    if !(0.0..=1.0).contains(&u) {
-        return (f32::INFINITY, Vec2::ZERO);
-    }
+    let u_det = tvec.dot(pvec);
     let qvec = tvec.cross(p.b);
-    let v = d.dot(qvec) * inv_det;
-    if v < 0.0 || u + v > 1.0 {
+    let v_det = d.dot(qvec);
+    let t_det = p.c.dot(qvec);
+    // With det > 0: 0 <= u_det, 0 <= v_det, u_det + v_det <= det, 0 < t_det < t_max det;
+    // det < 0 flips every inequality, so compare the products with |det| after a sign flip.
+    let (sign, abs_det) = (det.signum(), det.abs());
+    let (u_s, v_s, t_s) = (u_det * sign, v_det * sign, t_det * sign);
+    if u_s < 0.0 || v_s < 0.0 || u_s + v_s > abs_det || t_s <= 0.0 {
         return (f32::INFINITY, Vec2::ZERO);
     }
-    let t = p.c.dot(qvec) * inv_det;
-    if t > 0.0 && t < t_max {
-        (t, Vec2::new(u, v))
+    let inv_det = 1.0 / det;
+    let t = t_det * inv_det;
+    if t < t_max {
+        (t, Vec2::new(u_det * inv_det, v_det * inv_det))
     } else {
         (f32::INFINITY, Vec2::ZERO)
     }

@@ -55,6 +55,10 @@ impl Distribution1D {
     /// Sample an item; returns (index, pmf, u remapped to [0,1) within the item's interval).
     pub fn sample(&self, u: f32) -> (usize, f32, f32) {
         let n = self.pmf.len();
+        if n == 1 {
+            // One light, one triangle: no search (the same result as below).
+            return (0, self.pmf[0], u.clamp(0.0, 1.0 - f32::EPSILON));
+        }
         // First index whose cdf exceeds u, minus one; skip zero-probability items.
         let mut i = self
             .cdf

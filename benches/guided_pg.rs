@@ -144,6 +144,7 @@ fn bdpt_cost(scene: &Scene, all: &[Install]) {
         rr_depth: 5,
         heuristic: Heuristic::Balance,
         light_tracing: false,
+        techniques: Default::default(),
     };
     let u = BdptUnguided {
         settings: settings.clone(),

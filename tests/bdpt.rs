@@ -43,6 +43,7 @@ fn check_densities(name: &str, scene: &Scene) {
         rr_depth: 3,
         heuristic: Heuristic::Balance,
         light_tracing: false,
+        techniques: Default::default(),
     };
     let checked = Rc::new(RefCell::new((0usize, Vec::<String>::new())));
     let sink = checked.clone();
@@ -179,6 +180,7 @@ fn fog_dragon_samples_that_were_nan_are_finite() {
         rr_depth: 5,
         heuristic: Heuristic::Balance,
         light_tracing: false,
+        techniques: Default::default(),
     };
     let mut tracer = Tracer::new(&scene, &settings);
     let w = scene.camera.resolution.x as u64;
@@ -197,5 +199,67 @@ fn fog_dragon_samples_that_were_nan_are_finite() {
             v.max_element() > 0.0,
             "the sample no longer reaches the light: not a regression test"
         );
+    }
+}
+
+/// `-O only=s,t` renders one technique MIS-weighted: over every technique up to the depth
+/// limit, the images of one seed sum to a bdpt image (their subpaths are the seed's; only the
+/// next-event light samples differ), compared tile by tile with full bdpt over 5 seeds each
+/// (`util::assert_same_image`, family-wise false-failure rate 1e-4). Controls, each of which
+/// must fail the same comparison: bdpt with one technique's weighted contribution dropped
+/// (`-O skip=s,t`): next-event estimation from the first camera vertex (1,2), and the
+/// two-segment light-vertex connection (2,2), a small share of the image.
+#[test]
+fn technique_images_sum_to_bdpt_and_a_dropped_technique_is_caught() {
+    let scene = scene_file("cornell-box.toml", 16);
+    let depth = 4u32;
+    let full = util::seeded_renders(&scene, "bdpt", depth, &[], 32, 5, 100);
+    let sums: Vec<_> = (0..5)
+        .map(|i| {
+            let mut sum = lodestar::film::Image::new(16, 16);
+            for k in 1..=depth as usize {
+                for t in 1..=k + 1 {
+                    let only = format!("only={},{t}", k + 1 - t);
+                    let img = util::render(&scene, "bdpt", depth, &[&only], 32, 200 + i, 2).image;
+                    for (a, b) in sum.pixels.iter_mut().zip(&img.pixels) {
+                        *a += *b;
+                    }
+                }
+            }
+            sum
+        })
+        .collect();
+    util::assert_same_image(&full, &sums, 4, "sum of the technique images vs bdpt");
+    for skip in ["1,2", "2,2"] {
+        let option = format!("skip={skip}");
+        let dropped = util::seeded_renders(&scene, "bdpt", depth, &[&option], 32, 5, 300);
+        assert!(
+            util::differs(&full, &dropped, 4),
+            "bdpt without technique ({skip}) passes as bdpt"
+        );
+    }
+}
+
+/// The technique options name what they expect.
+#[test]
+fn technique_options_are_checked() {
+    for (options, expected) in [
+        (vec!["only=1"], "expected a technique 's,t'"),
+        (vec!["skip=1,0"], "t >= 1 camera vertices"),
+        (vec!["only=1,2", "skip=2,2"], "exclude each other"),
+    ] {
+        let options = lodestar::integrators::Options::parse(
+            &options.iter().map(|s| s.to_string()).collect::<Vec<_>>(),
+        )
+        .unwrap();
+        let params = lodestar::integrators::IntegratorParams {
+            max_depth: 4,
+            options,
+        };
+        let err = match lodestar::integrators::build("bdpt", &params) {
+            Ok(_) => panic!("{expected}: accepted"),
+            Err(e) => e.to_string(),
+        };
+        assert!(err.contains(expected), "{err}");
     }
 }

@@ -24,6 +24,7 @@ fn bdpt_settings() -> BdptSettings {
         rr_depth: 5,
         heuristic: Heuristic::Balance,
         light_tracing: false,
+        techniques: Default::default(),
     }
 }
 

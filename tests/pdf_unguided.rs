@@ -159,6 +159,7 @@ fn bdpt_paths_round_trip_through_path() {
             rr_depth: 3,
             heuristic: Heuristic::Balance,
             light_tracing: false,
+            techniques: Default::default(),
         };
         let failures = Rc::new(RefCell::new((0usize, Vec::<String>::new())));
         let sink = failures.clone();

@@ -17,6 +17,8 @@
 //! | max_depth | integer >= 1         | 8         | maximum number of segments, as for `pt` |
 //! | rr_depth  | integer >= 1         | 5         | roulette on subpaths of this many segments or more |
 //! | mis       | `balance` / `power`  | `balance` | MIS heuristic (`bdpt` only) |
+//! | only      | `s,t`                | none      | render technique (s, t) alone, MIS-weighted (`bdpt` only): the images of every technique sum to the bdpt image |
+//! | skip      | `s,t`                | none      | leave technique (s, t) out (`bdpt` only; biased: a control for tests) |
 //!
 //! Light subpaths start in the medium around the light (`Scene::light_medium`); lights at
 //! infinity seen through a world medium send none (they are attenuated to nothing).
@@ -63,6 +65,41 @@ pub struct BdptSettings {
     pub heuristic: Heuristic,
     /// Light tracing: only the t = 1 techniques, unweighted.
     pub light_tracing: bool,
+    /// Which (s, t) techniques add to the image (default all).
+    pub techniques: TechniqueFilter,
+}
+
+/// The `only` / `skip` options: which (s, t) techniques add their weighted contributions.
+/// Weights are unchanged, so the `only` images of all techniques sum to the full image.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub enum TechniqueFilter {
+    #[default]
+    All,
+    Only(usize, usize),
+    Skip(usize, usize),
+}
+
+impl TechniqueFilter {
+    pub fn includes(self, s: usize, t: usize) -> bool {
+        match self {
+            TechniqueFilter::All => true,
+            TechniqueFilter::Only(a, b) => (s, t) == (a, b),
+            TechniqueFilter::Skip(a, b) => (s, t) != (a, b),
+        }
+    }
+}
+
+/// `s,t` with t >= 1 (the value of option `key`).
+fn technique(key: &str, v: &str) -> Result<(usize, usize)> {
+    let parsed = v.split_once(',').and_then(|(s, t)| {
+        let (s, t) = (s.trim().parse().ok()?, t.trim().parse().ok()?);
+        (t >= 1).then_some((s, t))
+    });
+    parsed.ok_or_else(|| {
+        Error::new(format!(
+            "option '{key}': expected a technique 's,t' (s >= 0 light vertices, t >= 1 camera vertices), got '{v}'"
+        ))
+    })
 }
 
 fn settings(params: &IntegratorParams, light_tracing: bool) -> Result<BdptSettings> {
@@ -81,11 +118,31 @@ fn settings(params: &IntegratorParams, light_tracing: bool) -> Result<BdptSettin
             _ => Heuristic::Balance,
         }
     };
+    let mut techniques = TechniqueFilter::All;
+    if !light_tracing {
+        let only = o.get("only", String::new(), "a technique 's,t'")?;
+        let skip = o.get("skip", String::new(), "a technique 's,t'")?;
+        techniques = match (only.is_empty(), skip.is_empty()) {
+            (true, true) => TechniqueFilter::All,
+            (false, true) => {
+                let (s, t) = technique("only", &only)?;
+                TechniqueFilter::Only(s, t)
+            }
+            (true, false) => {
+                let (s, t) = technique("skip", &skip)?;
+                TechniqueFilter::Skip(s, t)
+            }
+            (false, false) => {
+                return Err(Error::new("options 'only' and 'skip' exclude each other"));
+            }
+        };
+    }
     Ok(BdptSettings {
         max_depth: params.max_depth,
         rr_depth,
         heuristic,
         light_tracing,
+        techniques,
     })
 }
 
@@ -324,7 +381,11 @@ impl<'a> Tracer<'a> {
         for t in 1..=camera.len() {
             for s in 0..=light.len() {
                 let k = s + t - 1;
-                if k == 0 || k > max_depth || (st.light_tracing && t != 1) {
+                if k == 0
+                    || k > max_depth
+                    || (st.light_tracing && t != 1)
+                    || !st.techniques.includes(s, t)
+                {
                     continue;
                 }
                 if s == 0 {

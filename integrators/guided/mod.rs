@@ -170,6 +170,7 @@ impl<S: Seeder> Guided<BdptUnguided, S> {
                 settings: BdptSettings {
                     heuristic: Heuristic::Balance,
                     light_tracing: false,
+                    techniques: Default::default(),
                     ..bdpt
                 },
             },
@@ -333,6 +334,7 @@ pub fn build_bdpt(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
         rr_depth,
         heuristic: Heuristic::Balance,
         light_tracing: false,
+        techniques: Default::default(),
     };
     Ok(match settings.chains {
         Some(chains) => {

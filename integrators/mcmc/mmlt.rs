@@ -36,6 +36,7 @@ pub fn mmlt_bdpt_settings(max_depth: u32, heuristic: Heuristic) -> BdptSettings 
         rr_depth: max_depth + 1,
         heuristic,
         light_tracing: false,
+        techniques: Default::default(),
     }
 }
 

@@ -2,19 +2,41 @@
 """External reference: Mitsuba 3 path-tracer throughput (samples per CPU-second).
 
 What it measures
-    Mitsuba 3 (`scalar_rgb` variant, `path` integrator, max_depth 8, rr_depth 5,
-    `independent` sampler, box reconstruction filter, 256x256 rgb hdrfilm)
-    rendering lodestar's reference Cornell box, built in Python with
-    mi.load_dict (no scene files).  For each thread count and spp it prints
+    Mitsuba 3 (`scalar_rgb` variant by default, or `llvm_ad_rgb` with
+    --variant; `path` integrator, max_depth 8, rr_depth 5, `independent`
+    sampler, box reconstruction filter, 256x256 rgb hdrfilm) rendering
+    lodestar's reference Cornell box, built in Python with mi.load_dict (no
+    scene files).  For each thread count and spp it prints
 
-      mitsuba scalar_rgb path max_depth=8 threads=T spp=S cpu_s=X wall_s=Y
-              samples_per_cpu_s=Z mean_rgb=(r,g,b)
+      mitsuba VARIANT path max_depth=8 threads=T spp=S cpu_s=X wall_s=Y
+              samples_per_cpu_s=Z samples_per_s=W mean_rgb=(r,g,b)
+              [mse=M rel_mse=R efficiency=E]
 
     (one line) where samples_per_cpu_s = 256*256*spp / CPU-seconds, CPU-seconds
-    being time.process_time() (all threads of the process) around mi.render
-    only: scene loading and one small warm-up render are excluded.
+    being time.process_time() (all threads of the process), and samples_per_s
+    = 256*256*spp / wall-seconds.  Both clocks run around mi.render *and* the
+    read-back of the image into numpy: the llvm variants return a lazy
+    (unevaluated) image, so the render kernel only runs at that read-back.
+    Scene loading and one untimed warm-up render per spp value (for llvm: the
+    JIT compilation of the kernels, which depends on spp) are excluded.
     mean_rgb is the per-channel mean of the rendered linear image, for lodestar
     to cross-check that it renders the same picture.
+
+    With --runs N each (threads, spp) is rendered N times (seeds seed, seed+1,
+    ...); every run prints its line and a `median` line follows (the median of
+    each figure over the runs).
+
+    --mse-against REF.exr (e.g. a converged lodestar render, 256x256 RGB)
+    adds mse = mean over pixels and channels of (mitsuba - ref)^2, rel_mse
+    with lodestar's definition (a - r)^2 / (r^2 + 0.01), and
+    efficiency = 1 / (mse * wall_s).  The reference's own noise is included in
+    the MSE, so use a reference with many more samples than the measured runs.
+
+    llvm_ad_rgb needs an LLVM shared library that Dr.Jit can use; the LLVM 14
+    on Debian 12 crashes it.  Dr.Jit reads DRJIT_LIBLLVM_PATH; if that is unset
+    and the variant is llvm_*, the script sets it to Debian's libllvm19
+    (/usr/lib/x86_64-linux-gnu/libLLVM-19.so) when that file exists, before
+    importing mitsuba.
 
     Thread count: Mitsuba >= 3.6 renders on Dr.Jit's nanothread pool, set with
     drjit.set_thread_count(T) (1 = no worker threads, all work on the calling
@@ -35,26 +57,32 @@ Scene (lodestar's Cornell box, y up, camera on +z looking at the origin)
       fov 39.3077 deg on the vertical axis, 256x256
 
 How to run
-    pip install mitsuba          # brings drjit; numpy is optional (only used for the mean)
+    pip install mitsuba numpy    # mitsuba brings drjit; numpy is needed for llvm and --mse-against
     python3 benches/reference/mitsuba_cornell.py                      # threads 1,2 x spp 64,128
     python3 benches/reference/mitsuba_cornell.py --threads 1 --spp 64
+    apt-get install libllvm19    # for llvm_ad_rgb
+    DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM-19.so \
+      python3 benches/reference/mitsuba_cornell.py --variant llvm_ad_rgb --threads 2 \
+      --spp 64 128 256 --runs 3 --mse-against cornell-ref.exr --exr ''
     python3 benches/reference/mitsuba_cornell.py --preview target/mitsuba-cornell.png
     The last render at the highest spp is also written to target/mitsuba-cornell.exr
     (--exr PATH to change, --exr '' to skip).
 
-Packages: mitsuba (and its dependency drjit).
+Packages: mitsuba (and its dependency drjit), numpy; Debian libllvm19 for llvm.
 """
 
 import argparse
 import os
+import statistics
 import sys
 import time
 
-import drjit as dr
-import mitsuba as mi
+# mitsuba and drjit are imported in main(), after the arguments are parsed:
+# the llvm variants need DRJIT_LIBLLVM_PATH set before the import.
+dr = mi = None
 
-mi.set_variant("scalar_rgb")
-
+VARIANTS = ("scalar_rgb", "llvm_ad_rgb")
+DEBIAN_LIBLLVM = "/usr/lib/x86_64-linux-gnu/libLLVM-19.so"
 REPO = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
 RES = 256
 
@@ -139,50 +167,150 @@ def image_mean(img):
         return tuple(v / (w * h) for v in s)
 
 
-def measure(scene, threads, spp, seed=0):
+def to_numpy(img):
+    """The image as a float64 numpy array (H, W, C); forces evaluation in llvm variants."""
+    import numpy as np
+    dr.eval(img)
+    dr.sync_thread()
+    return np.array(img, dtype=np.float64)
+
+
+def read_reference(path):
+    import numpy as np
+    b = mi.Bitmap(path)
+    a = np.array(b, dtype=np.float64)
+    if a.ndim != 3 or a.shape[2] < 3:
+        raise SystemExit(f"{path}: expected an RGB(A) image, got array shape {a.shape}")
+    if a.shape[:2] != (RES, RES):
+        raise SystemExit(f"{path}: expected {RES}x{RES}, got {a.shape[1]}x{a.shape[0]}")
+    return a[:, :, :3]
+
+
+def error_vs(a, ref):
+    d2 = (a[:, :, :3] - ref) ** 2
+    return float(d2.mean()), float((d2 / (ref * ref + 0.01)).mean())
+
+
+def fmt_line(variant, max_depth, threads, spp, r, tag=""):
+    line = (f"mitsuba {variant} path max_depth={max_depth} threads={threads} spp={spp}{tag} "
+            f"cpu_s={r['cpu']:.3f} wall_s={r['wall']:.3f} "
+            f"samples_per_cpu_s={r['sps_cpu']:.0f} samples_per_s={r['sps_wall']:.0f} "
+            f"mean_rgb=({r['mean'][0]:.5f},{r['mean'][1]:.5f},{r['mean'][2]:.5f})")
+    if "mse" in r:
+        line += (f" mse={r['mse']:.4e} rel_mse={r['rel_mse']:.4e} "
+                 f"efficiency={r['eff']:.4g}")
+    return line
+
+
+def measure(scene, threads, spp, seed, ref, max_depth):
     dr.set_thread_count(threads)
     c0, t0 = time.process_time(), time.perf_counter()
     img = mi.render(scene, spp=spp, seed=seed)
+    if mi.variant().startswith("scalar"):
+        arr = None  # already computed; converted below, outside the timing
+    else:
+        arr = to_numpy(img)  # the lazy llvm image is computed here
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
-    mean = image_mean(img)
+    if arr is None:
+        try:
+            arr = to_numpy(img)
+        except ImportError:  # pragma: no cover (numpy is optional for scalar)
+            arr = None
+    mean = image_mean(img) if arr is None else tuple(
+        float(x) for x in arr.reshape(-1, arr.shape[-1])[:, :3].mean(0))
     if cpu < 0.85 * threads * wall:
         print(f"WARNING: cpu_s/wall_s = {cpu / wall:.2f} < {threads} threads; the machine is "
               f"probably busy (wall-clock scaling not reliable)", file=sys.stderr)
-    sps = RES * RES * spp / cpu
-    print(f"mitsuba scalar_rgb path max_depth=8 threads={threads} spp={spp} "
-          f"cpu_s={cpu:.3f} wall_s={wall:.3f} samples_per_cpu_s={sps:.0f} "
-          f"mean_rgb=({mean[0]:.5f},{mean[1]:.5f},{mean[2]:.5f})", flush=True)
-    return img
+    n = RES * RES * spp
+    r = {"cpu": cpu, "wall": wall, "sps_cpu": n / cpu, "sps_wall": n / wall, "mean": mean}
+    if ref is not None:
+        r["mse"], r["rel_mse"] = error_vs(arr, ref)
+        r["eff"] = 1.0 / (r["mse"] * wall)
+    print(fmt_line(mi.variant(), max_depth, threads, spp, r), flush=True)
+    return img, r
+
+
+def median_of(runs):
+    med = {}
+    for k in runs[0]:
+        if k == "mean":
+            med[k] = tuple(statistics.median(r[k][c] for r in runs) for c in range(3))
+        else:
+            med[k] = statistics.median(r[k] for r in runs)
+    return med
 
 
 def main():
+    global dr, mi
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--variant", choices=VARIANTS, default="scalar_rgb",
+                    help="Mitsuba variant (default scalar_rgb)")
     ap.add_argument("--threads", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--spp", type=int, nargs="+", default=[64, 128])
+    ap.add_argument("--runs", type=int, default=1,
+                    help="renders per (threads, spp), seeds seed..seed+runs-1; with more than "
+                         "one a median line follows")
     ap.add_argument("--max-depth", type=int, default=8)
     ap.add_argument("--seed", type=int, default=0, help="sampler seed (mi.render seed)")
+    ap.add_argument("--mse-against", metavar="REF_EXR",
+                    help="reference EXR (256x256 RGB, e.g. a converged lodestar render): "
+                         "print mse, rel_mse and efficiency = 1/(mse*wall_s)")
     ap.add_argument("--exr", default=os.path.join(REPO, "target", "mitsuba-cornell.exr"),
                     help="write the last render here ('' = skip)")
     ap.add_argument("--preview", metavar="PNG", help="also write an sRGB PNG of the last render")
     args = ap.parse_args()
 
+    if args.variant.startswith("llvm") and not os.environ.get("DRJIT_LIBLLVM_PATH"):
+        if os.path.exists(DEBIAN_LIBLLVM):
+            os.environ["DRJIT_LIBLLVM_PATH"] = DEBIAN_LIBLLVM
+        else:
+            print(f"WARNING: DRJIT_LIBLLVM_PATH unset and {DEBIAN_LIBLLVM} absent; Dr.Jit "
+                  f"will search for libLLVM itself (LLVM 14 crashes it)", file=sys.stderr)
+    import drjit
+    import mitsuba
+    dr, mi = drjit, mitsuba
+    mi.set_variant(args.variant)
+
     mi.set_log_level(mi.LogLevel.Warn)
+    default_threads = dr.thread_count()
+    llvm = os.environ.get("DRJIT_LIBLLVM_PATH") if args.variant.startswith("llvm") else None
     print(f"mitsuba {mi.__version__} drjit {dr.__version__} variant {mi.variant()} "
-          f"default threads {dr.thread_count()}", flush=True)
+          f"default threads {dr.thread_count()}" + (f" libllvm {llvm}" if llvm else ""),
+          flush=True)
+    ref = read_reference(args.mse_against) if args.mse_against else None
+    if ref is not None:
+        m = ref.reshape(-1, 3).mean(0)
+        print(f"reference {args.mse_against} mean_rgb=({m[0]:.5f},{m[1]:.5f},{m[2]:.5f})",
+              flush=True)
     t0 = time.perf_counter()
     scene = mi.load_dict(cornell_scene(args.max_depth))
     print(f"scene load {time.perf_counter() - t0:.3f} s", flush=True)
 
-    # warm-up (first-render setup costs), not timed
-    dr.set_thread_count(max(args.threads))
-    mi.render(scene, spp=4)
-
     img = None
     for threads in args.threads:
         for spp in args.spp:
-            img = measure(scene, threads, spp, args.seed)
+            # warm-up, not timed: first-render setup costs; in llvm variants the
+            # kernel compilation (the kernels depend on spp, hence one per spp)
+            dr.set_thread_count(threads)
+            t0 = time.perf_counter()
+            if args.variant.startswith("scalar"):
+                mi.render(scene, spp=4)
+            else:
+                to_numpy(mi.render(scene, spp=spp, seed=args.seed + 10_000))
+            print(f"warm-up threads={threads} spp={spp} {time.perf_counter() - t0:.3f} s",
+                  flush=True)
+            runs = []
+            for k in range(args.runs):
+                img, r = measure(scene, threads, spp, args.seed + k, ref, args.max_depth)
+                runs.append(r)
+            if args.runs > 1:
+                print(fmt_line(mi.variant(), args.max_depth, threads, spp, median_of(runs),
+                               tag=f" median_of={args.runs}"), flush=True)
 
+    # With 1 thread (no nanothread workers) Mitsuba's asynchronous EXR write
+    # deadlocks at exit (OpenEXR waits for a worker); restore the default pool.
+    dr.set_thread_count(default_threads)
     if args.exr:
         os.makedirs(os.path.dirname(os.path.abspath(args.exr)), exist_ok=True)
         mi.util.write_bitmap(args.exr, img)

@@ -382,8 +382,9 @@ fn check_scene(scene: &Scene) -> Result<(), String> {
     Ok(())
 }
 
-/// Render an accepted scene with `pt` and `bdpt` at 1 spp on a 6 x 6 image (the scene's own
-/// camera, resolution replaced): the image must be finite. Off by default in the fuzzer
+/// Render an accepted scene with every integrator at 1 spp on a 6 x 6 image (the scene's own
+/// camera, resolution replaced) with `--check`'s validation on: the image must be finite and
+/// no sample, splat, density or weight invalid. Off by default in the fuzzer
 /// (`FUZZ_RENDER=1`): it tests the integrators on odd scenes, not the loader.
 pub fn render_check(mut scene: Scene) -> Result<(), String> {
     use lodestar::integrators::{IntegratorParams, Options, build};
@@ -396,16 +397,35 @@ pub fn render_check(mut scene: Scene) -> Result<(), String> {
         c.fov_y_degrees,
         glam::UVec2::new(6, 6),
     );
-    for name in ["pt", "bdpt"] {
+    for name in [
+        "pt",
+        "lt",
+        "bdpt",
+        "vcm",
+        "bpm",
+        "guided-pt",
+        "guided-bdpt",
+        "pssmlt",
+        "mmlt",
+    ] {
         let params = IntegratorParams {
             max_depth: 6,
             options: Options::default(),
         };
         let mut integrator = build(name, &params).map_err(|e| e.to_string())?;
         let ctx = RenderContext::new(&scene, 7, false);
+        lodestar::check::enable();
         let mean = integrator.render(&ctx, Budget::Spp(1)).image.mean();
+        lodestar::check::disable();
+        let (_, violations) = lodestar::check::report();
         if !mean.is_finite() {
             return Err(format!("{name} rendered an image of mean {mean}"));
+        }
+        if let Some((integrator, kind, tally)) = violations.iter().find(|v| v.2.count > 0) {
+            return Err(format!(
+                "{name}: --check found {} violations ({integrator} {kind:?})",
+                tally.count
+            ));
         }
     }
     Ok(())

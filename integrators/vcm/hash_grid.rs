@@ -9,6 +9,7 @@
 
 use glam::{IVec3, Vec3};
 
+#[derive(Default)]
 pub struct HashGrid {
     radius2: f32,
     inv_cell: f32,
@@ -17,45 +18,55 @@ pub struct HashGrid {
     starts: Vec<u32>,
     /// (position, caller's index), sorted by bucket.
     entries: Vec<(Vec3, u32)>,
+    /// Scratch of the counting sort, kept for the next [`HashGrid::rebuild`].
+    buckets: Vec<u32>,
+    next: Vec<u32>,
 }
 
 impl HashGrid {
     /// A grid over `points` (position, caller's index) for queries of radius `radius` > 0.
     pub fn new(points: &[(Vec3, u32)], radius: f32) -> HashGrid {
+        let mut grid = HashGrid::default();
+        grid.rebuild(points, radius);
+        grid
+    }
+
+    /// [`HashGrid::new`] in this grid's memory (vcm rebuilds its grid every pass; fresh
+    /// allocations of that size cost page faults every time).
+    pub fn rebuild(&mut self, points: &[(Vec3, u32)], radius: f32) {
         let origin = points
             .iter()
             .fold(Vec3::splat(f32::INFINITY), |m, (p, _)| m.min(*p));
-        let origin = if origin.is_finite() {
+        self.origin = if origin.is_finite() {
             origin
         } else {
             Vec3::ZERO
         };
-        let mut grid = HashGrid {
-            radius2: radius * radius,
-            inv_cell: 0.5 / radius,
-            origin,
-            starts: vec![0; points.len() + 1],
-            entries: Vec::with_capacity(points.len()),
-        };
-        let buckets: Vec<u32> = points
-            .iter()
-            .map(|(p, _)| grid.bucket(grid.cell_of(*p)))
-            .collect();
+        self.radius2 = radius * radius;
+        self.inv_cell = 0.5 / radius;
+        let n = points.len();
+        self.starts.clear();
+        self.starts.resize(n + 1, 0);
+        let mut buckets = std::mem::take(&mut self.buckets);
+        buckets.clear();
+        buckets.extend(points.iter().map(|(p, _)| self.bucket(self.cell_of(*p))));
         // Counting sort: counts, exclusive prefix sums, then scatter in input order.
         for &b in &buckets {
-            grid.starts[b as usize + 1] += 1;
+            self.starts[b as usize + 1] += 1;
         }
-        for i in 1..grid.starts.len() {
-            grid.starts[i] += grid.starts[i - 1];
+        for i in 1..self.starts.len() {
+            self.starts[i] += self.starts[i - 1];
         }
-        let mut next: Vec<u32> = grid.starts[..points.len()].to_vec();
-        grid.entries.resize(points.len(), (Vec3::ZERO, 0));
+        self.next.clear();
+        self.next.extend_from_slice(&self.starts[..n]);
+        self.entries.clear();
+        self.entries.resize(n, (Vec3::ZERO, 0));
         for (point, &b) in points.iter().zip(&buckets) {
-            let slot = &mut next[b as usize];
-            grid.entries[*slot as usize] = *point;
+            let slot = &mut self.next[b as usize];
+            self.entries[*slot as usize] = *point;
             *slot += 1;
         }
-        grid
+        self.buckets = buckets;
     }
 
     pub fn len(&self) -> usize {

@@ -210,6 +210,10 @@ impl Integrator for Vcm {
         let mut film = Film::new(w, h);
         let invalid = AtomicU64::new(0);
         let merges = AtomicU64::new(0);
+        // Reused from pass to pass (see `LightPaths::refill`).
+        let mut lights = LightPaths::default();
+        let mut splats = Vec::new();
+        let (mut points, mut grid) = (Vec::new(), HashGrid::default());
         let pass = |film: &mut Film, pass: u64| {
             let pc = PassConstants::new(st, scene, pass);
             // 1. Light subpaths, a row of path indices per task.
@@ -225,17 +229,19 @@ impl Integrator for Vcm {
                     lt.row(ctx.seed, pass, y * w as u64, w as u64)
                 })
                 .collect();
-            let mut splats = Vec::new();
-            let lights = LightPaths::from_rows(rows, &mut splats);
+            splats.clear();
+            lights.refill(rows, &mut splats);
+            let lights = &lights;
             // 2. The hash grid over the merging vertices.
-            let grid = st.merge.then(|| build_grid(&lights, pc.radius));
-            merges.fetch_add(
-                grid.as_ref().map_or(0, |g| g.len() as u64),
-                Ordering::Relaxed,
-            );
+            let grid = st.merge.then(|| {
+                mergeable_points(lights, &mut points);
+                grid.rebuild(&points, pc.radius);
+                &grid
+            });
+            merges.fetch_add(grid.map_or(0, |g| g.len() as u64), Ordering::Relaxed);
             // 3. Camera subpaths, one per pixel, a row per task.
             film.par_rows_mut().enumerate().for_each(|(y, row)| {
-                let mut ct = CameraTracer::new(scene, st, &pc, &lights, grid.as_ref(), None);
+                let mut ct = CameraTracer::new(scene, st, &pc, lights, grid, None);
                 for (x, acc) in row.iter_mut().enumerate() {
                     let k = y * w as usize + x;
                     let l = camera_sample(&mut ct, ctx.seed, pass, k, x, y);
@@ -292,14 +298,19 @@ fn camera_sample(
 }
 
 fn build_grid(lights: &LightPaths, radius: f32) -> HashGrid {
-    let points: Vec<(Vec3, u32)> = lights
-        .vertices
-        .iter()
-        .enumerate()
-        .filter(|(_, v)| v.mergeable())
-        .map(|(i, v)| (v.p, i as u32))
-        .collect();
+    let mut points = Vec::new();
+    mergeable_points(lights, &mut points);
     HashGrid::new(&points, radius)
+}
+
+/// The light vertices merging can use (position, index), into `points`.
+fn mergeable_points(lights: &LightPaths, points: &mut Vec<(Vec3, u32)>) {
+    points.clear();
+    points.extend(
+        (lights.vertices.iter().enumerate())
+            .filter(|(_, v)| v.mergeable())
+            .map(|(i, v)| (v.p, i as u32)),
+    );
 }
 
 /// Run pass `pass` of `settings` on one thread, handing every weighted contribution to

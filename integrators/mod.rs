@@ -190,6 +190,8 @@ pub struct RunSettings<'a> {
     pub snapshots: Option<&'a crate::snapshot::Snapshots<'a>>,
     /// Also produce the DBOR-re-weighted image (`RenderResult::dbor`).
     pub dbor: bool,
+    /// Global index of the first pass (`--part`; see `RenderContext::first_pass`).
+    pub first_pass: u64,
 }
 
 /// Build integrator `name` and render `scene` with it on a pool of `threads` threads: what
@@ -209,6 +211,7 @@ pub fn render_named(
         progress,
         snapshots: None,
         dbor: false,
+        first_pass: 0,
     };
     render_named_with(scene, name, params, budget, &run)
 }
@@ -233,6 +236,7 @@ pub fn render_named_with(
         progress: run.progress,
         snapshots: run.snapshots,
         dbor: run.dbor,
+        first_pass: run.first_pass,
     };
     integrator.prepare(scene)?;
     let cpu0 = crate::render::process_cpu_seconds();

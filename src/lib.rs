@@ -17,6 +17,7 @@ pub mod light;
 pub mod math;
 pub mod medium;
 pub mod metrics;
+pub mod parts;
 pub mod path;
 pub mod render;
 pub mod scene;

@@ -38,6 +38,22 @@ enum Command {
         #[arg(long, value_name = "x0,y0,x1,y1")]
         crop: Option<String>,
     },
+    /// Merge the parts of one render (`render --part I/N`) into its image, weighting each part
+    /// by its passes; refuses parts of different renders or a missing or repeated slice.
+    Merge {
+        /// The parts' EXRs, in any order.
+        #[arg(required = true)]
+        parts: Vec<PathBuf>,
+        /// Output EXR.
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Also write an sRGB PNG preview.
+        #[arg(long)]
+        png: Option<PathBuf>,
+        /// Exposure of the PNG preview in stops.
+        #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+        exposure: f32,
+    },
     /// Print a scene's counts and features.
     Info { scene: PathBuf },
     /// List the registered integrators.
@@ -106,6 +122,10 @@ struct RenderArgs {
     /// No progress bar.
     #[arg(short, long)]
     quiet: bool,
+    /// Render only slice I of N of the --spp passes (1 <= I <= N), for merging with
+    /// `lodestar merge`; e.g. --part 3/8.
+    #[arg(long, value_name = "I/N")]
+    part: Option<String>,
     /// Validate every sample value, splat, technique density and MIS weight while rendering
     /// (finite, non-negative, weights in [0, 1]); print the violations per technique at the
     /// end and exit with an error when there were any.
@@ -218,6 +238,12 @@ fn main() -> ExitCode {
         Command::Render(args) => render(args),
         Command::Bench(args) => bench(args),
         Command::Compare { a, b, crop } => compare(&a, &b, crop.as_deref()),
+        Command::Merge {
+            parts,
+            output,
+            png,
+            exposure,
+        } => merge(&parts, &output, png.as_deref(), exposure),
         Command::Info { scene } => info(&scene),
         Command::Integrators => {
             for e in integrators::REGISTRY {
@@ -233,6 +259,34 @@ fn main() -> ExitCode {
             ExitCode::FAILURE
         }
     }
+}
+
+fn merge(parts: &[PathBuf], output: &Path, png: Option<&Path>, exposure: f32) -> Result<()> {
+    if !exposure.is_finite() {
+        return Err(Error::new("--exposure must be a finite number"));
+    }
+    for path in std::iter::once(output).chain(png) {
+        lodestar::film::output_dir(path)?;
+    }
+    let files = parts
+        .iter()
+        .map(|p| lodestar::parts::PartFile::read(p))
+        .collect::<Result<Vec<_>>>()?;
+    let (image, meta) = lodestar::parts::merge(&files)?;
+    image.write_exr(output, &meta)?;
+    if let Some(png) = png {
+        image.write_png(png, exposure)?;
+    }
+    let m = image.mean();
+    eprintln!(
+        "merged {} parts -> {}; mean rgb ({:.5}, {:.5}, {:.5})",
+        files.len(),
+        output.display(),
+        m.x,
+        m.y,
+        m.z
+    );
+    Ok(())
 }
 
 fn load_scene(path: Option<&Path>) -> Result<Scene> {
@@ -292,11 +346,51 @@ fn render(args: RenderArgs) -> Result<()> {
         max_depth: max_depth.unwrap_or(scene.render.max_depth),
         options: Options::parse(&args.all_options())?,
     };
-    let budget = match (args.spp, args.time) {
+    let mut budget = match (args.spp, args.time) {
         (_, Some(t)) => Budget::Seconds(t),
         (Some(n), None) => Budget::Spp(n),
         (None, None) => Budget::Spp(scene.render.spp as u64),
     };
+    // A slice of the passes (`--part`): what it renders and what its header must record.
+    let mut part_meta = Vec::new();
+    let mut first_pass = 0;
+    if let Some(text) = &args.part {
+        let part = lodestar::parts::Part::parse(text)?;
+        let Budget::Spp(total) = budget else {
+            return Err(Error::new(
+                "--part needs --spp (a time budget's pass count depends on the machine)",
+            ));
+        };
+        lodestar::parts::check_splittable(&name, params.options.has("load_guides"))?;
+        if args.dbor || args.snapshots.is_some() {
+            return Err(Error::new(
+                "--part cannot be combined with --dbor or --snapshots (neither merges linearly)",
+            ));
+        }
+        let passes = part.passes(total);
+        if passes.is_empty() {
+            return Err(Error::new(format!(
+                "--part {part}: {total} passes split {} ways leaves this part none; use at most {total} parts",
+                part.count
+            )));
+        }
+        let bytes = match &args.scene {
+            Some(p) => std::fs::read(p)
+                .map_err(|e| Error::new(format!("{}: cannot read: {e}", p.display())))?,
+            None => lodestar::scene::CORNELL_BOX_TOML.as_bytes().to_vec(),
+        };
+        part_meta = vec![
+            ("part".to_string(), part.to_string()),
+            ("first_pass".to_string(), passes.start.to_string()),
+            ("total_spp".to_string(), total.to_string()),
+            (
+                "scene_hash".to_string(),
+                lodestar::parts::fingerprint(&bytes),
+            ),
+        ];
+        first_pass = passes.start;
+        budget = Budget::Spp(passes.end - passes.start);
+    }
     let threads = args
         .threads
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
@@ -334,6 +428,7 @@ fn render(args: RenderArgs) -> Result<()> {
         threads,
         progress: !args.quiet,
         snapshots: (!snapshot_times.is_empty()).then_some(&snapshots),
+        first_pass,
     };
     if args.check {
         lodestar::check::enable();
@@ -350,6 +445,7 @@ fn render(args: RenderArgs) -> Result<()> {
         ("seconds".to_string(), format!("{:.3}", result.seconds)),
     ]);
     meta.extend(result.stats.iter().cloned());
+    meta.extend(part_meta);
     result.image.write_exr(&output, &meta)?;
     if args.dbor {
         let Some(dbor) = &result.dbor else {

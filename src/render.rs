@@ -41,6 +41,9 @@ pub struct RenderContext<'a> {
     /// Keep Zirr et al.'s firefly cascade ([`crate::dbor`]) and return its re-weighted image
     /// in `RenderResult::dbor` (`--dbor`).
     pub dbor: bool,
+    /// Global index of the first pass (`--part`): the pass driver numbers passes from here,
+    /// so a slice of a render draws the same random numbers as those passes of the whole.
+    pub first_pass: u64,
 }
 
 impl<'a> RenderContext<'a> {
@@ -52,6 +55,7 @@ impl<'a> RenderContext<'a> {
             progress,
             snapshots: None,
             dbor: false,
+            first_pass: 0,
         }
     }
 }
@@ -101,6 +105,7 @@ pub fn run_passes(progress: bool, budget: Budget, mut pass: impl FnMut(u64)) -> 
     drive(
         progress,
         None,
+        0,
         budget,
         &mut (),
         |_, i| pass(i),
@@ -119,13 +124,23 @@ pub fn run_passes_with_snapshots<S>(
     pass: impl FnMut(&mut S, u64),
     image: impl Fn(&S, u64) -> Image,
 ) -> (u64, f64) {
-    drive(ctx.progress, ctx.snapshots, budget, state, pass, image)
+    drive(
+        ctx.progress,
+        ctx.snapshots,
+        ctx.first_pass,
+        budget,
+        state,
+        pass,
+        image,
+    )
 }
 
-/// The pass loop. The budget clock starts here and excludes time paused for snapshots.
+/// The pass loop: passes `first`, `first + 1`, ... The budget clock starts here and excludes
+/// time paused for snapshots.
 fn drive<S>(
     progress: bool,
     snapshots: Option<&Snapshots>,
+    first: u64,
     budget: Budget,
     state: &mut S,
     mut pass: impl FnMut(&mut S, u64),
@@ -150,7 +165,7 @@ fn drive<S>(
         if done {
             break;
         }
-        pass(state, passes);
+        pass(state, first + passes);
         passes += 1;
         if let Some(snaps) = snapshots {
             let state = &*state;

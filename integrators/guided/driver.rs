@@ -233,7 +233,9 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
         let start = Instant::now();
         let UVec2 { x: w, y: h } = scene.camera.resolution;
         let mut film = Film::new(w, h);
-        // A loaded cache keeps the kernel widths it was saved with.
+        // A loaded cache keeps the kernel widths it was saved with, and is rendered with even
+        // when it holds no guide path (the learning run found nothing worth guiding).
+        let loaded = self.settings.load_guides.is_some();
         let mut cache = self
             .cache
             .take()
@@ -243,7 +245,7 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
         let mut rebuild_seconds = 0.0;
         let mut meter = share::ShareMeter::default();
         // ---- Learning (skipped with a loaded cache) ----
-        let learning = cache.is_empty() && st.learn_fraction > 0.0;
+        let learning = !loaded && st.learn_fraction > 0.0;
         if learning {
             let learn_budget = match budget {
                 Budget::Spp(n) if n >= 2 => Some(Budget::Spp(

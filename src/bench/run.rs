@@ -137,6 +137,7 @@ fn render_one(p: &Prepared, name: &str, seed: u64) -> Result<(Run, Image, String
         threads: c.threads,
         progress: false,
         snapshots: Some(&snapshots),
+        first_pass: 0,
     };
     let named = integrators::render_named_with(
         &p.scene,

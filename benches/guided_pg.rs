@@ -39,7 +39,7 @@ impl PathRecorder for Keep {
         if path.segments() >= 2 && path.f != glam::Vec3::ZERO {
             self.0.push((
                 path.vertices().to_vec(),
-                luminance(path.f),
+                luminance(path.f) as f64,
                 density + other,
                 1.0,
                 0,

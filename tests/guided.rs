@@ -57,7 +57,7 @@ fn cache_of_pt_paths(scene: &Scene, max_depth: u32, n: u64) -> GuideCache {
     impl PathRecorder for Keep {
         fn record(&mut self, path: &Path, _: glam::DVec3, _: usize, density: f64, other: f64) {
             if path.segments() >= 2 && path.f != glam::Vec3::ZERO {
-                let f = lodestar::math::luminance(path.f);
+                let f = lodestar::math::luminance(path.f) as f64;
                 self.0
                     .push((path.vertices().to_vec(), f, density + other, 1.0, 0));
             }

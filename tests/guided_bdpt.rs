@@ -58,7 +58,8 @@ fn cache_of_bdpt_paths(scene: &Scene, n: u64) -> GuideCache {
                 self.1 += 1;
                 if self.1.is_multiple_of(3) {
                     let lum = luminance(f.as_vec3());
-                    self.0.push((path.vertices().to_vec(), lum, p_u, 1.0, 0));
+                    self.0
+                        .push((path.vertices().to_vec(), lum as f64, p_u, 1.0, 0));
                 }
             }
         }

@@ -34,8 +34,13 @@ fn pt_installs(scene: &Scene, n: u64) -> Vec<Install> {
         fn record(&mut self, path: &Path, f: DVec3, _: usize, density: f64, other: f64) {
             if path.segments() >= 2 && f != DVec3::ZERO {
                 let lum = luminance(f.as_vec3());
-                self.0
-                    .push((path.vertices().to_vec(), lum, density + other, 1.0, 0));
+                self.0.push((
+                    path.vertices().to_vec(),
+                    lum as f64,
+                    density + other,
+                    1.0,
+                    0,
+                ));
             }
         }
     }

@@ -100,6 +100,33 @@ fn cornell_box_scaled_by_1e_minus_4_and_1e4() {
     }
 }
 
+/// Guided sampling is unit-free: guided-pt with a fixed share on the Cornell box scaled by 1e-6
+/// and 1e-3 traces the same paths as on the unscaled box (same seed), so its image agrees to
+/// 1e-4 (f32 rounding), with guide paths installed and candidates found for p_g. Before the
+/// guide cache's BVH was scaled, obvhs skipped every kernel box within 1e-4 of the camera at
+/// 1e-6: p_g was 0 for every path, guided samples were over-weighted and the image 78 % too
+/// bright.
+#[test]
+fn guided_sampling_in_a_box_a_micrometre_across() {
+    let render = |s: f64| {
+        let scene = load(&scaled_cornell(s, 24), None);
+        util::render(&scene, "guided-pt", 6, &["share=fixed"], 32, 1, 2)
+    };
+    let base = render(1.0);
+    for s in [1e-3, 1e-6] {
+        let r = render(s);
+        let (a, b) = (r.image.mean(), base.image.mean());
+        assert!(
+            ((a - b).abs() / b).max_element() < 1e-4,
+            "scale {s}: mean {a:?} vs unscaled {b:?}"
+        );
+        for key in ["guide_paths", "mean_pg_candidates"] {
+            let v: f64 = stat(&r, key).unwrap().parse().unwrap();
+            assert!(v > 1.0, "scale {s}: {key} = {v}");
+        }
+    }
+}
+
 /// Lights of radiance 1e-6 and 1e8: with the same seed, pt, lt, bdpt, vcm and bpm trace the
 /// same paths, so the image scales exactly with the light (to 1e-4 of f32 rounding).
 #[test]

@@ -23,7 +23,7 @@ use super::share;
 use super::{contribution, kernel, sampler};
 use crate::integrators::bdpt::{self, Vertex};
 use crate::integrators::unguided::{PathSink, Unguided};
-use crate::math::{Sampler, luminance};
+use crate::math::{Sampler, luminance, luminance64};
 use crate::path::{MAX_VERTICES, Path};
 use crate::scene::Scene;
 use glam::{DVec3, Vec3};
@@ -273,10 +273,10 @@ impl<'a, U: Unguided> Estimator<'a, U> {
             stats.fail(NON_FINITE);
             return None;
         }
-        let f_lum = luminance(f.as_vec3()) as f64;
+        let f_lum = luminance64(f);
         let record = want_record.then(|| Record {
             vertices: g.path.vertices().to_vec(),
-            f: f_lum as f32,
+            f: f_lum,
             p_u,
             c: self.c(f_lum, p_u, p_g),
         });
@@ -342,7 +342,7 @@ impl<U: Unguided> PathSink for Collector<'_, '_, U> {
             self.sum += value;
         }
         if self.measuring {
-            let v = share::values(luminance(f.as_vec3()) as f64, p_u, p_g);
+            let v = share::values(luminance64(f), p_u, p_g);
             if splat {
                 out.grid_splats.push((path.pixel, v));
             } else {
@@ -356,11 +356,11 @@ impl<U: Unguided> PathSink for Collector<'_, '_, U> {
             out.learn.samples.push((path.pixel, lum as f32));
             let (est, source) = (self.est, self.source);
             out.learn.offer(lum, || {
-                let f_lum = luminance(f.as_vec3()) as f64;
+                let f_lum = luminance64(f);
                 Candidate {
                     record: Record {
                         vertices: path.vertices().to_vec(),
-                        f: f_lum as f32,
+                        f: f_lum,
                         p_u,
                         c: est.c(f_lum, p_u, p_g),
                     },

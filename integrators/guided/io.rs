@@ -5,7 +5,7 @@
 //! iteration (u32), the kernel widths (two f64: regression, first vertex; since version 2),
 //! the guided share the learning run chose (f64 ratio n_g / n_u, -1 for none; since version
 //! 3), the number of guide paths (u32), then per guide path: vertex count (u8),
-//! age (u16), f (f32), p_u (f64), weight (f64) and its vertices (position, normal, shading
+//! age (u16), f (f64 since version 4, f32 before), p_u (f64), weight (f64) and its vertices (position, normal, shading
 //! normal as 9 f32, kind tag u8, two u32 ids, delta flag u8). Kernels, neighbours and the
 //! pruning BVH are rebuilt on load, deterministically, so a loaded cache renders exactly like
 //! the one that was saved. A wrong magic or version, a truncated file, a cache learned on
@@ -19,7 +19,7 @@ use glam::Vec3;
 use std::path::Path;
 
 const MAGIC: &[u8; 8] = b"LSGUIDES";
-pub const VERSION: u32 = 3;
+pub const VERSION: u32 = 4;
 
 /// A hash of what a cache depends on in the scene.
 pub fn scene_fingerprint(scene: &Scene) -> u64 {
@@ -189,7 +189,7 @@ pub fn load(scene: &Scene, file: &Path) -> Result<GuideCache> {
             return Err(bad(format!("guide path {i} has {len} vertices")));
         }
         let age = r.u16()?;
-        let f = r.f32()?;
+        let f = r.f64()?;
         let p_u = r.f64()?;
         let weight = r.f64()?;
         let mut vertices = vec![PathVertex {

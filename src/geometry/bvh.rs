@@ -210,7 +210,15 @@ fn bvh_scale(bounds: &[Bounds]) -> f32 {
     for b in bounds {
         all = all.union(&b.0);
     }
-    let extent = (all.max - all.min).max_element().max(f32::MIN_POSITIVE);
+    scale_for_obvhs(&all)
+}
+
+/// The power of two that maps `bounds` (every box and ray origin an obvhs BVH will see) to an
+/// extent of about 2^20, for any obvhs BVH (see [`bvh_scale`]; the guide cache uses it too).
+pub fn scale_for_obvhs(bounds: &Aabb) -> f32 {
+    let extent = (bounds.max - bounds.min)
+        .max_element()
+        .max(f32::MIN_POSITIVE);
     let exp = (20 - extent.log2().ceil() as i32).clamp(-100, 100);
     2f32.powi(exp)
 }

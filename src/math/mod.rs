@@ -27,6 +27,11 @@ pub fn luminance(c: Spectrum) -> f32 {
     0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
 }
 
+/// [`luminance`] of an f64 colour (whole-path contributions, which may pass f32's range).
+pub fn luminance64(c: glam::DVec3) -> f64 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+}
+
 /// Power heuristic (beta = 2) weight of strategy `a` against `b`, with densities in the same
 /// measure (and already multiplied by their sample counts).
 #[inline]

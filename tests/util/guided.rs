@@ -75,7 +75,7 @@ pub fn twin_caustic_cache(scene: &Scene, single: bool) -> GuideCache {
                 && matches!(v[2].kind, VertexKind::Surface { delta: true, .. })
                 && matches!(v[3].kind, VertexKind::Surface { delta: true, .. });
             if caustic && self.0.is_none() && path.f != glam::Vec3::ZERO {
-                let f = lodestar::math::luminance(path.f);
+                let f = lodestar::math::luminance(path.f) as f64;
                 self.0 = Some((v.to_vec(), f, density + other, 0.5, 0));
             }
         }

@@ -37,12 +37,12 @@ impl GuideCache {
                 let mut scratch = Vec::new();
                 let (p_g, _) = self.pdf(scene, &y, g.sig, self.nodes_of(l), &mut scratch);
                 let mix = params.alpha * g.p_u + (1.0 - params.alpha) * p_g;
-                if mix > 0.0 { g.f as f64 / mix } else { 0.0 }
+                if mix > 0.0 { g.f / mix } else { 0.0 }
             })
             .collect();
         struct Entry {
             vertices: Vec<PathVertex>,
-            f: f32,
+            f: f64,
             p_u: f64,
             c: f64,
             w_old: Option<f64>,
@@ -236,8 +236,9 @@ impl GuideCache {
             let n = (g1.p - scene.camera.position).normalize();
             (Vec3::ONE - n * n).max(Vec3::ZERO).sqrt() * r
         };
-        // Padding for rounding (the exact test is the truncation in the density).
-        let half = half * 1.001 + Vec3::splat(1e-6 * (1.0 + g1.p.abs().max_element()));
+        // Padding for rounding, relative to the coordinates (the exact test is the truncation
+        // in the density).
+        let half = half * 1.001 + Vec3::splat(1e-6 * (r + g1.p.abs().max_element()));
         Aabb::new(Vec3A::from(g1.p - half), Vec3A::from(g1.p + half))
     }
 
@@ -247,9 +248,21 @@ impl GuideCache {
             self.bvh_order.clear();
             return;
         }
-        let boxes: Vec<Aabb> = (0..self.guides.len())
+        let mut boxes: Vec<Aabb> = (0..self.guides.len())
             .map(|l| self.first_kernel_box(scene, l))
             .collect();
+        // obvhs skips boxes within an absolute 1e-4 of a ray's origin: build and query in
+        // coordinates scaled by a power of two (exact) so that the boxes and the camera span
+        // about 2^20 (in a scene a millimetre across, every box was skipped and p_g was 0).
+        let mut all = Aabb::from_point(Vec3A::from(scene.camera.position));
+        for b in &boxes {
+            all = all.union(b);
+        }
+        self.bvh_scale = crate::geometry::bvh::scale_for_obvhs(&all);
+        for b in &mut boxes {
+            b.min *= self.bvh_scale;
+            b.max *= self.bvh_scale;
+        }
         let mut t = Duration::ZERO;
         let bvh = obvhs::cwbvh::builder::build_cwbvh(&boxes, BvhBuildParams::fast_build(), &mut t);
         self.bvh_order = bvh.primitive_indices.clone();

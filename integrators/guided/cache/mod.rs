@@ -64,7 +64,7 @@ pub const NEIGHBOURS: usize = 10;
 pub const SPACING_RANK: usize = 10;
 
 /// A guide path to install: vertices (camera first), luminance of f, p_u, weight, age.
-pub type Install = (Vec<PathVertex>, f32, f64, f64, u16);
+pub type Install = (Vec<PathVertex>, f64, f64, f64, u16);
 
 /// One guide path's header.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -82,8 +82,9 @@ pub struct Guide {
     pub sig: u64,
     /// Std of the first-vertex kernel.
     pub sigma1: f32,
-    /// Luminance of f(X).
-    pub f: f32,
+    /// Luminance of f(X) (f64: in a scene a millimetre across, f of a long path passes
+    /// f32's range).
+    pub f: f64,
     /// Unguided density of the path.
     pub p_u: f64,
     /// Selection probability.
@@ -95,7 +96,7 @@ pub struct Guide {
 #[derive(Debug, Clone)]
 pub struct Record {
     pub vertices: Vec<PathVertex>,
-    pub f: f32,
+    pub f: f64,
     pub p_u: f64,
     pub c: f64,
 }
@@ -153,6 +154,8 @@ pub struct GuideCache {
     bvh: Option<CwBvh>,
     /// Guide index of each BVH primitive.
     bvh_order: Vec<u32>,
+    /// The BVH's coordinates are world coordinates times this power of two.
+    bvh_scale: f32,
     /// Structures held (fast rejection of paths the cache cannot guide).
     sigs: HashSet<u64>,
     /// Learning iterations the cache has seen.
@@ -330,7 +333,7 @@ impl GuideCache {
         let o = scene.camera.position;
         // +0.0 canonicalises -0.0 components (obvhs misclassifies their octant).
         let d = Vec3A::from((x1 - o).normalize()) + Vec3A::ZERO;
-        let ray = obvhs::ray::Ray::new_inf(Vec3A::from(o), d);
+        let ray = obvhs::ray::Ray::new_inf(Vec3A::from(o) * self.bvh_scale, d);
         bvh.ray_traverse_anyhit(ray, |_, i| out.push(self.bvh_order[i]));
     }
 

@@ -30,6 +30,8 @@
 //! ```
 
 mod cache;
+mod recording;
+mod settings;
 mod technique;
 mod walk;
 
@@ -43,7 +45,7 @@ use super::paths::{emission, hittable, nee_density, origin_density};
 use super::IntegratorParams;
 use super::unguided::PathSink;
 use crate::bsdf::TransportMode;
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::geometry::gamma;
 use crate::math::{IndependentSampler, Sampler, Spectrum};
 use crate::path::{MAX_VERTICES, Path};
@@ -51,100 +53,11 @@ use crate::render::{Budget, Integrator, RenderContext, RenderResult, RowTracer, 
 use crate::scene::{Endpoint, Scene};
 use cache::{Cached, cache_subpath};
 use glam::{Vec2, Vec3};
+use settings::settings;
+pub use settings::{BdptSettings, TechniqueFilter};
 pub use technique::TECHNIQUE_STREAMS;
 use vertex::{ConnectionEnd, Edge, connection_end, measure_factor, pdf, to_measure};
 use walk::roulette;
-
-#[derive(Debug, Clone, PartialEq)]
-pub struct BdptSettings {
-    /// Maximum number of path segments (default 8).
-    pub max_depth: u32,
-    /// Subpath length (segments) from which Russian roulette applies (default 5).
-    pub rr_depth: u32,
-    /// Default `Balance`.
-    pub heuristic: Heuristic,
-    /// Light tracing: only the t = 1 techniques, unweighted.
-    pub light_tracing: bool,
-    /// Which (s, t) techniques add to the image (default all).
-    pub techniques: TechniqueFilter,
-}
-
-/// The `only` / `skip` options: which (s, t) techniques add their weighted contributions.
-/// Weights are unchanged, so the `only` images of all techniques sum to the full image.
-#[derive(Debug, Clone, Copy, PartialEq, Default)]
-pub enum TechniqueFilter {
-    #[default]
-    All,
-    Only(usize, usize),
-    Skip(usize, usize),
-}
-
-impl TechniqueFilter {
-    pub fn includes(self, s: usize, t: usize) -> bool {
-        match self {
-            TechniqueFilter::All => true,
-            TechniqueFilter::Only(a, b) => (s, t) == (a, b),
-            TechniqueFilter::Skip(a, b) => (s, t) != (a, b),
-        }
-    }
-}
-
-/// `s,t` with t >= 1 (the value of option `key`).
-fn technique(key: &str, v: &str) -> Result<(usize, usize)> {
-    let parsed = v.split_once(',').and_then(|(s, t)| {
-        let (s, t) = (s.trim().parse().ok()?, t.trim().parse().ok()?);
-        (t >= 1).then_some((s, t))
-    });
-    parsed.ok_or_else(|| {
-        Error::new(format!(
-            "option '{key}': expected a technique 's,t' (s >= 0 light vertices, t >= 1 camera vertices), got '{v}'"
-        ))
-    })
-}
-
-fn settings(params: &IntegratorParams, light_tracing: bool) -> Result<BdptSettings> {
-    let o = &params.options;
-    let rr_depth = o.get("rr_depth", 5u32, "an integer >= 1")?;
-    if rr_depth == 0 {
-        return Err(Error::new(
-            "option 'rr_depth': expected an integer >= 1, got 0",
-        ));
-    }
-    let heuristic = if light_tracing {
-        Heuristic::Balance
-    } else {
-        match o.choice("mis", "balance", &["balance", "power"])? {
-            "power" => Heuristic::Power,
-            _ => Heuristic::Balance,
-        }
-    };
-    let mut techniques = TechniqueFilter::All;
-    if !light_tracing {
-        let only = o.get("only", String::new(), "a technique 's,t'")?;
-        let skip = o.get("skip", String::new(), "a technique 's,t'")?;
-        techniques = match (only.is_empty(), skip.is_empty()) {
-            (true, true) => TechniqueFilter::All,
-            (false, true) => {
-                let (s, t) = technique("only", &only)?;
-                TechniqueFilter::Only(s, t)
-            }
-            (true, false) => {
-                let (s, t) = technique("skip", &skip)?;
-                TechniqueFilter::Skip(s, t)
-            }
-            (false, false) => {
-                return Err(Error::new("options 'only' and 'skip' exclude each other"));
-            }
-        };
-    }
-    Ok(BdptSettings {
-        max_depth: params.max_depth,
-        rr_depth,
-        heuristic,
-        light_tracing,
-        techniques,
-    })
-}
 
 pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     Ok(Box::new(Bdpt {
@@ -231,19 +144,11 @@ pub struct Tracer<'a> {
     /// Recording mode ([`Tracer::sample_recorded`]): the weight functions leave the path they
     /// weigh in `joined` and its densities in `pending`, and return 1 (the raw estimate).
     recording: bool,
-    pending: Option<Pending>,
+    pending: Option<recording::Pending>,
     joined: Vec<Vertex<'a>>,
     path_buf: Path,
     /// Pixel of the sample being traced.
     pixel: u32,
-}
-
-/// Densities of the path a weight function saw in recording mode: its own technique's and
-/// the sum over every technique (BDPT's `pdf_unguided` of the path).
-#[derive(Clone, Copy)]
-struct Pending {
-    p_s: f64,
-    p_u: f64,
 }
 
 /// The densities across the connection edge y_{t-1} - y_t of technique (s, t), each in the
@@ -284,64 +189,6 @@ impl<'a> Tracer<'a> {
             path_buf: Path::default(),
             pixel: 0,
         }
-    }
-
-    /// One BDPT sample that weighs nothing itself: every complete path a technique forms goes
-    /// to `sink` with f(X) (the technique's raw estimate times its density), the sum of every
-    /// technique's density (`p_u`) and its pixel. The sink forms the weight, e.g. the balance
-    /// heuristic over BDPT's techniques and a guided technique (`integrators::unguided`).
-    pub fn sample_recorded(
-        &mut self,
-        raster: Vec2,
-        sampler: &mut impl Sampler,
-        sink: &mut dyn PathSink,
-    ) {
-        self.recording = true;
-        self.run(raster, sampler, Some(sink));
-        self.recording = false;
-        self.splats.clear();
-    }
-
-    /// Recording mode: keep the path `vertices` (camera first) weighed as technique `s`; the
-    /// raw estimate is returned by the technique and handed on by `deliver`.
-    fn hold<'v>(&mut self, vertices: impl Iterator<Item = &'v Vertex<'a>>, s: usize) -> f64
-    where
-        'a: 'v,
-    {
-        let k = self.terms.k;
-        self.densities.resize(self.densities.len().max(k + 1), 0.0);
-        self.terms.technique_densities(&mut self.densities);
-        let p_s = self.densities[s];
-        let p_u: f64 = self.densities[..=k].iter().sum();
-        self.pending = None;
-        if !(p_s > 0.0 && p_s.is_finite() && p_u.is_finite()) {
-            return 0.0;
-        }
-        self.joined.clear();
-        self.joined.extend(vertices.copied());
-        self.pending = Some(Pending { p_s, p_u });
-        1.0
-    }
-
-    /// Hand the path held by the last weight function, whose raw estimate is `value`, to
-    /// `sink` (recording mode); `pixel` is where it lands (`None`: the traced pixel).
-    fn deliver(&mut self, value: Spectrum, pixel: Option<u32>, sink: &mut (dyn PathSink + '_)) {
-        let Some(p) = self.pending.take() else {
-            return;
-        };
-        if value == Spectrum::ZERO {
-            return;
-        }
-        let f = value.as_dvec3() * p.p_s;
-        let pixel_of_x1 = pixel.unwrap_or(self.pixel);
-        to_path_into(&self.joined, f.as_vec3(), pixel_of_x1, &mut self.path_buf);
-        sink.record(
-            &self.path_buf,
-            Some(&self.joined),
-            f,
-            p.p_u,
-            pixel.is_some(),
-        );
     }
 
     /// One BDPT sample: returns the value for the pixel at `raster` (t >= 2) and pushes the

@@ -1,0 +1,92 @@
+//! `[[material]]` tables to BSDFs.
+
+use super::*;
+
+impl Builder<'_> {
+    pub(super) fn material(&self, m: &Spanned<MaterialDesc>) -> Result<Bsdf> {
+        let src = self.src;
+        let d = m.get_ref();
+        let kind = d.kind.get_ref().as_str();
+        let what = format!("material '{}' of type '{kind}'", d.name.get_ref());
+        let span = m.span();
+        let keys = [
+            ("albedo", at(&d.albedo)),
+            ("reflectance", at(&d.reflectance)),
+            ("ior", at(&d.ior)),
+            ("alpha", at(&d.alpha)),
+            ("eta", at(&d.eta)),
+            ("k", at(&d.k)),
+        ];
+        let allowed: &[&str] = match kind {
+            "diffuse" => &["albedo"],
+            "conductor" => &["reflectance"],
+            "dielectric" => &["ior"],
+            "roughconductor" => &["alpha", "reflectance", "eta", "k"],
+            "roughdielectric" => &["alpha", "ior"],
+            "black" => &[],
+            other => {
+                return src.err(d.kind.span(), format!("unknown material type '{other}' (expected diffuse, conductor, dielectric, roughconductor, roughdielectric or black)"));
+            }
+        };
+        self.only(&what, &keys, allowed)?;
+        let ior = || -> Result<f32> {
+            let ior = src.required(&d.ior, span.clone(), "ior", &what)?;
+            let eta = *ior.get_ref();
+            if !(eta.is_finite() && eta > 0.0) {
+                return src.err(
+                    ior.span(),
+                    format!("'ior' must be a finite number > 0, got {eta}"),
+                );
+            }
+            Ok(eta)
+        };
+        let alpha = || -> Result<f32> {
+            let a = src.required(&d.alpha, span.clone(), "alpha", &what)?;
+            let v = *a.get_ref();
+            if !(v > 0.0 && v <= 1.0) {
+                return src.err(
+                    a.span(),
+                    format!("'alpha' (GGX roughness) must be in (0, 1], got {v}"),
+                );
+            }
+            Ok(v)
+        };
+        Ok(match kind {
+            "diffuse" => Bsdf::Diffuse {
+                albedo: src
+                    .in_unit_range(src.required(&d.albedo, span, "albedo", &what)?, "albedo")?,
+            },
+            "conductor" => Bsdf::Conductor {
+                reflectance: src.in_unit_range(
+                    src.required(&d.reflectance, span, "reflectance", &what)?,
+                    "reflectance",
+                )?,
+            },
+            "dielectric" => Bsdf::Dielectric { eta: ior()? },
+            "roughconductor" => {
+                let fresnel = match (&d.reflectance, &d.eta, &d.k) {
+                    (Some(r), None, None) => ConductorFresnel::Constant(src.in_unit_range(r, "reflectance")?),
+                    (None, Some(eta), Some(k)) => {
+                        let e = src.finite3(eta, "eta")?;
+                        if e.min_element() <= 0.0 {
+                            return src.err(eta.span(), "'eta' must be > 0 per channel");
+                        }
+                        ConductorFresnel::Complex { eta: e, k: src.non_negative3(k, "k")? }
+                    }
+                    _ => return src.err(span, format!("{what} needs either 'reflectance' (constant) or both 'eta' and 'k' (complex ior)")),
+                };
+                Bsdf::rough_conductor(alpha()?, fresnel)
+            }
+            "roughdielectric" => {
+                let eta = ior()?;
+                if eta == 1.0 {
+                    let at = d.ior.as_ref().map_or(span, |i| i.span());
+                    return src.err(at, "'ior' = 1 is no interface at all; use a shape with media and no material (an index-matched boundary) instead");
+                }
+                Bsdf::rough_dielectric(eta, alpha()?)
+            }
+            "black" => Bsdf::Black,
+            _ => unreachable!("material types are checked above"),
+        })
+    }
+}

@@ -1,0 +1,346 @@
+//! `[[shape]]` tables (quads, tiled quads, cubes, spheres, disks, OBJ meshes, heightfields)
+//! and their transforms to geometry.
+
+use super::*;
+
+impl Builder<'_> {
+    pub(super) fn transform(&self, t: Option<&Spanned<TransformDesc>>) -> Result<Transform> {
+        let src = self.src;
+        let Some(t) = t else {
+            return Ok(Transform::IDENTITY);
+        };
+        let d = t.get_ref();
+        let scale = match &d.scale {
+            None => Vec3::ONE,
+            Some(s) => {
+                let v = match s.get_ref() {
+                    ScaleDesc::Uniform(x) => Vec3::splat(*x),
+                    ScaleDesc::PerAxis(a) => Vec3::from(*a),
+                };
+                let (lo, hi) = SCALE_RANGE;
+                if !v.is_finite() || v.abs().min_element() < lo || v.abs().max_element() > hi {
+                    return src.err(
+                        s.span(),
+                        format!("'scale' must be finite with every |component| in [{lo:e}, {hi:e}], got {v}"),
+                    );
+                }
+                v
+            }
+        };
+        let (axis, degrees) = match &d.rotate {
+            None => (Vec3::Y, 0.0),
+            Some(r) => {
+                let a = Vec3::from(r.get_ref().axis);
+                let deg = r.get_ref().degrees;
+                let (Some(a), true) = (unit_vector(a), deg.is_finite()) else {
+                    return src.err(
+                        r.span(),
+                        "'rotate' needs a finite non-zero 'axis' and finite 'degrees'",
+                    );
+                };
+                (a, deg)
+            }
+        };
+        let translate = match &d.translate {
+            Some(v) => src.finite3(v, "translate")?,
+            None => Vec3::ZERO,
+        };
+        Ok(Transform::new(scale, axis, degrees, translate))
+    }
+
+    /// The two checkerboard halves of a quad with `tiles` and `tile_material`, or `None` for
+    /// any other shape (whose keys [`Self::shape`] checks).
+    pub(super) fn tiled_quad(&self, s: &Spanned<ShapeDesc>) -> Result<Option<[ShapeGeometry; 2]>> {
+        let src = self.src;
+        let d = s.get_ref();
+        if d.kind.get_ref() != "quad" || (d.tiles.is_none() && d.tile_material.is_none()) {
+            return Ok(None);
+        }
+        let (Some(tiles), Some(_)) = (&d.tiles, &d.tile_material) else {
+            let (present, missing) = if d.tiles.is_some() {
+                ("tiles", "tile_material")
+            } else {
+                ("tile_material", "tiles")
+            };
+            let at = at(&d.tiles).or(at(&d.tile_material)).unwrap_or(s.span());
+            return src.err(
+                at,
+                format!("a tiled quad's '{present}' needs '{missing}' too (a checkerboard of 'material' and 'tile_material')"),
+            );
+        };
+        let [nu, nv] = *tiles.get_ref();
+        if !(1..=1024).contains(&nu) || !(1..=1024).contains(&nv) {
+            return src.err(
+                tiles.span(),
+                format!("'tiles' must be two integers in [1, 1024], got [{nu}, {nv}]"),
+            );
+        }
+        if let Some(e) = &d.emission {
+            return src.err(
+                e.span(),
+                "a tiled quad cannot emit ('emission' with 'tiles')",
+            );
+        }
+        if d.material.is_none() {
+            return src.err(
+                s.span(),
+                "a tiled quad needs a 'material' (for the cell at 'origin') beside 'tile_material'",
+            );
+        }
+        // The quad itself (its keys, edges and transform) is checked by `shape`.
+        let ShapeGeometry::Mesh(quad) = self.shape(s)? else {
+            unreachable!("a quad is a mesh")
+        };
+        let [o, a, _, b] = [0, 1, 2, 3].map(|i| quad.positions[i]);
+        let (mut u, mut v, mut tiles) = (a - o, b - o, [nu, nv]);
+        // A mirroring transform turns the front side over: keep it by swapping the edges.
+        if u.cross(v).dot(quad.geometric_normal(0)) < 0.0 {
+            (u, v, tiles) = (v, u, [nv, nu]);
+        }
+        let half = |parity| ShapeGeometry::Mesh(TriangleMesh::tiled_quad(o, u, v, tiles, parity));
+        Ok(Some([half(0), half(1)]))
+    }
+
+    pub(super) fn shape(&self, s: &Spanned<ShapeDesc>) -> Result<ShapeGeometry> {
+        let src = self.src;
+        let d = s.get_ref();
+        let span = s.span();
+        let kind = d.kind.get_ref().as_str();
+        let what = format!("shape of type '{kind}'");
+        let t = self.transform(d.transform.as_ref())?;
+        let keys = [
+            ("origin", at(&d.origin)),
+            ("edge_u", at(&d.edge_u)),
+            ("edge_v", at(&d.edge_v)),
+            ("center", at(&d.center)),
+            ("normal", at(&d.normal)),
+            ("radius", at(&d.radius)),
+            ("segments", at(&d.segments)),
+            ("file", at(&d.file)),
+            ("size", at(&d.size)),
+            ("grid", at(&d.grid)),
+            ("waves", at(&d.waves)),
+            ("tiles", at(&d.tiles)),
+            ("tile_material", at(&d.tile_material)),
+        ];
+        let allowed: &[&str] =
+            match kind {
+                "quad" => &["origin", "edge_u", "edge_v", "tiles", "tile_material"],
+                "cube" => &[],
+                "sphere" => &["center", "radius"],
+                "disk" => &["center", "normal", "radius", "segments"],
+                "obj" => &["file"],
+                "heightfield" => &["size", "grid", "waves"],
+                other => return src.err(
+                    d.kind.span(),
+                    format!(
+                        "unknown shape type '{other}' (expected quad, cube, sphere, disk, heightfield or obj)"
+                    ),
+                ),
+            };
+        self.only(&what, &keys, allowed)?;
+        let radius = |default: f32| -> Result<f32> {
+            match &d.radius {
+                None => Ok(default),
+                Some(r) => {
+                    let v = *r.get_ref();
+                    if !(v.is_finite() && v > 0.0) {
+                        return src.err(
+                            r.span(),
+                            format!("'radius' must be a finite number > 0, got {v}"),
+                        );
+                    }
+                    Ok(v)
+                }
+            }
+        };
+        let opt3 = |v: &Option<V3>, key: &str, default: Vec3| -> Result<Vec3> {
+            match v {
+                Some(v) => src.finite3(v, key),
+                None => Ok(default),
+            }
+        };
+        Ok(match kind {
+            "quad" => {
+                let o = opt3(&d.origin, "origin", Vec3::new(-1.0, -1.0, 0.0))?;
+                let u = opt3(&d.edge_u, "edge_u", Vec3::new(2.0, 0.0, 0.0))?;
+                let v = opt3(&d.edge_v, "edge_v", Vec3::new(0.0, 2.0, 0.0))?;
+                if u.cross(v).length_squared() == 0.0 {
+                    return src.err(
+                        span,
+                        "'edge_u' and 'edge_v' of a quad must be non-zero and not parallel",
+                    );
+                }
+                ShapeGeometry::Mesh(TriangleMesh::quad(o, u, v).transformed(&t))
+            }
+            "cube" => ShapeGeometry::Mesh(TriangleMesh::cube().transformed(&t)),
+            "sphere" => {
+                let c = opt3(&d.center, "center", Vec3::ZERO)?;
+                let r = radius(1.0)?;
+                let Some(scale) = t.uniform_scale() else {
+                    return src.err(
+                        d.transform.as_ref().map_or(span, |t| t.span()),
+                        "an analytic sphere's transform must scale uniformly",
+                    );
+                };
+                ShapeGeometry::Sphere(Sphere {
+                    center: t.point(c),
+                    radius: r * scale,
+                })
+            }
+            "disk" => {
+                let c = opt3(&d.center, "center", Vec3::ZERO)?;
+                let n = opt3(&d.normal, "normal", Vec3::Z)?;
+                let Some(n) = unit_vector(n) else {
+                    return src.err(
+                        d.normal.as_ref().unwrap().span(),
+                        "'normal' must be non-zero",
+                    );
+                };
+                let r = radius(1.0)?;
+                let segments = d.segments.as_ref().map_or(64, |s| *s.get_ref());
+                if !(3..=100_000).contains(&segments) {
+                    return src.err(
+                        d.segments.as_ref().unwrap().span(),
+                        "'segments' must be in [3, 100000]",
+                    );
+                }
+                let f = Frame::from_z(n);
+                let mut m = TriangleMesh::disk(segments);
+                for p in &mut m.positions {
+                    *p = c + f.to_world(*p * r);
+                }
+                ShapeGeometry::Mesh(m.transformed(&t))
+            }
+            "obj" => {
+                let file = src.required(&d.file, span, "file", &what)?;
+                let path = match &self.dir {
+                    Some(dir) => dir.join(file.get_ref()),
+                    None => PathBuf::from(file.get_ref()),
+                };
+                let mesh = load_obj(&path).or_else(|e| {
+                    src.err(
+                        file.span(),
+                        format!("cannot load mesh '{}': {e}", path.display()),
+                    )
+                })?;
+                ShapeGeometry::Mesh(mesh.transformed(&t))
+            }
+            "heightfield" => {
+                let size = match &d.size {
+                    Some(sz) => {
+                        let [x, z] = *sz.get_ref();
+                        if !(x.is_finite() && z.is_finite() && x > 0.0 && z > 0.0) {
+                            return src.err(
+                                sz.span(),
+                                format!("'size' must be two finite numbers > 0, got [{x}, {z}]"),
+                            );
+                        }
+                        Vec2::new(x, z)
+                    }
+                    None => Vec2::splat(2.0),
+                };
+                let grid = match &d.grid {
+                    Some(g) => {
+                        let [x, z] = *g.get_ref();
+                        if !(1..=4096).contains(&x) || !(1..=4096).contains(&z) {
+                            return src.err(
+                                g.span(),
+                                format!("'grid' must be two integers in [1, 4096], got [{x}, {z}]"),
+                            );
+                        }
+                        if 2 * x as usize * z as usize > MAX_TRIANGLES {
+                            return src.err(
+                                g.span(),
+                                format!("'grid' = [{x}, {z}] makes {} triangles; a scene may have at most {MAX_TRIANGLES} (2^24)", 2 * x as usize * z as usize),
+                            );
+                        }
+                        UVec2::new(x, z)
+                    }
+                    None => UVec2::new(128, 128),
+                };
+                let mut waves = Vec::new();
+                if let Some(ws) = &d.waves {
+                    for (k, w) in ws.get_ref().iter().enumerate() {
+                        let dir = Vec2::from(w.direction);
+                        let ok = w.amplitude.is_finite()
+                            && w.phase.is_finite()
+                            && w.wavelength.is_finite()
+                            && w.wavelength > 0.0
+                            && dir.is_finite()
+                            && dir.length_squared() > 0.0;
+                        if !ok {
+                            return src.err(ws.span(), format!("wave #{}: needs finite 'amplitude' and 'phase', 'wavelength' > 0 and a non-zero 'direction'", k + 1));
+                        }
+                        waves.push(Wave {
+                            amplitude: w.amplitude,
+                            wavelength: w.wavelength,
+                            direction: dir.normalize(),
+                            phase: w.phase,
+                        });
+                    }
+                }
+                ShapeGeometry::Mesh(heightfield(size, grid, &waves).transformed(&t))
+            }
+            _ => unreachable!("shape types are checked above"),
+        })
+    }
+}
+
+/// Load every model of an OBJ file into one mesh, with vertex normals when all models have them.
+fn load_obj(path: &Path) -> std::result::Result<TriangleMesh, String> {
+    if !path.is_file() {
+        return Err("no such file".to_string());
+    }
+    let (models, _materials) =
+        tobj::load_obj(path, &tobj::GPU_LOAD_OPTIONS).map_err(|e| e.to_string())?;
+    let mut mesh = TriangleMesh {
+        normals: Some(Vec::new()),
+        ..Default::default()
+    };
+    for m in &models {
+        let m = &m.mesh;
+        let base = mesh.positions.len() as u32;
+        mesh.positions.extend(
+            m.positions
+                .chunks_exact(3)
+                .map(|c| Vec3::new(c[0], c[1], c[2])),
+        );
+        if m.normals.len() == m.positions.len() {
+            if let Some(ns) = &mut mesh.normals {
+                ns.extend(
+                    m.normals
+                        .chunks_exact(3)
+                        .map(|c| Vec3::new(c[0], c[1], c[2]).normalize_or_zero()),
+                );
+            }
+        } else {
+            mesh.normals = None;
+        }
+        mesh.indices.extend(
+            m.indices
+                .chunks_exact(3)
+                .map(|c| [c[0] + base, c[1] + base, c[2] + base]),
+        );
+    }
+    if mesh.indices.is_empty() {
+        return Err("the file has no triangles".to_string());
+    }
+    if mesh.positions.iter().any(|p| !p.is_finite()) {
+        return Err("the file has non-finite vertex positions".to_string());
+    }
+    if mesh
+        .indices
+        .iter()
+        .flatten()
+        .any(|&i| i as usize >= mesh.positions.len())
+    {
+        return Err("a face refers to a vertex that does not exist".to_string());
+    }
+    if let Some(ns) = &mesh.normals
+        && ns.iter().any(|n| *n == Vec3::ZERO || !n.is_finite())
+    {
+        mesh.normals = None;
+    }
+    Ok(mesh)
+}

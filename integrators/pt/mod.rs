@@ -39,7 +39,11 @@ use crate::render::{
     Budget, Integrator, PixelEstimator, RenderContext, RenderResult, render_pixel_estimator,
 };
 use crate::scene::{Endpoint, Scene, SurfacePoint};
-use glam::{DVec3, Vec2, Vec3};
+use glam::{Vec2, Vec3};
+pub use recording::PathRecorder;
+use recording::Recording;
+
+mod recording;
 
 /// How emitters are reached.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -519,101 +523,6 @@ impl PathTracer {
         };
         crate::check::weight(crate::check::Technique::named("pt emitter hit"), w as f64);
         w
-    }
-}
-
-/// Receives the complete paths `pt` forms (for guiding, and for tests of `pdf_unguided`).
-pub trait PathRecorder {
-    /// `path` runs from the camera to an emitter, with its pixel; `f` is f(X) (the unweighted
-    /// estimate times `density`) in f64 (`path.f` holds it rounded to f32, which underflows on
-    /// long paths in small scenes); `technique` is 0 when the path's continuation hit the emitter
-    /// and 1 for next-event estimation; `density` is the density pt sampled the path with
-    /// (image-wide, in the area / volume / solid-angle measure of DESIGN.md §3, roulette and
-    /// free flight included); `other` is the density of pt's other technique for the same
-    /// path, so `density + other` is `pdf_unguided(path)`.
-    fn record(&mut self, path: &Path, f: DVec3, technique: usize, density: f64, other: f64);
-}
-
-/// The path being traced, with its density so far, while recording.
-struct Recording<'r> {
-    sink: &'r mut dyn PathRecorder,
-    path: Path,
-    /// Density of the vertices so far.
-    density: f64,
-    /// Solid-angle density of the direction leaving the last vertex.
-    pdf_w: f32,
-    /// Roulette continuation applied at the last vertex.
-    q: f32,
-}
-
-impl<'r> Recording<'r> {
-    fn new(scene: &Scene, sink: &'r mut dyn PathRecorder, d: Vec3, pixel: u32) -> Self {
-        let mut path = Path::default();
-        path.push(PathVertex {
-            p: scene.camera.position,
-            n: Vec3::ZERO,
-            ns: Vec3::ZERO,
-            kind: VertexKind::Camera,
-        });
-        path.pixel = pixel;
-        Recording {
-            sink,
-            path,
-            density: 1.0,
-            pdf_w: scene.camera.pdf_we(d),
-            q: 1.0,
-        }
-    }
-
-    /// Density of reaching `v` from the last vertex (free-flight factor `ff`).
-    fn step(&self, scene: &Scene, v: &PathVertex, ff: f32) -> f64 {
-        let last = self.path.vertices().last().map_or(Vec3::ZERO, |l| l.p);
-        let infinite = matches!(v.kind, VertexKind::Emitter { light, .. } if scene.lights[light as usize].is_infinite());
-        let conv = if infinite {
-            1.0
-        } else {
-            super::paths::area_factor(last, v.p, v.n)
-        };
-        self.density * conv * (self.pdf_w * ff * self.q) as f64
-    }
-
-    fn arrive(&mut self, scene: &Scene, v: PathVertex, ff: f32) {
-        self.density = self.step(scene, &v, ff);
-        self.path.push(v);
-    }
-
-    fn scatter(&mut self, pdf_w: f32, q: f32) {
-        self.pdf_w = pdf_w;
-        self.q = q;
-    }
-
-    /// Technique 0: the continuation reached emitter vertex `v`; `estimate` is beta * Le;
-    /// `nee` is the density with which next-event estimation would choose `v` (0 after a
-    /// delta vertex).
-    fn emitter(&mut self, scene: &Scene, v: PathVertex, ff: f32, nee: f64, estimate: Spectrum) {
-        let density = self.step(scene, &v, ff);
-        self.record_with(v, density / self.density, nee, estimate, 0);
-    }
-
-    /// Record the path plus `v`, whose density given the path is `factor` (`other`: the other
-    /// technique's).
-    fn record_with(
-        &mut self,
-        v: PathVertex,
-        factor: f64,
-        other: f64,
-        estimate: Spectrum,
-        technique: usize,
-    ) {
-        let density = self.density * factor;
-        if !self.path.push(v) {
-            return;
-        }
-        let f = estimate.as_dvec3() * density;
-        self.path.f = f.as_vec3();
-        self.sink
-            .record(&self.path, f, technique, density, self.density * other);
-        self.path.pop();
     }
 }
 

@@ -355,41 +355,26 @@ fn render(args: RenderArgs) -> Result<()> {
     let mut part_meta = Vec::new();
     let mut first_pass = 0;
     if let Some(text) = &args.part {
-        let part = lodestar::parts::Part::parse(text)?;
-        let Budget::Spp(total) = budget else {
-            return Err(Error::new(
-                "--part needs --spp (a time budget's pass count depends on the machine)",
-            ));
+        let total = match budget {
+            Budget::Spp(n) => Some(n),
+            Budget::Seconds(_) => None,
         };
-        lodestar::parts::check_splittable(&name, params.options.has("load_guides"))?;
-        if args.dbor || args.snapshots.is_some() {
-            return Err(Error::new(
-                "--part cannot be combined with --dbor or --snapshots (neither merges linearly)",
-            ));
-        }
-        let passes = part.passes(total);
-        if passes.is_empty() {
-            return Err(Error::new(format!(
-                "--part {part}: {total} passes split {} ways leaves this part none; use at most {total} parts",
-                part.count
-            )));
-        }
-        let bytes = match &args.scene {
+        let scene_bytes = match &args.scene {
             Some(p) => std::fs::read(p)
                 .map_err(|e| Error::new(format!("{}: cannot read: {e}", p.display())))?,
             None => lodestar::scene::CORNELL_BOX_TOML.as_bytes().to_vec(),
         };
-        part_meta = vec![
-            ("part".to_string(), part.to_string()),
-            ("first_pass".to_string(), passes.start.to_string()),
-            ("total_spp".to_string(), total.to_string()),
-            (
-                "scene_hash".to_string(),
-                lodestar::parts::fingerprint(&bytes),
-            ),
-        ];
-        first_pass = passes.start;
-        budget = Budget::Spp(passes.end - passes.start);
+        let plan = lodestar::parts::plan(
+            text,
+            total,
+            &name,
+            params.options.has("load_guides"),
+            args.dbor || args.snapshots.is_some(),
+            &scene_bytes,
+        )?;
+        first_pass = plan.passes.start;
+        budget = Budget::Spp(plan.passes.end - plan.passes.start);
+        part_meta = plan.meta;
     }
     let threads = args
         .threads

@@ -61,7 +61,7 @@ impl std::fmt::Display for Part {
     }
 }
 
-/// Whether integrator `name` with these options can render a part (see the module header).
+/// Whether integrator `name` can render a part (see the module header).
 pub fn check_splittable(name: &str, has_loaded_cache: bool) -> Result<()> {
     match name {
         "pt" | "lt" | "bdpt" | "vcm" | "bpm" => Ok(()),
@@ -78,6 +78,52 @@ pub fn check_splittable(name: &str, has_loaded_cache: bool) -> Result<()> {
             "--part: integrator '{other}' cannot be split"
         ))),
     }
+}
+
+/// What a `--part` render does: its global passes and the header fields that let `merge`
+/// check the parts belong together.
+pub struct Plan {
+    pub passes: Range<u64>,
+    pub meta: Vec<(String, String)>,
+}
+
+/// Plan part `text` (`I/N`) of a render of `total` passes (`None`: a time budget) with
+/// `integrator`, refusing what cannot be split (see the module header). `scene` is the scene
+/// file's bytes, for its fingerprint.
+pub fn plan(
+    text: &str,
+    total: Option<u64>,
+    integrator: &str,
+    has_loaded_cache: bool,
+    dbor_or_snapshots: bool,
+    scene: &[u8],
+) -> Result<Plan> {
+    let part = Part::parse(text)?;
+    let Some(total) = total else {
+        return Err(Error::new(
+            "--part needs --spp (a time budget's pass count depends on the machine)",
+        ));
+    };
+    check_splittable(integrator, has_loaded_cache)?;
+    if dbor_or_snapshots {
+        return Err(Error::new(
+            "--part cannot be combined with --dbor or --snapshots (neither merges linearly)",
+        ));
+    }
+    let passes = part.passes(total);
+    if passes.is_empty() {
+        return Err(Error::new(format!(
+            "--part {part}: {total} passes split {} ways leaves this part none; use at most {total} parts",
+            part.count
+        )));
+    }
+    let meta = vec![
+        ("part".to_string(), part.to_string()),
+        ("first_pass".to_string(), passes.start.to_string()),
+        ("total_spp".to_string(), total.to_string()),
+        ("scene_hash".to_string(), fingerprint(scene)),
+    ];
+    Ok(Plan { passes, meta })
 }
 
 /// FNV-1a (64 bits) of a scene file's bytes, in hex: parts rendered from different versions of

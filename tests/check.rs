@@ -43,17 +43,7 @@ fn check(scene: &str, integrator: &str, spp: &str) -> (bool, String) {
 #[test]
 fn every_integrator_checks_clean() {
     for scene in ["tests/data/tiny.toml", "scenes/cornell-fog.toml"] {
-        for integrator in [
-            "pt",
-            "lt",
-            "bdpt",
-            "vcm",
-            "bpm",
-            "guided-pt",
-            "guided-bdpt",
-            "pssmlt",
-            "mmlt",
-        ] {
+        for integrator in lodestar::integrators::REGISTRY.iter().map(|e| e.name) {
             let spp = if scene.contains("fog") { "1" } else { "4" };
             let (ok, stderr) = check(scene, integrator, spp);
             assert!(ok, "{integrator} on {scene}: {stderr}");

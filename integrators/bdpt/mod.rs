@@ -34,6 +34,7 @@ mod recording;
 mod settings;
 mod technique;
 mod walk;
+mod weights;
 
 pub use super::paths::vertex;
 pub use super::paths::{
@@ -58,6 +59,7 @@ pub use settings::{BdptSettings, TechniqueFilter};
 pub use technique::TECHNIQUE_STREAMS;
 use vertex::{ConnectionEnd, Edge, connection_end, measure_factor, pdf, to_measure};
 use walk::roulette;
+use weights::Bridge;
 
 pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     Ok(Box::new(Bdpt {
@@ -149,20 +151,6 @@ pub struct Tracer<'a> {
     path_buf: Path,
     /// Pixel of the sample being traced.
     pixel: u32,
-}
-
-/// The densities across the connection edge y_{t-1} - y_t of technique (s, t), each in the
-/// measure of the vertex it generates, free flight included, roulette not.
-#[derive(Default)]
-struct Bridge {
-    /// `pc[t]`: y_t generated from y_{t-1} (having come from y_{t-2}).
-    cam_next: f32,
-    /// `pl[t-1]`: y_{t-1} generated from y_t (having come from y_{t+1}).
-    light_next: f32,
-    /// `pl[t-2]` (t >= 3): y_{t-2} generated from y_{t-1}, having come from y_t.
-    cam_back: f32,
-    /// `pc[t+1]` (s >= 2): y_{t+1} generated from y_t, having come from y_{t-1}.
-    light_back: f32,
 }
 
 impl<'a> Tracer<'a> {
@@ -520,139 +508,5 @@ impl<'a> Tracer<'a> {
         };
         let w = self.weight_connection(c, cc, lp, lc, &bridge, self.light_nee);
         contribution * w as f32
-    }
-
-    /// MIS weight of technique (s, t) for the path camera prefix `c` + reversed light prefix
-    /// `lp` (with their caches), given the densities across the connection and `nee_k`, the
-    /// next-event density of the light vertex.
-    fn weight_connection(
-        &mut self,
-        c: &[Vertex<'a>],
-        cc: &[Cached],
-        lp: &[Vertex<'a>],
-        lc: &[Cached],
-        bridge: &Bridge,
-        nee_k: f64,
-    ) -> f64 {
-        let scene = self.scene;
-        let rr_depth = self.settings.rr_depth;
-        let (t, s) = (c.len(), lp.len());
-        let k = s + t - 1;
-        let Kind::Light { light } = lp[0].kind else {
-            return 0.0;
-        };
-        // Roulette when leaving a vertex of local probability q after `segments` segments.
-        let rr = |q: f32, segments: usize| roulette(q, segments, rr_depth) as f64;
-        let terms = &mut self.terms;
-        terms.reset(k);
-        terms.hittable = hittable(scene, light);
-        terms.nee_k = nee_k;
-        // y_j is c[j] for j < t and lp[k - j] from t on.
-        for (j, v) in cc.iter().enumerate() {
-            terms.connectible[j] = v.connectible;
-        }
-        for (i, v) in lc.iter().enumerate() {
-            terms.connectible[k - i] = v.connectible;
-        }
-        // Camera side: the camera walk's own densities, the two across the connection, then
-        // the light walk's reverse densities with camera-side roulette.
-        terms.pc[1..t]
-            .iter_mut()
-            .zip(&cc[1..t])
-            .for_each(|(p, v)| *p = v.fwd);
-        terms.pc[t] = bridge.cam_next as f64 * if t >= 2 { rr(cc[t - 1].q, t - 1) } else { 1.0 };
-        if s >= 2 {
-            terms.pc[t + 1] = bridge.light_back as f64 * rr(lc[s - 1].q, t);
-        }
-        for j in t + 2..=k {
-            let i = k - j;
-            terms.pc[j] = rr(lc[i + 1].q, j - 1) * lp[i].pdf_rev as f64;
-        }
-        // Light side, symmetrically.
-        for j in t..=k {
-            terms.pl[j] = lc[k - j].fwd;
-        }
-        if t >= 2 {
-            terms.pl[t - 1] =
-                bridge.light_next as f64 * if s >= 2 { rr(lc[s - 1].q, s - 1) } else { 1.0 };
-        }
-        if t >= 3 {
-            terms.pl[t - 2] = bridge.cam_back as f64 * rr(cc[t - 1].q, s);
-        }
-        for j in 1..t.saturating_sub(2) {
-            terms.pl[j] = rr(cc[j + 1].q, k - j - 1) * c[j].pdf_rev as f64;
-        }
-        let terms = &self.terms;
-        self.inspect(
-            || c.iter().chain(lp.iter().rev()).copied().collect(),
-            s,
-            terms,
-        );
-        if self.recording {
-            return self.hold(c.iter().chain(lp.iter().rev()), s);
-        }
-        self.densities.resize(self.densities.len().max(k + 1), 0.0);
-        self.terms
-            .weight_with(s, self.settings.heuristic, &mut self.densities)
-    }
-
-    fn inspect(&self, path: impl FnOnce() -> Vec<Vertex<'a>>, s: usize, terms: &PathTerms) {
-        if let Some(f) = &self.inspector {
-            (f.borrow_mut())(&path(), s, terms);
-        }
-    }
-
-    /// MIS weight of s = 0 for the camera path `c` (with its cache) whose last vertex is
-    /// `emitter` (on `light`).
-    fn weight_emitter_hit(
-        &mut self,
-        c: &[Vertex<'a>],
-        cc: &[Cached],
-        emitter: &Vertex<'a>,
-        light: usize,
-    ) -> f64 {
-        let scene = self.scene;
-        let rr_depth = self.settings.rr_depth;
-        let rr = |q: f32, segments: usize| roulette(q, segments, rr_depth) as f64;
-        let k = c.len() - 1;
-        let terms = &mut self.terms;
-        terms.reset(k);
-        for (j, v) in cc[..k].iter().enumerate() {
-            terms.connectible[j] = v.connectible;
-        }
-        terms.connectible[k] = emitter.connectible(scene);
-        terms.hittable = hittable(scene, light);
-        terms.pc[1..=k]
-            .iter_mut()
-            .zip(&cc[1..=k])
-            .for_each(|(p, v)| *p = v.fwd);
-        terms.pl[k] = origin_density(scene, emitter, light) as f64;
-        if k >= 2 {
-            terms.pl[k - 1] = (pdf(scene, emitter, None, &c[k - 1])
-                * emitter.edge.factor(scene, c[k - 1].is_medium(), false))
-                as f64;
-        }
-        for j in 1..k.saturating_sub(1) {
-            terms.pl[j] = rr(cc[j + 1].q, k - j - 1) * c[j].pdf_rev as f64;
-        }
-        terms.nee_k = nee_density(scene, &c[k - 1], emitter, light);
-        let terms = &self.terms;
-        self.inspect(
-            || {
-                c[..k]
-                    .iter()
-                    .chain(std::iter::once(emitter))
-                    .copied()
-                    .collect()
-            },
-            0,
-            terms,
-        );
-        if self.recording {
-            return self.hold(c[..k].iter().chain(std::iter::once(emitter)), 0);
-        }
-        self.densities.resize(self.densities.len().max(k + 1), 0.0);
-        self.terms
-            .weight_with(0, self.settings.heuristic, &mut self.densities)
     }
 }

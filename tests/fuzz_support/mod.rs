@@ -397,17 +397,7 @@ pub fn render_check(mut scene: Scene) -> Result<(), String> {
         c.fov_y_degrees,
         glam::UVec2::new(6, 6),
     );
-    for name in [
-        "pt",
-        "lt",
-        "bdpt",
-        "vcm",
-        "bpm",
-        "guided-pt",
-        "guided-bdpt",
-        "pssmlt",
-        "mmlt",
-    ] {
+    for name in lodestar::integrators::REGISTRY.iter().map(|e| e.name) {
         let params = IntegratorParams {
             max_depth: 6,
             options: Options::default(),

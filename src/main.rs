@@ -27,7 +27,7 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Render a scene (the built-in Cornell box when no scene is given).
-    Render(RenderArgs),
+    Render(Box<RenderArgs>),
     /// Equal-time comparison of integrators against a reference: table, CSV, plot, HTML.
     Bench(BenchArgs),
     /// Compare two EXR images: per-channel means, MSE, RMSE and relMSE (B is the reference).
@@ -62,8 +62,11 @@ enum Command {
 
 #[derive(clap::Args)]
 struct RenderArgs {
-    /// Scene file (TOML); omit for the built-in Cornell box.
+    /// Scene file: lodestar TOML, or Mitsuba 3 XML (`.xml`); omit for the built-in Cornell box.
     scene: Option<PathBuf>,
+    /// Mitsuba XML scenes: set parameter `$name` (overrides its <default>), repeatable.
+    #[arg(short = 'D', long = "define", value_name = "NAME=VALUE")]
+    defines: Vec<String>,
     /// Integrator name (see `lodestar integrators`); default: the scene's, else pt.
     #[arg(long)]
     integrator: Option<String>,
@@ -235,7 +238,7 @@ fn main() -> ExitCode {
         }
     };
     let result = match cli.command {
-        Command::Render(args) => render(args),
+        Command::Render(args) => render(*args),
         Command::Bench(args) => bench(args),
         Command::Compare { a, b, crop } => compare(&a, &b, crop.as_deref()),
         Command::Merge {
@@ -289,11 +292,26 @@ fn merge(parts: &[PathBuf], output: &Path, png: Option<&Path>, exposure: f32) ->
     Ok(())
 }
 
-fn load_scene(path: Option<&Path>) -> Result<Scene> {
+fn load_scene(path: Option<&Path>, defines: &[(String, String)]) -> Result<Scene> {
     match path {
-        Some(p) => loader::load_file(p),
+        Some(p) => loader::load_file_with(p, defines),
+        None if !defines.is_empty() => Err(Error::new(
+            "-D defines a Mitsuba XML scene parameter; give the scene file",
+        )),
         None => Ok(Scene::cornell_box()),
     }
+}
+
+/// `-D name=value` arguments.
+fn parse_defines(args: &[String]) -> Result<Vec<(String, String)>> {
+    args.iter()
+        .map(|a| match a.split_once('=') {
+            Some((k, v)) if !k.is_empty() => Ok((k.to_string(), v.to_string())),
+            _ => Err(Error::new(format!(
+                "-D {a}: expected NAME=VALUE (a Mitsuba scene parameter)"
+            ))),
+        })
+        .collect()
 }
 
 fn render(args: RenderArgs) -> Result<()> {
@@ -337,7 +355,8 @@ fn render(args: RenderArgs) -> Result<()> {
     for path in std::iter::once(&output).chain(&args.png) {
         lodestar::film::output_dir(path)?;
     }
-    let scene = load_scene(args.scene.as_deref())?;
+    let defines = parse_defines(&args.defines)?;
+    let scene = load_scene(args.scene.as_deref(), &defines)?;
     let name = args
         .integrator
         .clone()
@@ -359,11 +378,15 @@ fn render(args: RenderArgs) -> Result<()> {
             Budget::Spp(n) => Some(n),
             Budget::Seconds(_) => None,
         };
-        let scene_bytes = match &args.scene {
+        let mut scene_bytes = match &args.scene {
             Some(p) => std::fs::read(p)
                 .map_err(|e| Error::new(format!("{}: cannot read: {e}", p.display())))?,
             None => lodestar::scene::CORNELL_BOX_TOML.as_bytes().to_vec(),
         };
+        // Parameters change the scene as much as its text does.
+        for (k, v) in &defines {
+            scene_bytes.extend(format!("\0-D {k}={v}").bytes());
+        }
         let plan = lodestar::parts::plan(
             text,
             total,

@@ -163,6 +163,49 @@ impl TriangleMesh {
         }
     }
 
+    /// The mesh with its front side turned over: every triangle's winding reversed and its
+    /// vertex normals negated.
+    pub fn flipped(mut self) -> TriangleMesh {
+        for tri in &mut self.indices {
+            tri.swap(1, 2);
+        }
+        if let Some(ns) = &mut self.normals {
+            for n in ns.iter_mut() {
+                *n = -*n;
+            }
+        }
+        self
+    }
+
+    /// Vertex normals as the angle-weighted sum of the normals of the faces around each
+    /// vertex (Thürmer and Wüthrich 1998; Mitsuba's rule for meshes without normals). Where
+    /// the sum vanishes (the faces fold back on each other) a vertex takes the normal of one of
+    /// its faces, and +z when all its faces are degenerate (they are never hit).
+    pub fn with_smooth_normals(mut self) -> TriangleMesh {
+        let mut sums = vec![glam::DVec3::ZERO; self.positions.len()];
+        let mut fallback = vec![glam::DVec3::Z; self.positions.len()];
+        for tri in &self.indices {
+            let p = tri.map(|i| self.positions[i as usize].as_dvec3());
+            let n = (p[1] - p[0]).cross(p[2] - p[0]);
+            let Some(n) = n.try_normalize() else { continue };
+            for k in 0..3 {
+                fallback[tri[k] as usize] = n;
+                let e1 = (p[(k + 1) % 3] - p[k]).try_normalize();
+                let e2 = (p[(k + 2) % 3] - p[k]).try_normalize();
+                if let (Some(e1), Some(e2)) = (e1, e2) {
+                    sums[tri[k] as usize] += n * e1.dot(e2).clamp(-1.0, 1.0).acos();
+                }
+            }
+        }
+        let normals = sums
+            .iter()
+            .zip(&fallback)
+            .map(|(n, f)| n.try_normalize().unwrap_or(*f).as_vec3())
+            .collect();
+        self.normals = Some(normals);
+        self
+    }
+
     pub fn append(&mut self, other: &TriangleMesh) {
         let base = self.positions.len() as u32;
         self.positions.extend_from_slice(&other.positions);
@@ -220,6 +263,22 @@ impl MeshSampler {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn smooth_normals_of_a_cube_corner_point_along_the_diagonal() {
+        let m = TriangleMesh::cube().with_smooth_normals();
+        let ns = m.normals.as_ref().unwrap();
+        for (p, n) in m.positions.iter().zip(ns) {
+            // Every vertex of the cube mesh is a corner; quads are split in two, so a corner's
+            // three faces weigh in by the angles of their triangles there (90 or 45 degrees):
+            // the normal leans to the faces with the larger angle but stays in the octant.
+            assert!((n.length() - 1.0).abs() < 1e-5);
+            assert!(n.dot(p.normalize()) > 0.5, "{p} {n}");
+        }
+        let flipped = TriangleMesh::cube().with_smooth_normals().flipped();
+        assert_eq!(flipped.normals.as_ref().unwrap()[0], -ns[0]);
+        assert_eq!(flipped.geometric_normal(0), -m.geometric_normal(0));
+    }
 
     #[test]
     fn cube_is_closed_with_outward_normals() {

@@ -1,6 +1,7 @@
-//! Affine transforms of scene shapes: scale, then rotate about an axis, then translate.
+//! Affine transforms of scene shapes: scale, then rotate about an axis, then translate; or any
+//! affine 4x4 matrix.
 
-use glam::{Affine3A, Mat3, Quat, Vec3};
+use glam::{Affine3A, Mat3, Mat4, Quat, Vec3, Vec4};
 
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Transform {
@@ -30,6 +31,29 @@ impl Transform {
         };
         let m = Affine3A::from_scale_rotation_translation(scale, rot, translate);
         let normal_m = Mat3::from(m.matrix3).inverse().transpose();
+        Transform { m, normal_m }
+    }
+
+    /// The affine transform of a 4x4 matrix, or `None` when its last row is not (0, 0, 0, 1)
+    /// (a projective transform), an entry is not finite or the linear part is singular.
+    pub fn from_matrix(m: Mat4) -> Option<Transform> {
+        if !m.is_finite() || m.row(3) != Vec4::W {
+            return None;
+        }
+        let m = Affine3A::from_mat4(m);
+        let linear = Mat3::from(m.matrix3);
+        let det = linear.determinant();
+        if !(det.is_normal() && det.abs().is_finite()) {
+            return None;
+        }
+        let normal_m = linear.inverse().transpose();
+        normal_m.is_finite().then_some(Transform { m, normal_m })
+    }
+
+    /// This transform followed by `next` (`next * self`).
+    pub fn then(&self, next: &Transform) -> Transform {
+        let m = next.m * self.m;
+        let normal_m = next.normal_m * self.normal_m;
         Transform { m, normal_m }
     }
 
@@ -76,5 +100,27 @@ mod tests {
         let p = t.point(Vec3::X);
         assert!((p - Vec3::new(0.0, 0.0, 3.0)).length() < 1e-5, "{p}");
         assert!(t.uniform_scale().is_none());
+    }
+
+    #[test]
+    fn from_matrix_equals_the_composed_transform() {
+        let t = Transform::new(
+            Vec3::new(2.0, 1.0, 3.0),
+            Vec3::new(1.0, 1.0, 0.0),
+            30.0,
+            Vec3::new(0.5, -1.0, 5.0),
+        );
+        let m = Transform::from_matrix(Mat4::from(t.m)).unwrap();
+        for p in [Vec3::X, Vec3::new(0.3, -2.0, 1.0)] {
+            assert!((m.point(p) - t.point(p)).length() < 1e-5);
+            assert!((m.normal(p) - t.normal(p)).length() < 1e-5);
+        }
+        let chained = Transform::new(Vec3::ONE, Vec3::Y, 0.0, Vec3::X).then(&t);
+        assert!((chained.point(Vec3::ZERO) - t.point(Vec3::X)).length() < 1e-5);
+        let mut projective = Mat4::IDENTITY;
+        projective.w_axis.w = 2.0;
+        projective.x_axis.w = 1.0;
+        assert!(Transform::from_matrix(projective).is_none());
+        assert!(Transform::from_matrix(Mat4::from_scale(Vec3::new(1.0, 0.0, 1.0))).is_none());
     }
 }

@@ -22,7 +22,13 @@ pub const CORNELL_BOX_TOML: &str = include_str!("../../scenes/cornell-box.toml")
 pub struct Material {
     pub name: String,
     pub bsdf: Bsdf,
+    /// Black when seen from the back of the shape (against its geometric normal), like
+    /// Mitsuba's BSDFs without `twosided`; reflecting BSDFs are two-sided otherwise.
+    pub one_sided: bool,
 }
+
+/// What a one-sided material is from the back.
+static BLACK: Bsdf = Bsdf::Black;
 
 #[derive(Debug, Clone)]
 pub struct ShapeInfo {
@@ -159,8 +165,10 @@ impl Scene {
     pub fn intersect(&self, ray: &Ray) -> Option<SurfacePoint<'_>> {
         let hit = self.accel.intersect(ray, &self.shapes)?;
         let info = &self.shape_info[hit.shape as usize];
+        let material = &self.materials[info.material as usize];
+        let back = material.one_sided && ray.d.dot(hit.ng) > 0.0;
         Some(SurfacePoint {
-            bsdf: &self.materials[info.material as usize].bsdf,
+            bsdf: if back { &BLACK } else { &material.bsdf },
             frame: ShadingFrame::new(hit.ns, hit.ng),
             info,
             hit,

@@ -20,9 +20,13 @@ impl Builder<'_> {
                     format!("material '{name}' is defined twice"),
                 );
             }
-            let bsdf = self.material(m)?;
+            let (bsdf, one_sided) = self.material(m)?;
             by_name.insert(name.clone(), materials.len() as u32);
-            materials.push(Material { name, bsdf });
+            materials.push(Material {
+                name,
+                bsdf,
+                one_sided,
+            });
         }
         let mut black = None;
 
@@ -158,6 +162,7 @@ impl Builder<'_> {
                         materials.push(Material {
                             name: "<black>".into(),
                             bsdf: Bsdf::Black,
+                            one_sided: false,
                         });
                         materials.len() as u32 - 1
                     }),

@@ -3,7 +3,8 @@
 use super::*;
 
 impl Builder<'_> {
-    pub(super) fn material(&self, m: &Spanned<MaterialDesc>) -> Result<Bsdf> {
+    /// The BSDF of a material, and whether it is one-sided (black seen from the back).
+    pub(super) fn material(&self, m: &Spanned<MaterialDesc>) -> Result<(Bsdf, bool)> {
         let src = self.src;
         let d = m.get_ref();
         let kind = d.kind.get_ref().as_str();
@@ -16,12 +17,13 @@ impl Builder<'_> {
             ("alpha", at(&d.alpha)),
             ("eta", at(&d.eta)),
             ("k", at(&d.k)),
+            ("one_sided", at(&d.one_sided)),
         ];
         let allowed: &[&str] = match kind {
-            "diffuse" => &["albedo"],
-            "conductor" => &["reflectance"],
+            "diffuse" => &["albedo", "one_sided"],
+            "conductor" => &["reflectance", "one_sided"],
             "dielectric" => &["ior"],
-            "roughconductor" => &["alpha", "reflectance", "eta", "k"],
+            "roughconductor" => &["alpha", "reflectance", "eta", "k", "one_sided"],
             "roughdielectric" => &["alpha", "ior"],
             "black" => &[],
             other => {
@@ -51,7 +53,8 @@ impl Builder<'_> {
             }
             Ok(v)
         };
-        Ok(match kind {
+        let one_sided = d.one_sided.as_ref().is_some_and(|o| *o.get_ref());
+        let bsdf = match kind {
             "diffuse" => Bsdf::Diffuse {
                 albedo: src
                     .in_unit_range(src.required(&d.albedo, span, "albedo", &what)?, "albedo")?,
@@ -87,6 +90,7 @@ impl Builder<'_> {
             }
             "black" => Bsdf::Black,
             _ => unreachable!("material types are checked above"),
-        })
+        };
+        Ok((bsdf, one_sided))
     }
 }

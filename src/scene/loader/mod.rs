@@ -87,6 +87,8 @@ mod build;
 mod camera;
 mod lights;
 mod materials;
+mod mesh_files;
+mod mitsuba;
 mod shapes;
 
 /// Largest accepted |coordinate| of any point of the scene (vertices after their transform,
@@ -170,6 +172,8 @@ struct MaterialDesc {
     alpha: Option<Spanned<f32>>,
     eta: Option<V3>,
     k: Option<V3>,
+    /// Black when seen from the back of the shape (Mitsuba's non-`twosided` BSDFs).
+    one_sided: Option<Spanned<bool>>,
 }
 
 #[derive(Deserialize)]
@@ -220,6 +224,12 @@ struct ShapeDesc {
     /// With `emission`: an area spot light whose radiance falls off with the angle to the normal.
     cone_angle: Option<Spanned<f32>>,
     cone_delta: Option<Spanned<f32>>,
+    /// Mesh files: `file` (the file's vertex normals, face normals where it has none),
+    /// `faces` (face normals only) or `smooth` (the file's vertex normals, or angle-weighted
+    /// averages of the face normals where it has none: Mitsuba's rule).
+    normals: Option<Spanned<String>>,
+    /// Meshes: turn the front side over (winding and normals).
+    flip_normals: Option<Spanned<bool>>,
 }
 
 #[derive(Deserialize)]
@@ -242,6 +252,8 @@ struct RotateDesc {
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct TransformDesc {
+    /// An affine 4x4 matrix, row by row (the last row 0, 0, 0, 1); excludes the other keys.
+    matrix: Option<Spanned<[[f32; 4]; 4]>>,
     scale: Option<Spanned<ScaleDesc>>,
     rotate: Option<Spanned<RotateDesc>>,
     translate: Option<V3>,
@@ -348,12 +360,63 @@ impl Source<'_> {
     }
 }
 
-/// Load a scene file.
+/// Load a scene file: Mitsuba 3 XML when its name ends in `.xml`, lodestar TOML otherwise.
 pub fn load_file(path: &Path) -> Result<Scene> {
+    load_file_with(path, &[])
+}
+
+/// [`load_file`] with `name = value` definitions for a Mitsuba scene's `$name` parameters
+/// (they override its `<default>`s; a TOML scene takes none).
+pub fn load_file_with(path: &Path, defines: &[(String, String)]) -> Result<Scene> {
     let text = std::fs::read_to_string(path)
         .map_err(|e| Error::new(format!("{}: cannot read scene file: {e}", path.display())))?;
     let name = path.display().to_string();
+    if is_mitsuba(path) {
+        return load_mitsuba_str(&text, &name, path.parent(), defines);
+    }
+    if let Some((k, _)) = defines.first() {
+        return Err(Error::new(format!(
+            "{name}: -D {k}=... defines a Mitsuba XML parameter, but this is a TOML scene"
+        )));
+    }
     load_str(&text, &name, path.parent())
+}
+
+/// Whether `path` names a Mitsuba XML scene (by its extension).
+pub fn is_mitsuba(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("xml"))
+}
+
+/// Load a Mitsuba 3 XML scene from text (see the `mitsuba` module for the subset read).
+pub fn load_mitsuba_str(
+    text: &str,
+    name: &str,
+    dir: Option<&Path>,
+    defines: &[(String, String)],
+) -> Result<Scene> {
+    let src = Source { name, text };
+    let (desc, sensor_medium) = mitsuba::parse(&src, defines)?;
+    let scene = Builder {
+        src: &src,
+        dir: dir.map(Path::to_path_buf),
+    }
+    .build(desc)?;
+    if let Some((medium, at)) = sensor_medium {
+        let found = scene
+            .camera_medium
+            .map(|m| scene.media[m as usize].name.as_str());
+        if found != Some(medium.as_str()) {
+            return src.err(
+                at,
+                format!(
+                    "the sensor is said to be in medium '{medium}', but the shapes' interior and exterior media put the camera in {}",
+                    found.map_or("no medium".to_string(), |m| format!("'{m}'"))
+                ),
+            );
+        }
+    }
+    Ok(scene)
 }
 
 /// Load a scene from TOML text; `name` is used in error messages, `dir` resolves mesh paths.

@@ -10,6 +10,23 @@ impl Builder<'_> {
             return Ok(Transform::IDENTITY);
         };
         let d = t.get_ref();
+        if let Some(m) = &d.matrix {
+            if d.scale.is_some() || d.rotate.is_some() || d.translate.is_some() {
+                return src.err(
+                    t.span(),
+                    "a transform's 'matrix' excludes 'scale', 'rotate' and 'translate'",
+                );
+            }
+            let rows = *m.get_ref();
+            let m4 = glam::Mat4::from_cols_array_2d(&rows).transpose();
+            let Some(tr) = Transform::from_matrix(m4) else {
+                return src.err(
+                    m.span(),
+                    format!("'matrix' must be an affine, invertible matrix of finite numbers with last row [0, 0, 0, 1], got {rows:?}"),
+                );
+            };
+            return Ok(tr);
+        }
         let scale = match &d.scale {
             None => Vec3::ONE,
             Some(s) => {
@@ -122,19 +139,21 @@ impl Builder<'_> {
             ("waves", at(&d.waves)),
             ("tiles", at(&d.tiles)),
             ("tile_material", at(&d.tile_material)),
+            ("normals", at(&d.normals)),
+            ("flip_normals", at(&d.flip_normals)),
         ];
         let allowed: &[&str] =
             match kind {
-                "quad" => &["origin", "edge_u", "edge_v", "tiles", "tile_material"],
-                "cube" => &[],
+                "quad" => &["origin", "edge_u", "edge_v", "tiles", "tile_material", "flip_normals"],
+                "cube" => &["flip_normals"],
                 "sphere" => &["center", "radius"],
-                "disk" => &["center", "normal", "radius", "segments"],
-                "obj" => &["file"],
-                "heightfield" => &["size", "grid", "waves"],
+                "disk" => &["center", "normal", "radius", "segments", "flip_normals"],
+                "obj" | "ply" => &["file", "normals", "flip_normals"],
+                "heightfield" => &["size", "grid", "waves", "flip_normals"],
                 other => return src.err(
                     d.kind.span(),
                     format!(
-                        "unknown shape type '{other}' (expected quad, cube, sphere, disk, heightfield or obj)"
+                        "unknown shape type '{other}' (expected quad, cube, sphere, disk, heightfield, obj or ply)"
                     ),
                 ),
             };
@@ -160,7 +179,7 @@ impl Builder<'_> {
                 None => Ok(default),
             }
         };
-        Ok(match kind {
+        let geometry = match kind {
             "quad" => {
                 let o = opt3(&d.origin, "origin", Vec3::new(-1.0, -1.0, 0.0))?;
                 let u = opt3(&d.edge_u, "edge_u", Vec3::new(2.0, 0.0, 0.0))?;
@@ -212,13 +231,27 @@ impl Builder<'_> {
                 }
                 ShapeGeometry::Mesh(m.transformed(&t))
             }
-            "obj" => {
+            "obj" | "ply" => {
                 let file = src.required(&d.file, span, "file", &what)?;
                 let path = match &self.dir {
                     Some(dir) => dir.join(file.get_ref()),
                     None => PathBuf::from(file.get_ref()),
                 };
-                let mesh = load_obj(&path).or_else(|e| {
+                let normals = match &d.normals {
+                    None => mesh_files::Normals::File,
+                    Some(n) => match n.get_ref().as_str() {
+                        "file" => mesh_files::Normals::File,
+                        "faces" => mesh_files::Normals::Faces,
+                        "smooth" => mesh_files::Normals::Smooth,
+                        other => {
+                            return src.err(
+                                n.span(),
+                                format!("'normals' must be \"file\", \"faces\" or \"smooth\", got \"{other}\""),
+                            );
+                        }
+                    },
+                };
+                let mesh = mesh_files::load(&path, kind, normals).or_else(|e| {
                     src.err(
                         file.span(),
                         format!("cannot load mesh '{}': {e}", path.display()),
@@ -283,64 +316,11 @@ impl Builder<'_> {
                 ShapeGeometry::Mesh(heightfield(size, grid, &waves).transformed(&t))
             }
             _ => unreachable!("shape types are checked above"),
+        };
+        let flip = d.flip_normals.as_ref().is_some_and(|f| *f.get_ref());
+        Ok(match geometry {
+            ShapeGeometry::Mesh(m) if flip => ShapeGeometry::Mesh(m.flipped()),
+            g => g,
         })
     }
-}
-
-/// Load every model of an OBJ file into one mesh, with vertex normals when all models have them.
-fn load_obj(path: &Path) -> std::result::Result<TriangleMesh, String> {
-    if !path.is_file() {
-        return Err("no such file".to_string());
-    }
-    let (models, _materials) =
-        tobj::load_obj(path, &tobj::GPU_LOAD_OPTIONS).map_err(|e| e.to_string())?;
-    let mut mesh = TriangleMesh {
-        normals: Some(Vec::new()),
-        ..Default::default()
-    };
-    for m in &models {
-        let m = &m.mesh;
-        let base = mesh.positions.len() as u32;
-        mesh.positions.extend(
-            m.positions
-                .chunks_exact(3)
-                .map(|c| Vec3::new(c[0], c[1], c[2])),
-        );
-        if m.normals.len() == m.positions.len() {
-            if let Some(ns) = &mut mesh.normals {
-                ns.extend(
-                    m.normals
-                        .chunks_exact(3)
-                        .map(|c| Vec3::new(c[0], c[1], c[2]).normalize_or_zero()),
-                );
-            }
-        } else {
-            mesh.normals = None;
-        }
-        mesh.indices.extend(
-            m.indices
-                .chunks_exact(3)
-                .map(|c| [c[0] + base, c[1] + base, c[2] + base]),
-        );
-    }
-    if mesh.indices.is_empty() {
-        return Err("the file has no triangles".to_string());
-    }
-    if mesh.positions.iter().any(|p| !p.is_finite()) {
-        return Err("the file has non-finite vertex positions".to_string());
-    }
-    if mesh
-        .indices
-        .iter()
-        .flatten()
-        .any(|&i| i as usize >= mesh.positions.len())
-    {
-        return Err("a face refers to a vertex that does not exist".to_string());
-    }
-    if let Some(ns) = &mesh.normals
-        && ns.iter().any(|n| *n == Vec3::ZERO || !n.is_finite())
-    {
-        mesh.normals = None;
-    }
-    Ok(mesh)
 }

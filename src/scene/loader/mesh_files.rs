@@ -1,0 +1,346 @@
+//! Mesh files: Wavefront OBJ (through `tobj`) and PLY (ASCII and binary, read here), each into
+//! one triangle mesh with the vertex normals the scene asks for ([`Normals`]).
+
+use crate::geometry::TriangleMesh;
+use glam::Vec3;
+use std::path::Path;
+
+/// Which vertex normals a loaded mesh gets.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(super) enum Normals {
+    /// The file's vertex normals when every vertex has one; face normals otherwise.
+    File,
+    /// Face normals only (Mitsuba's `face_normals = true`).
+    Faces,
+    /// The file's vertex normals, or angle-weighted averages of the face normals when the file
+    /// has none (Mitsuba's default).
+    Smooth,
+}
+
+/// Load an OBJ (`kind = "obj"`) or PLY (`"ply"`) file.
+pub(super) fn load(path: &Path, kind: &str, normals: Normals) -> Result<TriangleMesh, String> {
+    if !path.is_file() {
+        return Err("no such file".to_string());
+    }
+    let mut mesh = match kind {
+        "ply" => load_ply(path)?,
+        _ => load_obj(path)?,
+    };
+    if mesh.indices.is_empty() {
+        return Err("the file has no triangles".to_string());
+    }
+    if mesh.positions.iter().any(|p| !p.is_finite()) {
+        return Err("the file has non-finite vertex positions".to_string());
+    }
+    if mesh
+        .indices
+        .iter()
+        .flatten()
+        .any(|&i| i as usize >= mesh.positions.len())
+    {
+        return Err("a face refers to a vertex that does not exist".to_string());
+    }
+    if let Some(ns) = &mesh.normals
+        && ns.iter().any(|n| *n == Vec3::ZERO || !n.is_finite())
+    {
+        mesh.normals = None;
+    }
+    Ok(match normals {
+        Normals::File => mesh,
+        Normals::Faces => TriangleMesh {
+            normals: None,
+            ..mesh
+        },
+        Normals::Smooth if mesh.normals.is_none() => mesh.with_smooth_normals(),
+        Normals::Smooth => mesh,
+    })
+}
+
+/// Every model of an OBJ file in one mesh, with vertex normals when all models have them.
+fn load_obj(path: &Path) -> Result<TriangleMesh, String> {
+    let (models, _materials) =
+        tobj::load_obj(path, &tobj::GPU_LOAD_OPTIONS).map_err(|e| e.to_string())?;
+    let mut mesh = TriangleMesh {
+        normals: Some(Vec::new()),
+        ..Default::default()
+    };
+    for m in &models {
+        let m = &m.mesh;
+        let base = mesh.positions.len() as u32;
+        mesh.positions.extend(
+            m.positions
+                .chunks_exact(3)
+                .map(|c| Vec3::new(c[0], c[1], c[2])),
+        );
+        if m.normals.len() == m.positions.len() {
+            if let Some(ns) = &mut mesh.normals {
+                ns.extend(
+                    m.normals
+                        .chunks_exact(3)
+                        .map(|c| Vec3::new(c[0], c[1], c[2]).normalize_or_zero()),
+                );
+            }
+        } else {
+            mesh.normals = None;
+        }
+        mesh.indices.extend(
+            m.indices
+                .chunks_exact(3)
+                .map(|c| [c[0] + base, c[1] + base, c[2] + base]),
+        );
+    }
+    Ok(mesh)
+}
+
+/// A PLY scalar type.
+#[derive(Debug, Clone, Copy)]
+enum Scalar {
+    I8,
+    U8,
+    I16,
+    U16,
+    I32,
+    U32,
+    F32,
+    F64,
+}
+
+impl Scalar {
+    fn parse(name: &str) -> Option<Scalar> {
+        Some(match name {
+            "char" | "int8" => Scalar::I8,
+            "uchar" | "uint8" => Scalar::U8,
+            "short" | "int16" => Scalar::I16,
+            "ushort" | "uint16" => Scalar::U16,
+            "int" | "int32" => Scalar::I32,
+            "uint" | "uint32" => Scalar::U32,
+            "float" | "float32" => Scalar::F32,
+            "double" | "float64" => Scalar::F64,
+            _ => return None,
+        })
+    }
+
+    fn size(self) -> usize {
+        match self {
+            Scalar::I8 | Scalar::U8 => 1,
+            Scalar::I16 | Scalar::U16 => 2,
+            Scalar::I32 | Scalar::U32 | Scalar::F32 => 4,
+            Scalar::F64 => 8,
+        }
+    }
+}
+
+/// A property of a PLY element: a scalar, or a list (count type, item type).
+struct Property {
+    name: String,
+    count: Option<Scalar>,
+    item: Scalar,
+}
+
+struct Element {
+    name: String,
+    count: usize,
+    properties: Vec<Property>,
+}
+
+#[derive(Clone, Copy, PartialEq)]
+enum Format {
+    Ascii,
+    Little,
+    Big,
+}
+
+/// Reads scalars from the body of a PLY file, ASCII or binary.
+struct Body<'a> {
+    bytes: &'a [u8],
+    pos: usize,
+    format: Format,
+}
+
+impl Body<'_> {
+    fn next(&mut self, t: Scalar) -> Result<f64, String> {
+        if self.format == Format::Ascii {
+            while self.pos < self.bytes.len() && self.bytes[self.pos].is_ascii_whitespace() {
+                self.pos += 1;
+            }
+            let start = self.pos;
+            while self.pos < self.bytes.len() && !self.bytes[self.pos].is_ascii_whitespace() {
+                self.pos += 1;
+            }
+            let word = std::str::from_utf8(&self.bytes[start..self.pos]).unwrap_or("");
+            if word.is_empty() {
+                return Err("the file ends before its elements do".to_string());
+            }
+            return word
+                .parse::<f64>()
+                .map_err(|_| format!("'{word}' is not a number"));
+        }
+        let n = t.size();
+        let Some(raw) = self.bytes.get(self.pos..self.pos + n) else {
+            return Err("the file ends before its elements do".to_string());
+        };
+        self.pos += n;
+        let mut b = [0u8; 8];
+        b[..n].copy_from_slice(raw);
+        if self.format == Format::Big {
+            b[..n].reverse();
+        }
+        Ok(match t {
+            Scalar::I8 => b[0] as i8 as f64,
+            Scalar::U8 => b[0] as f64,
+            Scalar::I16 => i16::from_le_bytes([b[0], b[1]]) as f64,
+            Scalar::U16 => u16::from_le_bytes([b[0], b[1]]) as f64,
+            Scalar::I32 => i32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
+            Scalar::U32 => u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
+            Scalar::F32 => f32::from_le_bytes([b[0], b[1], b[2], b[3]]) as f64,
+            Scalar::F64 => f64::from_le_bytes(b),
+        })
+    }
+}
+
+/// Largest list (polygon) a PLY face may have.
+const MAX_POLYGON: usize = 1 << 16;
+
+/// A PLY file's `vertex` (x, y, z, optional nx, ny, nz) and `face` (vertex_indices, polygons
+/// fanned into triangles) elements; other elements and properties are read past.
+fn load_ply(path: &Path) -> Result<TriangleMesh, String> {
+    let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
+    let header_end = bytes
+        .windows(10)
+        .position(|w| w == b"end_header")
+        .ok_or("not a PLY file (no 'end_header')")?;
+    let header = std::str::from_utf8(&bytes[..header_end])
+        .map_err(|_| "the PLY header is not text".to_string())?;
+    let mut body_start = header_end + 10;
+    while body_start < bytes.len() && bytes[body_start] != b'\n' {
+        body_start += 1;
+    }
+    body_start += 1;
+    let mut lines = header.lines();
+    if lines.next().map(str::trim) != Some("ply") {
+        return Err("not a PLY file (it must start with 'ply')".to_string());
+    }
+    let mut format = None;
+    let mut elements: Vec<Element> = Vec::new();
+    for (k, line) in lines.enumerate() {
+        let at = k + 2;
+        let words: Vec<&str> = line.split_whitespace().collect();
+        match words.as_slice() {
+            [] | ["comment", ..] | ["obj_info", ..] => {}
+            ["format", f, _] => {
+                format = Some(match *f {
+                    "ascii" => Format::Ascii,
+                    "binary_little_endian" => Format::Little,
+                    "binary_big_endian" => Format::Big,
+                    other => return Err(format!("header line {at}: unknown format '{other}'")),
+                })
+            }
+            ["element", name, count] => elements.push(Element {
+                name: name.to_string(),
+                count: count
+                    .parse()
+                    .map_err(|_| format!("header line {at}: bad element count '{count}'"))?,
+                properties: Vec::new(),
+            }),
+            ["property", "list", count, item, name] => {
+                let (Some(count), Some(item)) = (Scalar::parse(count), Scalar::parse(item)) else {
+                    return Err(format!("header line {at}: unknown property type"));
+                };
+                let e = elements
+                    .last_mut()
+                    .ok_or(format!("header line {at}: property before any element"))?;
+                e.properties.push(Property {
+                    name: name.to_string(),
+                    count: Some(count),
+                    item,
+                });
+            }
+            ["property", t, name] => {
+                let item =
+                    Scalar::parse(t).ok_or(format!("header line {at}: unknown type '{t}'"))?;
+                let e = elements
+                    .last_mut()
+                    .ok_or(format!("header line {at}: property before any element"))?;
+                e.properties.push(Property {
+                    name: name.to_string(),
+                    count: None,
+                    item,
+                });
+            }
+            _ => return Err(format!("header line {at}: cannot read '{}'", line.trim())),
+        }
+    }
+    let format = format.ok_or("the PLY header has no 'format' line")?;
+    let mut body = Body {
+        bytes: &bytes[body_start.min(bytes.len())..],
+        pos: 0,
+        format,
+    };
+    // Every element needs at least one byte (or one word) per item: bound the counts by the
+    // file size before allocating.
+    for e in &elements {
+        if e.count > bytes.len() {
+            return Err(format!(
+                "element '{}' claims {} items, more than the file can hold",
+                e.name, e.count
+            ));
+        }
+    }
+    let mut mesh = TriangleMesh::default();
+    let mut normals = Vec::new();
+    for e in &elements {
+        let find = |n: &str| e.properties.iter().position(|p| p.name == n);
+        let xyz = [find("x"), find("y"), find("z")];
+        let nxyz = [find("nx"), find("ny"), find("nz")];
+        let has_normals = nxyz.iter().all(Option::is_some);
+        let list = find("vertex_indices").or(find("vertex_index"));
+        if e.name == "vertex" && xyz.iter().any(Option::is_none) {
+            return Err("the 'vertex' element has no x, y and z".to_string());
+        }
+        if e.name == "face" && list.is_none() {
+            return Err("the 'face' element has no 'vertex_indices' list".to_string());
+        }
+        let mut values = vec![0.0f64; e.properties.len()];
+        let mut polygon: Vec<u32> = Vec::new();
+        for _ in 0..e.count {
+            polygon.clear();
+            for (i, p) in e.properties.iter().enumerate() {
+                match p.count {
+                    None => values[i] = body.next(p.item)?,
+                    Some(ct) => {
+                        let n = body.next(ct)?;
+                        if !(n >= 0.0 && n as usize <= MAX_POLYGON) {
+                            return Err(format!("a list of {n} items in element '{}'", e.name));
+                        }
+                        for _ in 0..n as usize {
+                            let v = body.next(p.item)?;
+                            if Some(i) == list {
+                                if !(v >= 0.0 && v <= u32::MAX as f64) {
+                                    return Err(format!("vertex index {v} in a face"));
+                                }
+                                polygon.push(v as u32);
+                            }
+                        }
+                    }
+                }
+            }
+            if e.name == "vertex" {
+                let v = |k: [Option<usize>; 3]| {
+                    Vec3::from(k.map(|i| values[i.expect("checked above")] as f32))
+                };
+                mesh.positions.push(v(xyz));
+                if has_normals {
+                    normals.push(v(nxyz).normalize_or_zero());
+                }
+            } else if e.name == "face" {
+                for k in 1..polygon.len().saturating_sub(1) {
+                    mesh.indices.push([polygon[0], polygon[k], polygon[k + 1]]);
+                }
+            }
+        }
+    }
+    if !normals.is_empty() {
+        mesh.normals = Some(normals);
+    }
+    Ok(mesh)
+}

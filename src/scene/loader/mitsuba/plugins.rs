@@ -1,0 +1,718 @@
+//! Mitsuba plugins to the scene description: sensor (camera, film, sampler), integrator,
+//! BSDFs (materials), media, shapes and emitters. Each function reads its plugin's properties
+//! through [`Props`], which makes any property it did not read an error.
+
+use super::super::{
+    CameraDesc, LightDesc, MaterialDesc, MediumDesc, RenderDesc, SceneDesc, ShapeDesc,
+    TransformDesc,
+};
+use super::{Props, SensorMedium, Xml, span, transform_of};
+use crate::error::Result;
+use glam::{Mat4, Vec3};
+use roxmltree::{Node, NodeId};
+use std::collections::HashMap;
+use toml::Spanned;
+
+/// Segments of the triangle fan standing for an analytic disk.
+const DISK_SEGMENTS: u32 = 1024;
+
+/// What the plugins produce, and the objects already converted (by element).
+struct Out {
+    desc: SceneDesc,
+    /// BSDF element -> material name (`None`: a `null` BSDF).
+    bsdfs: HashMap<NodeId, Option<String>>,
+    media: HashMap<NodeId, String>,
+    /// Name of Mitsuba's default BSDF (diffuse 0.5, one-sided), once a shape needed it.
+    default_bsdf: Option<String>,
+    sensor_medium: Option<SensorMedium>,
+}
+
+fn s<T>(node: Node, v: T) -> Spanned<T> {
+    Spanned::new(span(node), v)
+}
+
+/// A scene description from the `<scene>` element, and the medium the sensor says the
+/// camera is in (checked against the geometry once the scene is built).
+pub(super) fn scene(xml: &Xml, root: Node) -> Result<(SceneDesc, Option<SensorMedium>)> {
+    let mut out = Out {
+        desc: SceneDesc {
+            world_medium: None,
+            camera: s(root, default_camera()),
+            render: None,
+            material: Vec::new(),
+            medium: Vec::new(),
+            shape: Vec::new(),
+            light: Vec::new(),
+        },
+        bsdfs: HashMap::new(),
+        media: HashMap::new(),
+        default_bsdf: None,
+        sensor_medium: None,
+    };
+    let mut sensor = None;
+    let mut integrator = None;
+    for n in root.children().filter(Node::is_element) {
+        match n.tag_name().name() {
+            "default" => {}
+            "integrator" => {
+                if integrator.replace(n).is_some() {
+                    return xml.err(n, "a scene has at most one <integrator>");
+                }
+            }
+            "sensor" => {
+                if sensor.replace(n).is_some() {
+                    return xml.err(n, "lodestar renders one <sensor> per scene; this is a second");
+                }
+            }
+            "bsdf" => {
+                bsdf(xml, n, &mut out)?;
+            }
+            "medium" => {
+                medium(xml, n, &mut out)?;
+            }
+            "shape" => shape(xml, n, &mut out)?,
+            "emitter" => emitter(xml, n, &mut out)?,
+            "texture" => return xml.err(n, "textures are not supported (lodestar takes constant colours)"),
+            "include" | "path" => return xml.err(n, format!("<{}> is not supported: write the scene in one file", n.tag_name().name())),
+            other => return xml.err(n, format!("<{other}> is not supported at the top level of a scene (expected default, integrator, sensor, bsdf, medium, shape or emitter)")),
+        }
+    }
+    let mut render = RenderDesc {
+        max_depth: Some(s(root, -1)),
+        spp: None,
+        integrator: Some(s(root, "pt".to_string())),
+    };
+    if let Some(n) = integrator {
+        integrator_plugin(xml, n, &mut render)?;
+    }
+    match sensor {
+        Some(n) => sensor_plugin(xml, n, &mut out, &mut render)?,
+        None => {
+            return xml.err(
+                root,
+                "the scene has no <sensor> (lodestar needs a perspective camera)",
+            );
+        }
+    }
+    out.desc.render = Some(render);
+    // The sensor's medium fills the world unless it is the inside of some shape (then the
+    // geometry says where the camera is, and the loader checks that it agrees).
+    if let Some((name, at)) = &out.sensor_medium {
+        let inside_a_shape = out.desc.shape.iter().any(|sh| {
+            sh.get_ref()
+                .interior
+                .as_ref()
+                .is_some_and(|i| i.get_ref() == name)
+        });
+        if !inside_a_shape {
+            out.desc.world_medium = Some(Spanned::new(at.clone(), name.clone()));
+        }
+    }
+    Ok((out.desc, out.sensor_medium))
+}
+
+fn default_camera() -> CameraDesc {
+    let v = |a: [f32; 3]| Spanned::new(0..0, a);
+    CameraDesc {
+        position: v([0.0; 3]),
+        look_at: v([0.0, 0.0, 1.0]),
+        up: None,
+        fov: Spanned::new(0..0, 39.6),
+        resolution: Spanned::new(0..0, [768, 576]),
+    }
+}
+
+fn kind<'a, 'i>(xml: &Xml<'_, 'i>, n: Node<'a, 'i>) -> Result<&'a str> {
+    xml.raw(n, "type")
+}
+
+fn integrator_plugin(xml: &Xml, n: Node, render: &mut RenderDesc) -> Result<()> {
+    let name = match kind(xml, n)? {
+        "path" | "volpath" | "volpathmis" => "pt",
+        "ptracer" => "lt",
+        other => {
+            return xml.err(n, format!("integrator '{other}' is not supported (path, volpath and volpathmis become lodestar's pt, ptracer its lt; pick others with --integrator)"));
+        }
+    };
+    let mut p = xml.props(n)?;
+    render.integrator = Some(s(n, name.to_string()));
+    if let Some((at, d)) = p.integer(xml, "max_depth")? {
+        render.max_depth = Some(s(at, d));
+    }
+    // Russian roulette's start changes noise, not the expected image.
+    p.integer(xml, "rr_depth")?;
+    if p.boolean(xml, "hide_emitters")? == Some(true) {
+        return xml.err(n, "'hide_emitters' = true is not supported");
+    }
+    p.finish(xml)
+}
+
+fn sensor_plugin(xml: &Xml, n: Node, out: &mut Out, render: &mut RenderDesc) -> Result<()> {
+    if kind(xml, n)? != "perspective" {
+        return xml.err(
+            n,
+            format!(
+                "sensor '{}' is not supported (perspective only)",
+                kind(xml, n)?
+            ),
+        );
+    }
+    let mut p = xml.props(n)?;
+    let (fov_at, fov) = match p.float(xml, "fov")? {
+        Some(f) => f,
+        None => return xml.err(n, "the perspective sensor needs 'fov' (degrees)"),
+    };
+    let axis = p.string(xml, "fov_axis")?;
+    p.float(xml, "near_clip")?;
+    p.float(xml, "far_clip")?;
+    let to_world = p.take_to_world(xml)?;
+    // Film.
+    let films = p.nested(xml, "film")?;
+    let (mut w, mut h) = (768u32, 576u32);
+    let mut res_at = n;
+    if films.len() > 1 {
+        return xml.err(films[1], "a sensor has one <film>");
+    }
+    if let Some(&f) = films.first() {
+        if kind(xml, f)? != "hdrfilm" {
+            return xml.err(
+                f,
+                format!("film '{}' is not supported (hdrfilm only)", kind(xml, f)?),
+            );
+        }
+        res_at = f;
+        let mut fp = xml.props(f)?;
+        for (key, v) in [("width", &mut w), ("height", &mut h)] {
+            if let Some((at, x)) = fp.integer(xml, key)? {
+                if !(1..=16384).contains(&x) {
+                    return xml.err(at, format!("'{key}' must be in [1, 16384], got {x}"));
+                }
+                *v = x as u32;
+            }
+        }
+        for key in ["pixel_format", "component_format", "file_format"] {
+            fp.string(xml, key)?;
+        }
+        // A box filter of radius 1/2 never reaches past its pixel: the border changes nothing.
+        fp.boolean(xml, "sample_border")?;
+        for r in fp.nested(xml, "rfilter")? {
+            if kind(xml, r)? != "box" {
+                return xml.err(r, format!("rfilter '{}' is not supported: lodestar's film is a box filter (write <rfilter type=\"box\"/>)", kind(xml, r)?));
+            }
+            xml.props(r)?.finish(xml)?;
+        }
+        fp.finish(xml)?;
+    }
+    // Sampler.
+    for smp in p.nested(xml, "sampler")? {
+        let k = kind(xml, smp)?;
+        if ![
+            "independent",
+            "stratified",
+            "multijitter",
+            "orthogonal",
+            "ldsampler",
+        ]
+        .contains(&k)
+        {
+            return xml.err(smp, format!("sampler '{k}' is not supported"));
+        }
+        let mut sp = xml.props(smp)?;
+        if let Some((at, c)) = sp.integer(xml, "sample_count")? {
+            if !(1..=u32::MAX as i64).contains(&c) {
+                return xml.err(at, format!("'sample_count' must be at least 1, got {c}"));
+            }
+            render.spp = Some(s(at, c as u32));
+        }
+        sp.finish(xml)?;
+    }
+    if render.spp.is_none() {
+        render.spp = Some(s(n, 4));
+    }
+    // The medium the camera is in.
+    let media = p.nested(xml, "medium")?;
+    if let Some(&m) = media.first() {
+        let name = medium(xml, m, out)?;
+        out.sensor_medium = Some((name, span(m)));
+    }
+    p.finish(xml)?;
+
+    // Camera frame: Mitsuba's camera looks along +z with +x to the left of the image.
+    let (t_at, m) = to_world.unwrap_or((n, Mat4::IDENTITY));
+    let position = m.transform_point3(Vec3::ZERO);
+    let forward = m.transform_vector3(Vec3::Z);
+    let up = m.transform_vector3(Vec3::Y);
+    let left = m.transform_vector3(Vec3::X);
+    let Some(forward) = forward.try_normalize() else {
+        return xml.err(t_at, "the sensor's to_world is singular");
+    };
+    if left.dot(up.cross(forward)) <= 0.0 {
+        return xml.err(t_at, "the sensor's to_world mirrors the image (a negative scale); lodestar's camera does not");
+    }
+    let tan = (fov.to_radians() / 2.0).tan();
+    let (wf, hf) = (w as f32, h as f32);
+    let axis_name = axis.as_ref().map_or("x", |(_, a)| a.as_str());
+    let tan_y = match axis_name {
+        "x" => tan * hf / wf,
+        "y" => tan,
+        "diagonal" => tan * hf / (wf * wf + hf * hf).sqrt(),
+        "smaller" if w < h => tan * hf / wf,
+        "larger" if w > h => tan * hf / wf,
+        "smaller" | "larger" => tan,
+        other => {
+            return xml.err(
+                axis.as_ref().unwrap().0,
+                format!("'fov_axis' must be x, y, diagonal, smaller or larger, got '{other}'"),
+            );
+        }
+    };
+    out.desc.camera = s(
+        n,
+        CameraDesc {
+            position: s(t_at, position.to_array()),
+            look_at: s(t_at, (position + forward).to_array()),
+            up: Some(s(t_at, up.to_array())),
+            fov: s(fov_at, 2.0 * tan_y.atan().to_degrees()),
+            resolution: s(res_at, [w, h]),
+        },
+    );
+    Ok(())
+}
+
+fn material_desc(n: Node, name: String, kind: &str) -> MaterialDesc {
+    MaterialDesc {
+        name: s(n, name),
+        kind: s(n, kind.to_string()),
+        albedo: None,
+        reflectance: None,
+        ior: None,
+        alpha: None,
+        eta: None,
+        k: None,
+        one_sided: None,
+    }
+}
+
+/// The material name of a `<bsdf>` (converted once per element), `None` for `null`.
+fn bsdf(xml: &Xml, n: Node, out: &mut Out) -> Result<Option<String>> {
+    if let Some(done) = out.bsdfs.get(&n.id()) {
+        return Ok(done.clone());
+    }
+    let name = match xml.attr(n, "id")? {
+        Some(id) => id,
+        None => format!("{} (line {})", kind(xml, n)?, xml.src.line(n.range().start)),
+    };
+    let desc = bsdf_desc(xml, n, name.clone(), true)?;
+    let result = desc.map(|d| {
+        out.desc.material.push(s(n, d));
+        name
+    });
+    out.bsdfs.insert(n.id(), result.clone());
+    Ok(result)
+}
+
+/// A material description; `one_sided` unless inside `twosided`.
+fn bsdf_desc(xml: &Xml, n: Node, name: String, one_sided: bool) -> Result<Option<MaterialDesc>> {
+    let k = kind(xml, n)?;
+    let mut p = xml.props(n)?;
+    let mut d = material_desc(n, name, k);
+    let unit = |v: Option<(Node, Vec3)>, default: f32| {
+        v.map_or(Spanned::new(span(n), [default; 3]), |(at, c)| {
+            s(at, c.to_array())
+        })
+    };
+    let ior = |p: &mut Props| -> Result<f32> {
+        let int = p.ior(xml, "int_ior", 1.5046)?;
+        let ext = p.ior(xml, "ext_ior", 1.000277)?;
+        if !(int > 0.0 && ext > 0.0) {
+            return xml.err(n, "'int_ior' and 'ext_ior' must be > 0");
+        }
+        Ok(int / ext)
+    };
+    let white_only = |p: &mut Props, key: &str| -> Result<()> {
+        if let Some((at, c)) = p.color(xml, key)?
+            && c != Vec3::ONE
+        {
+            return xml.err(
+                at,
+                format!("'{key}' other than 1 is not supported on a dielectric"),
+            );
+        }
+        Ok(())
+    };
+    // GGX only: Mitsuba's default distribution is Beckmann, so it must be written out.
+    let ggx_alpha = |p: &mut Props| -> Result<Spanned<f32>> {
+        match p.string(xml, "distribution")? {
+            Some((_, dist)) if dist == "ggx" => {}
+            Some((at, dist)) => return xml.err(at, format!("distribution '{dist}' is not supported (lodestar's microfacets are GGX)")),
+            None => return xml.err(n, format!("{k}: lodestar's microfacets are GGX and Mitsuba's default is Beckmann; write <string name=\"distribution\" value=\"ggx\"/>")),
+        }
+        p.boolean(xml, "sample_visible")?;
+        let a = p.float(xml, "alpha")?;
+        let (au, av) = (p.float(xml, "alpha_u")?, p.float(xml, "alpha_v")?);
+        match (a, au, av) {
+            (Some((at, a)), None, None) => Ok(s(at, a)),
+            (None, Some((at, u)), Some((_, v))) if u == v => Ok(s(at, u)),
+            (None, None, None) => Ok(s(n, 0.1)),
+            _ => xml.err(n, "anisotropic roughness is not supported ('alpha', or equal 'alpha_u' and 'alpha_v')"),
+        }
+    };
+    match k {
+        "diffuse" => {
+            d.albedo = Some(unit(p.color(xml, "reflectance")?, 0.5));
+            d.one_sided = Some(s(n, one_sided));
+        }
+        "conductor" | "roughconductor" => {
+            if k == "roughconductor" {
+                d.alpha = Some(ggx_alpha(&mut p)?);
+            }
+            let material = p.string(xml, "material")?;
+            let (eta, kk) = (p.color(xml, "eta")?, p.color(xml, "k")?);
+            let spec = p.color(xml, "specular_reflectance")?;
+            match (material, eta, kk) {
+                (m, None, None) if m.as_ref().is_none_or(|(_, m)| m == "none") => {
+                    d.reflectance = Some(unit(spec, 1.0));
+                }
+                (Some((at, m)), None, None) => return xml.err(at, format!("conductor material '{m}' is not supported (give 'eta' and 'k', or material 'none')")),
+                (None, Some((ea, e)), Some((ka, kv))) if k == "roughconductor" => {
+                    if spec.is_some_and(|(_, c)| c != Vec3::ONE) {
+                        return xml.err(n, "'specular_reflectance' other than 1 with 'eta' and 'k' is not supported");
+                    }
+                    d.eta = Some(s(ea, e.to_array()));
+                    d.k = Some(s(ka, kv.to_array()));
+                }
+                (None, Some(_), Some(_)) => return xml.err(n, "a smooth conductor with 'eta' and 'k' is not supported (lodestar's smooth conductor is a mirror of constant reflectance; use roughconductor, or material 'none')"),
+                _ => return xml.err(n, "a conductor needs both 'eta' and 'k' (or neither)"),
+            }
+            d.one_sided = Some(s(n, one_sided));
+        }
+        "dielectric" | "roughdielectric" => {
+            if k == "roughdielectric" {
+                d.alpha = Some(ggx_alpha(&mut p)?);
+            }
+            d.ior = Some(s(n, ior(&mut p)?));
+            white_only(&mut p, "specular_reflectance")?;
+            white_only(&mut p, "specular_transmittance")?;
+        }
+        "twosided" => {
+            let inner = p.nested(xml, "bsdf")?;
+            p.finish(xml)?;
+            return match inner.as_slice() {
+                [b] if matches!(kind(xml, *b)?, "dielectric" | "roughdielectric" | "twosided" | "null") => xml.err(*b, format!("twosided cannot wrap '{}'", kind(xml, *b)?)),
+                [b] => bsdf_desc(xml, *b, d.name.into_inner(), false),
+                [] => xml.err(n, "twosided needs one nested <bsdf>"),
+                _ => xml.err(inner[1], "twosided with a different BSDF per side is not supported"),
+            };
+        }
+        "null" => {
+            p.finish(xml)?;
+            return Ok(None);
+        }
+        "plastic" | "roughplastic" => return xml.err(n, format!("'{k}' is not supported: lodestar has no exact equivalent of its internal scattering (use diffuse, conductors or dielectrics)")),
+        other => return xml.err(n, format!("bsdf '{other}' is not supported (diffuse, conductor, roughconductor, dielectric, roughdielectric, twosided, null)")),
+    }
+    p.finish(xml)?;
+    Ok(Some(d))
+}
+
+/// The name of a `<medium>` (converted once per element).
+fn medium(xml: &Xml, n: Node, out: &mut Out) -> Result<String> {
+    if let Some(done) = out.media.get(&n.id()) {
+        return Ok(done.clone());
+    }
+    if kind(xml, n)? != "homogeneous" {
+        return xml.err(
+            n,
+            format!(
+                "medium '{}' is not supported (homogeneous only)",
+                kind(xml, n)?
+            ),
+        );
+    }
+    let name = match xml.attr(n, "id")? {
+        Some(id) => id,
+        None => format!("medium (line {})", xml.src.line(n.range().start)),
+    };
+    let mut p = xml.props(n)?;
+    let sigma_t = p.color(xml, "sigma_t")?.map_or(Vec3::ONE, |(_, c)| c);
+    let albedo = match p.color(xml, "albedo")? {
+        Some((at, a)) if a.min_element() < 0.0 || a.max_element() > 1.0 => {
+            return xml.err(at, format!("'albedo' must lie in [0, 1], got {a}"));
+        }
+        Some((_, a)) => a,
+        None => Vec3::splat(0.75),
+    };
+    let scale = p.float(xml, "scale")?.map_or(1.0, |(_, v)| v);
+    p.boolean(xml, "sample_emitters")?;
+    let mut g = 0.0;
+    for ph in p.nested(xml, "phase")? {
+        let mut pp = xml.props(ph)?;
+        g = match kind(xml, ph)? {
+            "isotropic" => 0.0,
+            "hg" => pp.float(xml, "g")?.map_or(0.8, |(_, g)| g),
+            other => {
+                return xml.err(
+                    ph,
+                    format!("phase function '{other}' is not supported (isotropic, hg)"),
+                );
+            }
+        };
+        pp.finish(xml)?;
+    }
+    p.finish(xml)?;
+    let sigma_t = sigma_t * scale;
+    out.desc.medium.push(s(
+        n,
+        MediumDesc {
+            name: s(n, name.clone()),
+            sigma_a: s(n, ((Vec3::ONE - albedo) * sigma_t).to_array()),
+            sigma_s: s(n, (albedo * sigma_t).to_array()),
+            g: Some(s(n, g)),
+        },
+    ));
+    out.media.insert(n.id(), name.clone());
+    Ok(name)
+}
+
+fn shape_desc(n: Node, kind: &str) -> ShapeDesc {
+    ShapeDesc {
+        kind: s(n, kind.to_string()),
+        name: None,
+        material: None,
+        emission: None,
+        transform: None,
+        origin: None,
+        edge_u: None,
+        edge_v: None,
+        center: None,
+        normal: None,
+        radius: None,
+        segments: None,
+        file: None,
+        size: None,
+        grid: None,
+        waves: None,
+        tiles: None,
+        tile_material: None,
+        interior: None,
+        exterior: None,
+        cone_angle: None,
+        cone_delta: None,
+        normals: None,
+        flip_normals: None,
+    }
+}
+
+fn matrix_desc(at: Node, m: Mat4) -> Spanned<TransformDesc> {
+    s(
+        at,
+        TransformDesc {
+            matrix: Some(s(at, m.transpose().to_cols_array_2d())),
+            scale: None,
+            rotate: None,
+            translate: None,
+        },
+    )
+}
+
+fn shape(xml: &Xml, n: Node, out: &mut Out) -> Result<()> {
+    let k = kind(xml, n)?;
+    let mut p = xml.props(n)?;
+    let to_world = p.take_to_world(xml)?;
+    let flip = p.boolean(xml, "flip_normals")?.unwrap_or(false);
+    let mut d = match k {
+        "obj" | "ply" => {
+            let mut d = shape_desc(n, k);
+            d.file = match p.string(xml, "filename")? {
+                Some((at, f)) => Some(s(at, f)),
+                None => return xml.err(n, format!("shape '{k}' needs 'filename'")),
+            };
+            let faces = p.boolean(xml, "face_normals")?.unwrap_or(false);
+            d.normals = Some(s(n, if faces { "faces" } else { "smooth" }.to_string()));
+            // Texture coordinates are not used by lodestar.
+            p.boolean(xml, "flip_tex_coords")?;
+            d
+        }
+        "rectangle" => {
+            let mut d = shape_desc(n, "quad");
+            d.origin = Some(s(n, [-1.0, -1.0, 0.0]));
+            d.edge_u = Some(s(n, [2.0, 0.0, 0.0]));
+            d.edge_v = Some(s(n, [0.0, 2.0, 0.0]));
+            d
+        }
+        "cube" => shape_desc(n, "cube"),
+        "disk" => {
+            let mut d = shape_desc(n, "disk");
+            d.segments = Some(s(n, DISK_SEGMENTS));
+            d
+        }
+        "sphere" => {
+            let mut d = shape_desc(n, "sphere");
+            if let Some((at, c)) = p.point(xml, "center")? {
+                d.center = Some(s(at, c.to_array()));
+            }
+            if let Some((at, r)) = p.float(xml, "radius")? {
+                d.radius = Some(s(at, r));
+            }
+            if flip {
+                return xml.err(n, "'flip_normals' on a sphere is not supported (lodestar's spheres face outwards)");
+            }
+            d
+        }
+        other => {
+            return xml.err(
+                n,
+                format!(
+                    "shape '{other}' is not supported (obj, ply, rectangle, cube, disk, sphere)"
+                ),
+            );
+        }
+    };
+    if flip {
+        d.flip_normals = Some(s(n, true));
+    }
+    if let Some((at, m)) = to_world {
+        transform_of(xml, at, m)?;
+        d.transform = Some(matrix_desc(at, m));
+    }
+    d.name = xml.attr(n, "id")?;
+    // Emitter.
+    let emitters = p.nested(xml, "emitter")?;
+    if emitters.len() > 1 {
+        return xml.err(emitters[1], "a shape has at most one emitter");
+    }
+    if let Some(&e) = emitters.first() {
+        if kind(xml, e)? != "area" {
+            return xml.err(
+                e,
+                format!("emitter '{}' inside a shape (area only)", kind(xml, e)?),
+            );
+        }
+        let mut ep = xml.props(e)?;
+        let (at, radiance) = match ep.color(xml, "radiance")? {
+            Some(r) => r,
+            None => return xml.err(e, "the area emitter needs 'radiance'"),
+        };
+        ep.finish(xml)?;
+        d.emission = Some(s(at, radiance.to_array()));
+    }
+    // Media.
+    for side in ["interior", "exterior"] {
+        if let Some(m) = p.named_object(xml, side, "medium")? {
+            let name = Some(s(m, medium(xml, m, out)?));
+            if side == "interior" {
+                d.interior = name;
+            } else {
+                d.exterior = name;
+            }
+        }
+    }
+    // BSDF: Mitsuba's default is a one-sided diffuse of reflectance 0.5, black on emitters.
+    let bsdfs = p.nested(xml, "bsdf")?;
+    if bsdfs.len() > 1 {
+        return xml.err(bsdfs[1], "a shape has at most one bsdf");
+    }
+    p.finish(xml)?;
+    let material = match bsdfs.first() {
+        Some(&b) => match bsdf(xml, b, out)? {
+            Some(name) => Some(s(b, name)),
+            None if d.interior.is_none() && d.exterior.is_none() => {
+                return xml.err(b, "a 'null' BSDF is an index-matched medium boundary in lodestar: give the shape an interior or exterior medium");
+            }
+            None if d.emission.is_some() => {
+                return xml.err(b, "an emitter with a 'null' BSDF is not supported");
+            }
+            None => None,
+        },
+        None if d.emission.is_some() => None,
+        None => {
+            let name = out.default_bsdf.get_or_insert_with(|| {
+                let name = "<mitsuba default diffuse>".to_string();
+                let mut m = material_desc(n, name.clone(), "diffuse");
+                m.albedo = Some(s(n, [0.5; 3]));
+                m.one_sided = Some(s(n, true));
+                out.desc.material.push(s(n, m));
+                name
+            });
+            Some(s(n, name.clone()))
+        }
+    };
+    d.material = material;
+    out.desc.shape.push(s(n, d));
+    Ok(())
+}
+
+fn light_desc(n: Node, kind: &str) -> LightDesc {
+    LightDesc {
+        kind: s(n, kind.to_string()),
+        position: None,
+        intensity: None,
+        radiance: None,
+        irradiance: None,
+        direction: None,
+        cone_angle: None,
+        cone_delta: None,
+        angle: None,
+    }
+}
+
+fn emitter(xml: &Xml, n: Node, out: &mut Out) -> Result<()> {
+    let k = kind(xml, n)?;
+    let mut p = xml.props(n)?;
+    let color = |p: &mut Props, key: &str| -> Result<Spanned<[f32; 3]>> {
+        Ok(p.color(xml, key)?
+            .map_or(s(n, [1.0; 3]), |(at, c)| s(at, c.to_array())))
+    };
+    let d = match k {
+        "point" | "spot" => {
+            let mut d = light_desc(n, k);
+            d.intensity = Some(color(&mut p, "intensity")?);
+            let position = p.point(xml, "position")?;
+            let to_world = p.take_to_world(xml)?;
+            let (at, m) = match (position, to_world) {
+                (Some(_), Some((at, _))) => return xml.err(at, "give 'position' or 'to_world', not both"),
+                (Some((at, pos)), None) => (at, Mat4::from_translation(pos)),
+                (None, Some(t)) => t,
+                (None, None) => (n, Mat4::IDENTITY),
+            };
+            d.position = Some(s(at, m.transform_point3(Vec3::ZERO).to_array()));
+            if k == "spot" {
+                let dir = m.transform_vector3(Vec3::Z);
+                d.direction = Some(s(at, dir.to_array()));
+                let cutoff = p.float(xml, "cutoff_angle")?.map_or(20.0, |(_, a)| a);
+                match p.float(xml, "beam_width")? {
+                    Some((_, b)) if b == cutoff => {}
+                    Some((at, _)) => return xml.err(at, "a spot's 'beam_width' must equal its 'cutoff_angle': lodestar has a hard or smoothstep cone edge, not Mitsuba's linear-in-angle one"),
+                    None => return xml.err(n, "a spot needs 'beam_width' equal to 'cutoff_angle' (Mitsuba's default, 3/4 of it, makes a linear-in-angle edge lodestar does not have)"),
+                }
+                d.cone_angle = Some(s(n, cutoff));
+                d.cone_delta = Some(s(n, 0.0));
+            }
+            d
+        }
+        "directional" => {
+            let mut d = light_desc(n, k);
+            d.irradiance = Some(color(&mut p, "irradiance")?);
+            let direction = p.point(xml, "direction")?;
+            let to_world = p.take_to_world(xml)?;
+            let (at, dir) = match (direction, to_world) {
+                (Some(_), Some((at, _))) => return xml.err(at, "give 'direction' or 'to_world', not both"),
+                (Some(v), None) => v,
+                (None, Some((at, m))) => (at, m.transform_vector3(Vec3::Z)),
+                (None, None) => (n, Vec3::Z),
+            };
+            d.direction = Some(s(at, dir.to_array()));
+            d
+        }
+        "constant" => {
+            let mut d = light_desc(n, "environment");
+            d.radiance = Some(color(&mut p, "radiance")?);
+            d
+        }
+        "area" => return xml.err(n, "an area emitter belongs inside a <shape>"),
+        other => return xml.err(n, format!("emitter '{other}' is not supported (point, spot, directional, constant; area inside shapes)")),
+    };
+    p.finish(xml)?;
+    out.desc.light.push(s(n, d));
+    Ok(())
+}

@@ -1,0 +1,465 @@
+//! Mitsuba 3 XML scenes: the Cornell box family written in XML renders the same image as the
+//! TOML scenes (tile by tile), and parameters, references, transforms, one-sided BSDFs, PLY and
+//! OBJ meshes and the error messages (file, line and plugin) each have a case.
+
+mod util;
+
+use glam::Vec3;
+use lodestar::geometry::bvh::ShapeGeometry;
+use lodestar::scene::Scene;
+use lodestar::scene::loader::{load_file, load_file_with, load_mitsuba_str};
+use std::path::{Path, PathBuf};
+use util::{assert_same_image, differs, seeded_renders};
+
+fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn xml(text: &str) -> lodestar::error::Result<Scene> {
+    load_mitsuba_str(text, "test.xml", None, &[])
+}
+
+fn xml_err(text: &str) -> String {
+    match xml(text) {
+        Ok(_) => panic!("expected an error for:\n{text}"),
+        Err(e) => e.to_string(),
+    }
+}
+
+/// A scene around `body` with a 16 x 16 camera at z = 4 looking at the origin.
+fn wrap(body: &str) -> String {
+    format!(
+        r#"<scene version="3.0.0">
+    <sensor type="perspective">
+        <float name="fov" value="40"/>
+        <transform name="to_world"><lookat origin="0, 0, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <film type="hdrfilm"><integer name="width" value="16"/><integer name="height" value="16"/><rfilter type="box"/></film>
+    </sensor>
+{body}
+</scene>"#
+    )
+}
+
+fn mesh_positions(scene: &Scene, shape: usize) -> Vec<Vec3> {
+    match &scene.shapes[shape] {
+        ShapeGeometry::Mesh(m) => m
+            .indices
+            .iter()
+            .flatten()
+            .map(|&i| m.positions[i as usize])
+            .collect(),
+        ShapeGeometry::Sphere(_) => panic!("not a mesh"),
+    }
+}
+
+/// Every scene of the family, in XML at 32 x 32 (through `-D res=32`) against the TOML file at
+/// 32 x 32: four seeds a side, 8 x 8 tiles, Welch's t per tile and channel at a family-wise
+/// false-failure rate of 1e-4 (see `util::assert_same_image`). The TOML renders use seeds
+/// 100.. so the two sides are independent. Controls: the XML box with its light turned to face
+/// up, and a left-right mirror of the XML renders, both fail the same comparison.
+#[test]
+fn cornell_family_in_xml_renders_the_toml_image() {
+    let defines = [("res".to_string(), "32".to_string())];
+    for name in ["cornell-box", "cornell-glossy", "cornell-fog"] {
+        let path = root().join(format!("scenes/mitsuba/{name}.xml"));
+        let from_xml = load_file_with(&path, &defines).unwrap();
+        let text = std::fs::read_to_string(root().join(format!("scenes/{name}.toml"))).unwrap();
+        let from_toml =
+            util::scene(&text.replace("resolution = [256, 256]", "resolution = [32, 32]"));
+        assert_eq!(from_xml.camera.resolution, from_toml.camera.resolution);
+        assert!((from_xml.camera.fov_y_degrees - from_toml.camera.fov_y_degrees).abs() < 1e-4);
+        assert_eq!(from_xml.render.max_depth, 8);
+        assert_eq!(from_xml.render.spp, 64);
+        let a = seeded_renders(&from_xml, "pt", 8, &[], 64, 4, 0);
+        let b = seeded_renders(&from_toml, "pt", 8, &[], 64, 4, 100);
+        assert_same_image(&a, &b, 8, name);
+        if name == "cornell-box" {
+            let mirrored: Vec<_> = a.iter().map(util::mirrored).collect();
+            assert!(differs(&mirrored, &b, 8), "mirror control passed");
+            let text = std::fs::read_to_string(&path).unwrap();
+            let up = text.replace(
+                "<rotate x=\"1\" angle=\"90\"/>\n            <translate y=\"0.99\"/>",
+                "<rotate x=\"1\" angle=\"-90\"/>\n            <translate y=\"0.99\"/>",
+            );
+            assert_ne!(up, text);
+            let turned = load_mitsuba_str(&up, "up.xml", None, &defines).unwrap();
+            let c = seeded_renders(&turned, "pt", 8, &[], 64, 4, 0);
+            assert!(differs(&c, &b, 8), "turned-light control passed");
+        }
+    }
+}
+
+#[test]
+fn parameters_take_defaults_and_command_line_definitions() {
+    let text = wrap(
+        r#"<default name="r" value="0.25"/>
+    <shape type="sphere"><float name="radius" value="$r"/></shape>"#,
+    );
+    let radius = |s: &Scene| match &s.shapes[0] {
+        ShapeGeometry::Sphere(sp) => sp.radius,
+        _ => panic!(),
+    };
+    assert_eq!(radius(&xml(&text).unwrap()), 0.25);
+    let d = [("r".to_string(), "2".to_string())];
+    assert_eq!(
+        radius(&load_mitsuba_str(&text, "t.xml", None, &d).unwrap()),
+        2.0
+    );
+    let e = xml_err(&wrap(
+        r#"
+    <shape type="sphere"><float name="radius" value="$missing"/></shape>"#,
+    ));
+    assert!(
+        e.starts_with("test.xml:8:") && e.contains("$missing"),
+        "{e}"
+    );
+}
+
+#[test]
+fn refs_share_one_material_and_name_media() {
+    let s = xml(&wrap(
+        r#"<bsdf type="diffuse" id="grey"><rgb name="reflectance" value="0.2"/></bsdf>
+    <medium type="homogeneous" id="fog"><float name="sigma_t" value="2"/><float name="albedo" value="0.5"/></medium>
+    <shape type="cube"><ref id="grey"/></shape>
+    <shape type="sphere"><ref id="grey"/></shape>
+    <shape type="rectangle"><bsdf type="null"/><ref name="interior" id="fog"/></shape>"#,
+    ))
+    .unwrap();
+    assert_eq!(s.shape_info[0].material, s.shape_info[1].material);
+    assert_eq!(s.materials[s.shape_info[0].material as usize].name, "grey");
+    assert!(s.shape_info[2].null);
+    assert_eq!(s.media.len(), 1);
+    let m = &s.media[0];
+    assert_eq!(m.name, "fog");
+    let e = xml_err(&wrap(
+        r#"
+    <shape type="cube"><ref id="nothing"/></shape>"#,
+    ));
+    assert!(e.starts_with("test.xml:8:") && e.contains("nothing"), "{e}");
+}
+
+/// Each transform operation against the same geometry written with another one.
+#[test]
+fn transforms_compose_in_the_order_written() {
+    let rect = |ops: &str| {
+        let s = xml(&wrap(&format!(
+            r#"<shape type="rectangle"><transform name="to_world">{ops}</transform></shape>"#
+        )))
+        .unwrap();
+        mesh_positions(&s, 0)
+    };
+    let close = |a: &[Vec3], b: &[Vec3]| a.iter().zip(b).all(|(p, q)| (*p - *q).length() < 1e-5);
+    // scale, then rotate 90 degrees about +y, then translate.
+    let ops =
+        rect(r#"<scale x="2" y="3"/><rotate y="1" angle="90"/><translate x="1" y="-1" z="0.5"/>"#);
+    let expected: Vec<Vec3> = rect("")
+        .iter()
+        .map(|p| {
+            let s = Vec3::new(2.0 * p.x, 3.0 * p.y, p.z);
+            Vec3::new(s.z, s.y, -s.x) + Vec3::new(1.0, -1.0, 0.5)
+        })
+        .collect();
+    assert!(close(&ops, &expected), "{ops:?} vs {expected:?}");
+    // The same as one matrix (row by row), and translate-then-scale differs.
+    let m = rect(r#"<matrix value="0 0 1 1  0 3 0 -1  -2 0 0 0.5  0 0 0 1"/>"#);
+    assert!(close(&m, &expected));
+    let swapped = rect(r#"<translate x="1"/><scale x="2"/>"#);
+    let scaled_first = rect(r#"<scale x="2"/><translate x="1"/>"#);
+    assert!(!close(&swapped, &scaled_first));
+    // lookat: the rectangle's normal (+z) turned towards the target.
+    let s = xml(&wrap(
+        r#"<shape type="rectangle"><transform name="to_world"><lookat origin="0, 0, 0" target="1, 0, 0" up="0, 1, 0"/></transform></shape>"#,
+    ))
+    .unwrap();
+    let ShapeGeometry::Mesh(m) = &s.shapes[0] else {
+        panic!()
+    };
+    assert!((m.geometric_normal(0) - Vec3::X).length() < 1e-5);
+    // A projective matrix is refused at its line.
+    let e = xml_err(&wrap(
+        r#"
+    <shape type="cube"><transform name="to_world"><matrix value="1 0 0 0 0 1 0 0 0 0 1 0 1 0 0 1"/></transform></shape>"#,
+    ));
+    assert!(
+        e.starts_with("test.xml:8:") && e.contains("projective"),
+        "{e}"
+    );
+}
+
+/// `fov_axis` on a 2:1 film: the vertical field of view lodestar's camera gets.
+#[test]
+fn fov_axis_converts_to_the_vertical_field_of_view() {
+    let fov_y = |axis: &str| {
+        let text = wrap("").replace(
+            r#"<float name="fov" value="40"/>"#,
+            &format!(r#"<float name="fov" value="40"/><string name="fov_axis" value="{axis}"/>"#),
+        );
+        let text = text.replace(
+            r#"<integer name="width" value="16"/>"#,
+            r#"<integer name="width" value="32"/>"#,
+        );
+        xml(&text).unwrap().camera.fov_y_degrees
+    };
+    let half = |deg: f32| (deg.to_radians() / 2.0).tan();
+    let y_of = |t: f32| 2.0 * t.atan().to_degrees();
+    assert!((fov_y("y") - 40.0).abs() < 1e-4);
+    assert!((fov_y("x") - y_of(half(40.0) / 2.0)).abs() < 1e-4);
+    assert!((fov_y("smaller") - 40.0).abs() < 1e-4);
+    assert!((fov_y("larger") - fov_y("x")).abs() < 1e-4);
+    assert!((fov_y("diagonal") - y_of(half(40.0) / 5f32.sqrt())).abs() < 1e-4);
+}
+
+/// A diffuse rectangle seen from its back: black unless wrapped in `twosided` (Mitsuba's rule;
+/// lodestar's TOML materials are two-sided).
+#[test]
+fn bsdfs_without_twosided_are_black_from_the_back() {
+    let mean = |bsdf: &str| {
+        let s = xml(&wrap(&format!(
+            r#"<emitter type="constant"><rgb name="radiance" value="1"/></emitter>
+    <shape type="rectangle"><transform name="to_world"><scale value="5"/><rotate y="1" angle="180"/></transform>{bsdf}</shape>"#
+        )))
+        .unwrap();
+        let img = util::render(&s, "pt", 4, &[], 4, 0, 2).image;
+        img.pixels.iter().map(|p| p.x as f64).sum::<f64>() / img.pixels.len() as f64
+    };
+    let one = r#"<bsdf type="diffuse"/>"#;
+    let two = r#"<bsdf type="twosided"><bsdf type="diffuse"/></bsdf>"#;
+    assert_eq!(mean(one), 0.0);
+    // The back of a two-sided diffuse of albedo 0.5 under a unit sky: 0.5 (the rectangle
+    // fills the view and hides half the sky; the other half lights it).
+    let m = mean(two);
+    assert!((m - 0.5).abs() < 0.05, "{m}");
+    // No BSDF: Mitsuba's default diffuse, one-sided.
+    assert_eq!(mean(""), 0.0);
+}
+
+/// A quad as ASCII PLY, little- and big-endian binary PLY and OBJ: the same triangles.
+#[test]
+fn ply_and_obj_meshes_load_the_same_geometry() {
+    let dir = std::env::temp_dir().join(format!("lodestar-ply-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let v = [
+        [-1.0f32, -1.0, 0.0],
+        [1.0, -1.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [-1.0, 1.0, 0.0],
+    ];
+    let header = |fmt: &str| {
+        format!(
+            "ply\nformat {fmt} 1.0\ncomment a quad\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\nproperty uchar red\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n"
+        )
+    };
+    let mut ascii = header("ascii");
+    for p in &v {
+        ascii += &format!("{} {} {} 255\n", p[0], p[1], p[2]);
+    }
+    ascii += "4 0 1 2 3\n";
+    std::fs::write(dir.join("a.ply"), ascii).unwrap();
+    for (name, big) in [("le.ply", false), ("be.ply", true)] {
+        let mut b = header(if big {
+            "binary_big_endian"
+        } else {
+            "binary_little_endian"
+        })
+        .into_bytes();
+        for p in &v {
+            for x in p {
+                b.extend(if big {
+                    x.to_be_bytes()
+                } else {
+                    x.to_le_bytes()
+                });
+            }
+            b.push(255);
+        }
+        b.push(4);
+        for i in 0..4i32 {
+            b.extend(if big {
+                i.to_be_bytes()
+            } else {
+                i.to_le_bytes()
+            });
+        }
+        std::fs::write(dir.join(name), b).unwrap();
+    }
+    std::fs::write(
+        dir.join("q.obj"),
+        "v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nf 1 2 3 4\n",
+    )
+    .unwrap();
+    let load = |file: &str, kind: &str| {
+        let text = wrap(&format!(
+            r#"<shape type="{kind}"><string name="filename" value="{file}"/><boolean name="face_normals" value="true"/></shape>"#
+        ));
+        load_mitsuba_str(&text, "t.xml", Some(&dir), &[]).unwrap()
+    };
+    let reference = mesh_positions(&load("a.ply", "ply"), 0);
+    assert_eq!(reference.len(), 6);
+    for (file, kind) in [("le.ply", "ply"), ("be.ply", "ply"), ("q.obj", "obj")] {
+        let s = load(file, kind);
+        let mut p = mesh_positions(&s, 0);
+        let mut r = reference.clone();
+        let key = |a: &Vec3| (a.x.to_bits(), a.y.to_bits(), a.z.to_bits());
+        p.sort_by_key(key);
+        r.sort_by_key(key);
+        assert_eq!(p, r, "{file}");
+    }
+    // Without face_normals a mesh with no normals in the file gets smooth vertex normals.
+    let text = wrap(r#"<shape type="obj"><string name="filename" value="q.obj"/></shape>"#);
+    let s = load_mitsuba_str(&text, "t.xml", Some(&dir), &[]).unwrap();
+    let ShapeGeometry::Mesh(m) = &s.shapes[0] else {
+        panic!()
+    };
+    assert!(
+        m.normals
+            .as_ref()
+            .unwrap()
+            .iter()
+            .all(|n| (*n - Vec3::Z).length() < 1e-6)
+    );
+    // A truncated binary file is an error naming the file.
+    let b = std::fs::read(dir.join("le.ply")).unwrap();
+    std::fs::write(dir.join("cut.ply"), &b[..b.len() - 3]).unwrap();
+    let text = wrap(
+        r#"
+    <shape type="ply"><string name="filename" value="cut.ply"/></shape>"#,
+    );
+    let e = load_mitsuba_str(&text, "t.xml", Some(&dir), &[])
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.starts_with("t.xml:8:") && e.contains("cut.ply") && e.contains("ends"),
+        "{e}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Bad input: each error names the file, the line and what was expected.
+#[test]
+fn errors_name_the_line_and_the_plugin() {
+    let cases: &[(&str, &str)] = &[
+        (
+            r#"<shape type="cube"><bsdf type="plastic"/></shape>"#,
+            "'plastic' is not supported",
+        ),
+        (
+            r#"<shape type="cube"><bsdf type="diffuse"><float name="roughness" value="1"/></bsdf></shape>"#,
+            "does not take the property 'roughness'",
+        ),
+        (
+            r#"<shape type="cube"><bsdf type="roughconductor"/></shape>"#,
+            "Beckmann",
+        ),
+        (
+            r#"<shape type="cube"><bsdf type="diffuse"><texture type="bitmap" name="reflectance"/></bsdf></shape>"#,
+            "texture",
+        ),
+        (
+            r#"<shape type="cube"><bsdf type="diffuse"><spectrum name="reflectance" value="400:0.1, 700:0.5"/></bsdf></shape>"#,
+            "wavelengths",
+        ),
+        (
+            r#"<shape type="serialized"/>"#,
+            "shape 'serialized' is not supported",
+        ),
+        (
+            r#"<shape type="obj"><string name="filename" value="no-such.obj"/></shape>"#,
+            "cannot load mesh",
+        ),
+        (
+            r#"<emitter type="envmap"/>"#,
+            "emitter 'envmap' is not supported",
+        ),
+        (
+            r#"<emitter type="spot"><float name="cutoff_angle" value="30"/></emitter>"#,
+            "beam_width",
+        ),
+        (
+            r#"<shape type="cube"><bsdf type="diffuse"><rgb name="reflectance" value="0.5, x, 1"/></bsdf></shape>"#,
+            "'x' is not a finite number",
+        ),
+        (
+            r#"<include filename="other.xml"/>"#,
+            "<include> is not supported",
+        ),
+        (
+            r#"<shape type="cube"><bsdf type="null"/></shape>"#,
+            "index-matched",
+        ),
+    ];
+    for (body, needle) in cases {
+        let e = xml_err(&wrap(&format!("\n    {body}")));
+        assert!(e.starts_with("test.xml:8:"), "{body}: {e}");
+        assert!(e.contains(needle), "{body}: {e}");
+    }
+    // Malformed XML: the line of the fault.
+    let e = xml_err("<scene version=\"3.0.0\">\n<sensor type=\"perspective\">\n</scene>");
+    assert!(
+        e.starts_with("test.xml:3:") && e.contains("not well-formed"),
+        "{e}"
+    );
+    // The medium the sensor claims must be the one the geometry puts it in.
+    let e = xml_err(&wrap(r#"<medium type="homogeneous" id="fog"/>
+    <shape type="sphere"><float name="radius" value="0.5"/><bsdf type="null"/><ref name="interior" id="fog"/></shape>"#).replace(
+        r#"<film type="hdrfilm">"#,
+        r#"<ref id="fog"/><film type="hdrfilm">"#,
+    ));
+    assert!(
+        e.contains("the sensor is said to be in medium 'fog'"),
+        "{e}"
+    );
+    // Through the CLI entry point: the file's name.
+    let e = load_file(Path::new("/nonexistent/scene.xml"))
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("/nonexistent/scene.xml"), "{e}");
+}
+
+/// The command line: `render scene.xml -D name=value`, and its errors.
+#[test]
+fn cli_renders_xml_with_definitions() {
+    let dir = std::env::temp_dir().join(format!("lodestar-xml-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let run = |args: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_lodestar"))
+            .args(args)
+            .output()
+            .unwrap()
+    };
+    let scene = root().join("scenes/mitsuba/cornell-box.xml");
+    let scene = scene.to_str().unwrap();
+    let out = dir.join("x.exr");
+    let root_toml = root().join("scenes/cornell-box.toml").display().to_string();
+    let o = run(&[
+        "render",
+        scene,
+        "-D",
+        "res=8",
+        "-D",
+        "spp=2",
+        "--quiet",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (img, _) = lodestar::film::Image::read_exr(&out).unwrap();
+    assert_eq!((img.width, img.height), (8, 8));
+    for (args, needle) in [
+        (vec!["render", scene, "-D", "res"], "expected NAME=VALUE"),
+        (vec!["render", scene, "-D", "res=x"], "cornell-box.xml:24:"),
+        (
+            vec!["render", root_toml.as_str(), "-D", "res=8"],
+            "TOML scene",
+        ),
+    ] {
+        let o = run(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            !o.status.success() && err.contains(needle),
+            "{args:?}: {err}"
+        );
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -21,6 +21,8 @@
 //! type = "diffuse"         # diffuse (albedo), conductor (reflectance: a mirror),
 //! albedo = [0.73, 0.73, 0.73] # dielectric (ior), roughconductor (alpha and reflectance, or
 //!                          # alpha, eta and k), roughdielectric (alpha, ior), black
+//! one_sided = false        # diffuse and conductors: black seen from the back (Mitsuba's
+//!                          # BSDFs without twosided); two-sided by default
 //!
 //! [[medium]]               # homogeneous
 //! name = "haze"
@@ -31,7 +33,8 @@
 //! [[shape]]
 //! type = "quad"            # quad (origin, edge_u, edge_v, optional tiles = [nu, nv] with
 //!                          # tile_material), cube, sphere (center, radius),
-//!                          # disk (center, normal, radius, segments), obj (file),
+//!                          # disk (center, normal, radius, segments), obj and ply (file,
+//!                          # normals = "file" | "faces" | "smooth": see `ShapeDesc::normals`),
 //!                          # heightfield (size, grid, waves = [{ amplitude, wavelength,
 //!                          # direction = [x, z], phase }])
 //! origin = [-1, -1, -1]
@@ -43,6 +46,8 @@
 //! cone_delta = 5           # smooth edge width)
 //! interior = "fog"         # optional media inside / outside (unnamed side: the world medium)
 //! transform = { scale = [1, 1, 1], rotate = { axis = [0, 1, 0], degrees = 0 }, translate = [0, 0, 0] }
+//!                          # or transform = { matrix = [[1, 0, 0, 0], ...] } (4 rows, affine)
+//! flip_normals = false     # meshes: turn the front side over
 //!
 //! [[light]]
 //! type = "point"           # point (position, intensity), spot (position, direction,
@@ -61,7 +66,9 @@
 //! Files: this one holds the format (the description structs serde reads, the limits, error
 //! positions) and the entry points; `build.rs` assembles a scene from a description,
 //! `camera.rs`, `materials.rs`, `lights.rs` and `shapes.rs` turn one kind of table each into
-//! scene parts. A second front end (Mitsuba XML, issue 17) is to fill the same description.
+//! scene parts, `mesh_files.rs` reads OBJ and PLY. The second front end, `mitsuba/`, reads
+//! Mitsuba 3 XML (files ending in `.xml`) into the same description, so both formats share
+//! one builder and its checks.
 
 use super::{Material, RenderDefaults, Scene, SceneFeatures, ShapeInfo};
 use crate::bsdf::{Bsdf, ConductorFresnel};

@@ -372,7 +372,7 @@ fn errors_name_the_line_and_the_plugin() {
             "emitter 'envmap' is not supported",
         ),
         (
-            r#"<emitter type="spot"><float name="cutoff_angle" value="30"/></emitter>"#,
+            r#"<emitter type="spot"><float name="cutoff_angle" value="30"/><float name="beam_width" value="40"/></emitter>"#,
             "beam_width",
         ),
         (
@@ -462,4 +462,26 @@ fn cli_renders_xml_with_definitions() {
         );
     }
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// A Mitsuba spot (cutoff 20, default beam width 15 degrees, aimed by a lookat along -y):
+/// full intensity inside 15 degrees, half at 17.5 (Mitsuba's edge is linear in the angle),
+/// none beyond 20.
+#[test]
+fn spot_has_mitsubas_linear_edge() {
+    let s = xml(&wrap(
+        r#"<emitter type="spot"><rgb name="intensity" value="4"/><float name="cutoff_angle" value="20"/>
+        <transform name="to_world"><lookat origin="0, 2, 0" target="0, 0, 0" up="0, 0, 1"/></transform></emitter>"#,
+    ))
+    .unwrap();
+    let lodestar::light::Light::Spot(spot) = &s.lights[0] else {
+        panic!("not a spot light")
+    };
+    let at = |deg: f32| {
+        let r = deg.to_radians();
+        spot.intensity_towards(Vec3::new(r.sin(), -r.cos(), 0.0)).x
+    };
+    assert!((at(10.0) - 4.0).abs() < 1e-5);
+    assert!((at(17.5) - 2.0).abs() < 1e-2, "{}", at(17.5));
+    assert_eq!(at(20.5), 0.0);
 }

@@ -14,6 +14,8 @@ What it compares
        pixels of the per-pixel variances of the two averages (estimated from the renders).
        MSE / floor near 1 means the pictures agree pixel by pixel; a bias b per pixel adds b^2.
     3. Time: median wall seconds per render (Mitsuba: up to reading the image back).
+    --control adds a row per scene comparing lodestar with itself (seeds 0..N-1 against
+    N..2N-1) by the same statistics: what agreement looks like for these sample sizes.
 
 Usage
     pip install mitsuba numpy; apt-get install libllvm19   (for llvm_ad_rgb)
@@ -41,6 +43,7 @@ def main():
     ap.add_argument("--renders", type=int, default=8)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--lodestar", default=os.path.join(ROOT, "target/release/lodestar"))
+    ap.add_argument("--control", action="store_true", help="also compare lodestar with itself")
     args = ap.parse_args()
 
     if args.variant.startswith("llvm") and "DRJIT_LIBLLVM_PATH" not in os.environ:
@@ -70,25 +73,36 @@ def main():
             img = np.array(mi.render(scene, seed=k), dtype=np.float64)[:, :, :3]
             mt.append(time.perf_counter() - t)
             mits.append(img)
-        lods, lt = [], []
-        for k in range(args.renders):
-            out = os.path.join(tmp, f"{name}-{k}.exr")
-            t = time.perf_counter()
-            subprocess.run([args.lodestar, "render", path, "-D", f"res={args.res}", "-D", f"spp={args.spp}",
-                            "--seed", str(k), "--threads", str(args.threads), "--quiet", "-o", out],
-                           check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-            lt.append(time.perf_counter() - t)
-            lods.append(np.array(mi.Bitmap(out), dtype=np.float64)[:, :, :3])
-        m, l = np.stack(mits), np.stack(lods)
+        def lodestar(seeds):
+            imgs, times = [], []
+            for k in seeds:
+                out = os.path.join(tmp, f"{name}-{k}.exr")
+                t = time.perf_counter()
+                subprocess.run([args.lodestar, "render", path, "-D", f"res={args.res}", "-D", f"spp={args.spp}",
+                                "--seed", str(k), "--threads", str(args.threads), "--quiet", "-o", out],
+                               check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                times.append(time.perf_counter() - t)
+                imgs.append(np.array(mi.Bitmap(out), dtype=np.float64)[:, :, :3])
+            return np.stack(imgs), times
+
         n = args.renders
-        mm, lm = m.mean(axis=(1, 2)), l.mean(axis=(1, 2))  # per render, per channel
-        z = (lm.mean(0) - mm.mean(0)) / np.sqrt(lm.var(0, ddof=1) / n + mm.var(0, ddof=1) / n)
-        mse = ((l.mean(0) - m.mean(0)) ** 2).mean()
-        floor = (l.var(0, ddof=1) / n + m.var(0, ddof=1) / n).mean()
-        fmt = lambda v: " ".join(f"{x:.5f}" for x in v)
-        print(f"| {name} | {fmt(lm.mean(0))} | {fmt(mm.mean(0))} | {np.abs(z).max():.2f} | "
-              f"{mse:.3e} / {floor:.3e} = {mse / floor:.3f} | {statistics.median(lt):.2f} | {statistics.median(mt):.2f} |")
-        sys.stdout.flush()
+        l, lt = lodestar(range(n))
+        m = np.stack(mits)
+
+        def row(label, a, b, ta, tb):
+            am, bm = a.mean(axis=(1, 2)), b.mean(axis=(1, 2))  # per render, per channel
+            z = (am.mean(0) - bm.mean(0)) / np.sqrt(am.var(0, ddof=1) / n + bm.var(0, ddof=1) / n)
+            mse = ((a.mean(0) - b.mean(0)) ** 2).mean()
+            floor = (a.var(0, ddof=1) / n + b.var(0, ddof=1) / n).mean()
+            fmt = lambda v: " ".join(f"{x:.5f}" for x in v)
+            print(f"| {label} | {fmt(am.mean(0))} | {fmt(bm.mean(0))} | {np.abs(z).max():.2f} | "
+                  f"{mse:.3e} / {floor:.3e} = {mse / floor:.3f} | {statistics.median(ta):.2f} | {tb} |")
+            sys.stdout.flush()
+
+        row(name, l, m, lt, f"{statistics.median(mt):.2f}")
+        if args.control:
+            l2, lt2 = lodestar(range(n, 2 * n))
+            row(f"{name}: lodestar vs lodestar (control)", l, l2, lt, "")
 
 
 if __name__ == "__main__":

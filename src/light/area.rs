@@ -51,6 +51,11 @@ impl AreaLight {
         geometry: AreaShape,
         profile: SpotProfile,
     ) -> AreaLight {
+        assert_eq!(
+            profile.edge(),
+            super::spot::SpotEdge::Smoothstep,
+            "spot area lights have the smoothstep edge (their cosine integral is its)"
+        );
         if let Err(e) = SpotProfile::check_area(profile.cone_angle(), profile.cone_delta()) {
             panic!("{e}");
         }

@@ -31,7 +31,7 @@ pub use area::{AreaLight, AreaShape};
 pub use directional::DirectionalLight;
 pub use environment::EnvironmentLight;
 pub use point::PointLight;
-pub use spot::{SpotLight, SpotProfile};
+pub use spot::{SpotEdge, SpotLight, SpotProfile};
 pub use sun::SunLight;
 
 use crate::math::{Distribution1D, Spectrum, luminance};

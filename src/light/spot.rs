@@ -1,19 +1,31 @@
 //! Spot lights: the angular profile shared by the point spot light and spot area lights, and
 //! the point spot light itself (a delta light).
 //!
-//! The profile is pbrt's: full strength within `cone_angle - cone_delta` of the axis, zero
-//! beyond `cone_angle`, and `smoothstep(cos(cone_angle), cos(cone_angle - cone_delta), cos)`
-//! in between (a hard edge for `cone_delta = 0`). It is evaluated on `z = 1 - cos(theta)`
-//! (the same function; accurate for narrow cones).
+//! The profile is full strength within `cone_angle - cone_delta` of the axis, zero beyond
+//! `cone_angle`, and in between either pbrt's edge,
+//! `smoothstep(cos(cone_angle), cos(cone_angle - cone_delta), cos)`, or Mitsuba's, linear in
+//! the angle: `(cone_angle - theta) / cone_delta` ([`SpotEdge`]); a hard edge for
+//! `cone_delta = 0`. It is evaluated on `z = 1 - cos(theta)` (accurate for narrow cones).
 
 use super::cone::{one_minus_cos, one_minus_cos_deg, sample_uniform_cone, uniform_cone_pdf};
 use super::{EmissionSample, LightSample};
 use crate::math::{Frame, Spectrum, luminance};
 use glam::{Vec2, Vec3};
 
+/// The shape of a spot profile's edge.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SpotEdge {
+    /// pbrt's: a smoothstep in the cosine.
+    #[default]
+    Smoothstep,
+    /// Mitsuba's: linear in the angle (point spot lights only).
+    LinearAngle,
+}
+
 /// Angular falloff of a spot light around its axis.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SpotProfile {
+    edge: SpotEdge,
     /// Half-angle of the cone, degrees.
     cone_angle: f32,
     /// Width of the smooth edge inside the cone, degrees.
@@ -44,11 +56,23 @@ impl SpotProfile {
             panic!("{e}");
         }
         SpotProfile {
+            edge: SpotEdge::Smoothstep,
             cone_angle,
             cone_delta,
             z_end: one_minus_cos_deg(cone_angle),
             z_start: one_minus_cos_deg(cone_angle - cone_delta),
         }
+    }
+
+    /// The profile with Mitsuba's edge, linear in the angle (for point spot lights: spot area
+    /// lights need [`SpotProfile::cosine_integral`], which only the smoothstep edge has).
+    pub fn with_edge(self, edge: SpotEdge) -> SpotProfile {
+        SpotProfile { edge, ..self }
+    }
+
+    /// The shape of the edge.
+    pub fn edge(&self) -> SpotEdge {
+        self.edge
     }
 
     /// Why `(cone_angle, cone_delta)` is not a valid profile, if it is not: `cone_angle` must
@@ -107,6 +131,11 @@ impl SpotProfile {
             0.0
         } else if z <= self.z_start {
             1.0
+        } else if self.edge == SpotEdge::LinearAngle {
+            // theta = 2 asin(sqrt(z / 2)), accurate for small angles.
+            let theta = 2.0 * (0.5 * z).sqrt().min(1.0).asin();
+            let t = (self.cone_angle.to_radians() - theta) / self.cone_delta.to_radians();
+            t.clamp(0.0, 1.0)
         } else {
             // smoothstep(cos_end, cos_start, cos) with t = (cos - cos_end) / (cos_start -
             // cos_end) = (z_end - z) / (z_end - z_start).
@@ -127,10 +156,23 @@ impl SpotProfile {
         self.falloff_z(one_minus_cos(axis, w))
     }
 
-    /// `∫ profile dω` over the sphere, exactly: `2 pi ((1 - cos_start) + (cos_start -
-    /// cos_end) / 2)` (the smoothstep averages 1/2 over its interval) `= pi (z_start + z_end)`.
+    /// `∫ profile dω` over the sphere, exactly. Smoothstep edge: `2 pi ((1 - cos_start) +
+    /// (cos_start - cos_end) / 2)` (the smoothstep averages 1/2 over its interval) `= pi
+    /// (z_start + z_end)`. Linear edge from angle `b` to `c`: `2 pi (1 - (sin c - sin b) /
+    /// (c - b))` (integrating `(c - theta) sin(theta)` by parts), `2 pi z_end` when `b = c`.
     pub fn solid_angle_integral(&self) -> f64 {
-        std::f64::consts::PI * (self.z_start as f64 + self.z_end as f64)
+        use std::f64::consts::PI;
+        match self.edge {
+            SpotEdge::LinearAngle if self.cone_delta > 0.0 => {
+                let c = (self.cone_angle as f64).to_radians();
+                let b = ((self.cone_angle - self.cone_delta) as f64).to_radians();
+                // (sin c - sin b) / (c - b) = cos((c + b) / 2) sinc((c - b) / 2).
+                let h = 0.5 * (c - b);
+                2.0 * PI * (1.0 - (0.5 * (c + b)).cos() * h.sin() / h)
+            }
+            SpotEdge::LinearAngle => 2.0 * PI * self.z_end as f64,
+            SpotEdge::Smoothstep => PI * (self.z_start as f64 + self.z_end as f64),
+        }
     }
 
     /// `∫ profile(theta) cos(theta) dω` over the front hemisphere, exactly (for
@@ -251,5 +293,48 @@ impl SpotLight {
                 0.0
             },
         )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `∫ profile dω` by the midpoint rule in theta (fine enough for 1e-6).
+    fn numeric_integral(p: &SpotProfile) -> f64 {
+        let n = 200_000;
+        let mut sum = 0.0;
+        for i in 0..n {
+            let theta = std::f64::consts::PI * (i as f64 + 0.5) / n as f64;
+            let z = (1.0 - theta.cos()) as f32;
+            sum += p.falloff_z(z) as f64 * theta.sin();
+        }
+        2.0 * std::f64::consts::PI * sum * std::f64::consts::PI / n as f64
+    }
+
+    #[test]
+    fn both_edges_integrate_to_their_closed_forms() {
+        for (angle, delta) in [(20.0, 5.0), (30.0, 0.0), (60.0, 45.0), (170.0, 100.0)] {
+            for edge in [SpotEdge::Smoothstep, SpotEdge::LinearAngle] {
+                let p = SpotProfile::new(angle, delta).with_edge(edge);
+                let (exact, numeric) = (p.solid_angle_integral(), numeric_integral(&p));
+                assert!(
+                    ((exact - numeric) / exact).abs() < 2e-4,
+                    "{edge:?} {angle} {delta}: {exact} vs {numeric}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn linear_edge_is_mitsubas() {
+        // cutoff 20, beam width 15 (Mitsuba's default 3/4): one inside 15 degrees, 1/2 at
+        // 17.5, zero beyond 20.
+        let p = SpotProfile::new(20.0, 5.0).with_edge(SpotEdge::LinearAngle);
+        let at = |deg: f32| p.falloff(deg.to_radians().cos());
+        assert_eq!(at(10.0), 1.0);
+        assert!((at(17.5) - 0.5).abs() < 1e-3, "{}", at(17.5));
+        assert!((at(19.0) - 0.2).abs() < 1e-3);
+        assert_eq!(at(21.0), 0.0);
     }
 }

@@ -17,6 +17,7 @@ impl Builder<'_> {
             ("direction", at(&d.direction)),
             ("cone_angle", at(&d.cone_angle)),
             ("cone_delta", at(&d.cone_delta)),
+            ("cone_edge", at(&d.cone_edge)),
             ("angle", at(&d.angle)),
         ];
         let allowed: &[&str] = match kind {
@@ -27,6 +28,7 @@ impl Builder<'_> {
                 "direction",
                 "cone_angle",
                 "cone_delta",
+                "cone_edge",
             ],
             "environment" => &["radiance"],
             "directional" => &["direction", "irradiance"],
@@ -68,8 +70,20 @@ impl Builder<'_> {
                     src.required(&d.intensity, span.clone(), "intensity", &what)?,
                     "intensity",
                 )?;
-                let profile =
+                let mut profile =
                     self.spot_profile(&d.cone_angle, &d.cone_delta, span.clone(), false)?;
+                if let Some(e) = &d.cone_edge {
+                    profile = profile.with_edge(match e.get_ref().as_str() {
+                        "smoothstep" => SpotEdge::Smoothstep,
+                        "linear" => SpotEdge::LinearAngle,
+                        other => {
+                            return src.err(
+                                e.span(),
+                                format!("'cone_edge' must be \"smoothstep\" or \"linear\", got \"{other}\""),
+                            );
+                        }
+                    });
+                }
                 Light::Spot(SpotLight::new(
                     position()?,
                     direction()?,

@@ -51,7 +51,8 @@
 //!
 //! [[light]]
 //! type = "point"           # point (position, intensity), spot (position, direction,
-//! position = [0, 0.9, 0]   # intensity, cone_angle = 30, cone_delta = 5), environment
+//! position = [0, 0.9, 0]   # intensity, cone_angle = 30, cone_delta = 5, cone_edge =
+//!                          # "smoothstep" or "linear" (in the angle: Mitsuba's)), environment
 //! intensity = [1, 1, 1]    # (radiance), directional (direction of travel, irradiance),
 //!                          # sun (direction towards the sun, angle = 0.27 degrees,
 //!                          # radiance or irradiance)
@@ -80,7 +81,7 @@ use crate::geometry::mesh::MeshSampler;
 use crate::geometry::{Accel, Sphere, Transform, TriangleMesh};
 use crate::light::{
     AreaLight, AreaShape, DirectionalLight, EnvironmentLight, Light, LightSampler, PointLight,
-    SpotLight, SpotProfile, SunLight,
+    SpotEdge, SpotLight, SpotProfile, SunLight,
 };
 use crate::math::Frame;
 use crate::medium::{HomogeneousMedium, MediumInterface};
@@ -278,6 +279,9 @@ struct LightDesc {
     direction: Option<V3>,
     cone_angle: Option<Spanned<f32>>,
     cone_delta: Option<Spanned<f32>>,
+    /// Spot lights: `smoothstep` (pbrt's edge, the default) or `linear` (in the angle,
+    /// Mitsuba's).
+    cone_edge: Option<Spanned<String>>,
     angle: Option<Spanned<f32>>,
 }
 

@@ -29,8 +29,8 @@
 //!   `area` emitter (`radiance`) and `interior`/`exterior` media. A mesh without normals gets
 //!   Mitsuba's angle-weighted vertex normals unless `face_normals` is true.
 //! * Emitters `point` (`intensity`, `position` or `to_world`), `spot` (`intensity`,
-//!   `cutoff_angle` 20, `to_world`; a hard cone only: `beam_width` must equal `cutoff_angle`,
-//!   as lodestar has no linear-in-angle edge like Mitsuba's), `directional`
+//!   `cutoff_angle` 20, `beam_width` 3/4 of it, Mitsuba's edge linear in the angle,
+//!   `to_world`), `directional`
 //!   (`irradiance`, `direction` or `to_world`), `constant` (`radiance`).
 //! * Media `homogeneous`: `sigma_t` (1), `albedo` (0.75), `scale` (1), `sample_emitters`,
 //!   `phase` `isotropic` or `hg` (`g` 0.8).

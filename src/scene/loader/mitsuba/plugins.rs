@@ -652,6 +652,7 @@ fn light_desc(n: Node, kind: &str) -> LightDesc {
         direction: None,
         cone_angle: None,
         cone_delta: None,
+        cone_edge: None,
         angle: None,
     }
 }
@@ -679,14 +680,14 @@ fn emitter(xml: &Xml, n: Node, out: &mut Out) -> Result<()> {
             if k == "spot" {
                 let dir = m.transform_vector3(Vec3::Z);
                 d.direction = Some(s(at, dir.to_array()));
-                let cutoff = p.float(xml, "cutoff_angle")?.map_or(20.0, |(_, a)| a);
-                match p.float(xml, "beam_width")? {
-                    Some((_, b)) if b == cutoff => {}
-                    Some((at, _)) => return xml.err(at, "a spot's 'beam_width' must equal its 'cutoff_angle': lodestar has a hard or smoothstep cone edge, not Mitsuba's linear-in-angle one"),
-                    None => return xml.err(n, "a spot needs 'beam_width' equal to 'cutoff_angle' (Mitsuba's default, 3/4 of it, makes a linear-in-angle edge lodestar does not have)"),
+                let (c_at, cutoff) = p.float(xml, "cutoff_angle")?.unwrap_or((n, 20.0));
+                let (b_at, beam) = p.float(xml, "beam_width")?.unwrap_or((n, 0.75 * cutoff));
+                if !(beam >= 0.0 && beam <= cutoff) {
+                    return xml.err(b_at, format!("'beam_width' must be in [0, cutoff_angle = {cutoff}], got {beam}"));
                 }
-                d.cone_angle = Some(s(n, cutoff));
-                d.cone_delta = Some(s(n, 0.0));
+                d.cone_angle = Some(s(c_at, cutoff));
+                d.cone_delta = Some(s(b_at, cutoff - beam));
+                d.cone_edge = Some(s(n, "linear".to_string()));
             }
             d
         }

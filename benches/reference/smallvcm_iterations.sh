@@ -25,9 +25,13 @@ for round in 1 2 3; do
         OMP_NUM_THREADS=$T /usr/bin/time -f "smallvcm $a: %U user + %S sys s for $N iterations" \
             "$SVCM/smallvcm" -s 4 -a $a -i "$N" -o "/tmp/smallvcm-$a.hdr" >/dev/null
     done
-    for a in bdpt vcm; do
+    # "bdpt rr_depth=1" is bdpt with SmallVCM's roulette (continuation = the largest
+    # reflectance from the first bounce on, as vcm does); bdpt's default waits 5 segments.
+    for a in bdpt "bdpt rr_depth=1" vcm; do
+        set -- $a
+        opt=${2:+-O $2}
         /usr/bin/time -f "lodestar $a: %U user + %S sys s for $N iterations" \
             "$HERE/target/release/lodestar" render "$HERE/benches/scenes/smallvcm-cornell.toml" \
-            --integrator $a --spp "$N" --threads "$T" --max-depth 10 -q -o "/tmp/lodestar-smallvcm-$a.exr"
+            --integrator $1 $opt --spp "$N" --threads "$T" --max-depth 10 -q -o "/tmp/lodestar-smallvcm-$1.exr"
     done
 done

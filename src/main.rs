@@ -195,6 +195,14 @@ struct BenchArgs {
     /// No line per render on stderr.
     #[arg(short, long)]
     quiet: bool,
+    /// Render only the I-th of N shares of the runs (integrator x seed) into OUT/runs/, for
+    /// an array job; build the report afterwards with --from-parts.
+    #[arg(long, value_name = "I/N", conflicts_with = "from_parts")]
+    part: Option<String>,
+    /// Build the report from the runs that `--part` benches (same arguments) wrote into these
+    /// output directories, instead of rendering.
+    #[arg(long, value_name = "DIR", num_args = 1..)]
+    from_parts: Vec<PathBuf>,
 }
 
 fn main() -> ExitCode {
@@ -559,7 +567,22 @@ fn bench(args: BenchArgs) -> Result<()> {
         verbose: !args.quiet,
     };
     let prepared = lodestar::bench::prepare(config)?;
-    let report = lodestar::bench::bench(&prepared)?;
+    if let Some(text) = &args.part {
+        let part = lodestar::parts::Part::parse(text)?;
+        let n = lodestar::bench::parts::run_part(&prepared, part)?;
+        if !args.quiet {
+            eprintln!(
+                "part {part}: {n} run(s) written to {}; build the report with --from-parts",
+                prepared.config.out.join("runs").display()
+            );
+        }
+        return Ok(());
+    }
+    let report = if args.from_parts.is_empty() {
+        lodestar::bench::bench(&prepared)?
+    } else {
+        lodestar::bench::bench_from_parts(&prepared, &args.from_parts)?
+    };
     print!("{}", report.table);
     if !args.quiet {
         eprintln!("wrote {}", prepared.config.out.join("index.html").display());

@@ -161,6 +161,11 @@ fn part_sh_takes_its_index_from_the_array_task() {
 /// The submissions of `submit.sh ARGS` to a stub sbatch (ids 101, 102, ...), each as its
 /// argument list, and submit.sh's output.
 fn submissions(dir: &Dir, args: &[&str]) -> (Vec<Vec<String>>, String) {
+    submissions_of("cluster/slurm/submit.sh", dir, args)
+}
+
+/// [`submissions`] of another submission script.
+fn submissions_of(script: &str, dir: &Dir, args: &[&str]) -> (Vec<Vec<String>>, String) {
     let log = dir.path("sbatch.txt");
     let count = dir.path("count");
     dir.script(
@@ -174,14 +179,14 @@ fn submissions(dir: &Dir, args: &[&str]) -> (Vec<Vec<String>>, String) {
     );
     let _ = std::fs::remove_file(&log);
     let _ = std::fs::remove_file(&count);
-    let submit = repo("cluster/slurm/submit.sh");
+    let submit = repo(script);
     let path = dir.path_env();
     let o = run(
         submit.to_str().unwrap(),
         args,
         &[("PATH", &path), ("LODESTAR", "/opt/lodestar")],
     );
-    assert_ok(&o, "submit.sh");
+    assert_ok(&o, script);
     let text = std::fs::read_to_string(&log).unwrap();
     let jobs = text
         .split("<end>\n")
@@ -356,4 +361,54 @@ fn k8s_indexed_job_renders_part_index_plus_one() {
     want.extend((1..=n).map(|i| format!("/work-out/part-{i}.exr")));
     assert_eq!(got[..want.len()], want[..], "{got:?}");
     assert!(has_pair(&got, "-o", "/work-out/merged.exr"), "{got:?}");
+}
+
+/// `bench.sh`: an array whose task I runs `bench ... --part I/N --out OUT/part-I` (the index
+/// expanded by the task's shell), then a report job after it gathering every part.
+#[test]
+fn bench_sh_spreads_a_bench_over_an_array() {
+    let dir = Dir::new("bench");
+    let out = dir.path("cmp");
+    let (jobs, stdout) = submissions_of(
+        "cluster/slurm/bench.sh",
+        &dir,
+        &[
+            "-n", "3", "-o", &out, "--", "--scene", "s.toml", "--time", "60",
+        ],
+    );
+    assert_eq!(jobs.len(), 2, "{jobs:?}");
+    let wrap = |job: &[String]| job[job.iter().position(|a| a == "--wrap").unwrap() + 1].clone();
+    assert!(jobs[0].contains(&"--array=1-3".to_string()));
+    // Run the task's line as a task would (SLURM_ARRAY_TASK_ID=2) with a stub lodestar.
+    let stub = dir.stub_lodestar();
+    let task = wrap(&jobs[0]).replacen("/opt/lodestar", &stub, 1);
+    let o = run("sh", &["-c", &task], &[("SLURM_ARRAY_TASK_ID", "2")]);
+    assert_ok(&o, "the array task");
+    let args = dir.recorded_args();
+    assert_eq!(args[..5], ["bench", "--scene", "s.toml", "--time", "60"]);
+    assert!(has_pair(&args, "--part", "2/3"), "{args:?}");
+    assert!(
+        has_pair(&args, "--out", &format!("{out}/part-2")),
+        "{args:?}"
+    );
+    let report = wrap(&jobs[1]);
+    assert!(jobs[1].contains(&"--dependency=afterok:101".to_string()));
+    let dirs: Vec<String> = (1..=3).map(|i| format!("{out}/part-{i}")).collect();
+    assert!(
+        report.starts_with("/opt/lodestar bench --scene s.toml --time 60 --from-parts ")
+            && report.contains(&dirs.join(" "))
+            && report.ends_with(&format!("--out {out}")),
+        "{report}"
+    );
+    assert!(stdout.contains("array job 101") && stdout.contains("report job 102"));
+    // Refused: BENCH_ARGS that the script sets itself.
+    let path = dir.path_env();
+    let script = repo("cluster/slurm/bench.sh");
+    let o = run(
+        script.to_str().unwrap(),
+        &["-n", "2", "-o", &out, "--", "--out", "x"],
+        &[("PATH", path.as_str())],
+    );
+    assert!(!o.status.success());
+    assert!(String::from_utf8_lossy(&o.stderr).contains("must not give --out"));
 }

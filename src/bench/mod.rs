@@ -16,10 +16,12 @@
 //! Outputs in the directory `out`: `report.csv` and `curves.csv` ([`report`]), `curves.svg`
 //! ([`plot`]), `images/<integrator>.exr|.png|.error.png` of the first run plus
 //! `images/reference.png` ([`colormap`]), and `index.html` ([`html`]), which shows it all
-//! offline. [`run`] renders; [`report`] computes the rows and writes the numbers.
+//! offline. [`run`] renders; [`report`] computes the rows and writes the numbers; [`parts`]
+//! spreads the runs over machines (`--part I/N`) and gathers them back (`--from-parts`).
 
 pub mod colormap;
 pub mod html;
+pub mod parts;
 pub mod plot;
 pub mod report;
 pub mod run;
@@ -149,6 +151,17 @@ pub struct BenchReport {
 /// Render everything and write the outputs into `config.out` (created if missing).
 pub fn bench(p: &Prepared) -> Result<BenchReport> {
     let results = run::run_all(p)?;
+    report_from(p, results)
+}
+
+/// The report of a bench whose runs were rendered by `--part`s, read from their output
+/// directories (see [`parts`]).
+pub fn bench_from_parts(p: &Prepared, dirs: &[PathBuf]) -> Result<BenchReport> {
+    let results = run::assemble(p, parts::collect(p, dirs)?)?;
+    report_from(p, results)
+}
+
+fn report_from(p: &Prepared, results: Vec<run::IntegratorRuns>) -> Result<BenchReport> {
     write_outputs(p, &results)?;
     let table = report::table(&p.scene.source, &report::median_rows(&results));
     Ok(BenchReport { results, table })

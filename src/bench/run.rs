@@ -55,43 +55,76 @@ pub struct IntegratorRuns {
     pub metadata: Vec<(String, String)>,
 }
 
+/// One finished render: which integrator (index in the bench's list), its run, final image
+/// and the entry and settings that name it.
+pub struct Rendered {
+    pub index: usize,
+    pub run: Run,
+    pub image: Image,
+    pub name: String,
+    pub settings: String,
+}
+
 /// Render every integrator `runs` times (seeds `seed .. seed + runs`).
 pub fn run_all(p: &Prepared) -> Result<Vec<IntegratorRuns>> {
     let c = &p.config;
-    let mut all: Vec<Option<IntegratorRuns>> = vec![None; c.integrators.len()];
-    let mut finals: Vec<Vec<Image>> = vec![Vec::new(); c.integrators.len()];
-    for seed in c.seed..c.seed + c.runs as u64 {
-        for (i, name) in c.integrators.iter().enumerate() {
-            let (run, image, name, settings) = render_one(p, name, seed)?;
-            finals[i].push(image.clone());
-            if c.verbose {
-                eprintln!(
-                    "{name} seed {seed}: {} spp in {:.2} s, MSE {:.4e}",
-                    run.spp, run.seconds, run.error.mse
-                );
-            }
-            match &mut all[i] {
-                Some(r) => r.runs.push(run),
-                slot => {
-                    let metadata = metadata(p, &name, &settings, &run);
-                    *slot = Some(IntegratorRuns {
-                        name,
-                        settings,
-                        runs: vec![run],
-                        image,
-                        metadata,
-                        variance: f64::NAN,
-                    })
-                }
-            }
+    let mut done = Vec::new();
+    for job in super::parts::jobs(c) {
+        done.push(render_job(p, job)?);
+    }
+    assemble(p, done)
+}
+
+/// Render one job of the bench's list (an integrator and a seed).
+pub fn render_job(p: &Prepared, job: super::parts::Job) -> Result<Rendered> {
+    let c = &p.config;
+    let entry = &c.integrators[job.integrator];
+    let (run, image, name, settings) = render_one(p, entry, job.seed)?;
+    if c.verbose {
+        eprintln!(
+            "{name} seed {}: {} spp in {:.2} s, MSE {:.4e}",
+            job.seed, run.spp, run.seconds, run.error.mse
+        );
+    }
+    Ok(Rendered {
+        index: job.integrator,
+        run,
+        image,
+        name,
+        settings,
+    })
+}
+
+/// Group renders by integrator (in the bench's order, runs by seed): the first run's image and
+/// metadata stand for the integrator, and the seed-pair variance comes from all final images.
+pub fn assemble(p: &Prepared, mut done: Vec<Rendered>) -> Result<Vec<IntegratorRuns>> {
+    let c = &p.config;
+    done.sort_by_key(|r| (r.index, r.run.seed));
+    let mut all: Vec<IntegratorRuns> = Vec::new();
+    let mut finals: Vec<Vec<Image>> = Vec::new();
+    let mut last = None;
+    for r in done {
+        if last != Some(r.index) {
+            last = Some(r.index);
+            let metadata = metadata(p, &r.name, &r.settings, &r.run);
+            finals.push(vec![r.image.clone()]);
+            all.push(IntegratorRuns {
+                name: r.name,
+                settings: r.settings,
+                runs: vec![r.run],
+                image: r.image,
+                metadata,
+                variance: f64::NAN,
+            });
+        } else {
+            finals.last_mut().expect("pushed above").push(r.image);
+            all.last_mut().expect("pushed above").runs.push(r.run);
         }
     }
-    for (slot, images) in all.iter_mut().zip(&finals) {
-        if let Some(r) = slot {
-            r.variance = seed_pair_variance(images, c.crop)?;
-        }
+    for (r, images) in all.iter_mut().zip(&finals) {
+        r.variance = seed_pair_variance(images, c.crop)?;
     }
-    Ok(all.into_iter().flatten().collect())
+    Ok(all)
 }
 
 /// Mean over all pairs of images of `MSE(I_i, I_j) / 2`: for independent renders with the
@@ -172,7 +205,7 @@ fn render_one(p: &Prepared, name: &str, seed: u64) -> Result<(Run, Image, String
     Ok((run, r.image, name.to_string(), named.settings))
 }
 
-fn metadata(p: &Prepared, name: &str, settings: &str, run: &Run) -> Vec<(String, String)> {
+pub fn metadata(p: &Prepared, name: &str, settings: &str, run: &Run) -> Vec<(String, String)> {
     vec![
         ("integrator".to_string(), name.to_string()),
         ("settings".to_string(), settings.to_string()),

@@ -43,8 +43,10 @@
 //! by wavelengths) is an error naming the file, the line and the plugin: nothing is skipped.
 //!
 //! Files: this one reads the document (parameters, references, property values, transforms);
-//! `plugins.rs` turns each plugin into the scene description.
+//! `plugins.rs` turns the scene, sensor, integrator, shapes and emitters into the scene
+//! description, `materials.rs` the BSDFs and media.
 
+mod materials;
 mod plugins;
 
 use super::{SceneDesc, Source};

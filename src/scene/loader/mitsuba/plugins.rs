@@ -1,11 +1,10 @@
-//! Mitsuba plugins to the scene description: sensor (camera, film, sampler), integrator,
-//! BSDFs (materials), media, shapes and emitters. Each function reads its plugin's properties
-//! through [`Props`], which makes any property it did not read an error.
+//! Mitsuba plugins to the scene description: the scene element, sensor (camera, film,
+//! sampler), integrator, shapes and emitters; BSDFs and media are in `materials.rs`. Each
+//! function reads its plugin's properties through [`Props`], which makes any property it did
+//! not read an error.
 
-use super::super::{
-    CameraDesc, LightDesc, MaterialDesc, MediumDesc, RenderDesc, SceneDesc, ShapeDesc,
-    TransformDesc,
-};
+use super::super::{CameraDesc, LightDesc, RenderDesc, SceneDesc, ShapeDesc, TransformDesc};
+use super::materials::{bsdf, material_desc, medium};
 use super::{Props, SensorMedium, Xml, span, transform_of};
 use crate::error::Result;
 use glam::{Mat4, Vec3};
@@ -17,17 +16,17 @@ use toml::Spanned;
 const DISK_SEGMENTS: u32 = 1024;
 
 /// What the plugins produce, and the objects already converted (by element).
-struct Out {
-    desc: SceneDesc,
+pub(super) struct Out {
+    pub(super) desc: SceneDesc,
     /// BSDF element -> material name (`None`: a `null` BSDF).
-    bsdfs: HashMap<NodeId, Option<String>>,
-    media: HashMap<NodeId, String>,
+    pub(super) bsdfs: HashMap<NodeId, Option<String>>,
+    pub(super) media: HashMap<NodeId, String>,
     /// Name of Mitsuba's default BSDF (diffuse 0.5, one-sided), once a shape needed it.
     default_bsdf: Option<String>,
     sensor_medium: Option<SensorMedium>,
 }
 
-fn s<T>(node: Node, v: T) -> Spanned<T> {
+pub(super) fn s<T>(node: Node, v: T) -> Spanned<T> {
     Spanned::new(span(node), v)
 }
 
@@ -122,7 +121,7 @@ fn default_camera() -> CameraDesc {
     }
 }
 
-fn kind<'a, 'i>(xml: &Xml<'_, 'i>, n: Node<'a, 'i>) -> Result<&'a str> {
+pub(super) fn kind<'a, 'i>(xml: &Xml<'_, 'i>, n: Node<'a, 'i>) -> Result<&'a str> {
     xml.raw(n, "type")
 }
 
@@ -277,201 +276,6 @@ fn sensor_plugin(xml: &Xml, n: Node, out: &mut Out, render: &mut RenderDesc) -> 
         },
     );
     Ok(())
-}
-
-fn material_desc(n: Node, name: String, kind: &str) -> MaterialDesc {
-    MaterialDesc {
-        name: s(n, name),
-        kind: s(n, kind.to_string()),
-        albedo: None,
-        reflectance: None,
-        ior: None,
-        alpha: None,
-        eta: None,
-        k: None,
-        one_sided: None,
-    }
-}
-
-/// The material name of a `<bsdf>` (converted once per element), `None` for `null`.
-fn bsdf(xml: &Xml, n: Node, out: &mut Out) -> Result<Option<String>> {
-    if let Some(done) = out.bsdfs.get(&n.id()) {
-        return Ok(done.clone());
-    }
-    let name = match xml.attr(n, "id")? {
-        Some(id) => id,
-        None => format!("{} (line {})", kind(xml, n)?, xml.src.line(n.range().start)),
-    };
-    let desc = bsdf_desc(xml, n, name.clone(), true)?;
-    let result = desc.map(|d| {
-        out.desc.material.push(s(n, d));
-        name
-    });
-    out.bsdfs.insert(n.id(), result.clone());
-    Ok(result)
-}
-
-/// A material description; `one_sided` unless inside `twosided`.
-fn bsdf_desc(xml: &Xml, n: Node, name: String, one_sided: bool) -> Result<Option<MaterialDesc>> {
-    let k = kind(xml, n)?;
-    let mut p = xml.props(n)?;
-    let mut d = material_desc(n, name, k);
-    let unit = |v: Option<(Node, Vec3)>, default: f32| {
-        v.map_or(Spanned::new(span(n), [default; 3]), |(at, c)| {
-            s(at, c.to_array())
-        })
-    };
-    let ior = |p: &mut Props| -> Result<f32> {
-        let int = p.ior(xml, "int_ior", 1.5046)?;
-        let ext = p.ior(xml, "ext_ior", 1.000277)?;
-        if !(int > 0.0 && ext > 0.0) {
-            return xml.err(n, "'int_ior' and 'ext_ior' must be > 0");
-        }
-        Ok(int / ext)
-    };
-    let white_only = |p: &mut Props, key: &str| -> Result<()> {
-        if let Some((at, c)) = p.color(xml, key)?
-            && c != Vec3::ONE
-        {
-            return xml.err(
-                at,
-                format!("'{key}' other than 1 is not supported on a dielectric"),
-            );
-        }
-        Ok(())
-    };
-    // GGX only: Mitsuba's default distribution is Beckmann, so it must be written out.
-    let ggx_alpha = |p: &mut Props| -> Result<Spanned<f32>> {
-        match p.string(xml, "distribution")? {
-            Some((_, dist)) if dist == "ggx" => {}
-            Some((at, dist)) => return xml.err(at, format!("distribution '{dist}' is not supported (lodestar's microfacets are GGX)")),
-            None => return xml.err(n, format!("{k}: lodestar's microfacets are GGX and Mitsuba's default is Beckmann; write <string name=\"distribution\" value=\"ggx\"/>")),
-        }
-        p.boolean(xml, "sample_visible")?;
-        let a = p.float(xml, "alpha")?;
-        let (au, av) = (p.float(xml, "alpha_u")?, p.float(xml, "alpha_v")?);
-        match (a, au, av) {
-            (Some((at, a)), None, None) => Ok(s(at, a)),
-            (None, Some((at, u)), Some((_, v))) if u == v => Ok(s(at, u)),
-            (None, None, None) => Ok(s(n, 0.1)),
-            _ => xml.err(n, "anisotropic roughness is not supported ('alpha', or equal 'alpha_u' and 'alpha_v')"),
-        }
-    };
-    match k {
-        "diffuse" => {
-            d.albedo = Some(unit(p.color(xml, "reflectance")?, 0.5));
-            d.one_sided = Some(s(n, one_sided));
-        }
-        "conductor" | "roughconductor" => {
-            if k == "roughconductor" {
-                d.alpha = Some(ggx_alpha(&mut p)?);
-            }
-            let material = p.string(xml, "material")?;
-            let (eta, kk) = (p.color(xml, "eta")?, p.color(xml, "k")?);
-            let spec = p.color(xml, "specular_reflectance")?;
-            match (material, eta, kk) {
-                (m, None, None) if m.as_ref().is_none_or(|(_, m)| m == "none") => {
-                    d.reflectance = Some(unit(spec, 1.0));
-                }
-                (Some((at, m)), None, None) => return xml.err(at, format!("conductor material '{m}' is not supported (give 'eta' and 'k', or material 'none')")),
-                (None, Some((ea, e)), Some((ka, kv))) if k == "roughconductor" => {
-                    if spec.is_some_and(|(_, c)| c != Vec3::ONE) {
-                        return xml.err(n, "'specular_reflectance' other than 1 with 'eta' and 'k' is not supported");
-                    }
-                    d.eta = Some(s(ea, e.to_array()));
-                    d.k = Some(s(ka, kv.to_array()));
-                }
-                (None, Some(_), Some(_)) => return xml.err(n, "a smooth conductor with 'eta' and 'k' is not supported (lodestar's smooth conductor is a mirror of constant reflectance; use roughconductor, or material 'none')"),
-                _ => return xml.err(n, "a conductor needs both 'eta' and 'k' (or neither)"),
-            }
-            d.one_sided = Some(s(n, one_sided));
-        }
-        "dielectric" | "roughdielectric" => {
-            if k == "roughdielectric" {
-                d.alpha = Some(ggx_alpha(&mut p)?);
-            }
-            d.ior = Some(s(n, ior(&mut p)?));
-            white_only(&mut p, "specular_reflectance")?;
-            white_only(&mut p, "specular_transmittance")?;
-        }
-        "twosided" => {
-            let inner = p.nested(xml, "bsdf")?;
-            p.finish(xml)?;
-            return match inner.as_slice() {
-                [b] if matches!(kind(xml, *b)?, "dielectric" | "roughdielectric" | "twosided" | "null") => xml.err(*b, format!("twosided cannot wrap '{}'", kind(xml, *b)?)),
-                [b] => bsdf_desc(xml, *b, d.name.into_inner(), false),
-                [] => xml.err(n, "twosided needs one nested <bsdf>"),
-                _ => xml.err(inner[1], "twosided with a different BSDF per side is not supported"),
-            };
-        }
-        "null" => {
-            p.finish(xml)?;
-            return Ok(None);
-        }
-        "plastic" | "roughplastic" => return xml.err(n, format!("'{k}' is not supported: lodestar has no exact equivalent of its internal scattering (use diffuse, conductors or dielectrics)")),
-        other => return xml.err(n, format!("bsdf '{other}' is not supported (diffuse, conductor, roughconductor, dielectric, roughdielectric, twosided, null)")),
-    }
-    p.finish(xml)?;
-    Ok(Some(d))
-}
-
-/// The name of a `<medium>` (converted once per element).
-fn medium(xml: &Xml, n: Node, out: &mut Out) -> Result<String> {
-    if let Some(done) = out.media.get(&n.id()) {
-        return Ok(done.clone());
-    }
-    if kind(xml, n)? != "homogeneous" {
-        return xml.err(
-            n,
-            format!(
-                "medium '{}' is not supported (homogeneous only)",
-                kind(xml, n)?
-            ),
-        );
-    }
-    let name = match xml.attr(n, "id")? {
-        Some(id) => id,
-        None => format!("medium (line {})", xml.src.line(n.range().start)),
-    };
-    let mut p = xml.props(n)?;
-    let sigma_t = p.color(xml, "sigma_t")?.map_or(Vec3::ONE, |(_, c)| c);
-    let albedo = match p.color(xml, "albedo")? {
-        Some((at, a)) if a.min_element() < 0.0 || a.max_element() > 1.0 => {
-            return xml.err(at, format!("'albedo' must lie in [0, 1], got {a}"));
-        }
-        Some((_, a)) => a,
-        None => Vec3::splat(0.75),
-    };
-    let scale = p.float(xml, "scale")?.map_or(1.0, |(_, v)| v);
-    p.boolean(xml, "sample_emitters")?;
-    let mut g = 0.0;
-    for ph in p.nested(xml, "phase")? {
-        let mut pp = xml.props(ph)?;
-        g = match kind(xml, ph)? {
-            "isotropic" => 0.0,
-            "hg" => pp.float(xml, "g")?.map_or(0.8, |(_, g)| g),
-            other => {
-                return xml.err(
-                    ph,
-                    format!("phase function '{other}' is not supported (isotropic, hg)"),
-                );
-            }
-        };
-        pp.finish(xml)?;
-    }
-    p.finish(xml)?;
-    let sigma_t = sigma_t * scale;
-    out.desc.medium.push(s(
-        n,
-        MediumDesc {
-            name: s(n, name.clone()),
-            sigma_a: s(n, ((Vec3::ONE - albedo) * sigma_t).to_array()),
-            sigma_s: s(n, (albedo * sigma_t).to_array()),
-            g: Some(s(n, g)),
-        },
-    ));
-    out.media.insert(n.id(), name.clone());
-    Ok(name)
 }
 
 fn shape_desc(n: Node, kind: &str) -> ShapeDesc {

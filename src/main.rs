@@ -1,7 +1,8 @@
 //! The `lodestar` command line: render (with snapshots), bench, compare, info, integrators.
 
+mod cli_bench;
+
 use clap::{Parser, Subcommand};
-use lodestar::bench::BenchConfig;
 use lodestar::error::{Error, Result};
 use lodestar::film::Image;
 use lodestar::integrators::{self, IntegratorParams, Options, RunSettings};
@@ -29,7 +30,7 @@ enum Command {
     /// Render a scene (the built-in Cornell box when no scene is given).
     Render(Box<RenderArgs>),
     /// Equal-time comparison of integrators against a reference: table, CSV, plot, HTML.
-    Bench(BenchArgs),
+    Bench(cli_bench::BenchArgs),
     /// Compare two EXR images: per-channel means, MSE, RMSE and relMSE (B is the reference).
     Compare {
         a: PathBuf,
@@ -158,53 +159,6 @@ impl RenderArgs {
     }
 }
 
-#[derive(clap::Args)]
-struct BenchArgs {
-    /// Scene file (TOML).
-    #[arg(long)]
-    scene: PathBuf,
-    /// Integrator names, comma-separated; the first is the baseline of the speed-up.
-    #[arg(long, value_delimiter = ',', required = true)]
-    integrators: Vec<String>,
-    /// Wall-clock seconds per render (learning included for learning methods).
-    #[arg(long, allow_negative_numbers = true)]
-    time: f64,
-    /// Reference EXR of the scene (same resolution).
-    #[arg(long)]
-    reference: PathBuf,
-    /// Renders per integrator, seeds seed..seed+runs; the table shows medians.
-    #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
-    runs: u32,
-    #[arg(long, default_value_t = 0, allow_negative_numbers = true)]
-    seed: u64,
-    /// Output directory (default: bench-<scene name>); created if missing.
-    #[arg(long)]
-    out: Option<PathBuf>,
-    /// Worker threads (default: all cores).
-    #[arg(long, allow_negative_numbers = true)]
-    threads: Option<usize>,
-    /// Maximum number of path segments, -1 for no limit; default: the scene's.
-    #[arg(long, allow_negative_numbers = true)]
-    max_depth: Option<i64>,
-    /// Measure every error over the pixels [x0, x1) x [y0, y1) only.
-    #[arg(long, value_name = "x0,y0,x1,y1")]
-    crop: Option<String>,
-    /// Exposure of the PNG images in stops.
-    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
-    exposure: f32,
-    /// No line per render on stderr.
-    #[arg(short, long)]
-    quiet: bool,
-    /// Render only the I-th of N shares of the runs (integrator x seed) into OUT/runs/, for
-    /// an array job; build the report afterwards with --from-parts.
-    #[arg(long, value_name = "I/N", conflicts_with = "from_parts")]
-    part: Option<String>,
-    /// Build the report from the runs that `--part` benches (same arguments) wrote into these
-    /// output directories, instead of rendering.
-    #[arg(long, value_name = "DIR", num_args = 1..)]
-    from_parts: Vec<PathBuf>,
-}
-
 fn main() -> ExitCode {
     std::panic::set_hook(Box::new(|info| {
         eprintln!("lodestar: internal error (a bug, please report it): {info}");
@@ -247,7 +201,7 @@ fn main() -> ExitCode {
     };
     let result = match cli.command {
         Command::Render(args) => render(*args),
-        Command::Bench(args) => bench(args),
+        Command::Bench(args) => cli_bench::bench(args),
         Command::Compare { a, b, crop } => compare(&a, &b, crop.as_deref()),
         Command::Merge {
             parts,
@@ -545,51 +499,6 @@ fn check_report(integrator: &str) -> Result<()> {
     Ok(())
 }
 
-fn bench(args: BenchArgs) -> Result<()> {
-    let crop = args.crop.as_deref().map(Crop::parse).transpose()?;
-    let config = BenchConfig {
-        out: args
-            .out
-            .clone()
-            .unwrap_or_else(|| lodestar::bench::default_out(&args.scene)),
-        scene: args.scene,
-        integrators: args.integrators,
-        seconds: args.time,
-        reference: args.reference,
-        runs: args.runs,
-        seed: args.seed,
-        threads: args
-            .threads
-            .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get())),
-        max_depth: cli_max_depth(args.max_depth)?,
-        crop,
-        exposure: args.exposure,
-        verbose: !args.quiet,
-    };
-    let prepared = lodestar::bench::prepare(config)?;
-    if let Some(text) = &args.part {
-        let part = lodestar::parts::Part::parse(text)?;
-        let n = lodestar::bench::parts::run_part(&prepared, part)?;
-        if !args.quiet {
-            eprintln!(
-                "part {part}: {n} run(s) written to {}; build the report with --from-parts",
-                prepared.config.out.join("runs").display()
-            );
-        }
-        return Ok(());
-    }
-    let report = if args.from_parts.is_empty() {
-        lodestar::bench::bench(&prepared)?
-    } else {
-        lodestar::bench::bench_from_parts(&prepared, &args.from_parts)?
-    };
-    print!("{}", report.table);
-    if !args.quiet {
-        eprintln!("wrote {}", prepared.config.out.join("index.html").display());
-    }
-    Ok(())
-}
-
 fn compare(a: &Path, b: &Path, crop: Option<&str>) -> Result<()> {
     let crop = crop.map(Crop::parse).transpose()?;
     let (ia, _) = Image::read_exr(a)?;
@@ -634,7 +543,7 @@ fn info(path: &Path) -> Result<()> {
 }
 
 /// `--max-depth`: an integer >= 1, or -1 for no limit.
-fn cli_max_depth(d: Option<i64>) -> Result<Option<u32>> {
+pub(crate) fn cli_max_depth(d: Option<i64>) -> Result<Option<u32>> {
     d.map(|d| parse_max_depth(d).map_err(|e| Error::new(format!("--max-depth {e}"))))
         .transpose()
 }

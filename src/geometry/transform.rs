@@ -50,13 +50,6 @@ impl Transform {
         normal_m.is_finite().then_some(Transform { m, normal_m })
     }
 
-    /// This transform followed by `next` (`next * self`).
-    pub fn then(&self, next: &Transform) -> Transform {
-        let m = next.m * self.m;
-        let normal_m = next.normal_m * self.normal_m;
-        Transform { m, normal_m }
-    }
-
     pub fn point(&self, p: Vec3) -> Vec3 {
         self.m.transform_point3(p)
     }
@@ -115,8 +108,6 @@ mod tests {
             assert!((m.point(p) - t.point(p)).length() < 1e-5);
             assert!((m.normal(p) - t.normal(p)).length() < 1e-5);
         }
-        let chained = Transform::new(Vec3::ONE, Vec3::Y, 0.0, Vec3::X).then(&t);
-        assert!((chained.point(Vec3::ZERO) - t.point(Vec3::X)).length() < 1e-5);
         let mut projective = Mat4::IDENTITY;
         projective.w_axis.w = 2.0;
         projective.x_axis.w = 1.0;

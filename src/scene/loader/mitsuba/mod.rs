@@ -51,7 +51,6 @@ mod plugins;
 
 use super::{SceneDesc, Source};
 use crate::error::{Error, Result};
-use crate::geometry::Transform;
 use glam::{Mat4, Vec3, Vec4};
 use roxmltree::{Document, Node};
 use std::collections::{HashMap, HashSet};
@@ -581,14 +580,6 @@ impl<'a, 'input> Props<'a, 'input> {
                 xml.err(it.node, format!("{} does not take {what} (see `lodestar render --help` and the Mitsuba subset in src/scene/loader/mitsuba/mod.rs)", self.plugin))
             }
         }
-    }
-}
-
-/// `Transform` of a `to_world` matrix (checked affine by `Xml::transform`).
-fn transform_of(xml: &Xml, node: Node, m: Mat4) -> Result<Transform> {
-    match Transform::from_matrix(m) {
-        Some(t) => Ok(t),
-        None => xml.err(node, "the transform is singular or not finite"),
     }
 }
 

@@ -5,7 +5,7 @@
 
 use super::super::{CameraDesc, LightDesc, RenderDesc, SceneDesc, ShapeDesc, TransformDesc};
 use super::materials::{bsdf, material_desc, medium};
-use super::{Props, SensorMedium, Xml, span, transform_of};
+use super::{Props, SensorMedium, Xml, span};
 use crate::error::Result;
 use glam::{Mat4, Vec3};
 use roxmltree::{Node, NodeId};
@@ -375,8 +375,8 @@ fn shape(xml: &Xml, n: Node, out: &mut Out) -> Result<()> {
     if flip {
         d.flip_normals = Some(s(n, true));
     }
+    // The builder checks the matrix (affine, invertible, finite) at the same element.
     if let Some((at, m)) = to_world {
-        transform_of(xml, at, m)?;
         d.transform = Some(matrix_desc(at, m));
     }
     d.name = xml.attr(n, "id")?;

@@ -1,13 +1,16 @@
-//! Fuzz the scene loader and the OBJ reader.
+//! Fuzz the scene loaders (TOML and Mitsuba XML) and the mesh readers (OBJ and PLY).
 //!
 //! ```sh
 //! cargo run --release --example fuzz_scenes -- [SECONDS] [SEED] [OUT_DIR] [TIMEOUT_SECONDS]
 //! ```
 //!
-//! Mutates the shipped scenes (`scenes/*.toml`, `tests/data/*.toml`) and meshes
-//! (`scenes/meshes/*.obj`, `tests/data/meshes/*.obj`) with a deterministic xorshift mutator
-//! (`tests/fuzz_support`): absurd numbers (1e9, -1, NaN, inf, 0, 1e308, ...), bit flips,
-//! deleted, duplicated and swapped lines, splices, junk tokens and truncation. Each input runs
+//! Mutates the shipped scenes (`scenes/*.toml`, `tests/data/*.toml`, `scenes/mitsuba/*.xml`)
+//! and meshes (`scenes/meshes/*.obj`, `tests/data/meshes/*.{obj,ply}`) with a deterministic
+//! xorshift mutator (`tests/fuzz_support`): absurd numbers (1e9, -1, NaN, inf, 0, 1e308, ...),
+//! bit flips, absurd binary values (binary PLY bodies), deleted, duplicated and swapped lines,
+//! deleted, repeated and moved XML tags, splices, junk tokens of each format (XML elements,
+//! references, defaults; PLY header lines) and truncation. Inputs are drawn by kind: TOML and
+//! XML scenes 3 : 3, OBJ and PLY meshes 1 : 2. Each input runs
 //! in a worker process (this binary with `--worker`) so that an abort, a stack overflow or an
 //! allocation failure is caught as well as a panic; the parent restarts the worker after one.
 //! An input that does not finish within the timeout is a hang. Every failing input is written
@@ -66,13 +69,9 @@ fn worker(scratch: &Path) {
     for line in stdin.lock().lines() {
         let line = line.expect("stdin");
         let f: Vec<&str> = line.splitn(4, '\t').collect();
-        let kind = if f[0] == "toml" {
-            Kind::Toml
-        } else {
-            Kind::Obj
-        };
+        let kind = Kind::from_ext(f[0]).expect("the parent sends a known kind");
         let path = PathBuf::from(f[1]);
-        let dir = if kind == Kind::Obj {
+        let dir = if kind.is_mesh() {
             scratch.to_path_buf()
         } else {
             PathBuf::from(f[2])
@@ -152,18 +151,25 @@ fn fuzz(seconds: f64, seed: u64, out: &Path, timeout: Duration) -> i32 {
     let mut found: HashMap<String, usize> = HashMap::new();
     let mut last_report = Instant::now();
     while start.elapsed().as_secs_f64() < seconds {
-        // Scenes three times as often as meshes; small meshes as often as big ones.
-        let (kind, src, bytes) = if rng.chance(3, 4) {
-            let tomls: Vec<_> = seeds.iter().filter(|s| s.0 == Kind::Toml).collect();
-            tomls[rng.below(tomls.len())]
-        } else {
-            let objs: Vec<_> = seeds.iter().filter(|s| s.0 == Kind::Obj).collect();
-            objs[rng.below(objs.len())]
-        };
+        // Scenes (TOML, XML) 3 : 3, meshes (OBJ, PLY) 1 : 2; within a kind, files alike.
+        let pick = [
+            Kind::Toml,
+            Kind::Toml,
+            Kind::Toml,
+            Kind::Xml,
+            Kind::Xml,
+            Kind::Xml,
+        ]
+        .into_iter()
+        .chain([Kind::Obj, Kind::Ply, Kind::Ply])
+        .nth(rng.below(9))
+        .expect("nine kinds");
+        let of_kind: Vec<_> = seeds.iter().filter(|s| s.0 == pick).collect();
+        let (kind, src, bytes) = of_kind[rng.below(of_kind.len())];
         let donor = &seeds[rng.below(seeds.len())].2;
         let input = mutate(&mut rng, bytes, donor);
         let emissive = rng.chance(1, 2);
-        let ext = if *kind == Kind::Toml { "toml" } else { "obj" };
+        let ext = kind.ext();
         let cur = scratch.join(format!("current.{ext}"));
         std::fs::write(&cur, &input).expect("write input");
         let dir = src.parent().expect("corpus file has a parent");

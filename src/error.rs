@@ -12,22 +12,41 @@ pub struct Error {
 pub type Result<T> = std::result::Result<T, Error>;
 
 impl Error {
+    /// An error with this message; control characters in it (a newline in a file name, a
+    /// parser quoting the character it choked on) are escaped, so it stays one line.
     pub fn new(message: impl Into<String>) -> Self {
         Error {
-            message: message.into(),
+            message: one_line(message.into()),
         }
     }
 
     /// Prefix the message with context, e.g. the file being read.
     pub fn context(self, what: impl fmt::Display) -> Self {
         Error {
-            message: format!("{what}: {}", self.message),
+            message: one_line(format!("{what}: {}", self.message)),
         }
     }
 
     pub fn message(&self) -> &str {
         &self.message
     }
+}
+
+/// `message` with its control characters written as escapes (`\n`, `\t`, `\u{..}`).
+fn one_line(message: String) -> String {
+    if !message.chars().any(char::is_control) {
+        return message;
+    }
+    message
+        .chars()
+        .map(|c| {
+            if c.is_control() {
+                c.escape_default().to_string()
+            } else {
+                c.to_string()
+            }
+        })
+        .collect()
 }
 
 impl fmt::Display for Error {
@@ -42,4 +61,17 @@ impl std::error::Error for Error {}
 #[macro_export]
 macro_rules! bail {
     ($($arg:tt)*) => { return Err($crate::error::Error::new(format!($($arg)*))) };
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn messages_are_one_line() {
+        let e = Error::new("cannot load mesh 'a\nb.obj'\t(x)\r");
+        assert_eq!(e.message(), "cannot load mesh 'a\\nb.obj'\\t(x)\\r");
+        let e = Error::new("ok").context("file\u{7}.toml:3");
+        assert_eq!(e.message(), "file\\u{7}.toml:3: ok");
+    }
 }

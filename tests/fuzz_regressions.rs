@@ -1,4 +1,4 @@
-//! Inputs the scene/OBJ fuzzer (`examples/fuzz_scenes.rs`) found to crash, hang or be wrongly
+//! Inputs the scene and mesh fuzzer (`examples/fuzz_scenes.rs`) found to crash, hang or be wrongly
 //! accepted, kept under `tests/data/fuzz/`: each must now load or fail with a clean one-line
 //! error, without a panic. Plus a short deterministic run of the fuzzer itself.
 
@@ -38,13 +38,12 @@ fn regression_inputs_fail_cleanly() {
     let mut n = 0;
     for f in &files {
         let ext = f.extension().and_then(|e| e.to_str()).unwrap_or("");
-        let outcomes = match ext {
-            "toml" => vec![check(Kind::Toml, f, &dir, false)],
-            "obj" => vec![
-                check(Kind::Obj, f, &scratch, false),
-                check(Kind::Obj, f, &scratch, true),
-            ],
-            _ => continue,
+        let outcomes = match Kind::from_ext(ext) {
+            Some(k) if k.is_mesh() => {
+                vec![check(k, f, &scratch, false), check(k, f, &scratch, true)]
+            }
+            Some(k) => vec![check(k, f, &dir, false)],
+            None => continue,
         };
         n += 1;
         let name = f.file_name().unwrap().to_string_lossy().to_string();
@@ -97,6 +96,9 @@ fn expected_errors() -> Vec<(&'static str, &'static str)> {
             "'look_at' must differ from 'position'",
         ),
         ("infinite-light-power.toml", "the light's power overflows"),
+        // Found by the fuzzer: messages quoting a newline were two lines; now escaped.
+        ("newline-in-mesh-name.toml", "cannot load mesh"),
+        ("newline-in-xml-error.xml", "not well-formed XML"),
     ]
 }
 
@@ -119,21 +121,29 @@ fn fuzz_smoke() {
     let mut rng = XorShift::new(2024);
     let start = Instant::now();
     let (mut loaded, mut rejected) = (0, 0);
-    for i in 0..300 {
+    // Per kind (Kind::ALL order): inputs loaded and rejected.
+    let mut per_kind = [[0u32; 2]; 4];
+    for i in 0..400 {
         let (kind, src, bytes) = &seeds[rng.below(seeds.len())];
         let donor = &seeds[rng.below(seeds.len())].2;
         let input = mutate(&mut rng, bytes, donor);
-        let ext = if *kind == Kind::Toml { "toml" } else { "obj" };
-        let path = scratch.join(format!("input.{ext}"));
+        let path = scratch.join(format!("input.{}", kind.ext()));
         std::fs::write(&path, &input).expect("write");
-        let dir = if *kind == Kind::Toml {
-            src.parent().unwrap().to_path_buf()
-        } else {
+        let dir = if kind.is_mesh() {
             scratch.clone()
+        } else {
+            src.parent().unwrap().to_path_buf()
         };
+        let k = Kind::ALL.iter().position(|k| k == kind).expect("a kind");
         match std::panic::catch_unwind(|| run_input(*kind, &path, &dir, i % 2 == 0)) {
-            Ok(Ok(Outcome::Loaded)) => loaded += 1,
-            Ok(Ok(Outcome::Rejected(_))) => rejected += 1,
+            Ok(Ok(Outcome::Loaded)) => {
+                loaded += 1;
+                per_kind[k][0] += 1;
+            }
+            Ok(Ok(Outcome::Rejected(_))) => {
+                rejected += 1;
+                per_kind[k][1] += 1;
+            }
             Ok(Err(finding)) => panic!(
                 "input {i} (from {}): {finding}\n{}",
                 src.display(),
@@ -147,13 +157,18 @@ fn fuzz_smoke() {
         }
     }
     let _ = std::fs::remove_dir_all(&scratch);
-    // The mutator must produce both kinds, or the smoke run tests nothing.
+    // The mutator must produce inputs that load and inputs that are rejected, of every kind
+    // of file, or the smoke run tests nothing.
     assert!(
         loaded > 10 && rejected > 10,
         "loaded {loaded}, rejected {rejected}"
     );
+    for (kind, [l, r]) in Kind::ALL.iter().zip(per_kind) {
+        assert!(l > 0 && r > 0, "{kind:?}: {l} loaded, {r} rejected");
+    }
     eprintln!(
-        "fuzz smoke: 300 inputs in {:.1} s ({loaded} loaded, {rejected} rejected)",
+        "fuzz smoke: 400 inputs in {:.1} s ({loaded} loaded, {rejected} rejected; per kind \
+         (toml, xml, obj, ply) loaded / rejected {per_kind:?})",
         start.elapsed().as_secs_f64()
     );
 }

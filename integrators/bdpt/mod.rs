@@ -15,7 +15,7 @@
 //! | option    | type                 | default   | meaning |
 //! |-----------|----------------------|-----------|---------|
 //! | max_depth | integer >= 1         | 8         | maximum number of segments, as for `pt` |
-//! | rr_depth  | integer >= 1         | 5         | roulette on subpaths of this many segments or more |
+//! | rr_depth  | integer >= 1         | 1         | roulette on subpaths of this many segments or more (1: from the first bounce, as SmallVCM and `vcm`) |
 //! | mis       | `balance` / `power`  | `balance` | MIS heuristic (`bdpt` only) |
 //! | only      | `s,t`                | none      | render technique (s, t) alone, MIS-weighted (`bdpt` only): the images of every technique sum to the bdpt image |
 //! | skip      | `s,t`                | none      | leave technique (s, t) out (`bdpt` only; biased: a control for tests) |
@@ -55,7 +55,7 @@ use crate::scene::{Endpoint, Scene};
 use cache::{Cached, cache_subpath};
 use glam::{Vec2, Vec3};
 use settings::settings;
-pub use settings::{BdptSettings, TechniqueFilter};
+pub use settings::{BdptSettings, RR_DEPTH, TechniqueFilter};
 pub use technique::TECHNIQUE_STREAMS;
 use vertex::{ConnectionEnd, Edge, connection_end, measure_factor, pdf, to_measure};
 use walk::roulette;

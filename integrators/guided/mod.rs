@@ -21,7 +21,7 @@
 //! | option          | type          | default | meaning |
 //! |-----------------|---------------|---------|---------|
 //! | max_depth       | integer >= 1  | 8       | maximum number of segments (`--max-depth`) |
-//! | rr_depth        | integer >= 1  | 5       | U's Russian roulette start |
+//! | rr_depth        | integer >= 1  | U's     | U's Russian roulette start: 5 for guided-pt (pt's), 1 for guided-bdpt (bdpt's) |
 //! | alpha           | (0, 1]        | 0.5     | unguided share once the cache is non-empty (`--alpha`) |
 //! | share           | `auto` / `fixed` | `auto` | `auto`: keep α only where learning measured that guiding pays (`driver.rs`), else α = 1 |
 //! | mis             | `balance`     | `balance` | guided-bdpt only: `power` is an error (it does not mix with a further technique) |
@@ -196,11 +196,11 @@ impl GuidedBdpt {
     }
 }
 
-/// Options every guided integrator reads, and U's roulette depth.
-fn options(params: &IntegratorParams) -> Result<(GuidedSettings, u32)> {
+/// Options every guided integrator reads, and U's roulette depth (`default_rr`: U's own).
+fn options(params: &IntegratorParams, default_rr: u32) -> Result<(GuidedSettings, u32)> {
     crate::path::check_stored_depth("a guided integrator", params.max_depth).map_err(Error::new)?;
     let o = &params.options;
-    let rr_depth = o.get("rr_depth", 5u32, "an integer >= 1")?;
+    let rr_depth = o.get("rr_depth", default_rr, "an integer >= 1")?;
     let alpha = o.get("alpha", 0.5f64, "a number in (0, 1]")?;
     let share = match o.choice("share", "auto", &["auto", "fixed"])? {
         "fixed" => Share::Fixed,
@@ -301,7 +301,7 @@ fn options(params: &IntegratorParams) -> Result<(GuidedSettings, u32)> {
 }
 
 pub fn build_pt(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
-    let (settings, rr_depth) = options(params)?;
+    let (settings, rr_depth) = options(params, PtSettings::default().rr_depth)?;
     let pt = PtSettings {
         max_depth: params.max_depth,
         rr_depth,
@@ -317,7 +317,7 @@ pub fn build_pt(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
 }
 
 pub fn build_bdpt(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
-    let (settings, rr_depth) = options(params)?;
+    let (settings, rr_depth) = options(params, crate::integrators::bdpt::RR_DEPTH)?;
     if params
         .options
         .choice("mis", "balance", &["balance", "power"])?

@@ -1,13 +1,14 @@
-//! Shared by the scene/OBJ fuzzer (`examples/fuzz_scenes.rs`) and its regression tests
-//! (`tests/fuzz_regressions.rs`): the seed corpus, a deterministic mutator (xorshift64*), the
-//! scene that wraps a fuzzed OBJ file, and the checks run on every input.
+//! Shared by the scene and mesh fuzzer (`examples/fuzz_scenes.rs`) and its regression tests
+//! (`tests/fuzz_regressions.rs`): the seed corpus (TOML scenes, Mitsuba XML scenes, OBJ and
+//! PLY meshes), a deterministic mutator (xorshift64*) with mutations for each format, the
+//! scene that wraps a fuzzed mesh file, and the checks run on every input.
 //!
 //! Each test crate that mounts this module uses only part of it.
 #![allow(dead_code)]
 
 use lodestar::geometry::Ray;
 use lodestar::scene::Scene;
-use lodestar::scene::loader::{load_file, load_str};
+use lodestar::scene::loader::{load_file, load_mitsuba_str, load_str};
 use std::path::{Path, PathBuf};
 
 /// Deterministic xorshift64* generator; the fuzzer must replay exactly from its seed.
@@ -41,8 +42,48 @@ impl XorShift {
 pub enum Kind {
     /// A scene file, loaded from the directory of the scene it was mutated from.
     Toml,
-    /// An OBJ file, loaded through [`OBJ_WRAPPER`] or [`OBJ_WRAPPER_EMISSIVE`].
+    /// A Mitsuba 3 XML scene, loaded like [`Kind::Toml`].
+    Xml,
+    /// An OBJ file, loaded as `fuzz.obj` through [`mesh_wrapper`].
     Obj,
+    /// A PLY file (ascii or binary), loaded as `fuzz.ply` through [`mesh_wrapper`].
+    Ply,
+}
+
+impl Kind {
+    pub const ALL: [Kind; 4] = [Kind::Toml, Kind::Xml, Kind::Obj, Kind::Ply];
+
+    /// The file extension of inputs of this kind.
+    pub fn ext(self) -> &'static str {
+        match self {
+            Kind::Toml => "toml",
+            Kind::Xml => "xml",
+            Kind::Obj => "obj",
+            Kind::Ply => "ply",
+        }
+    }
+
+    pub fn from_ext(ext: &str) -> Option<Kind> {
+        Kind::ALL.into_iter().find(|k| k.ext() == ext)
+    }
+
+    /// A mesh, loaded through a wrapper scene in a scratch directory.
+    pub fn is_mesh(self) -> bool {
+        matches!(self, Kind::Obj | Kind::Ply)
+    }
+}
+
+/// The scene around a fuzzed mesh `fuzz.obj` or `fuzz.ply` in the same directory: diffuse,
+/// or (`emissive`) as an area light, which builds the mesh's triangle-area sampler too.
+pub fn mesh_wrapper(kind: Kind, emissive: bool) -> String {
+    let wrapper = if emissive {
+        OBJ_WRAPPER_EMISSIVE
+    } else {
+        OBJ_WRAPPER
+    };
+    wrapper
+        .replace("\"obj\"", &format!("\"{}\"", kind.ext()))
+        .replace("\"fuzz.obj\"", &format!("\"fuzz.{}\"", kind.ext()))
 }
 
 /// A scene around a fuzzed mesh `fuzz.obj` in the same directory (diffuse).
@@ -82,15 +123,17 @@ pub fn repo_root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
-/// The seed corpus: every shipped scene and OBJ file, with its kind.
+/// The seed corpus: every shipped scene (TOML and XML) and mesh file, with its kind.
 pub fn corpus() -> Vec<(Kind, PathBuf)> {
     let root = repo_root();
     let mut out = Vec::new();
     for (dir, ext, kind) in [
         ("scenes", "toml", Kind::Toml),
         ("tests/data", "toml", Kind::Toml),
+        ("scenes/mitsuba", "xml", Kind::Xml),
         ("scenes/meshes", "obj", Kind::Obj),
         ("tests/data/meshes", "obj", Kind::Obj),
+        ("tests/data/meshes", "ply", Kind::Ply),
     ] {
         let mut files: Vec<PathBuf> = std::fs::read_dir(root.join(dir))
             .unwrap_or_else(|e| panic!("cannot list {dir}: {e}"))
@@ -166,6 +209,46 @@ const JUNK: &[&str] = &[
     "f 0 0 0",
     "f 99999999 1 2",
     "v nan nan nan",
+    // Mitsuba XML.
+    "<",
+    ">",
+    "/>",
+    "</shape>",
+    "<shape type=\"ply\"><string name=\"filename\" value=\"x.ply\"/></shape>",
+    "<ref id=\"nothing\"/>",
+    "<ref id=\"white\"/>",
+    "<default name=\"spp\" value=\"$spp\"/>",
+    "<default name=\"a\" value=\"1\"/>",
+    "$a",
+    "$undefined",
+    "<transform name=\"to_world\"><scale value=\"0\"/></transform>",
+    "<matrix value=\"1 0 0 0 0 1 0 0 0 0 1 0 0 0 0\"/>",
+    "<rotate x=\"1\" angle=\"nan\"/>",
+    "<lookat origin=\"0,0,0\" target=\"0,0,0\" up=\"0,1,0\"/>",
+    "<rgb name=\"radiance\" value=\"1e38, 1e38, 1e38\"/>",
+    "<float name=\"fov\" value=\"180\"/>",
+    "<integer name=\"width\" value=\"-1\"/>",
+    "<bsdf type=\"twosided\"><bsdf type=\"twosided\"/></bsdf>",
+    "<emitter type=\"area\"/>",
+    "<![CDATA[",
+    "<!--",
+    "&amp;",
+    "&bogus;",
+    "version=\"0.1.0\"",
+    // PLY headers.
+    "element vertex 4294967295\n",
+    "element face 1000000000\n",
+    "element vertex -1\n",
+    "property list uchar int vertex_indices\n",
+    "property list uint uint vertex_indices\n",
+    "property list float float vertex_indices\n",
+    "property double x\n",
+    "property float nx\n",
+    "format binary_big_endian 1.0\n",
+    "format binary_little_endian 1.0\n",
+    "format ascii 1.0\n",
+    "end_header\n",
+    "\u{ff}\u{ff}\u{ff}\u{7f}",
 ];
 
 /// Byte ranges of the numbers in `text`: maximal runs of digits, signs, '.', 'e', 'E'
@@ -190,6 +273,24 @@ fn number_spans(text: &[u8]) -> Vec<(usize, usize)> {
     spans
 }
 
+/// Byte ranges of the XML tags in `text`: from a '<' to the next '>'.
+fn tag_spans(text: &[u8]) -> Vec<(usize, usize)> {
+    let mut spans = Vec::new();
+    let mut start = None;
+    for (i, &b) in text.iter().enumerate() {
+        match b {
+            b'<' => start = Some(i),
+            b'>' => {
+                if let Some(a) = start.take() {
+                    spans.push((a, i + 1));
+                }
+            }
+            _ => {}
+        }
+    }
+    spans
+}
+
 /// Line start offsets (each line includes its newline).
 fn lines(text: &[u8]) -> Vec<(usize, usize)> {
     let mut out = Vec::new();
@@ -208,7 +309,54 @@ fn lines(text: &[u8]) -> Vec<(usize, usize)> {
 
 /// Apply one random mutation. `donor` is another corpus file to splice lines from.
 pub fn mutate_once(rng: &mut XorShift, data: &mut Vec<u8>, donor: &[u8]) {
-    match rng.below(12) {
+    match rng.below(14) {
+        // Overwrite a few bytes with a binary value that breaks naive readers (binary PLY
+        // bodies: counts, indices and coordinates), in either byte order.
+        12 => {
+            const VALUES: [[u8; 4]; 8] = [
+                [0xff, 0xff, 0xff, 0xff], // u32::MAX, -1, f32 NaN
+                [0x7f, 0x80, 0x00, 0x00], // f32 +inf (big endian)
+                [0x00, 0x00, 0x80, 0x7f], // f32 +inf (little endian)
+                [0x7f, 0x7f, 0xff, 0xff], // f32::MAX (big endian)
+                [0xff, 0xff, 0x7f, 0x7f], // f32::MAX (little endian)
+                [0x80, 0x00, 0x00, 0x00], // i32::MIN (big endian)
+                [0x00, 0x00, 0x00, 0x80], // i32::MIN (little endian)
+                [0x00, 0x00, 0x00, 0x00],
+            ];
+            if !data.is_empty() {
+                let at = rng.below(data.len());
+                let v = VALUES[rng.below(VALUES.len())];
+                let n = [1, 2, 4][rng.below(3)].min(data.len() - at);
+                data[at..at + n].copy_from_slice(&v[..n]);
+            }
+        }
+        // XML elements: delete, duplicate (possibly many times) or move one tag.
+        13 => {
+            let tags = tag_spans(data);
+            if !tags.is_empty() {
+                let (a, b) = tags[rng.below(tags.len())];
+                let tag = data[a..b].to_vec();
+                match rng.below(3) {
+                    0 => {
+                        data.drain(a..b);
+                    }
+                    1 => {
+                        let times = if rng.chance(1, 8) {
+                            1 + rng.below(300)
+                        } else {
+                            1
+                        };
+                        data.splice(b..b, tag.repeat(times));
+                    }
+                    _ => {
+                        data.drain(a..b);
+                        let rest = tag_spans(data);
+                        let at = rest.get(rng.below(rest.len().max(1))).map_or(0, |t| t.0);
+                        data.splice(at..at, tag);
+                    }
+                }
+            }
+        }
         // Replace a number by an absurd value (the most productive mutation: weighted x3).
         0..=2 => {
             let spans = number_spans(data);
@@ -421,29 +569,27 @@ pub fn render_check(mut scene: Scene) -> Result<(), String> {
     Ok(())
 }
 
-/// Load one input. `path` holds its bytes; for [`Kind::Toml`] `dir` resolves mesh paths, for
-/// [`Kind::Obj`] the file is copied as `fuzz.obj` into `dir` and loaded by a wrapper scene.
-/// `Err` is a finding: the loader accepted something it should not have.
+/// Load one input. `path` holds its bytes; for scenes (TOML, XML) `dir` resolves mesh paths,
+/// for meshes the file is copied as `fuzz.obj` / `fuzz.ply` into `dir` and loaded by
+/// [`mesh_wrapper`]. `Err` is a finding: the loader accepted something it should not have.
 pub fn run_input(kind: Kind, path: &Path, dir: &Path, emissive: bool) -> Result<Outcome, String> {
     let result = match kind {
-        Kind::Toml => match std::fs::read(path) {
+        Kind::Toml | Kind::Xml => match std::fs::read(path) {
             Ok(bytes) => match String::from_utf8(bytes) {
-                Ok(text) => load_str(&text, &path.display().to_string(), Some(dir)),
+                Ok(text) if kind == Kind::Toml => {
+                    load_str(&text, &path.display().to_string(), Some(dir))
+                }
+                Ok(text) => load_mitsuba_str(&text, &path.display().to_string(), Some(dir), &[]),
                 Err(_) => load_file(path),
             },
             Err(e) => return Err(format!("cannot read {}: {e}", path.display())),
         },
-        Kind::Obj => {
-            let target = dir.join("fuzz.obj");
+        Kind::Obj | Kind::Ply => {
+            let target = dir.join(format!("fuzz.{}", kind.ext()));
             if target != path {
                 std::fs::copy(path, &target).map_err(|e| format!("copy: {e}"))?;
             }
-            let wrapper = if emissive {
-                OBJ_WRAPPER_EMISSIVE
-            } else {
-                OBJ_WRAPPER
-            };
-            load_str(wrapper, "<obj wrapper>", Some(dir))
+            load_str(&mesh_wrapper(kind, emissive), "<mesh wrapper>", Some(dir))
         }
     };
     match result {

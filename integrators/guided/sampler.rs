@@ -91,7 +91,7 @@ impl<'s> At<'s> {
 
     fn ray(&self, d: Vec3) -> Ray {
         match &self.sp {
-            Some(sp) => sp.hit.spawn(d),
+            Some(sp) => sp.hit.spawn_along(d),
             None => Ray::new(self.pv.p, d),
         }
     }
@@ -138,7 +138,7 @@ fn trace<'s>(
             None => return (None, medium),
             Some(sp) if sp.is_null() => {
                 medium = scene.medium_after(&sp, ray.d, medium);
-                ray = sp.hit.spawn(ray.d);
+                ray = sp.hit.spawn_along(ray.d);
             }
             Some(sp) => return (Some(sp), medium),
         }

@@ -110,10 +110,37 @@ fn next_away(x: f32, dir: f32) -> f32 {
 /// Shadow-ray tolerance: a fraction of the segment left out at its far end.
 pub const SHADOW_EPS: f32 = 1e-4;
 
+/// Below this |cos| between a direction and the normal, [`Hit::spawn_along`] offsets along the
+/// normal like [`Hit::spawn`].
+pub const SPAWN_ALONG_MIN_COS: f32 = 0.01;
+
 impl Hit {
     /// Ray leaving this hit in direction `d` (unit).
     pub fn spawn(&self, d: Vec3) -> Ray {
         Ray::new(offset_origin(self.p, self.p_err, self.ng, d), d)
+    }
+
+    /// Ray leaving this hit in direction `d` (unit) from a point on the line through the hit
+    /// point itself: the origin is moved along `d` (not along the normal) until it clears the
+    /// error box, so whatever the ray hits lies on the line from `p` in direction `d`, and a
+    /// density recomputed from the two hit points sees the direction that was drawn. Falls
+    /// back to [`Hit::spawn`] below [`SPAWN_ALONG_MIN_COS`], where the step along `d` would
+    /// be long: the segment it skips lies within the normal offset of the surface's plane and
+    /// is at most 100 times that offset long.
+    pub fn spawn_along(&self, d: Vec3) -> Ray {
+        let cos = d.dot(self.ng).abs();
+        let clear = self.ng.abs().dot(self.p_err) * 2.0 + f32::MIN_POSITIVE;
+        if cos < SPAWN_ALONG_MIN_COS {
+            return self.spawn(d);
+        }
+        let step = clear / cos;
+        let q = self.p + d * step;
+        let o = Vec3::new(
+            next_away(q.x, d.x),
+            next_away(q.y, d.y),
+            next_away(q.z, d.z),
+        );
+        Ray::new(o, d)
     }
 }
 

@@ -17,8 +17,9 @@
 //! to `OUT_DIR/crashes` (at most 3 per distinct failure) with a `.txt` beside it saying what
 //! happened. Run it under a memory limit (`ulimit -v`) so that absurd allocations fail.
 //!
-//! With `FUZZ_RENDER=1` in the environment every accepted scene is also rendered with `pt`
-//! and `bdpt` (1 spp, 6 x 6 pixels) and must give a finite image.
+//! With `FUZZ_RENDER=1` in the environment every accepted scene is also rendered by every
+//! registered integrator (1 spp, 6 x 6 pixels, `--check`'s validation on) and must give a
+//! finite image without a violation.
 //!
 //! Exit status 1 when anything failed.
 

@@ -25,9 +25,9 @@ for round in 1 2 3; do
         OMP_NUM_THREADS=$T /usr/bin/time -f "smallvcm $a: %U user + %S sys s for $N iterations" \
             "$SVCM/smallvcm" -s 4 -a $a -i "$N" -o "/tmp/smallvcm-$a.hdr" >/dev/null
     done
-    # "bdpt rr_depth=1" is bdpt with SmallVCM's roulette (continuation = the largest
-    # reflectance from the first bounce on, as vcm does); bdpt's default waits 5 segments.
-    for a in bdpt "bdpt rr_depth=1" vcm; do
+    # bdpt's roulette is SmallVCM's (continuation = the largest reflectance from the first
+    # bounce on, as vcm does); "bdpt rr_depth=5" waits 5 segments, as pt does.
+    for a in bdpt "bdpt rr_depth=5" vcm; do
         set -- $a
         opt=${2:+-O $2}
         /usr/bin/time -f "lodestar $a: %U user + %S sys s for $N iterations" \

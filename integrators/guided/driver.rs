@@ -418,6 +418,10 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
             ),
             stat("pg_evaluations", rs.pg_evaluations),
             stat("invalid_unguided_paths", rs.invalid),
+            stat(
+                "unguided_density_disagreements",
+                stats.pu_disagreements + rs.pu_disagreements,
+            ),
             stat("learning_guided_samples", stats.guided),
             stat(
                 &format!("failures_{FAILURE_REASONS}"),

@@ -15,7 +15,11 @@
 //! `p_u` has one source wherever it matters: a path U reports carries U's own density sum; when
 //! its `p_g` is non-zero (so the guided technique could have made it too), `p_u` is
 //! recomputed with `pdf_unguided`, the function guided paths use, so that the weights of all
-//! techniques that can form X come from the same numbers and sum to one.
+//! techniques that can form X come from the same numbers and sum to one. The recomputation
+//! re-traces every segment, and f32 visibility is not exactly symmetric (a ray grazing an open
+//! mesh rim can hit it in one direction and pass in the other), so it can return 0 for a path
+//! U has just formed: such a path keeps U's own density (counted as
+//! `unguided_density_disagreements`), which bounds its value by U's own `f / p_u`.
 
 use super::cache::{GuideCache, Record};
 use super::seeder::{Candidate, LearnRow, Source};
@@ -51,6 +55,9 @@ pub struct Stats {
     pub pg_candidates_guided: u64,
     /// Unguided paths dropped for a non-finite or negative value.
     pub invalid: u64,
+    /// Unguided paths U formed whose density recomputed from their vertices is 0 (see
+    /// [`Estimator::densities`]); they keep U's own density.
+    pub pu_disagreements: u64,
     /// Queries of the first-vertex BVH (one per distinct x_1 with `X1Candidates::reuse`).
     pub bvh_queries: u64,
     /// Rays traced by the unguided and the guided technique (the share's cost measure).
@@ -67,6 +74,7 @@ impl Stats {
         self.pg_candidates_guided += o.pg_candidates_guided;
         self.pg_evaluations_guided += o.pg_evaluations_guided;
         self.invalid += o.invalid;
+        self.pu_disagreements += o.pu_disagreements;
         self.bvh_queries += o.bvh_queries;
         self.rays_u += o.rays_u;
         self.rays_g += o.rays_g;
@@ -182,7 +190,19 @@ impl<'a, U: Unguided> Estimator<'a, U> {
         stats.pg_evaluations += 1;
         stats.pg_candidates += list.len() as u64;
         if p_g > 0.0 {
-            (self.unguided.pdf_unguided(self.scene, y), p_g)
+            // One source for p_u: the same function guided samples use. It re-traces every
+            // segment, and visibility is not exactly symmetric in f32 (a ray grazing a mesh's
+            // open rim hits it one way and passes the other: fog-dragon's bunny), so it can
+            // call a path U has just formed impossible. U's own density then stands in, which
+            // bounds the value by U's own f / p_u; with 0 the value would be f / (r p_g),
+            // unbounded (fireflies of 1e5 on fog-dragon before).
+            let recomputed = self.unguided.pdf_unguided(self.scene, y);
+            if recomputed > 0.0 {
+                (recomputed, p_g)
+            } else {
+                stats.pu_disagreements += 1;
+                (p_u, p_g)
+            }
         } else {
             (p_u, 0.0)
         }

@@ -197,6 +197,8 @@ fn bdpt_cost(scene: &Scene, all: &[Install]) {
                 est: &est,
                 sum: glam::DVec3::ZERO,
                 grid: Default::default(),
+                u_sum: glam::DVec3::ZERO,
+                own_image: false,
                 learning: false,
                 measuring: false,
                 source: lodestar::integrators::guided::seeder::Source::Guided,

@@ -351,3 +351,83 @@ fn guided_renders_do_not_depend_on_the_thread_count() {
         assert_eq!(share(&one), share(&two), "{name}");
     }
 }
+
+/// With guiding off, guided-bdpt keeps its learning passes' unguided samples under bdpt's own
+/// estimator. A learning pass accumulates that image beside the mixed one: per sample it must
+/// equal bdpt's `estimate` from the same stream (pixel value and light-tracing splats), while
+/// the mixed value (f / (p_u + r p_g)) differs on many samples, which is what the image would
+/// hold if the mixed estimate were kept. Tolerance 2e-3 relative: bdpt's own estimate carries
+/// f32 densities, the guider's f64 densities recomputed from the vertices.
+#[test]
+fn learning_passes_keep_bdpts_own_estimate() {
+    use lodestar::integrators::guided::estimator::{Collector, RowOutput};
+    use lodestar::integrators::guided::{seeder::Source, share};
+    let scene = box_scene("cornell-box.toml", 16);
+    let cache = cache_of_bdpt_paths(&scene, 3000);
+    let u = BdptUnguided {
+        settings: bdpt_settings(),
+    };
+    let est = Estimator::new(&scene, &u, &cache, 0.5);
+    let mut tracer = u.tracer(&scene);
+    let (mut bad, mut mixed_differs, mut nonzero, mut splats_seen) = (Vec::new(), 0, 0, 0);
+    let rel = |a: DVec3, b: DVec3| {
+        ((a - b).abs() / a.abs().max(b.abs()).max(DVec3::splat(1e-30))).max_element()
+    };
+    for i in 0..2000u64 {
+        let (raster, mut s) = sample_stream(&scene, 7, i);
+        let mut splats = Vec::new();
+        let own = u.estimate(&mut tracer, &scene, raster, &mut s, &mut splats);
+        let (raster, mut s) = sample_stream(&scene, 7, i);
+        let mut out = RowOutput::default();
+        let mut col = Collector {
+            est: &est,
+            sum: DVec3::ZERO,
+            grid: [0.0; share::N],
+            u_sum: DVec3::ZERO,
+            own_image: true,
+            learning: true,
+            measuring: false,
+            source: Source::Unguided { pass: 0, index: i },
+            out: &mut out,
+        };
+        u.trace(&mut tracer, &scene, raster, &mut s, &mut col);
+        let (u_sum, mixed) = (col.u_sum, col.sum);
+        if own != DVec3::ZERO {
+            nonzero += 1;
+        }
+        if rel(own, u_sum) > 2e-3 && bad.len() < 6 {
+            bad.push(format!("sample {i}: bdpt {own}, kept {u_sum}"));
+        }
+        if rel(own, mixed) > 1e-2 {
+            mixed_differs += 1;
+        }
+        // Splats: the same pixels, the same values, in order.
+        let kept: Vec<_> = out
+            .u_splats
+            .iter()
+            .filter(|(_, v)| *v != DVec3::ZERO)
+            .collect();
+        splats_seen += splats.len();
+        if kept.len() != splats.len() && bad.len() < 6 {
+            bad.push(format!(
+                "sample {i}: {} splats, kept {}",
+                splats.len(),
+                kept.len()
+            ));
+        }
+        for ((p, a), (q, b)) in splats.iter().zip(kept) {
+            if (p != q || rel(*a, *b) > 2e-3) && bad.len() < 6 {
+                bad.push(format!("sample {i}: splat {p} {a}, kept {q} {b}"));
+            }
+        }
+    }
+    assert!(
+        nonzero > 500 && splats_seen > 500,
+        "{nonzero} samples, {splats_seen} splats"
+    );
+    assert!(
+        mixed_differs > 100,
+        "the mixed estimate differs on only {mixed_differs}"
+    );
+    assert!(bad.is_empty(), "{}", bad.join("\n"));
+}

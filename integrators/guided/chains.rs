@@ -114,6 +114,8 @@ fn evaluate<U: Unguided>(
         est,
         sum: DVec3::ZERO,
         grid: [0.0; share::N],
+        u_sum: DVec3::ZERO,
+        own_image: false,
         learning: true,
         measuring: false,
         source: Source::Chain,

@@ -8,8 +8,10 @@
 //!
 //! **The guided share.** With `share = auto` (the default) the render's ratio of guided to
 //! unguided samples is chosen at the end of learning from what the learning passes measured
-//! (`share.rs`); when it is 0 (guiding does not pay) the learning passes, each an unbiased
-//! estimate, are kept in the image instead of being discarded, unless `--dbor` asked for the
+//! (`share.rs`); when it is 0 (guiding does not pay) the learning passes' unguided samples
+//! are kept in the image under U's own estimator (each path weighted `f / p_u`, the guided
+//! samples left out: U's image from the same samples, which a learning pass accumulates
+//! beside its mixed one) instead of being discarded, unless `--dbor` asked for the
 //! re-weighted image of the render passes. When after three learning iterations every ratio
 //! with guided samples loses to U alone by more than 25 %, learning stops there (unless a
 //! cache is to be saved): a scene with nothing to guide costs a few passes, not the learning
@@ -67,11 +69,13 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
         ctx: &RenderContext,
         est: &Estimator<U>,
         film: &mut Film,
+        own_film: Option<&mut Film>,
         cascade: &mut Option<Cascade>,
         pass: u64,
-        learning: bool,
         measure: bool,
     ) -> (Vec<RowOutput>, Option<PassGrid>) {
+        // Learning passes also accumulate U's own image into `own_film`.
+        let learning = own_film.is_some();
         let scene = ctx.scene;
         let UVec2 { x: w, .. } = scene.camera.resolution;
         let n_pix = scene.camera.pixel_count() as u64;
@@ -105,6 +109,8 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
                             est,
                             sum: DVec3::ZERO,
                             grid: [0.0; share::N],
+                            u_sum: DVec3::ZERO,
+                            own_image: learning,
                             learning,
                             measuring: measure,
                             source: Source::Unguided { pass, index },
@@ -112,7 +118,11 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
                         };
                         self.unguided
                             .trace(&mut tracer, scene, raster, &mut sampler, &mut col);
-                        (col.sum, col.grid)
+                        let (sum, grid, own) = (col.sum, col.grid, col.u_sum);
+                        if learning {
+                            out.u_pixels.push(own);
+                        }
+                        (sum, grid)
                     };
                     *acc += sum;
                     if measure {
@@ -180,6 +190,18 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
             }
             (image, guided_m2)
         });
+        if let Some(own) = own_film {
+            own.par_rows_mut()
+                .zip(rows.par_iter())
+                .for_each(|(row, r)| {
+                    for (a, b) in row.iter_mut().zip(&r.u_pixels) {
+                        *a += *b;
+                    }
+                });
+            for r in &rows {
+                own.add_splats64(&r.u_splats);
+            }
+        }
         for r in &rows {
             // The estimator has left out (and counted) every non-finite value already.
             let dropped = film.add_splats64(&r.splats);
@@ -244,6 +266,8 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
         let mut learn_passes = 0u64;
         let mut rebuild_seconds = 0.0;
         let mut meter = share::ShareMeter::default();
+        // U's own estimate from the learning passes' unguided samples (see `keep_learning`).
+        let mut own_film = Film::new(w, h);
         // ---- Learning (skipped with a loaded cache) ----
         let learning = !loaded && st.learn_fraction > 0.0;
         if learning {
@@ -261,8 +285,15 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
                     let measure = st.share == Share::Auto && est.n_g > 0.0;
                     // The learning film averages the learning passes (each an unbiased
                     // estimate); it is what snapshots during learning show.
-                    let (rows, measured) =
-                        self.pass(ctx, &est, &mut film, &mut None, k, true, measure);
+                    let (rows, measured) = self.pass(
+                        ctx,
+                        &est,
+                        &mut film,
+                        Some(&mut own_film),
+                        &mut None,
+                        k,
+                        measure,
+                    );
                     let mut pass_stats = Stats::default();
                     for r in &rows {
                         pass_stats.add(&r.stats);
@@ -337,12 +368,17 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
             Share::Fixed => None,
         };
         let alpha = ratio.map_or(st.alpha, |r| 1.0 / (1.0 + r));
-        // Guiding off: the learning passes are U's passes plus unbiased guided ones; keep
-        // them (unless the DBOR image of the render passes was asked for).
+        // Guiding off: keep the learning passes' unguided samples under U's own estimator
+        // (each pass an unbiased estimate with U's variance; the guided samples, which the
+        // share has just found to cost more than they bring, are left out) unless the DBOR
+        // image of the render passes was asked for.
         let keep_learning = alpha == 1.0 && decision.is_some() && !ctx.dbor;
         let kept = if keep_learning { learn_passes } else { 0 };
-        if !keep_learning {
+        if keep_learning {
+            film = own_film;
+        } else {
             film.clear();
+            drop(own_film);
         }
         // ---- Rendering with the frozen cache ----
         let render_stats = std::cell::RefCell::new(Stats::default());
@@ -361,9 +397,9 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
                     ctx,
                     &est,
                     film,
+                    None,
                     &mut cascade,
                     RENDER_STREAMS + p,
-                    false,
                     false,
                 );
                 for r in &rows {

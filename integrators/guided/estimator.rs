@@ -325,6 +325,11 @@ pub struct RowOutput {
     pub grid: Vec<[f64; share::N]>,
     pub grid_splats: Vec<(u32, [f64; share::N])>,
     pub guided_m2: [f64; share::N],
+    /// While learning: per pixel of the row U's own estimate from its sample (every path
+    /// weighted `f / p_u`, the guided technique left out), and U's splats likewise; the image
+    /// the learning passes leave when the share turns guiding off.
+    pub u_pixels: Vec<DVec3>,
+    pub u_splats: Vec<(u32, DVec3)>,
 }
 
 /// Weighs U's paths for the mixture (a [`PathSink`]).
@@ -334,6 +339,10 @@ pub struct Collector<'e, 'a, U: Unguided> {
     pub sum: DVec3,
     /// What U's sample adds to this pixel under each ratio, while measuring the share.
     pub grid: [f64; share::N],
+    /// U's own estimate of this pixel (paths weighted `f / p_u`), accumulated (with U's
+    /// splats in `out.u_splats`) when `own_image` is set: in the learning passes.
+    pub u_sum: DVec3,
+    pub own_image: bool,
     pub learning: bool,
     pub measuring: bool,
     /// What made the sample being traced (the Markov-chain seeder starts chains at
@@ -368,6 +377,18 @@ impl<U: Unguided> PathSink for Collector<'_, '_, U> {
             } else {
                 for (a, b) in self.grid.iter_mut().zip(v) {
                     *a += b;
+                }
+            }
+        }
+        if self.own_image {
+            // U's own estimator from the same paths: an unbiased image without the guided
+            // samples, kept when the share turns guiding off (`driver.rs`).
+            let own = f / p_u;
+            if own.is_finite() {
+                if splat {
+                    out.u_splats.push((path.pixel, own));
+                } else {
+                    self.u_sum += own;
                 }
             }
         }

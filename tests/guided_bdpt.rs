@@ -431,3 +431,57 @@ fn learning_passes_keep_bdpts_own_estimate() {
     );
     assert!(bad.is_empty(), "{}", bad.join("\n"));
 }
+
+/// With guiding off (the share found nothing worth a guided sample), guided-bdpt's image is
+/// bdpt's image of the same number of passes, sample for sample: the kept learning passes hold
+/// bdpt's own estimate of their unguided samples and the render passes continue bdpt's
+/// streams. Tolerance 2e-3 relative per pixel channel (the guider recomputes densities in f64
+/// where bdpt keeps f32); renders of other streams (a different seed, the control) differ far
+/// beyond it. (guided-pt's kept passes weigh pt's two techniques by the balance heuristic
+/// where pt uses the power heuristic, so there the images agree in expectation only.)
+#[test]
+fn with_guiding_off_the_image_is_the_unguided_image_of_as_many_passes() {
+    let stat = |r: &lodestar::render::RenderResult, k: &str| {
+        r.stats
+            .iter()
+            .find(|s| s.0 == k)
+            .map(|s| s.1.clone())
+            .unwrap()
+    };
+    let worst = |a: &lodestar::film::Image, b: &lodestar::film::Image| {
+        a.pixels
+            .iter()
+            .zip(&b.pixels)
+            .map(|(x, y)| {
+                let (x, y) = (x.as_dvec3(), y.as_dvec3());
+                ((x - y).abs() / (x.abs().max(y.abs()) + 1e-6)).max_element()
+            })
+            .fold(0.0f64, f64::max)
+    };
+    // 16 x 16: learning finds no outlier (an empty cache); 32 x 32 with half the passes
+    // learning: guide paths and guided samples, and the share chooses bdpt alone.
+    for (res, learn, guides) in [
+        (16, "learn_fraction=0.25", false),
+        (32, "learn_fraction=0.5", true),
+    ] {
+        let scene = util::cornell(res);
+        let g = util::render(&scene, "guided-bdpt", MAX_DEPTH, &[learn], 24, 3, 2);
+        let kept: u64 = stat(&g, "learning_passes_kept").parse().unwrap();
+        let cached: u64 = stat(&g, "guide_paths").parse().unwrap();
+        let what = format!("{res} x {res}: kept {kept}, guide paths {cached}");
+        assert!(kept > 0 && stat(&g, "unguided_share") == "1.000", "{what}");
+        assert_eq!(cached > 0, guides, "{what}");
+        let guided_samples: u64 = stat(&g, "learning_guided_samples").parse().unwrap();
+        assert_eq!(guided_samples > 0, guides, "{what}: {guided_samples} guided samples");
+        assert_eq!(g.passes, 24);
+        let u = util::render(&scene, "bdpt", MAX_DEPTH, &[], 24, 3, 2);
+        let e = worst(&g.image, &u.image);
+        assert!(e < 2e-3, "{what}: worst relative difference {e}");
+        let other = util::render(&scene, "bdpt", MAX_DEPTH, &[], 24, 4, 2);
+        let control = worst(&other.image, &u.image);
+        assert!(
+            control > 0.1,
+            "control: seeds 3 and 4 differ by only {control}"
+        );
+    }
+}

@@ -472,7 +472,11 @@ fn with_guiding_off_the_image_is_the_unguided_image_of_as_many_passes() {
         assert!(kept > 0 && stat(&g, "unguided_share") == "1.000", "{what}");
         assert_eq!(cached > 0, guides, "{what}");
         let guided_samples: u64 = stat(&g, "learning_guided_samples").parse().unwrap();
-        assert_eq!(guided_samples > 0, guides, "{what}: {guided_samples} guided samples");
+        assert_eq!(
+            guided_samples > 0,
+            guides,
+            "{what}: {guided_samples} guided samples"
+        );
         assert_eq!(g.passes, 24);
         let u = util::render(&scene, "bdpt", MAX_DEPTH, &[], 24, 3, 2);
         let e = worst(&g.image, &u.image);

@@ -342,12 +342,7 @@ fn guided_renders_do_not_depend_on_the_thread_count() {
             one.image.pixels == two.image.pixels,
             "{name}: 1 and 2 threads differ"
         );
-        let share = |r: &lodestar::render::RenderResult| {
-            r.stats
-                .iter()
-                .find(|s| s.0 == "share_relative_cost")
-                .map(|s| s.1.clone())
-        };
+        let share = |r| util::stat(r, "share_relative_cost");
         assert_eq!(share(&one), share(&two), "{name}");
     }
 }
@@ -441,13 +436,7 @@ fn learning_passes_keep_bdpts_own_estimate() {
 /// where pt uses the power heuristic, so there the images agree in expectation only.)
 #[test]
 fn with_guiding_off_the_image_is_the_unguided_image_of_as_many_passes() {
-    let stat = |r: &lodestar::render::RenderResult, k: &str| {
-        r.stats
-            .iter()
-            .find(|s| s.0 == k)
-            .map(|s| s.1.clone())
-            .unwrap()
-    };
+    let stat = |r: &lodestar::render::RenderResult, k: &str| util::stat(r, k).unwrap().to_string();
     let worst = |a: &lodestar::film::Image, b: &lodestar::film::Image| {
         a.pixels
             .iter()

@@ -47,12 +47,9 @@ fn guided<S: Seeder + 'static>(
 }
 
 fn stat(r: &RenderResult, key: &str) -> String {
-    r.stats
-        .iter()
-        .find(|s| s.0 == key)
+    util::stat(r, key)
         .unwrap_or_else(|| panic!("no stat {key}"))
-        .1
-        .clone()
+        .to_string()
 }
 
 /// Learn a cache on the caustic scene with the chain seeder (8 learning iterations) and

@@ -53,8 +53,7 @@ fn reference_mean(name: &str) -> DVec3 {
 
 /// A numeric entry of a render's stats.
 fn stat(r: &RenderResult, key: &str) -> f64 {
-    let (_, v) = r.stats.iter().find(|(k, _)| k == key).unwrap();
-    v.parse().unwrap()
+    util::stat(r, key).unwrap().parse().unwrap()
 }
 
 // ---- Replay ----

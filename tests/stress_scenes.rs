@@ -7,6 +7,7 @@
 //! noise allows (z tests with the false-failure rates stated at each).
 
 mod util;
+use util::stat;
 
 use lodestar::film::Image;
 use lodestar::scene::{Scene, loader};
@@ -33,14 +34,6 @@ fn temp_dir(tag: &str) -> PathBuf {
 
 fn load(text: &str, dir: Option<&Path>) -> Scene {
     loader::load_str(text, "stress.toml", dir).unwrap_or_else(|e| panic!("stress scene: {e}"))
-}
-
-/// The stats value `key` of a render.
-fn stat(r: &lodestar::render::RenderResult, key: &str) -> Option<String> {
-    r.stats
-        .iter()
-        .find(|(k, _)| k == key)
-        .map(|(_, v)| v.clone())
 }
 
 /// Render `scene` with every integrator; each image must be finite and non-negative with no

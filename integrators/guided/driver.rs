@@ -11,13 +11,13 @@
 //! (`share.rs`); when it is 0 (guiding does not pay, or the cache is empty) the learning
 //! passes' unguided samples are kept in the image under U's own estimator (each path
 //! weighted `f / p_u`, the guided samples left out: U's image from the same samples, which a
-//! learning pass accumulates beside its mixed one) instead of being discarded, unless `--dbor` asked for the
-//! re-weighted image of the render passes; the render passes then continue U's streams, so
-//! the image is U's own image of as many passes. When after three learning iterations every
-//! ratio with guided samples loses to U alone by more than 25 %, learning stops there (unless
-//! a cache is to be saved): a scene with nothing to guide costs a few passes, not the
-//! learning budget. A loaded cache renders with the share its learning run chose (saved with it);
-//! `share = fixed` uses `alpha`.
+//! learning pass accumulates beside its mixed one) instead of being discarded, unless
+//! `--dbor` asked for the re-weighted image of the render passes; the render passes then
+//! continue U's streams, so the image is U's own image of as many passes. When after three
+//! learning iterations every ratio with guided samples loses to U alone by more than 25 %,
+//! learning stops there (unless a cache is to be saved): a scene with nothing to guide costs
+//! a few passes, not the learning budget. A loaded cache renders with the share its learning
+//! run chose (saved with it); `share = fixed` uses `alpha`.
 
 use super::cache::{self, GuideCache, RebuildParams};
 use super::estimator::{Collector, Estimator, FAILURE_REASONS, RowOutput, Stats};
@@ -39,11 +39,11 @@ use rayon::prelude::*;
 use std::time::Instant;
 
 /// Render passes draw from streams (seed, RENDER_STREAMS + pass, ...), learning passes from
-/// (seed, iteration, ...): a render with a loaded cache repeats the render phase of the run
-/// that saved it. When the learning passes are kept (guiding off), the render passes go on
-/// from the last learning pass's streams instead, (seed, learning passes + pass, ...), so the
-/// image is U's own image of the same number of passes, sample for sample: the equal-time
-/// comparison with U then differs only in the passes the learning cost.
+/// (seed, iteration, ...): a render with a loaded cache repeats the render phase of a run
+/// that saved it with guiding on. When the learning passes are kept (guiding off), the render
+/// passes go on from the last learning pass's streams instead, (seed, learning passes + pass,
+/// ...), so the image is U's own image of the same number of passes, sample for sample: the
+/// equal-time comparison with U then differs only in the passes the learning cost.
 const RENDER_STREAMS: u64 = 1 << 40;
 /// Learning iterations (two of them measured) after which learning may stop early, and
 /// the margin by which every ratio with guided samples must lose to U alone for it to stop.
@@ -378,11 +378,10 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
         // with U's variance; the guided samples, which cost more than they bring, are left
         // out) unless the DBOR image of the render passes was asked for.
         let keep_learning = est.n_g == 0.0 && !ctx.dbor && learn_passes > 0;
-        let kept = if keep_learning { learn_passes } else { 0 };
-        let first_stream = if keep_learning {
-            learn_passes
+        let (kept, first_stream) = if keep_learning {
+            (learn_passes, learn_passes)
         } else {
-            RENDER_STREAMS
+            (0, RENDER_STREAMS)
         };
         if keep_learning {
             film = own_film;

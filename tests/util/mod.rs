@@ -42,6 +42,14 @@ pub fn render(
         .result
 }
 
+/// The end-of-render statistic `key` of a render, if it reported one.
+pub fn stat<'r>(r: &'r RenderResult, key: &str) -> Option<&'r str> {
+    r.stats
+        .iter()
+        .find(|(k, _)| k == key)
+        .map(|(_, v)| v.as_str())
+}
+
 /// Per-channel z statistic of "A and B have the same expectation", from pixel differences
 /// D_i = A_i - B_i of independent renders: z = sum D_i / sqrt(sum D_i^2). Under the null each
 /// D_i has mean zero, so sum D_i^2 / N^2 estimates the variance of the mean difference.

@@ -1,11 +1,13 @@
 //! Per-vertex quantities of one subpath that every connection through the vertex reuses,
 //! computed once after the walk: the direction and measure conversion towards the walk's
 //! previous vertex, the local roulette probability, whether a connection can end there, and
-//! the forward density with roulette applied.
+//! the forward density with roulette applied; and, for the recursive MIS weights
+//! (`weights.rs`), each vertex's share of the techniques that sample more of a path from the
+//! other side.
 
-use super::origin_density;
 use super::vertex::{Kind, Vertex, to_measure};
 use super::walk::{local_continuation, roulette};
+use super::{Heuristic, hittable, origin_density};
 use crate::scene::Scene;
 use glam::Vec3;
 
@@ -24,14 +26,29 @@ pub struct Cached {
     /// camera-side `pc[j]` (or light-side `pl[k - j]`) of every path that contains the
     /// subpath up to here. For the first vertex of a light subpath: its origin density `pl[k]`.
     pub fwd: f64,
+    /// Recursive MIS ([`mis_sums`]): the heuristic's measure of technique "connect x_{i-1}
+    /// with x_i" relative to the generic form of its density: 0 or 1 (can both ends
+    /// connect?), except at the ends of a light subpath: x_0 is hit by the camera walk
+    /// (`hittable`, 0 or 1), x_1 connects to a light point chosen by next-event estimation
+    /// (`h(p_nee / p_origin)` when x_1 is connectible).
+    pub mis_valid: f64,
+    /// Recursive MIS: the sum, over the techniques that connect at or before this vertex
+    /// (counted from the subpath's origin), of their densities relative to one whose
+    /// connection leaves this vertex for the next vertex of the subpath, each through the
+    /// heuristic (`S_i = r_i (mis_valid_i + S_{i-1})`, `r_i = h(p_rev(x_i) / p_fwd(x_i))`).
+    /// Set for every vertex but the last (p_rev(x_i) needs x_{i+1}).
+    pub mis_sum: f64,
 }
 
 impl Cached {
     /// A subpath's first vertex: the pinhole, or a light vertex with its origin density.
     pub fn first(scene: &Scene, v: &Vertex) -> Cached {
-        let fwd = match v.kind {
-            Kind::Light { light } => origin_density(scene, v, light) as f64,
-            _ => 1.0,
+        let (fwd, mis_valid) = match v.kind {
+            Kind::Light { light } => (
+                origin_density(scene, v, light) as f64,
+                hittable(scene, light) as u8 as f64,
+            ),
+            _ => (1.0, 0.0),
         };
         Cached {
             wo: Vec3::ZERO,
@@ -39,6 +56,8 @@ impl Cached {
             q: local_continuation(scene, v),
             connectible: v.connectible(scene),
             fwd,
+            mis_valid,
+            mis_sum: 0.0,
         }
     }
 }
@@ -61,6 +80,44 @@ pub fn cache_subpath(scene: &Scene, path: &[Vertex], rr_depth: u32, out: &mut Ve
             q: local_continuation(scene, v),
             connectible: v.connectible(scene),
             fwd: rr * v.pdf_fwd as f64,
+            mis_valid: 0.0,
+            mis_sum: 0.0,
         });
+    }
+}
+
+/// The heuristic applied to a ratio of densities: itself (balance) or its square (power).
+#[inline]
+pub fn heuristic(h: Heuristic, ratio: f64) -> f64 {
+    match h {
+        Heuristic::Balance => ratio,
+        Heuristic::Power => ratio * ratio,
+    }
+}
+
+/// Fill in `mis_valid` and `mis_sum` of a cached subpath (after [`cache_subpath`]), for
+/// roulette from the first bounce (every roulette factor is then the vertex's local `q`,
+/// whichever end its segments are counted from). `light_nee`: for a light subpath, the
+/// next-event density of its first vertex from its second; `None` for a camera subpath.
+pub fn mis_sums(path: &[Vertex], out: &mut [Cached], light_nee: Option<f64>, h: Heuristic) {
+    let n = path.len();
+    for i in 1..n {
+        out[i].mis_valid = (out[i - 1].connectible && out[i].connectible) as u8 as f64;
+    }
+    if let (Some(nee), true) = (light_nee, n >= 2) {
+        out[1].mis_valid = if out[1].connectible {
+            heuristic(h, nee / out[0].fwd)
+        } else {
+            0.0
+        };
+    }
+    // The pinhole is never hit: no technique connects "before" it.
+    let mut sum = 0.0;
+    for i in 0..n.saturating_sub(1) {
+        if i > 0 || light_nee.is_some() {
+            let rev = out[i + 1].q as f64 * path[i].pdf_rev as f64;
+            sum = heuristic(h, rev / out[i].fwd) * (out[i].mis_valid + sum);
+        }
+        out[i].mis_sum = sum;
     }
 }

@@ -52,7 +52,7 @@ use crate::math::{IndependentSampler, Sampler, Spectrum};
 use crate::path::{MAX_VERTICES, Path};
 use crate::render::{Budget, Integrator, RenderContext, RenderResult, RowTracer, render_rows};
 use crate::scene::{Endpoint, Scene};
-use cache::{Cached, cache_subpath};
+use cache::{Cached, cache_subpath, mis_sums};
 use glam::{Vec2, Vec3};
 use settings::settings;
 pub use settings::{BdptSettings, RR_DEPTH, TechniqueFilter};
@@ -151,6 +151,9 @@ pub struct Tracer<'a> {
     path_buf: Path,
     /// Pixel of the sample being traced.
     pixel: u32,
+    /// Weigh by assembling every technique's density even where the recursive weights apply
+    /// (for tests: the two must agree).
+    pub explicit_weights: bool,
 }
 
 impl<'a> Tracer<'a> {
@@ -176,7 +179,21 @@ impl<'a> Tracer<'a> {
             joined: Vec::with_capacity(n),
             path_buf: Path::default(),
             pixel: 0,
+            explicit_weights: false,
         }
+    }
+
+    /// The recursive (O(1)) MIS weights apply: roulette from the first bounce (every
+    /// roulette factor is the vertex's local probability, from either end), no path longer
+    /// than the deep-path cap, and nobody inspecting the explicit densities.
+    fn recursive_mis(&self) -> bool {
+        self.settings.rr_depth <= 1
+            && (self.settings.max_depth as usize) < super::paths::DEEP_SEGMENTS
+            && !self.settings.light_tracing
+            && !self.explicit_weights
+            && !self.recording
+            && self.inspector.is_none()
+            && !crate::check::enabled()
     }
 
     /// One BDPT sample: returns the value for the pixel at `raster` (t >= 2) and pushes the
@@ -212,6 +229,10 @@ impl<'a> Tracer<'a> {
         cache_subpath(scene, &camera, st.rr_depth, &mut cc);
         cache_subpath(scene, &light, st.rr_depth, &mut lc);
         self.light_nee = light_nee(scene, &light);
+        if self.recursive_mis() {
+            mis_sums(&camera, &mut cc, None, st.heuristic);
+            mis_sums(&light, &mut lc, Some(self.light_nee), st.heuristic);
+        }
         let mut l = Spectrum::ZERO;
         for t in 1..=camera.len() {
             for s in 0..=light.len() {

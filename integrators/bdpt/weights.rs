@@ -4,6 +4,7 @@
 //! heuristic weighs its own technique among them.
 
 use super::*;
+use cache::heuristic;
 
 /// The densities across the connection edge y_{t-1} - y_t of technique (s, t), each in the
 /// measure of the vertex it generates, free flight included, roulette not.
@@ -39,6 +40,9 @@ impl<'a> Tracer<'a> {
         let Kind::Light { light } = lp[0].kind else {
             return 0.0;
         };
+        if self.recursive_mis() {
+            return weight_recursive(cc, lc, bridge, nee_k, self.settings.heuristic);
+        }
         // Roulette when leaving a vertex of local probability q after `segments` segments.
         let rr = |q: f32, segments: usize| roulette(q, segments, rr_depth) as f64;
         let terms = &mut self.terms;
@@ -118,6 +122,9 @@ impl<'a> Tracer<'a> {
         let rr_depth = self.settings.rr_depth;
         let rr = |q: f32, segments: usize| roulette(q, segments, rr_depth) as f64;
         let k = c.len() - 1;
+        if self.recursive_mis() {
+            return self.weight_emitter_hit_recursive(c, cc, emitter, light);
+        }
         let terms = &mut self.terms;
         terms.reset(k);
         for (j, v) in cc[..k].iter().enumerate() {
@@ -157,5 +164,92 @@ impl<'a> Tracer<'a> {
         self.densities.resize(self.densities.len().max(k + 1), 0.0);
         self.terms
             .weight_with(0, self.settings.heuristic, &mut self.densities)
+    }
+}
+
+/// Recursive MIS weight of technique (s, t) = (`lc.len()`, `cc.len()`) with the cached
+/// sums of both subpaths (see the module doc): the same number as the explicit weight, for
+/// roulette from the first bounce.
+fn weight_recursive(
+    cc: &[Cached],
+    lc: &[Cached],
+    bridge: &Bridge,
+    nee_k: f64,
+    h: Heuristic,
+) -> f64 {
+    let (t, s) = (cc.len(), lc.len());
+    let r = |num: f64, den: f64| heuristic(h, num / den);
+    let nee = s == 1 && t >= 2;
+    // Light side of the connection: the techniques with more camera vertices. `pc[t]`, then
+    // `pc[t + 1]`, replace the light vertices' forward densities.
+    let pc_t = bridge.cam_next as f64 * if t >= 2 { cc[t - 1].q as f64 } else { 1.0 };
+    let l = if nee {
+        // Next-event estimation chose the light point: only the emitter hit has more.
+        lc[0].mis_valid * r(pc_t, nee_k)
+    } else {
+        let inner = if s >= 2 {
+            let pc_t1 = bridge.light_back as f64 * lc[s - 1].q as f64;
+            let before = if s >= 3 { lc[s - 3].mis_sum } else { 0.0 };
+            r(pc_t1, lc[s - 2].fwd) * (lc[s - 2].mis_valid + before)
+        } else {
+            0.0
+        };
+        r(pc_t, lc[s - 1].fwd) * (lc[s - 1].mis_valid + inner)
+    };
+    // Camera side: the techniques with more light vertices. `pl[t - 1]`, then `pl[t - 2]`,
+    // replace the camera vertices' forward densities.
+    let c = if t >= 2 {
+        let pl_t1 = bridge.light_next as f64 * if s >= 2 { lc[s - 1].q as f64 } else { 1.0 };
+        let inner = if t >= 3 {
+            let pl_t2 = bridge.cam_back as f64 * cc[t - 1].q as f64;
+            r(pl_t2, cc[t - 2].fwd) * (cc[t - 2].mis_valid + cc[t - 3].mis_sum)
+        } else {
+            0.0
+        };
+        let sum = r(pl_t1, cc[t - 1].fwd) * (cc[t - 1].mis_valid + inner);
+        // Next-event estimation's own density has `p_nee` where the others have `p_origin`.
+        if nee { sum * r(lc[0].fwd, nee_k) } else { sum }
+    } else {
+        0.0
+    };
+    let sum = 1.0 + c + l;
+    if sum.is_finite() { 1.0 / sum } else { 0.0 }
+}
+
+impl<'a> Tracer<'a> {
+    /// Recursive MIS weight of s = 0 (see [`weight_recursive`]): only techniques with more
+    /// light vertices, next-event estimation's among them.
+    fn weight_emitter_hit_recursive(
+        &self,
+        c: &[Vertex<'a>],
+        cc: &[Cached],
+        emitter: &Vertex<'a>,
+        light: usize,
+    ) -> f64 {
+        let scene = self.scene;
+        let r = |num: f64, den: f64| heuristic(self.settings.heuristic, num / den);
+        if !hittable(scene, light) {
+            return 0.0;
+        }
+        let k = c.len() - 1;
+        let pl_k = origin_density(scene, emitter, light) as f64;
+        let others = if k == 1 {
+            // The light point connected to the pinhole.
+            let connects = cc[0].connectible && emitter.connectible(scene);
+            if connects { r(pl_k, cc[1].fwd) } else { 0.0 }
+        } else {
+            let nee = if cc[k - 1].connectible {
+                r(nee_density(scene, &c[k - 1], emitter, light), cc[k].fwd)
+            } else {
+                0.0
+            };
+            let pl_k1 = (pdf(scene, emitter, None, &c[k - 1])
+                * emitter.edge.factor(scene, c[k - 1].is_medium(), false))
+                as f64;
+            let before = r(pl_k1, cc[k - 1].fwd) * (cc[k - 1].mis_valid + cc[k - 2].mis_sum);
+            nee + r(pl_k, cc[k].fwd) * before
+        };
+        let sum = 1.0 + others;
+        if sum.is_finite() { 1.0 / sum } else { 0.0 }
     }
 }

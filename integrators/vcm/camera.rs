@@ -6,7 +6,7 @@
 //! report §5; the equation numbers below are that report's).
 
 use super::hash_grid::HashGrid;
-use super::light::LightPaths;
+use super::light::{LightPaths, Photon};
 use super::vertex::{
     Edge, Mis, Scatter, Vertex, connectible_light, emission_densities, hittable, nee_density,
 };
@@ -24,7 +24,7 @@ pub struct CameraTracer<'a, 'p> {
     pub settings: &'p VcmSettings,
     pub pc: &'p PassConstants,
     pub lights: &'p LightPaths<'a>,
-    pub grid: Option<&'p HashGrid>,
+    pub grid: Option<&'p HashGrid<Photon>>,
     pub inspector: Option<&'p Inspector<'p>>,
     /// The camera subpath's vertices (inspection only).
     path: Vec<PathVertex>,
@@ -36,7 +36,7 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
         settings: &'p VcmSettings,
         pc: &'p PassConstants,
         lights: &'p LightPaths<'a>,
-        grid: Option<&'p HashGrid>,
+        grid: Option<&'p HashGrid<Photon>>,
         inspector: Option<&'p Inspector<'p>>,
     ) -> Self {
         CameraTracer {
@@ -297,31 +297,34 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
 
     /// Merge at `v` with every stored light vertex within the radius (whose path is not too
     /// long), normalised by 1 / (pi r^2 N).
-    fn merge(&self, v: &Vertex<'a>, grid: &HashGrid) -> Spectrum {
-        let scene = self.scene;
+    fn merge(&self, v: &Vertex<'a>, grid: &HashGrid<Photon>) -> Spectrum {
         let max = self.settings.max_depth;
         let vc = self.pc.factors.vc;
         let mut sum = Spectrum::ZERO;
-        grid.query(v.p, |index| {
-            let y = &self.lights.vertices[index as usize];
+        let Scatter::Surface { bsdf, frame, .. } = v.scatter else {
+            return Spectrum::ZERO;
+        };
+        // Both directions' densities at v, as `Vertex::pdf_w` gives them (v is not delta).
+        let q = bsdf.continuation().min(v.q_cap);
+        let w_cam_vertex = v.mis.d_vcm * vc;
+        grid.query(v.p, |y| {
             if y.depth + v.depth > max {
                 return;
             }
-            let Scatter::Surface { bsdf, frame, .. } = v.scatter else {
-                return;
-            };
-            let f = bsdf.eval(&frame, v.wo, y.wo, TransportMode::Radiance);
-            if f == Spectrum::ZERO {
+            // f, and the densities of y.wo from v.wo and back, in one evaluation.
+            let e = bsdf.eval_pdfs(&frame, v.wo, y.wo, TransportMode::Radiance);
+            if e.f == Spectrum::ZERO {
                 return;
             }
+            let f = e.f;
             // (42)-(43): both sides' techniques from the camera BSDF's densities at v.
-            let w_light = y.mis.d_vcm * vc + y.mis.d_vm * v.pdf_w(scene, v.wo, y.wo);
-            let w_cam = v.mis.d_vcm * vc + v.mis.d_vm * v.pdf_w(scene, y.wo, v.wo);
+            let w_light = y.d_vcm * vc + y.d_vm * (e.pdf_fwd * q);
+            let w_cam = w_cam_vertex + v.mis.d_vm * (e.pdf_rev * q);
             let w = 1.0 / (w_light + 1.0 + w_cam);
             crate::check::weight(crate::check::Technique::named("vcm merge"), w as f64);
             sum += f * y.beta * w;
             if let Some(insp) = self.inspector {
-                let full = &self.lights.full[self.lights.owner[index as usize] as usize];
+                let full = &self.lights.full[self.lights.owner[y.index as usize] as usize];
                 let light = &full[..y.depth as usize];
                 self.record(
                     insp,

@@ -1,31 +1,55 @@
 //! A hash grid over points for fixed-radius range queries (the photon lookup of merging).
 //!
-//! Cells are cubes of side 2r; a cell's integer coordinates hash (Teschner et al. 2003) into
-//! one of `n` buckets (n = number of points), and a counting sort lays the points out bucket
-//! by bucket, in input order within a bucket, so the grid, and the order in which a query
-//! visits points, depend on the input only. A query visits the 2 x 2 x 2 cells that can hold
-//! points within r (each bucket once, even when two of those cells share it) and reports the
-//! points at distance <= r.
+//! Cells are cubes of side 4r; a cell's integer coordinates hash (Teschner et al. 2003) into
+//! one of `m` buckets. Every point is stored in the bucket of each cell its r-ball overlaps
+//! (one to eight cells, once per distinct bucket), so a query reads a single bucket: the one
+//! of the cell that holds the query point, which has every point within r of it, and reports
+//! those at distance <= r. A counting sort lays the entries out bucket by bucket, in input
+//! order within a bucket, so the grid, and the order in which a query visits points, depend on
+//! the input only.
+//!
+//! Each point carries a payload `T` (an index, or what the query needs of the point), stored
+//! with its position: a query touches one run of memory. (Cells of side 2r queried 2 x 2 x 2, with
+//! the payload fetched from the caller's array, cost vcm a cache miss per bucket and per
+//! point in range: most of its merging time.)
 
 use glam::{IVec3, Vec3};
 
-#[derive(Default)]
-pub struct HashGrid {
+pub struct HashGrid<T = u32> {
     radius2: f32,
     inv_cell: f32,
     origin: Vec3,
+    /// Number of points (each is stored in one to eight buckets).
+    points: usize,
     /// `starts[b] .. starts[b + 1]` are bucket b's entries.
     starts: Vec<u32>,
-    /// (position, caller's index), sorted by bucket.
-    entries: Vec<(Vec3, u32)>,
-    /// Scratch of the counting sort, kept for the next [`HashGrid::rebuild`].
-    buckets: Vec<u32>,
-    next: Vec<u32>,
+    /// (position, payload), sorted by bucket.
+    entries: Vec<(Vec3, T)>,
+    /// Scratch of the counting sort, kept for the next [`HashGrid::rebuild`]: (bucket, point).
+    keys: Vec<(u32, u32)>,
 }
 
-impl HashGrid {
-    /// A grid over `points` (position, caller's index) for queries of radius `radius` > 0.
-    pub fn new(points: &[(Vec3, u32)], radius: f32) -> HashGrid {
+impl<T> Default for HashGrid<T> {
+    fn default() -> Self {
+        HashGrid {
+            radius2: 0.0,
+            inv_cell: 0.0,
+            origin: Vec3::ZERO,
+            points: 0,
+            starts: Vec::new(),
+            entries: Vec::new(),
+            keys: Vec::new(),
+        }
+    }
+}
+
+/// A point within this fraction of a cell side from a cell face (a quarter: r of 4r, with a
+/// margin for rounding) is also stored in the neighbour across that face.
+const REACH: f32 = 0.25 + 1e-3;
+
+impl<T: Copy + Default> HashGrid<T> {
+    /// A grid over `points` (position, payload) for queries of radius `radius` > 0.
+    pub fn new(points: &[(Vec3, T)], radius: f32) -> HashGrid<T> {
         let mut grid = HashGrid::default();
         grid.rebuild(points, radius);
         grid
@@ -33,7 +57,7 @@ impl HashGrid {
 
     /// [`HashGrid::new`] in this grid's memory (vcm rebuilds its grid every pass; fresh
     /// allocations of that size cost page faults every time).
-    pub fn rebuild(&mut self, points: &[(Vec3, u32)], radius: f32) {
+    pub fn rebuild(&mut self, points: &[(Vec3, T)], radius: f32) {
         let origin = points
             .iter()
             .fold(Vec3::splat(f32::INFINITY), |m, (p, _)| m.min(*p));
@@ -43,87 +67,96 @@ impl HashGrid {
             Vec3::ZERO
         };
         self.radius2 = radius * radius;
-        self.inv_cell = 0.5 / radius;
-        let n = points.len();
-        self.starts.clear();
-        self.starts.resize(n + 1, 0);
-        let mut buckets = std::mem::take(&mut self.buckets);
-        buckets.clear();
-        buckets.extend(points.iter().map(|(p, _)| self.bucket(self.cell_of(*p))));
+        self.inv_cell = 0.25 / radius;
+        self.points = points.len();
+        // Buckets: as many as points, at least one.
+        let m = points.len().max(1);
+        let mut keys = std::mem::take(&mut self.keys);
+        keys.clear();
+        for (i, (p, _)) in points.iter().enumerate() {
+            let c = (*p - self.origin) * self.inv_cell;
+            let base = c.floor();
+            let frac = c - base;
+            let base = base.as_ivec3();
+            // The cells along each axis that the r-ball reaches: 1 or 2.
+            let axis = |f: f32| -> (i32, i32) {
+                if f < REACH {
+                    (-1, 0)
+                } else if f > 1.0 - REACH {
+                    (0, 1)
+                } else {
+                    (0, 0)
+                }
+            };
+            let (ax, ay, az) = (axis(frac.x), axis(frac.y), axis(frac.z));
+            let mut buckets = [u32::MAX; 8];
+            let mut count = 0;
+            for dz in [az.0, az.1] {
+                for dy in [ay.0, ay.1] {
+                    for dx in [ax.0, ax.1] {
+                        let b = bucket(base + IVec3::new(dx, dy, dz), m);
+                        if !buckets[..count].contains(&b) {
+                            buckets[count] = b;
+                            count += 1;
+                        }
+                    }
+                }
+            }
+            keys.extend(buckets[..count].iter().map(|&b| (b, i as u32)));
+        }
         // Counting sort: counts, exclusive prefix sums, then scatter in input order.
-        for &b in &buckets {
+        self.starts.clear();
+        self.starts.resize(m + 1, 0);
+        for &(b, _) in &keys {
             self.starts[b as usize + 1] += 1;
         }
         for i in 1..self.starts.len() {
             self.starts[i] += self.starts[i - 1];
         }
-        self.next.clear();
-        self.next.extend_from_slice(&self.starts[..n]);
+        let mut next: Vec<u32> = self.starts[..m].to_vec();
         self.entries.clear();
-        self.entries.resize(n, (Vec3::ZERO, 0));
-        for (point, &b) in points.iter().zip(&buckets) {
-            let slot = &mut self.next[b as usize];
-            self.entries[*slot as usize] = *point;
+        self.entries.resize(keys.len(), (Vec3::ZERO, T::default()));
+        for &(b, i) in &keys {
+            let slot = &mut next[b as usize];
+            self.entries[*slot as usize] = points[i as usize];
             *slot += 1;
         }
-        self.buckets = buckets;
+        self.keys = keys;
     }
 
+    /// Number of points.
     pub fn len(&self) -> usize {
-        self.entries.len()
+        self.points
     }
 
     pub fn is_empty(&self) -> bool {
-        self.entries.is_empty()
+        self.points == 0
     }
 
-    /// Call `visit(index)` for every point within the radius of `p`.
+    /// Call `visit(payload)` for every point within the radius of `p`.
     #[inline]
-    pub fn query(&self, p: Vec3, mut visit: impl FnMut(u32)) {
+    pub fn query(&self, p: Vec3, mut visit: impl FnMut(&T)) {
         if self.entries.is_empty() {
             return;
         }
-        let c = (p - self.origin) * self.inv_cell;
-        let base = c.floor();
-        let frac = c - base;
-        // The neighbour on the nearer side in each axis.
-        let lo = base.as_ivec3()
-            - IVec3::new(
-                (frac.x < 0.5) as i32,
-                (frac.y < 0.5) as i32,
-                (frac.z < 0.5) as i32,
-            );
-        let mut buckets = [0u32; 8];
-        for (i, b) in buckets.iter_mut().enumerate() {
-            let d = IVec3::new((i & 1) as i32, ((i >> 1) & 1) as i32, ((i >> 2) & 1) as i32);
-            *b = self.bucket(lo + d);
-        }
-        buckets.sort_unstable();
-        for (i, &b) in buckets.iter().enumerate() {
-            if i > 0 && buckets[i - 1] == b {
-                continue;
-            }
-            let (s, e) = (self.starts[b as usize], self.starts[b as usize + 1]);
-            for &(q, index) in &self.entries[s as usize..e as usize] {
-                if (q - p).length_squared() <= self.radius2 {
-                    visit(index);
-                }
+        let c = ((p - self.origin) * self.inv_cell).floor().as_ivec3();
+        let b = bucket(c, self.starts.len() - 1) as usize;
+        let (s, e) = (self.starts[b] as usize, self.starts[b + 1] as usize);
+        for (q, item) in &self.entries[s..e] {
+            if (*q - p).length_squared() <= self.radius2 {
+                visit(item);
             }
         }
     }
+}
 
-    #[inline]
-    fn cell_of(&self, p: Vec3) -> IVec3 {
-        ((p - self.origin) * self.inv_cell).floor().as_ivec3()
-    }
-
-    #[inline]
-    fn bucket(&self, c: IVec3) -> u32 {
-        let h = (c.x as u32).wrapping_mul(73_856_093)
-            ^ (c.y as u32).wrapping_mul(19_349_663)
-            ^ (c.z as u32).wrapping_mul(83_492_791);
-        h % (self.starts.len() as u32 - 1)
-    }
+/// The bucket of cell `c` among `m`.
+#[inline]
+fn bucket(c: IVec3, m: usize) -> u32 {
+    let h = (c.x as u32).wrapping_mul(73_856_093)
+        ^ (c.y as u32).wrapping_mul(19_349_663)
+        ^ (c.z as u32).wrapping_mul(83_492_791);
+    h % m as u32
 }
 
 #[cfg(test)]
@@ -144,7 +177,7 @@ mod tests {
                 // Also outside the points' bounding box.
                 let q = pt() * 1.1;
                 let mut found = Vec::new();
-                grid.query(q, |i| found.push(i));
+                grid.query(q, |&i| found.push(i));
                 found.sort_unstable();
                 let expect: Vec<u32> = points
                     .iter()
@@ -154,7 +187,7 @@ mod tests {
                 assert_eq!(found, expect, "radius {radius}, query {q}");
             }
         }
-        let empty = HashGrid::new(&[], 0.1);
+        let empty = HashGrid::<u32>::new(&[], 0.1);
         empty.query(Vec3::ZERO, |_| panic!("no points"));
     }
 }

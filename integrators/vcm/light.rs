@@ -24,6 +24,32 @@ pub struct LightRow<'a> {
     pub full: Vec<Vec<PathVertex>>,
 }
 
+/// What merging needs of a stored light vertex (`lights.vertices[index]`), kept in the hash
+/// grid beside its position.
+#[derive(Clone, Copy, Default)]
+pub struct Photon {
+    /// Unit direction towards the light walk's previous vertex.
+    pub wo: Vec3,
+    pub beta: Spectrum,
+    pub d_vcm: f32,
+    pub d_vm: f32,
+    pub depth: u32,
+    pub index: u32,
+}
+
+impl Photon {
+    pub fn of(v: &Vertex, index: usize) -> Photon {
+        Photon {
+            wo: v.wo,
+            beta: v.beta,
+            d_vcm: v.mis.d_vcm,
+            d_vm: v.mis.d_vm,
+            depth: v.depth,
+            index: index as u32,
+        }
+    }
+}
+
 /// All stored light vertices of a pass, path by path.
 #[derive(Default)]
 pub struct LightPaths<'a> {

@@ -58,7 +58,7 @@ use crate::render::{Budget, Integrator, RenderContext, RenderResult, run_passes_
 use crate::scene::Scene;
 use camera::CameraTracer;
 use glam::{UVec2, Vec2, Vec3};
-use light::{LightPaths, LightRow, LightTracer};
+use light::{LightPaths, LightRow, LightTracer, Photon};
 use rayon::prelude::*;
 use std::cell::RefCell;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -297,19 +297,19 @@ fn camera_sample(
     ct.sample(k, Vec2::new(x as f32, y as f32) + jitter, &mut sampler)
 }
 
-fn build_grid(lights: &LightPaths, radius: f32) -> HashGrid {
+fn build_grid(lights: &LightPaths, radius: f32) -> HashGrid<Photon> {
     let mut points = Vec::new();
     mergeable_points(lights, &mut points);
     HashGrid::new(&points, radius)
 }
 
 /// The light vertices merging can use (position, index), into `points`.
-fn mergeable_points(lights: &LightPaths, points: &mut Vec<(Vec3, u32)>) {
+fn mergeable_points(lights: &LightPaths, points: &mut Vec<(Vec3, Photon)>) {
     points.clear();
     points.extend(
         (lights.vertices.iter().enumerate())
             .filter(|(_, v)| v.mergeable())
-            .map(|(i, v)| (v.p, i as u32)),
+            .map(|(i, v)| (v.p, Photon::of(v, i))),
     );
 }
 

@@ -332,7 +332,7 @@ fn recursive_against_explicit(
 fn recursive_mis_weights_equal_the_explicit_weights() {
     let point_text = lodestar::scene::CORNELL_BOX_TOML
         .replace("resolution = [256, 256]", "resolution = [24, 24]")
-        + POINT_LIGHT;
+        + util::POINT_LIGHT;
     let scenes = [
         ("cornell-box.toml", scene_file("cornell-box.toml", 24)),
         ("cornell-glossy.toml", scene_file("cornell-glossy.toml", 24)),
@@ -362,18 +362,3 @@ fn recursive_mis_weights_equal_the_explicit_weights() {
         "control: balance and power weights were not told apart"
     );
 }
-
-const POINT_LIGHT: &str = r#"
-[[shape]]
-name = "shade"
-type = "quad"
-origin = [-0.05, 0.25, 0.1]
-edge_u = [0.1, 0, 0]
-edge_v = [0, 0.1, 0]
-material = "black"
-
-[[light]]
-type = "point"
-position = [0, 0.3, 0]
-intensity = [2, 2, 2]
-"#;

@@ -12,7 +12,7 @@ mod util;
 
 use lodestar::film::Image;
 use lodestar::scene::Scene;
-use util::{assert_same_image, render, scene};
+use util::{POINT_LIGHT, assert_same_image, render, scene};
 
 const BOX: &str = r#"
 [camera]
@@ -80,24 +80,6 @@ name = "fog box"
 type = "cube"
 interior = "fog"
 transform = { scale = [0.95, 0.95, 2.4], translate = [0, 0, 1.5] }
-"#;
-
-/// A point light at (0, 0.3, 0), with a 10 cm black shade in front of it: pt can never see a
-/// point light directly (a camera ray hits it with probability zero) while lt and bdpt splat
-/// it onto its pixel, so the light itself is kept out of view.
-const POINT_LIGHT: &str = r#"
-[[shape]]
-name = "shade"
-type = "quad"
-origin = [-0.05, 0.25, 0.1]
-edge_u = [0.1, 0, 0]
-edge_v = [0, 0.1, 0]
-material = "black"
-
-[[light]]
-type = "point"
-position = [0, 0.3, 0]
-intensity = [2, 2, 2]
 "#;
 
 /// A 20 cm square facing down, at y = 0.3 (inside either fog box).

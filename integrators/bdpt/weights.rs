@@ -138,9 +138,7 @@ impl<'a> Tracer<'a> {
             .for_each(|(p, v)| *p = v.fwd);
         terms.pl[k] = origin_density(scene, emitter, light) as f64;
         if k >= 2 {
-            terms.pl[k - 1] = (pdf(scene, emitter, None, &c[k - 1])
-                * emitter.edge.factor(scene, c[k - 1].is_medium(), false))
-                as f64;
+            terms.pl[k - 1] = emitter_back(scene, c, emitter);
         }
         for j in 1..k.saturating_sub(1) {
             terms.pl[j] = rr(cc[j + 1].q, k - j - 1) * c[j].pdf_rev as f64;
@@ -165,6 +163,20 @@ impl<'a> Tracer<'a> {
         self.terms
             .weight_with(0, self.settings.heuristic, &mut self.densities)
     }
+}
+
+/// `pl[k - 1]` of an emitter hit: the density of y_{k-1} from the emitter point y_k, free
+/// flight included (the light walk's second vertex; no roulette at the light).
+fn emitter_back(scene: &Scene, c: &[Vertex], emitter: &Vertex) -> f64 {
+    let k = c.len() - 1;
+    (pdf(scene, emitter, None, &c[k - 1]) * emitter.edge.factor(scene, c[k - 1].is_medium(), false))
+        as f64
+}
+
+/// The weight `1 / sum` of a technique whose relative sum is `sum` (>= 1); 0 when the sum
+/// overflowed or is NaN (a zero own density).
+fn inverse_or_zero(sum: f64) -> f64 {
+    if sum.is_finite() { 1.0 / sum } else { 0.0 }
 }
 
 /// Recursive MIS weight of technique (s, t) = (`lc.len()`, `cc.len()`) with the cached
@@ -212,8 +224,7 @@ fn weight_recursive(
     } else {
         0.0
     };
-    let sum = 1.0 + c + l;
-    if sum.is_finite() { 1.0 / sum } else { 0.0 }
+    inverse_or_zero(1.0 + c + l)
 }
 
 impl<'a> Tracer<'a> {
@@ -243,13 +254,10 @@ impl<'a> Tracer<'a> {
             } else {
                 0.0
             };
-            let pl_k1 = (pdf(scene, emitter, None, &c[k - 1])
-                * emitter.edge.factor(scene, c[k - 1].is_medium(), false))
-                as f64;
+            let pl_k1 = emitter_back(scene, c, emitter);
             let before = r(pl_k1, cc[k - 1].fwd) * (cc[k - 1].mis_valid + cc[k - 2].mis_sum);
             nee + r(pl_k, cc[k].fwd) * before
         };
-        let sum = 1.0 + others;
-        if sum.is_finite() { 1.0 / sum } else { 0.0 }
+        inverse_or_zero(1.0 + others)
     }
 }

@@ -25,8 +25,10 @@ pub struct HashGrid<T = u32> {
     starts: Vec<u32>,
     /// (position, payload), sorted by bucket.
     entries: Vec<(Vec3, T)>,
-    /// Scratch of the counting sort, kept for the next [`HashGrid::rebuild`]: (bucket, point).
+    /// Scratch of the counting sort, kept for the next [`HashGrid::rebuild`]: (bucket, point)
+    /// pairs and each bucket's next free slot.
     keys: Vec<(u32, u32)>,
+    next: Vec<u32>,
 }
 
 impl<T> Default for HashGrid<T> {
@@ -39,6 +41,7 @@ impl<T> Default for HashGrid<T> {
             starts: Vec::new(),
             entries: Vec::new(),
             keys: Vec::new(),
+            next: Vec::new(),
         }
     }
 }
@@ -113,7 +116,9 @@ impl<T: Copy + Default> HashGrid<T> {
         for i in 1..self.starts.len() {
             self.starts[i] += self.starts[i - 1];
         }
-        let mut next: Vec<u32> = self.starts[..m].to_vec();
+        let mut next = std::mem::take(&mut self.next);
+        next.clear();
+        next.extend_from_slice(&self.starts[..m]);
         self.entries.clear();
         self.entries.resize(keys.len(), (Vec3::ZERO, T::default()));
         for &(b, i) in &keys {
@@ -122,6 +127,7 @@ impl<T: Copy + Default> HashGrid<T> {
             *slot += 1;
         }
         self.keys = keys;
+        self.next = next;
     }
 
     /// Number of points.

@@ -290,3 +290,21 @@ pub fn mirrored(img: &Image) -> Image {
 pub fn differs(a: &[Image], b: &[Image], block: u32) -> bool {
     std::panic::catch_unwind(|| assert_same_image(a, b, block, "control")).is_err()
 }
+
+/// A point light at (0, 0.3, 0), with a 10 cm black shade in front of it: pt can never see a
+/// point light directly (a camera ray hits it with probability zero) while lt and bdpt splat
+/// it onto its pixel, so the light itself is kept out of view.
+pub const POINT_LIGHT: &str = r#"
+[[shape]]
+name = "shade"
+type = "quad"
+origin = [-0.05, 0.25, 0.1]
+edge_u = [0.1, 0, 0]
+edge_v = [0, 0.1, 0]
+material = "black"
+
+[[light]]
+type = "point"
+position = [0, 0.3, 0]
+intensity = [2, 2, 2]
+"#;

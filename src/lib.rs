@@ -19,6 +19,7 @@ pub mod medium;
 pub mod metrics;
 pub mod parts;
 pub mod path;
+pub mod prefetch;
 pub mod render;
 pub mod scene;
 pub mod snapshot;

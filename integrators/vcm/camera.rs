@@ -94,8 +94,21 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
             if self.inspector.is_some() {
                 self.path.push(v.path_vertex());
             }
+            // Merging's bucket, asked for now so that its cache misses overlap the
+            // connections below.
+            let bucket = match self.grid {
+                Some(grid) if v.mergeable() => {
+                    let b = grid.bucket_of(v.p);
+                    grid.prefetch_range(b);
+                    Some((grid, b))
+                }
+                _ => None,
+            };
             if v.connectible() && st.connect {
                 l += self.next_event(&v, sampler);
+                if let Some((grid, b)) = bucket {
+                    grid.prefetch_entries(b);
+                }
                 for y in self.lights.path(k) {
                     if y.depth + 1 + i <= max {
                         l += self.connect(&v, y, k);

@@ -11,7 +11,9 @@
 //! Each point carries a payload `T` (an index, or what the query needs of the point), stored
 //! with its position: a query touches one run of memory. (Cells of side 2r queried 2 x 2 x 2, with
 //! the payload fetched from the caller's array, cost vcm a cache miss per bucket and per
-//! point in range: most of its merging time.)
+//! point in range: most of its merging time.) A caller that knows a query point early can
+//! hand its bucket to [`HashGrid::prefetch_range`] and later [`HashGrid::prefetch_entries`],
+//! so that the two dependent cache misses of a query overlap other work.
 
 use glam::{IVec3, Vec3};
 
@@ -139,14 +141,42 @@ impl<T: Copy + Default> HashGrid<T> {
         self.points == 0
     }
 
+    /// The bucket a query at `p` reads (for [`HashGrid::prefetch_range`] and
+    /// [`HashGrid::prefetch_entries`]).
+    #[inline]
+    pub fn bucket_of(&self, p: Vec3) -> usize {
+        let c = ((p - self.origin) * self.inv_cell).floor().as_ivec3();
+        bucket(c, self.starts.len().max(2) - 1) as usize
+    }
+
+    /// Ask the cache for bucket `b`'s range without waiting for it.
+    #[inline]
+    pub fn prefetch_range(&self, b: usize) {
+        if let Some(s) = self.starts.get(b) {
+            crate::prefetch::line(s);
+        }
+    }
+
+    /// Ask the cache for the first entries of bucket `b` without waiting for them (reads the
+    /// range, which [`HashGrid::prefetch_range`] should have brought in).
+    #[inline]
+    pub fn prefetch_entries(&self, b: usize) {
+        if b + 1 >= self.starts.len() {
+            return;
+        }
+        let (s, e) = (self.starts[b] as usize, self.starts[b + 1] as usize);
+        if s < e {
+            crate::prefetch::slice(&self.entries[s..e], 2);
+        }
+    }
+
     /// Call `visit(payload)` for every point within the radius of `p`.
     #[inline]
     pub fn query(&self, p: Vec3, mut visit: impl FnMut(&T)) {
         if self.entries.is_empty() {
             return;
         }
-        let c = ((p - self.origin) * self.inv_cell).floor().as_ivec3();
-        let b = bucket(c, self.starts.len() - 1) as usize;
+        let b = self.bucket_of(p);
         let (s, e) = (self.starts[b] as usize, self.starts[b + 1] as usize);
         for (q, item) in &self.entries[s..e] {
             if (*q - p).length_squared() <= self.radius2 {

@@ -177,6 +177,83 @@ fn mis_weights_with_the_guided_technique_sum_to_one_fog() {
     check_weights("cornell-fog", &box_scene("cornell-fog.toml", 16));
 }
 
+/// The coverage classes the guided integrators report (`unguided_second_moment_by_coverage`)
+/// sort BDPT's paths as p_g and the cache say: `Covered` exactly when p_g > 0, `NotHeld`
+/// exactly when no guide path has the path's structure, `Zero` otherwise; and `densities`
+/// returns what `densities_covered` does. A cache of a few BDPT paths of the glass box leaves
+/// every class populated (checked, so that a classifier with a constant answer fails).
+#[test]
+fn coverage_classes_follow_the_cache_and_p_g() {
+    use lodestar::integrators::guided::estimator::Coverage;
+    use lodestar::integrators::guided::kernel;
+    let scene = box_scene("cornell-box.toml", 16);
+    let cache = cache_of_bdpt_paths(&scene, 150);
+    assert!(cache.len() > 5, "{} guide paths", cache.len());
+    let u = BdptUnguided {
+        settings: bdpt_settings(),
+    };
+    let est = Estimator::new(&scene, &u, &cache, 0.5);
+    struct Classify<'e, 'a> {
+        scene: &'a Scene,
+        est: &'e Estimator<'a, BdptUnguided>,
+        cache: &'e GuideCache,
+        stats: Stats,
+        candidates: X1Candidates,
+        counts: [usize; 3],
+        bad: Vec<String>,
+    }
+    impl PathSink for Classify<'_, '_> {
+        fn record(&mut self, path: &Path, y: Option<&[Vertex]>, f: DVec3, p_u: f64, _: bool) {
+            if f == DVec3::ZERO {
+                return;
+            }
+            let (est, scene) = (self.est, self.scene);
+            let (p_u1, p_g1, class) =
+                est.densities_covered(path, y, p_u, &mut self.stats, &mut self.candidates);
+            let (p_u2, p_g2) = est.densities(path, y, p_u, &mut self.stats, &mut self.candidates);
+            let held = kernel::signature(scene, path, MAX_VERTICES)
+                .is_some_and(|sig| self.cache.holds(sig));
+            let expected = if p_g1 > 0.0 {
+                Coverage::Covered
+            } else if held {
+                Coverage::Zero
+            } else {
+                Coverage::NotHeld
+            };
+            self.counts[class as usize] += 1;
+            if (class != expected || (p_u1, p_g1) != (p_u2, p_g2)) && self.bad.len() < 6 {
+                self.bad.push(format!(
+                    "{} segments: {class:?}, expected {expected:?} (p_g {p_g1}, held {held}); \
+                     densities {:?} vs {:?}",
+                    path.segments(),
+                    (p_u1, p_g1),
+                    (p_u2, p_g2)
+                ));
+            }
+        }
+    }
+    let mut check = Classify {
+        scene: &scene,
+        est: &est,
+        cache: &cache,
+        stats: Stats::default(),
+        candidates: X1Candidates::default(),
+        counts: [0; 3],
+        bad: Vec::new(),
+    };
+    trace_bdpt(&scene, 78, 1500, &mut check);
+    eprintln!(
+        "paths by class (not held, p_g = 0, covered): {:?}",
+        check.counts
+    );
+    assert!(check.bad.is_empty(), "{}", check.bad.join("\n"));
+    assert!(
+        check.counts.iter().all(|&n| n >= 20),
+        "a class is (nearly) empty, the test would not see a misclassification: {:?}",
+        check.counts
+    );
+}
+
 /// Welch's t of "guided-bdpt (frozen `cache`, split `alpha`) and bdpt have the same image
 /// mean", per channel, from 8 renders of each (seeds 1..=8): whole-image means across seeds,
 /// as caustics make pixel values heavy-tailed. `broken` leaves guide path 0 out of p_g.

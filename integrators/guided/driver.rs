@@ -20,7 +20,7 @@
 //! run chose (saved with it); `share = fixed` uses `alpha`.
 
 use super::cache::{self, GuideCache, RebuildParams};
-use super::estimator::{Collector, Estimator, FAILURE_REASONS, RowOutput, Stats};
+use super::estimator::{COVERAGE_CLASSES, Collector, Estimator, FAILURE_REASONS, RowOutput, Stats};
 use super::io;
 use super::seeder::{Candidate, Explore, LearnPass, LearnRow, Seeder, Source};
 use super::{GuidedSettings, Share, share};
@@ -460,6 +460,15 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
                 stats.pu_disagreements + rs.pu_disagreements,
             ),
             stat("learning_guided_samples", stats.guided),
+            stat("guide_structures", cache.structures()),
+            stat(
+                "unguided_paths_by_coverage",
+                coverage_shares(&rs.coverage_paths.map(|n| n as f64)),
+            ),
+            stat(
+                "unguided_second_moment_by_coverage",
+                coverage_shares(&rs.coverage_m2),
+            ),
             stat(
                 &format!("failures_{FAILURE_REASONS}"),
                 format!("{:?}", rs.reasons),
@@ -477,4 +486,15 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
             stats: out_stats,
         }
     }
+}
+
+/// `class:share/...` of U's paths or second moment by [`COVERAGE_CLASSES`].
+fn coverage_shares(sums: &[f64; 3]) -> String {
+    let total: f64 = sums.iter().sum();
+    let cells: Vec<String> = COVERAGE_CLASSES
+        .iter()
+        .zip(sums)
+        .map(|(name, x)| format!("{name}:{:.3}", x / total.max(f64::MIN_POSITIVE)))
+        .collect();
+    cells.join("/")
 }

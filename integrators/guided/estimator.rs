@@ -63,7 +63,27 @@ pub struct Stats {
     /// Rays traced by the unguided and the guided technique (the share's cost measure).
     pub rays_u: u64,
     pub rays_g: u64,
+    /// U's paths by what the cache offers them ([`Coverage`] order): how many, and the sum of
+    /// their contributions' squared luminance (the second moment each class adds to the
+    /// image, `f / (p_u + (n_g / n_u) p_g)` squared): where U's error sits that guiding does
+    /// or cannot reduce.
+    pub coverage_paths: [u64; 3],
+    pub coverage_m2: [f64; 3],
 }
+
+/// What the cache offers a path U formed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Coverage {
+    /// No guide path has its structure (or the guider does not handle it).
+    NotHeld = 0,
+    /// Guide paths of its structure exist but none reaches it: p_g = 0.
+    Zero = 1,
+    /// p_g > 0: the guided technique samples it too.
+    Covered = 2,
+}
+
+/// Names of [`Stats::coverage_paths`] and [`Stats::coverage_m2`], in order.
+pub const COVERAGE_CLASSES: [&str; 3] = ["structure_not_held", "pg_zero", "covered"];
 
 impl Stats {
     pub fn add(&mut self, o: &Stats) {
@@ -78,6 +98,10 @@ impl Stats {
         self.bvh_queries += o.bvh_queries;
         self.rays_u += o.rays_u;
         self.rays_g += o.rays_g;
+        for c in 0..3 {
+            self.coverage_paths[c] += o.coverage_paths[c];
+            self.coverage_m2[c] += o.coverage_m2[c];
+        }
         for (a, b) in self.reasons.iter_mut().zip(o.reasons) {
             *a += b;
         }
@@ -163,16 +187,29 @@ impl<'a, U: Unguided> Estimator<'a, U> {
         stats: &mut Stats,
         candidates: &mut X1Candidates,
     ) -> (f64, f64) {
+        let (p_u, p_g, _) = self.densities_covered(path, y, p_u, stats, candidates);
+        (p_u, p_g)
+    }
+
+    /// [`Estimator::densities`], and what the cache offers the path.
+    pub fn densities_covered(
+        &self,
+        path: &Path,
+        y: Option<&[Vertex]>,
+        p_u: f64,
+        stats: &mut Stats,
+        candidates: &mut X1Candidates,
+    ) -> (f64, f64, Coverage) {
         if self.n_g == 0.0 {
-            return (p_u, 0.0);
+            return (p_u, 0.0, Coverage::NotHeld);
         }
         // The hash alone (no allocation) rejects every path whose structure the cache lacks.
         match kernel::signature(self.scene, path, MAX_VERTICES) {
             Some(sig) if self.cache.holds(sig) => {}
-            _ => return (p_u, 0.0),
+            _ => return (p_u, 0.0, Coverage::NotHeld),
         }
         let Some((sig, nodes)) = kernel::structure(self.scene, path, MAX_VERTICES) else {
-            return (p_u, 0.0);
+            return (p_u, 0.0, Coverage::NotHeld);
         };
         let owned;
         let y = match y {
@@ -182,7 +219,7 @@ impl<'a, U: Unguided> Estimator<'a, U> {
                     owned = v;
                     &owned
                 }
-                None => return (p_u, 0.0),
+                None => return (p_u, 0.0, Coverage::NotHeld),
             },
         };
         let list = candidates.of(self.cache, self.scene, y[1].p, stats);
@@ -198,13 +235,13 @@ impl<'a, U: Unguided> Estimator<'a, U> {
             // unbounded (fireflies of 1e5 on fog-dragon before).
             let recomputed = self.unguided.pdf_unguided(self.scene, y);
             if recomputed > 0.0 {
-                (recomputed, p_g)
+                (recomputed, p_g, Coverage::Covered)
             } else {
                 stats.pu_disagreements += 1;
-                (p_u, p_g)
+                (p_u, p_g, Coverage::Covered)
             }
         } else {
-            (p_u, 0.0)
+            (p_u, 0.0, Coverage::Zero)
         }
     }
 
@@ -357,14 +394,18 @@ impl<U: Unguided> PathSink for Collector<'_, '_, U> {
             return;
         }
         let out = &mut *self.out;
-        let (p_u, p_g) = self
-            .est
-            .densities(path, y, p_u, &mut out.stats, &mut out.candidates);
+        let (p_u, p_g, coverage) =
+            self.est
+                .densities_covered(path, y, p_u, &mut out.stats, &mut out.candidates);
         let value = f / self.est.mix(p_u, p_g);
         if !(value.is_finite() && value.min_element() >= 0.0) {
             out.stats.invalid += 1;
             return;
         }
+        let lum = luminance64(value);
+        out.stats.coverage_paths[coverage as usize] += 1;
+        out.stats.coverage_m2[coverage as usize] += lum * lum;
+
         if splat {
             out.splats.push((path.pixel, value));
         } else {

@@ -190,6 +190,11 @@ impl GuideCache {
         self.sigs.contains(&sig)
     }
 
+    /// Number of distinct structures among the guide paths.
+    pub fn structures(&self) -> usize {
+        self.sigs.len()
+    }
+
     /// Vertex v (1 .. L-1) of guide `l`; v = 0 is the camera.
     pub fn vertex(&self, scene: &Scene, l: usize, v: usize) -> PathVertex {
         if v == 0 {

@@ -302,7 +302,7 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
         let w = 1.0 / (w_light + 1.0 + w_cam);
         crate::check::weight(crate::check::Technique::named("vcm connection"), w as f64);
         if let Some(insp) = self.inspector {
-            let light = &self.lights.full[k][..=y.depth as usize];
+            let light = &self.lights.full(k)[..=y.depth as usize];
             self.record(insp, Technique::Connect { s: light.len() }, light, w);
         }
         c * w
@@ -337,7 +337,9 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
             crate::check::weight(crate::check::Technique::named("vcm merge"), w as f64);
             sum += f * y.beta * w;
             if let Some(insp) = self.inspector {
-                let full = &self.lights.full[self.lights.owner[y.index as usize] as usize];
+                let full = self
+                    .lights
+                    .full(self.lights.path_of_vertex(y.index as usize));
                 let light = &full[..y.depth as usize];
                 self.record(
                     insp,

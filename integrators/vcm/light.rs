@@ -11,20 +11,31 @@ use crate::math::{IndependentSampler, Sampler, Spectrum};
 use crate::path::{Path, Vertex as PathVertex, VertexKind};
 use crate::scene::{Endpoint, Scene};
 use glam::Vec3;
+use rayon::prelude::*;
 
 /// The light subpaths of one row of path indices.
 #[derive(Default)]
 pub struct LightRow<'a> {
     pub vertices: Vec<Vertex<'a>>,
-    /// Number of stored vertices of each path.
-    pub counts: Vec<u32>,
+    /// The row's i-th path has vertices `starts[i] .. starts[i + 1]`.
+    pub starts: Vec<u32>,
     /// Light-tracing contributions (pixel, value), in path order.
     pub splats: Vec<(u32, Spectrum)>,
     /// Every vertex of every path, light first (inspection only).
     pub full: Vec<Vec<PathVertex>>,
 }
 
-/// What merging needs of a stored light vertex (`lights.vertices[index]`), kept in the hash
+impl LightRow<'_> {
+    fn clear(&mut self) {
+        self.vertices.clear();
+        self.starts.clear();
+        self.starts.push(0);
+        self.splats.clear();
+        self.full.clear();
+    }
+}
+
+/// What merging needs of a stored light vertex (global index `index`), kept in the hash
 /// grid beside its position.
 #[derive(Clone, Copy, Default)]
 pub struct Photon {
@@ -50,57 +61,102 @@ impl Photon {
     }
 }
 
-/// All stored light vertices of a pass, path by path.
+/// All stored light vertices of a pass, path by path, in the rows the light pass traced
+/// them in. Rows keep their memory from pass to pass and are read where they were written:
+/// at 512 x 512 a pass's light vertices are tens of megabytes, and allocating them afresh
+/// every pass cost vcm about 7 % of its time in page faults, copying them into one array 2 %.
+/// A vertex's global index counts row by row (row 0's vertices first).
 #[derive(Default)]
 pub struct LightPaths<'a> {
-    pub vertices: Vec<Vertex<'a>>,
-    /// Path k's vertices are `starts[k] .. starts[k + 1]`.
-    pub starts: Vec<u32>,
-    /// Inspection only: every vertex of every path, and the path of each stored vertex.
-    pub full: Vec<Vec<PathVertex>>,
-    pub owner: Vec<u32>,
+    rows: Vec<LightRow<'a>>,
+    /// Paths per row.
+    row_len: usize,
+    /// Global index of each row's first vertex, and the total at the end.
+    offsets: Vec<u32>,
 }
 
 impl<'a> LightPaths<'a> {
-    /// Concatenate rows (in row order); their splats go to `splats` in the same order.
-    pub fn from_rows(rows: Vec<LightRow<'a>>, splats: &mut Vec<(u32, Spectrum)>) -> Self {
-        let mut out = LightPaths::default();
-        out.refill(rows, splats);
-        out
+    /// Trace `rows` rows of `row_len` paths each (row y holds paths `y row_len ..`) of pass
+    /// `pass`, a row per task, into these buffers.
+    pub fn trace(
+        &mut self,
+        scene: &'a Scene,
+        settings: &VcmSettings,
+        pc: &PassConstants,
+        (seed, pass): (u64, u64),
+        rows: usize,
+        row_len: usize,
+    ) {
+        self.rows.resize_with(rows, LightRow::default);
+        self.row_len = row_len;
+        self.rows.par_iter_mut().enumerate().for_each(|(y, row)| {
+            let lt = LightTracer {
+                scene,
+                settings,
+                pc,
+                inspector: None,
+            };
+            lt.row_into(seed, pass, (y * row_len) as u64, row_len as u64, row)
+        });
+        self.index();
     }
 
-    /// [`Self::from_rows`] into these buffers, keeping their memory: a pass's light vertices
-    /// are tens of megabytes at 512 x 512, and allocating them afresh every pass cost vcm
-    /// about 7 % of its time in page faults.
-    pub fn refill(&mut self, rows: Vec<LightRow<'a>>, splats: &mut Vec<(u32, Spectrum)>) {
-        let total: usize = rows.iter().map(|r| r.vertices.len()).sum();
-        let paths: usize = rows.iter().map(|r| r.counts.len()).sum();
-        self.vertices.clear();
-        self.vertices.reserve(total);
-        self.starts.clear();
-        self.starts.reserve(paths + 1);
-        self.full.clear();
-        self.owner.clear();
-        self.starts.push(0);
-        for row in rows {
-            let inspect = !row.full.is_empty();
-            for &c in &row.counts {
-                if inspect {
-                    let k = self.starts.len() as u32 - 1;
-                    self.owner.extend(std::iter::repeat_n(k, c as usize));
-                }
-                self.starts.push(self.starts.last().unwrap() + c);
-            }
-            self.vertices.extend_from_slice(&row.vertices);
-            splats.extend_from_slice(&row.splats);
-            self.full.extend(row.full);
+    /// All `n` paths of pass `pass` as one row, on this thread, by `tracer` (inspection).
+    pub fn trace_one_row(
+        &mut self,
+        tracer: &LightTracer<'a, '_>,
+        (seed, pass): (u64, u64),
+        n: usize,
+    ) {
+        self.rows.resize_with(1, LightRow::default);
+        self.row_len = n;
+        tracer.row_into(seed, pass, 0, n as u64, &mut self.rows[0]);
+        self.index();
+    }
+
+    fn index(&mut self) {
+        self.offsets.clear();
+        let mut total = 0u32;
+        for row in &self.rows {
+            self.offsets.push(total);
+            total += row.vertices.len() as u32;
         }
+        self.offsets.push(total);
     }
 
     /// The stored vertices of light path `k`.
     #[inline]
     pub fn path(&self, k: usize) -> &[Vertex<'a>] {
-        &self.vertices[self.starts[k] as usize..self.starts[k + 1] as usize]
+        let (row, i) = (&self.rows[k / self.row_len], k % self.row_len);
+        &row.vertices[row.starts[i] as usize..row.starts[i + 1] as usize]
+    }
+
+    /// Every stored vertex with its global index.
+    pub fn vertices(&self) -> impl Iterator<Item = (usize, &Vertex<'a>)> {
+        self.rows.iter().zip(&self.offsets).flat_map(|(row, &o)| {
+            row.vertices
+                .iter()
+                .enumerate()
+                .map(move |(i, v)| (o as usize + i, v))
+        })
+    }
+
+    /// The light-tracing splats, in path order, row by row.
+    pub fn splats(&self) -> impl Iterator<Item = &[(u32, Spectrum)]> {
+        self.rows.iter().map(|row| row.splats.as_slice())
+    }
+
+    /// Inspection only: every vertex of light path `k`, light first.
+    pub fn full(&self, k: usize) -> &[PathVertex] {
+        &self.rows[k / self.row_len].full[k % self.row_len]
+    }
+
+    /// Inspection only: the light path of the stored vertex of global index `index`.
+    pub fn path_of_vertex(&self, index: usize) -> usize {
+        let r = self.offsets.partition_point(|&o| o as usize <= index) - 1;
+        let local = (index - self.offsets[r] as usize) as u32;
+        let i = self.rows[r].starts.partition_point(|&s| s <= local) - 1;
+        r * self.row_len + i
     }
 }
 
@@ -113,22 +169,20 @@ pub struct LightTracer<'a, 'p> {
 }
 
 impl<'a> LightTracer<'a, '_> {
-    /// Light paths `first .. first + count` of pass `pass`.
-    pub fn row(&self, seed: u64, pass: u64, first: u64, count: u64) -> LightRow<'a> {
-        let mut row = LightRow::default();
+    /// Light paths `first .. first + count` of pass `pass`, into `row` (cleared first).
+    pub fn row_into(&self, seed: u64, pass: u64, first: u64, count: u64, row: &mut LightRow<'a>) {
+        row.clear();
         let n = self.pc.light_paths as u64;
         for k in first..first + count {
             let mut sampler = IndependentSampler::new(seed, pass, n + k);
-            let before = row.vertices.len();
             let mut full = Vec::new();
             let full_ref = self.inspector.is_some().then_some(&mut full);
             self.trace(&mut sampler, &mut row.vertices, &mut row.splats, full_ref);
-            row.counts.push((row.vertices.len() - before) as u32);
+            row.starts.push(row.vertices.len() as u32);
             if self.inspector.is_some() {
                 row.full.push(full);
             }
         }
-        row
     }
 
     /// One light subpath: stores its connectible vertices in `out`, pushes its light-tracing

@@ -58,7 +58,7 @@ use crate::render::{Budget, Integrator, RenderContext, RenderResult, run_passes_
 use crate::scene::Scene;
 use camera::CameraTracer;
 use glam::{UVec2, Vec2, Vec3};
-use light::{LightPaths, LightRow, LightTracer, Photon};
+use light::{LightPaths, LightTracer, Photon};
 use rayon::prelude::*;
 use std::cell::RefCell;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -210,27 +210,13 @@ impl Integrator for Vcm {
         let mut film = Film::new(w, h);
         let invalid = AtomicU64::new(0);
         let merges = AtomicU64::new(0);
-        // Reused from pass to pass (see `LightPaths::refill`).
+        // Reused from pass to pass (see `LightPaths`).
         let mut lights = LightPaths::default();
-        let mut splats = Vec::new();
         let (mut points, mut grid) = (Vec::new(), HashGrid::default());
         let pass = |film: &mut Film, pass: u64| {
             let pc = PassConstants::new(st, scene, pass);
             // 1. Light subpaths, a row of path indices per task.
-            let rows: Vec<LightRow> = (0..h as u64)
-                .into_par_iter()
-                .map(|y| {
-                    let lt = LightTracer {
-                        scene,
-                        settings: st,
-                        pc: &pc,
-                        inspector: None,
-                    };
-                    lt.row(ctx.seed, pass, y * w as u64, w as u64)
-                })
-                .collect();
-            splats.clear();
-            lights.refill(rows, &mut splats);
+            lights.trace(scene, st, &pc, (ctx.seed, pass), h as usize, w as usize);
             let lights = &lights;
             // 2. The hash grid over the merging vertices.
             let grid = st.merge.then(|| {
@@ -253,7 +239,9 @@ impl Integrator for Vcm {
                     }
                 }
             });
-            invalid.fetch_add(film.add_splats(&splats), Ordering::Relaxed);
+            for splats in lights.splats() {
+                invalid.fetch_add(film.add_splats(splats), Ordering::Relaxed);
+            }
         };
         let image = |film: &Film, passes: u64| film.to_image(passes as f64, 1.0 / passes as f64);
         let (passes, seconds) = run_passes_with_snapshots(ctx, budget, &mut film, pass, image);
@@ -307,7 +295,7 @@ fn build_grid(lights: &LightPaths, radius: f32) -> HashGrid<Photon> {
 fn mergeable_points(lights: &LightPaths, points: &mut Vec<(Vec3, Photon)>) {
     points.clear();
     points.extend(
-        (lights.vertices.iter().enumerate())
+        (lights.vertices())
             .filter(|(_, v)| v.mergeable())
             .map(|(i, v)| (v.p, Photon::of(v, i))),
     );
@@ -332,8 +320,8 @@ pub fn inspect_pass(
         pc: &pc,
         inspector: Some(cell),
     };
-    let rows = vec![lt.row(seed, pass, 0, (w * h) as u64)];
-    let lights = LightPaths::from_rows(rows, &mut Vec::new());
+    let mut lights = LightPaths::default();
+    lights.trace_one_row(&lt, (seed, pass), (w * h) as usize);
     let grid = settings.merge.then(|| build_grid(&lights, pc.radius));
     let mut ct = CameraTracer::new(scene, settings, &pc, &lights, grid.as_ref(), Some(cell));
     for y in 0..h as usize {

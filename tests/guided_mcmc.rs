@@ -203,6 +203,14 @@ fn chain_options_are_checked() {
     );
     let e = err(&["seeder=mcmc", "chain_large_step=2"]).expect("large step out of range");
     assert!(e.contains("chain_large_step"), "{e}");
+    assert!(err(&["seeder=mcmc", "chain_target=uncovered"]).is_none());
+    let e = err(&["chain_target=uncovered"]).expect("chain target without the chain seeder");
+    assert!(
+        e.contains("chain_target") && e.contains("seeder=mcmc"),
+        "{e}"
+    );
+    let e = err(&["seeder=mcmc", "chain_target=dark"]).expect("unknown chain target");
+    assert!(e.contains("chain_target") && e.contains("uncovered"), "{e}");
 }
 
 /// A chain started at U's sample (seed, pass, pixel) of a learning pass replays it: the

@@ -25,6 +25,11 @@
 //! caustic it started in and find the neighbouring paths its guide path needs (the kernels
 //! are built from 10 neighbours of the same structure).
 //!
+//! **Target (`chain_target`).** `mixture` (the default) is the importance above. `uncovered`
+//! counts only the state's paths that the cache does not cover (structure not held, or
+//! p_g = 0), so that chains drift towards what the guided technique cannot yet propose; a
+//! state without such paths has importance 0 and is left at the next proposal.
+//!
 //! For guided-bdpt the chains run over BDPT's whole sample (Kelemen's original PSSMLT over
 //! BDPT), not over `mmlt`'s single techniques: an outlier found by a BDPT sample is replayed
 //! from its stream exactly, which a single-technique state could not be.
@@ -55,6 +60,15 @@ const POOL: usize = 8192;
 /// Stream keys of the seeder's chains.
 const CHAIN_KEY: u64 = 0x5345_4544_0000_0000;
 
+/// What a chain state's importance counts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ChainTarget {
+    /// Everything its sample adds to the image under the current mixture.
+    Mixture,
+    /// Only what its paths that the cache does not cover (p_g = 0) add.
+    Uncovered,
+}
+
 /// Settings of the chain seeder.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ChainSettings {
@@ -62,6 +76,8 @@ pub struct ChainSettings {
     pub share: f64,
     /// Large-step probability (default 0.1).
     pub large_step: f64,
+    /// The chains' target (default `Mixture`).
+    pub target: ChainTarget,
 }
 
 impl Default for ChainSettings {
@@ -69,6 +85,7 @@ impl Default for ChainSettings {
         ChainSettings {
             share: 0.25,
             large_step: 0.1,
+            target: ChainTarget::Mixture,
         }
     }
 }
@@ -102,6 +119,7 @@ impl Mcmc {
 /// Importance of a chain state: the luminance of all its sample adds to the image.
 fn evaluate<U: Unguided>(
     explore: &Explore<'_, '_, U>,
+    target: ChainTarget,
     tracer: &mut U::Tracer<'_>,
     out: &mut RowOutput,
     sampler: &mut PrimarySampler,
@@ -109,6 +127,7 @@ fn evaluate<U: Unguided>(
     let est = explore.est;
     let scene = est.scene;
     sampler.restart();
+    out.uncovered = 0.0;
     let raster = sampler.next_2d() * scene.camera.resolution.as_vec2();
     let mut col = Collector {
         est,
@@ -128,7 +147,10 @@ fn evaluate<U: Unguided>(
     }
     // Chain states are not uniform samples: they stay out of the cascade's statistics.
     out.learn.samples.clear();
-    value
+    match target {
+        ChainTarget::Mixture => value,
+        ChainTarget::Uncovered => out.uncovered,
+    }
 }
 
 /// The initial state of a chain at U's sample (seed, pass, index): the raster position it
@@ -176,12 +198,14 @@ impl Seeder for Mcmc {
                 );
                 let mut tracer = explore.est.unguided.tracer(scene);
                 let mut out = RowOutput::default();
-                let mut current = evaluate(&explore, &mut tracer, &mut out, &mut sampler);
+                let mut current =
+                    evaluate(&explore, st.target, &mut tracer, &mut out, &mut sampler);
                 sampler.accept();
                 let mut accepted = 0;
                 for _ in 0..steps {
                     sampler.start_iteration();
-                    let proposal = evaluate(&explore, &mut tracer, &mut out, &mut sampler);
+                    let proposal =
+                        evaluate(&explore, st.target, &mut tracer, &mut out, &mut sampler);
                     let a = if current > 0.0 {
                         (proposal / current).min(1.0)
                     } else {

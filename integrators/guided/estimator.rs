@@ -367,6 +367,9 @@ pub struct RowOutput {
     /// the learning passes leave when the share turns guiding off.
     pub u_pixels: Vec<DVec3>,
     pub u_splats: Vec<(u32, DVec3)>,
+    /// Luminance of the contributions of U's paths that the cache does not cover (p_g = 0),
+    /// summed (the chain seeder's `uncovered` target).
+    pub uncovered: f64,
 }
 
 /// Weighs U's paths for the mixture (a [`PathSink`]).
@@ -405,6 +408,9 @@ impl<U: Unguided> PathSink for Collector<'_, '_, U> {
         let lum = luminance64(value);
         out.stats.coverage_paths[coverage as usize] += 1;
         out.stats.coverage_m2[coverage as usize] += lum * lum;
+        if coverage != Coverage::Covered {
+            out.uncovered += lum;
+        }
 
         if splat {
             out.splats.push((path.pixel, value));

@@ -33,6 +33,7 @@
 //! | seeder          | `outliers` / `mcmc` | `outliers` | where guide paths come from: the passes' outliers, or also Markov chains started at them (`chains.rs`, `--seeder`) |
 //! | chain_share     | number > 0    | 0.25    | `mcmc`: chain steps per learning iteration, per pixel |
 //! | chain_large_step | [0, 1]       | 0.1     | `mcmc`: large-step probability of the chains |
+//! | chain_target    | `mixture` / `uncovered` | `mixture` | `mcmc`: a chain state's importance: all its sample adds under the current mixture, or only its paths with p_g = 0 (`chains.rs`) |
 //! | save_guides     | path          | —       | write the learned cache (`--save-guides`) |
 //! | load_guides     | path          | —       | start from a saved cache and skip learning (`--load-guides`) |
 //!
@@ -73,7 +74,7 @@ pub mod seeder;
 pub mod share;
 
 pub use crate::integrators::paths::contribution;
-pub use chains::{ChainSettings, Mcmc};
+pub use chains::{ChainSettings, ChainTarget, Mcmc};
 pub use driver::Guided;
 pub use estimator::{Estimator, Stats};
 pub use seeder::{Outliers, Seeder};
@@ -222,6 +223,10 @@ fn options(params: &IntegratorParams, default_rr: u32) -> Result<(GuidedSettings
         defaults.large_step,
         "a number in [0, 1]",
     )?;
+    let chain_target = match o.choice("chain_target", "mixture", &["mixture", "uncovered"])? {
+        "uncovered" => ChainTarget::Uncovered,
+        _ => ChainTarget::Mixture,
+    };
     let bad = |key: &str, expected: &str, got: String| {
         Err(Error::new(format!(
             "option '{key}': expected {expected}, got {got}"
@@ -251,7 +256,7 @@ fn options(params: &IntegratorParams, default_rr: u32) -> Result<(GuidedSettings
         );
     }
     if seeder != "mcmc" {
-        for key in ["chain_share", "chain_large_step"] {
+        for key in ["chain_share", "chain_large_step", "chain_target"] {
             if o.has(key) {
                 return Err(Error::new(format!(
                     "option '{key}' belongs to seeder=mcmc (the seeder is '{seeder}')"
@@ -294,6 +299,7 @@ fn options(params: &IntegratorParams, default_rr: u32) -> Result<(GuidedSettings
         chains: (seeder == "mcmc").then_some(ChainSettings {
             share: chain_share,
             large_step: chain_large_step,
+            target: chain_target,
         }),
         ..GuidedSettings::default()
     };

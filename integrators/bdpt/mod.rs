@@ -57,7 +57,7 @@ use glam::{Vec2, Vec3};
 use settings::settings;
 pub use settings::{BdptSettings, RR_DEPTH, TechniqueFilter};
 pub use technique::TECHNIQUE_STREAMS;
-use vertex::{ConnectionEnd, Edge, connection_end, measure_factor, pdf, to_measure};
+use vertex::{ConnectionEnd, Edge, connection_end, measure_factor, pdf, scaled, to_measure_factor};
 use walk::roulette;
 use weights::Bridge;
 
@@ -390,8 +390,10 @@ impl<'a> Tracer<'a> {
         };
         let contribution = y.beta * end.f * ls.li * tr.tr / (pmf * ls.pdf);
         let conn = Edge::along(&tr);
+        // Both the BSDF's and next-event's densities of the light point convert by one factor.
+        let g_light = to_measure_factor(scene, y.p, &lv);
         let bridge = Bridge {
-            cam_next: to_measure(scene, end.pdf_other, y.p, &lv) * conn.factor(scene, false, true),
+            cam_next: scaled(end.pdf_other, g_light) * conn.factor(scene, false, true),
             light_next: pdf(scene, &lv, None, y) * conn.factor(scene, y.is_medium(), false),
             cam_back: end.pdf_prev * cy.to_prev * y.edge.factor(scene, c[t - 2].is_medium(), false),
             light_back: 0.0,
@@ -400,7 +402,7 @@ impl<'a> Tracer<'a> {
         let nee_k = if lv.delta {
             nee as f64
         } else {
-            to_measure(scene, nee, y.p, &lv) as f64
+            scaled(nee, g_light) as f64
         };
         let lc = [Cached::first(scene, &lv)];
         let w = self.weight_connection(c, cc, std::slice::from_ref(&lv), &lc, &bridge, nee_k);

@@ -255,15 +255,34 @@ pub fn measure_factor(to: &Vertex, w: Vec3, d2: f32) -> f32 {
 
 /// Convert a solid-angle density at `from` towards `to` into `to`'s measure: area (|cos| / d^2)
 /// for surfaces and finite lights, volume (1 / d^2) in media; lights at infinity keep solid angle.
+#[inline]
 pub fn to_measure(scene: &Scene, pdf_w: f32, from: Vec3, to: &Vertex) -> f32 {
+    scaled(pdf_w, to_measure_factor(scene, from, to))
+}
+
+/// `pdf_w` times a measure factor `g` in f64, rounded once (0 when `g` is 0, whatever `pdf_w`).
+#[inline]
+pub fn scaled(pdf_w: f32, g: f64) -> f32 {
+    if g == 0.0 {
+        0.0
+    } else {
+        (pdf_w as f64 * g) as f32
+    }
+}
+
+/// The factor [`to_measure`] multiplies by: 1 towards a light at infinity, 0 when `to` sits
+/// at `from`, else [`area_factor`](super::area_factor) (`1 / d^2` in media). For callers that
+/// convert several densities towards the same vertex.
+#[inline]
+pub fn to_measure_factor(scene: &Scene, from: Vec3, to: &Vertex) -> f64 {
     if to.is_infinite_light(scene) {
-        return pdf_w;
+        return 1.0;
     }
     if to.p == from {
         return 0.0;
     }
     let n = if to.is_medium() { Vec3::ZERO } else { to.n };
-    (pdf_w as f64 * super::area_factor(from, to.p, n)) as f32
+    super::area_factor(from, to.p, n)
 }
 
 /// Density (in `next`'s measure; no roulette, no free flight) with which vertex `v`, reached

@@ -180,8 +180,11 @@ fn mis_weights_with_the_guided_technique_sum_to_one_fog() {
 /// The coverage classes the guided integrators report (`unguided_second_moment_by_coverage`)
 /// sort BDPT's paths as p_g and the cache say: `Covered` exactly when p_g > 0, `NotHeld`
 /// exactly when no guide path has the path's structure, `Zero` otherwise; and `densities`
-/// returns what `densities_covered` does. A cache of a few BDPT paths of the glass box leaves
-/// every class populated (checked, so that a classifier with a constant answer fails).
+/// returns what `densities_covered` does; for `Zero`, the vertex where p_g vanished
+/// (`pg_zero_second_moment_by_vertex`) is the furthest any guide path of the structure
+/// reaches, computed over the whole cache without the first-vertex BVH. A cache of a few BDPT
+/// paths of the glass box leaves every class and at least two vanishing vertices populated
+/// (checked, so that a classifier with a constant answer fails).
 #[test]
 fn coverage_classes_follow_the_cache_and_p_g() {
     use lodestar::integrators::guided::estimator::Coverage;
@@ -200,6 +203,7 @@ fn coverage_classes_follow_the_cache_and_p_g() {
         stats: Stats,
         candidates: X1Candidates,
         counts: [usize; 3],
+        vanished: std::collections::BTreeMap<usize, usize>,
         bad: Vec<String>,
     }
     impl PathSink for Classify<'_, '_> {
@@ -208,8 +212,23 @@ fn coverage_classes_follow_the_cache_and_p_g() {
                 return;
             }
             let (est, scene) = (self.est, self.scene);
-            let (p_u1, p_g1, class) =
-                est.densities_covered(path, y, p_u, &mut self.stats, &mut self.candidates);
+            let d = est.densities_covered(path, y, p_u, &mut self.stats, &mut self.candidates);
+            let (p_u1, p_g1, class) = (d.p_u, d.p_g, d.coverage);
+            if class == Coverage::Zero {
+                let (sig, nodes) = kernel::structure(scene, path, MAX_VERTICES).unwrap();
+                let y = y.expect("BDPT paths come with their vertices");
+                let expected = self
+                    .cache
+                    .vanishing_vertex_brute_force(scene, y, sig, &nodes);
+                *self.vanished.entry(d.vanished_at).or_default() += 1;
+                if d.vanished_at != expected && self.bad.len() < 6 {
+                    self.bad.push(format!(
+                        "{} segments: p_g vanished at x_{}, over the whole cache at x_{expected}",
+                        path.segments(),
+                        d.vanished_at
+                    ));
+                }
+            }
             let (p_u2, p_g2) = est.densities(path, y, p_u, &mut self.stats, &mut self.candidates);
             let held = kernel::signature(scene, path, MAX_VERTICES)
                 .is_some_and(|sig| self.cache.holds(sig));
@@ -239,6 +258,7 @@ fn coverage_classes_follow_the_cache_and_p_g() {
         stats: Stats::default(),
         candidates: X1Candidates::default(),
         counts: [0; 3],
+        vanished: Default::default(),
         bad: Vec::new(),
     };
     trace_bdpt(&scene, 78, 1500, &mut check);
@@ -251,6 +271,15 @@ fn coverage_classes_follow_the_cache_and_p_g() {
         check.counts.iter().all(|&n| n >= 20),
         "a class is (nearly) empty, the test would not see a misclassification: {:?}",
         check.counts
+    );
+    eprintln!(
+        "p_g = 0 paths by the vertex where it vanished: {:?}",
+        check.vanished
+    );
+    assert!(
+        check.vanished.values().filter(|&&n| n >= 10).count() >= 2,
+        "fewer than two vanishing vertices seen: {:?}",
+        check.vanished
     );
 }
 

@@ -20,7 +20,9 @@
 //! run chose (saved with it); `share = fixed` uses `alpha`.
 
 use super::cache::{self, GuideCache, RebuildParams};
-use super::estimator::{COVERAGE_CLASSES, Collector, Estimator, FAILURE_REASONS, RowOutput, Stats};
+use super::estimator::{
+    COVERAGE_CLASSES, Collector, Estimator, FAILURE_REASONS, PG_ZERO_VERTICES, RowOutput, Stats,
+};
 use super::io;
 use super::seeder::{Candidate, Explore, LearnPass, LearnRow, Seeder, Source};
 use super::{GuidedSettings, Share, share};
@@ -470,6 +472,10 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
                 coverage_shares(&rs.coverage_m2),
             ),
             stat(
+                "pg_zero_second_moment_by_vertex",
+                vertex_shares(&rs.pg_zero_m2_by_vertex),
+            ),
+            stat(
                 &format!("failures_{FAILURE_REASONS}"),
                 format!("{:?}", rs.reasons),
             ),
@@ -490,9 +496,23 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
 
 /// `class:share/...` of U's paths or second moment by [`COVERAGE_CLASSES`].
 fn coverage_shares(sums: &[f64; 3]) -> String {
+    shares(COVERAGE_CLASSES.iter().map(|c| c.to_string()), sums)
+}
+
+/// `x1:share/.../x7+:share` of the p_g = 0 class's second moment by the vertex where p_g
+/// vanished.
+fn vertex_shares(sums: &[f64; PG_ZERO_VERTICES]) -> String {
+    let names = (1..=PG_ZERO_VERTICES).map(|v| match v {
+        PG_ZERO_VERTICES => format!("x{v}+"),
+        _ => format!("x{v}"),
+    });
+    shares(names, sums)
+}
+
+/// `name:share/...`, each sum's share of their total.
+fn shares(names: impl Iterator<Item = String>, sums: &[f64]) -> String {
     let total: f64 = sums.iter().sum();
-    let cells: Vec<String> = COVERAGE_CLASSES
-        .iter()
+    let cells: Vec<String> = names
         .zip(sums)
         .map(|(name, x)| format!("{name}:{:.3}", x / total.max(f64::MIN_POSITIVE)))
         .collect();

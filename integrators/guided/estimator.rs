@@ -69,6 +69,9 @@ pub struct Stats {
     /// or cannot reduce.
     pub coverage_paths: [u64; 3],
     pub coverage_m2: [f64; 3],
+    /// The second moment of the `Zero` class by the vertex where p_g vanished
+    /// ([`Densities::vanished_at`]; index v - 1 for x_v, the last bucket x_7 and later).
+    pub pg_zero_m2_by_vertex: [f64; PG_ZERO_VERTICES],
 }
 
 /// What the cache offers a path U formed.
@@ -81,6 +84,21 @@ pub enum Coverage {
     /// p_g > 0: the guided technique samples it too.
     Covered = 2,
 }
+
+/// What [`Estimator::densities_covered`] finds for a path U formed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Densities {
+    pub p_u: f64,
+    pub p_g: f64,
+    pub coverage: Coverage,
+    /// For [`Coverage::Zero`]: the furthest vertex a guide path of the structure follows the
+    /// path to before its term vanishes (1: x_1 is outside every first-vertex kernel of the
+    /// structure); 0 otherwise.
+    pub vanished_at: usize,
+}
+
+/// Buckets of [`Stats::pg_zero_m2_by_vertex`]: x_1 .. x_6, then x_7 and later.
+pub const PG_ZERO_VERTICES: usize = 7;
 
 /// Names of [`Stats::coverage_paths`] and [`Stats::coverage_m2`], in order.
 pub const COVERAGE_CLASSES: [&str; 3] = ["structure_not_held", "pg_zero", "covered"];
@@ -101,6 +119,13 @@ impl Stats {
         for c in 0..3 {
             self.coverage_paths[c] += o.coverage_paths[c];
             self.coverage_m2[c] += o.coverage_m2[c];
+        }
+        for (a, b) in self
+            .pg_zero_m2_by_vertex
+            .iter_mut()
+            .zip(o.pg_zero_m2_by_vertex)
+        {
+            *a += b;
         }
         for (a, b) in self.reasons.iter_mut().zip(o.reasons) {
             *a += b;
@@ -187,8 +212,8 @@ impl<'a, U: Unguided> Estimator<'a, U> {
         stats: &mut Stats,
         candidates: &mut X1Candidates,
     ) -> (f64, f64) {
-        let (p_u, p_g, _) = self.densities_covered(path, y, p_u, stats, candidates);
-        (p_u, p_g)
+        let d = self.densities_covered(path, y, p_u, stats, candidates);
+        (d.p_u, d.p_g)
     }
 
     /// [`Estimator::densities`], and what the cache offers the path.
@@ -199,17 +224,23 @@ impl<'a, U: Unguided> Estimator<'a, U> {
         p_u: f64,
         stats: &mut Stats,
         candidates: &mut X1Candidates,
-    ) -> (f64, f64, Coverage) {
+    ) -> Densities {
+        let not_held = Densities {
+            p_u,
+            p_g: 0.0,
+            coverage: Coverage::NotHeld,
+            vanished_at: 0,
+        };
         if self.n_g == 0.0 {
-            return (p_u, 0.0, Coverage::NotHeld);
+            return not_held;
         }
         // The hash alone (no allocation) rejects every path whose structure the cache lacks.
         match kernel::signature(self.scene, path, MAX_VERTICES) {
             Some(sig) if self.cache.holds(sig) => {}
-            _ => return (p_u, 0.0, Coverage::NotHeld),
+            _ => return not_held,
         }
         let Some((sig, nodes)) = kernel::structure(self.scene, path, MAX_VERTICES) else {
-            return (p_u, 0.0, Coverage::NotHeld);
+            return not_held;
         };
         let owned;
         let y = match y {
@@ -219,11 +250,13 @@ impl<'a, U: Unguided> Estimator<'a, U> {
                     owned = v;
                     &owned
                 }
-                None => return (p_u, 0.0, Coverage::NotHeld),
+                None => return not_held,
             },
         };
         let list = candidates.of(self.cache, self.scene, y[1].p, stats);
-        let p_g = self.cache.pdf_among(self.scene, y, sig, &nodes, list);
+        let (p_g, vanished_at) = self
+            .cache
+            .pdf_and_vanishing_vertex(self.scene, y, sig, &nodes, list);
         stats.pg_evaluations += 1;
         stats.pg_candidates += list.len() as u64;
         if p_g > 0.0 {
@@ -234,14 +267,25 @@ impl<'a, U: Unguided> Estimator<'a, U> {
             // bounds the value by U's own f / p_u; with 0 the value would be f / (r p_g),
             // unbounded (fireflies of 1e5 on fog-dragon before).
             let recomputed = self.unguided.pdf_unguided(self.scene, y);
-            if recomputed > 0.0 {
-                (recomputed, p_g, Coverage::Covered)
+            let p_u = if recomputed > 0.0 {
+                recomputed
             } else {
                 stats.pu_disagreements += 1;
-                (p_u, p_g, Coverage::Covered)
+                p_u
+            };
+            Densities {
+                p_u,
+                p_g,
+                coverage: Coverage::Covered,
+                vanished_at: 0,
             }
         } else {
-            (p_u, 0.0, Coverage::Zero)
+            Densities {
+                p_u,
+                p_g: 0.0,
+                coverage: Coverage::Zero,
+                vanished_at,
+            }
         }
     }
 
@@ -397,9 +441,10 @@ impl<U: Unguided> PathSink for Collector<'_, '_, U> {
             return;
         }
         let out = &mut *self.out;
-        let (p_u, p_g, coverage) =
-            self.est
-                .densities_covered(path, y, p_u, &mut out.stats, &mut out.candidates);
+        let d = self
+            .est
+            .densities_covered(path, y, p_u, &mut out.stats, &mut out.candidates);
+        let (p_u, p_g, coverage) = (d.p_u, d.p_g, d.coverage);
         let value = f / self.est.mix(p_u, p_g);
         if !(value.is_finite() && value.min_element() >= 0.0) {
             out.stats.invalid += 1;
@@ -408,6 +453,10 @@ impl<U: Unguided> PathSink for Collector<'_, '_, U> {
         let lum = luminance64(value);
         out.stats.coverage_paths[coverage as usize] += 1;
         out.stats.coverage_m2[coverage as usize] += lum * lum;
+        if coverage == Coverage::Zero {
+            let bucket = d.vanished_at.clamp(1, PG_ZERO_VERTICES) - 1;
+            out.stats.pg_zero_m2_by_vertex[bucket] += lum * lum;
+        }
         if coverage != Coverage::Covered {
             out.uncovered += lum;
         }

@@ -266,20 +266,29 @@ impl GuideCache {
     /// Gaussian branches (delta lights: the connection, factor 1).
     pub fn pdf_given(&self, scene: &Scene, l: usize, y: &[Vertex]) -> f64 {
         self.pdf_given_with(scene, l, y, &mut PathTerms::default())
+            .0
     }
 
-    /// [`Self::pdf_given`] reusing the guide-independent terms of `y` in `terms`.
-    fn pdf_given_with(&self, scene: &Scene, l: usize, y: &[Vertex], terms: &mut PathTerms) -> f64 {
+    /// [`Self::pdf_given`] reusing the guide-independent terms of `y` in `terms`, and the
+    /// vertex at which the term vanished (1: x_1 outside the first-vertex kernel; the path's
+    /// vertex count when it did not).
+    fn pdf_given_with(
+        &self,
+        scene: &Scene,
+        l: usize,
+        y: &[Vertex],
+        terms: &mut PathTerms,
+    ) -> (f64, usize) {
         let guide = &self.guides[l];
         let len = guide.len as usize;
         let mut p = first_vertex_density(scene, y, &self.vertex(scene, l, 1), guide.sigma1);
         for v in 2..len {
             if p == 0.0 {
-                return 0.0;
+                return (0.0, v - 1);
             }
             p *= self.vertex_density_with(scene, l, y, v, terms);
         }
-        p
+        (p, if p == 0.0 { len - 1 } else { len })
     }
 
     /// Density of vertex `v` of `y` given `y[..v]` when following guide `l`.
@@ -372,7 +381,22 @@ impl GuideCache {
         nodes: &[Node],
         candidates: &[u32],
     ) -> f64 {
-        self.pdf_and_term(scene, y, sig, nodes, candidates, None).0
+        self.sum_terms(scene, y, sig, nodes, candidates, None).sum
+    }
+
+    /// [`Self::pdf_among`], and where p_g vanished when it is 0: the furthest vertex any
+    /// guide path of the structure follows the path to before its term drops to 0 (1: x_1
+    /// lies outside every first-vertex kernel of the structure).
+    pub fn pdf_and_vanishing_vertex(
+        &self,
+        scene: &Scene,
+        y: &[Vertex],
+        sig: u64,
+        nodes: &[Node],
+        candidates: &[u32],
+    ) -> (f64, usize) {
+        let t = self.sum_terms(scene, y, sig, nodes, candidates, None);
+        (t.sum, t.reach)
     }
 
     /// [`Self::pdf_among`], and also `p(X | own)` of guide `own` (a guided sample's own guide,
@@ -386,9 +410,23 @@ impl GuideCache {
         candidates: &[u32],
         own: Option<usize>,
     ) -> (f64, f64) {
+        let t = self.sum_terms(scene, y, sig, nodes, candidates, own);
+        (t.sum, t.own)
+    }
+
+    /// The sum behind [`Self::pdf_among`] and its relatives.
+    fn sum_terms(
+        &self,
+        scene: &Scene,
+        y: &[Vertex],
+        sig: u64,
+        nodes: &[Node],
+        candidates: &[u32],
+        own: Option<usize>,
+    ) -> Terms {
         let mut terms = PathTerms::default();
         let mut own_term = None;
-        let mut sum = 0.0;
+        let (mut sum, mut reach) = (0.0, 1);
         if !self.is_empty() && self.holds(sig) {
             for &l in candidates {
                 let l = l as usize;
@@ -396,7 +434,8 @@ impl GuideCache {
                 if g.sig != sig || g.weight == 0.0 || self.nodes_of(l) != nodes {
                     continue;
                 }
-                let term = self.pdf_given_with(scene, l, y, &mut terms);
+                let (term, vanished) = self.pdf_given_with(scene, l, y, &mut terms);
+                reach = reach.max(vanished);
                 if own == Some(l) {
                     own_term = Some(term);
                 }
@@ -406,11 +445,32 @@ impl GuideCache {
             }
         }
         // The own guide is a candidate unless rounding put x_1 just outside its box.
-        let own_term = match (own, own_term) {
-            (Some(l), None) => self.pdf_given_with(scene, l, y, &mut terms),
+        let own = match (own, own_term) {
+            (Some(l), None) => self.pdf_given_with(scene, l, y, &mut terms).0,
             (_, t) => t.unwrap_or(0.0),
         };
-        (sum, own_term)
+        Terms { sum, own, reach }
+    }
+
+    /// [`Self::pdf_and_vanishing_vertex`]'s vertex over every guide path (no pruning): the
+    /// reference for tests.
+    pub fn vanishing_vertex_brute_force(
+        &self,
+        scene: &Scene,
+        y: &[Vertex],
+        sig: u64,
+        nodes: &[Node],
+    ) -> usize {
+        (0..self.guides.len())
+            .filter(|&l| {
+                let g = &self.guides[l];
+                g.sig == sig && g.weight != 0.0 && self.nodes_of(l) == nodes
+            })
+            .map(|l| {
+                self.pdf_given_with(scene, l, y, &mut PathTerms::default())
+                    .1
+            })
+            .fold(1, usize::max)
     }
 
     /// p_g by summing over every guide path (no pruning): the reference for tests.
@@ -452,4 +512,12 @@ impl PathTerms {
         }
         t
     }
+}
+
+/// What [`GuideCache::sum_terms`] adds up: p_g, the own guide's term, and the furthest vertex
+/// a term reached.
+struct Terms {
+    sum: f64,
+    own: f64,
+    reach: usize,
 }

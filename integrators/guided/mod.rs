@@ -55,7 +55,9 @@
 //! where it was. A BSDF branch at diffuse vertices made most of those paths' p_g non-zero,
 //! but not comparable to p_u, and the variance moved within its noise. More guide paths of the
 //! full structure (7.7k instead of 2.7k) raised it. Such paths need the specular suffix guided
-//! on its own (closing note of issue 6).
+//! on its own (closing note of issue 6). Every render reports this account for its own scene:
+//! `unguided_second_moment_by_coverage` (structure not held / p_g = 0 / covered) and
+//! `pg_zero_second_moment_by_vertex` (where p_g vanished; `estimator.rs`).
 
 // `!(x > 0.0)` deliberately rejects NaN with the invalid values; the small dense linear
 // algebra reads best with explicit indices.

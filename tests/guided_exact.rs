@@ -246,13 +246,14 @@ fn p_u_has_one_source_where_guiding_can_make_the_path() {
             }
             let recorded = density + other;
             let mut stats = Stats::default();
-            let (p_u, p_g) = self.est.densities(
+            let d = self.est.densities(
                 path,
                 None,
                 recorded,
                 &mut stats,
                 &mut X1Candidates::default(),
             );
+            let (p_u, p_g) = (d.p_u, d.p_g);
             if p_g > 0.0 {
                 self.with_pg += 1;
                 let y: Vec<Vertex> = bdpt::from_path(self.scene, path).unwrap();
@@ -343,13 +344,14 @@ fn a_path_u_formed_keeps_its_density_where_the_recomputation_calls_it_impossible
                 return;
             }
             let recorded = density + other;
-            let (p_u, p_g) = self.est.densities(
+            let d = self.est.densities(
                 path,
                 None,
                 recorded,
                 &mut self.stats,
                 &mut X1Candidates::default(),
             );
+            let (p_u, p_g) = (d.p_u, d.p_g);
             if p_g > 0.0 {
                 self.with_pg += 1;
                 let value = f.max_element() / self.est.mix(p_u, p_g);

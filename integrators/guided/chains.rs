@@ -65,7 +65,7 @@ const CHAIN_KEY: u64 = 0x5345_4544_0000_0000;
 pub enum ChainTarget {
     /// Everything its sample adds to the image under the current mixture.
     Mixture,
-    /// Only what its paths that the cache does not cover (p_g = 0) add.
+    /// Only what its paths that the cache does not cover (structure not held, or p_g = 0) add.
     Uncovered,
 }
 
@@ -116,7 +116,8 @@ impl Mcmc {
     }
 }
 
-/// Importance of a chain state: the luminance of all its sample adds to the image.
+/// Importance of a chain state under `target`: the luminance of all its sample adds to the
+/// image, or of what its uncovered paths add.
 fn evaluate<U: Unguided>(
     explore: &Explore<'_, '_, U>,
     target: ChainTarget,

@@ -85,7 +85,7 @@ pub enum Coverage {
     Covered = 2,
 }
 
-/// What [`Estimator::densities_covered`] finds for a path U formed.
+/// What [`Estimator::densities`] finds for a path U formed.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Densities {
     pub p_u: f64,
@@ -201,23 +201,11 @@ impl<'a, U: Unguided> Estimator<'a, U> {
         }
     }
 
-    /// `(p_u, p_g)` of a path U reported with density sum `p_u` (see the module doc for when
-    /// `p_u` is recomputed). `y` is the path as BDPT vertices if the caller has them;
-    /// `candidates` holds the BVH candidates of the last x_1 (no allocation per path).
+    /// `p_u` and `p_g` of a path U reported with density sum `p_u` (see the module doc for
+    /// when `p_u` is recomputed), and what the cache offers the path. `y` is the path as BDPT
+    /// vertices if the caller has them; `candidates` holds the BVH candidates of the last x_1
+    /// (no allocation per path).
     pub fn densities(
-        &self,
-        path: &Path,
-        y: Option<&[Vertex]>,
-        p_u: f64,
-        stats: &mut Stats,
-        candidates: &mut X1Candidates,
-    ) -> (f64, f64) {
-        let d = self.densities_covered(path, y, p_u, stats, candidates);
-        (d.p_u, d.p_g)
-    }
-
-    /// [`Estimator::densities`], and what the cache offers the path.
-    pub fn densities_covered(
         &self,
         path: &Path,
         y: Option<&[Vertex]>,
@@ -254,9 +242,8 @@ impl<'a, U: Unguided> Estimator<'a, U> {
             },
         };
         let list = candidates.of(self.cache, self.scene, y[1].p, stats);
-        let (p_g, vanished_at) = self
-            .cache
-            .pdf_and_vanishing_vertex(self.scene, y, sig, &nodes, list);
+        let terms = self.cache.terms(self.scene, y, sig, &nodes, list, None);
+        let (p_g, vanished_at) = (terms.sum, terms.reach);
         stats.pg_evaluations += 1;
         stats.pg_candidates += list.len() as u64;
         if p_g > 0.0 {
@@ -357,9 +344,10 @@ impl<'a, U: Unguided> Estimator<'a, U> {
         };
         let list = candidates.of(self.cache, self.scene, y[1].p, stats);
         let n = list.len();
-        let (p_g, own) = self
+        let terms = self
             .cache
-            .pdf_and_term(self.scene, &y, sig, &nodes, list, Some(g.guide));
+            .terms(self.scene, &y, sig, &nodes, list, Some(g.guide));
+        let (p_g, own) = (terms.sum, terms.own);
         if own == 0.0 {
             stats.fail(EDGE);
             return None;
@@ -411,8 +399,8 @@ pub struct RowOutput {
     /// the learning passes leave when the share turns guiding off.
     pub u_pixels: Vec<DVec3>,
     pub u_splats: Vec<(u32, DVec3)>,
-    /// Luminance of the contributions of U's paths that the cache does not cover (p_g = 0),
-    /// summed (the chain seeder's `uncovered` target).
+    /// Luminance of the contributions of U's paths that the cache does not cover (structure
+    /// not held, or p_g = 0), summed (the chain seeder's `uncovered` target).
     pub uncovered: f64,
 }
 
@@ -443,7 +431,7 @@ impl<U: Unguided> PathSink for Collector<'_, '_, U> {
         let out = &mut *self.out;
         let d = self
             .est
-            .densities_covered(path, y, p_u, &mut out.stats, &mut out.candidates);
+            .densities(path, y, p_u, &mut out.stats, &mut out.candidates);
         let (p_u, p_g, coverage) = (d.p_u, d.p_g, d.coverage);
         let value = f / self.est.mix(p_u, p_g);
         if !(value.is_finite() && value.min_element() >= 0.0) {

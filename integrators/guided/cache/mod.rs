@@ -381,41 +381,13 @@ impl GuideCache {
         nodes: &[Node],
         candidates: &[u32],
     ) -> f64 {
-        self.sum_terms(scene, y, sig, nodes, candidates, None).sum
+        self.terms(scene, y, sig, nodes, candidates, None).sum
     }
 
-    /// [`Self::pdf_among`], and where p_g vanished when it is 0: the furthest vertex any
-    /// guide path of the structure follows the path to before its term drops to 0 (1: x_1
-    /// lies outside every first-vertex kernel of the structure).
-    pub fn pdf_and_vanishing_vertex(
-        &self,
-        scene: &Scene,
-        y: &[Vertex],
-        sig: u64,
-        nodes: &[Node],
-        candidates: &[u32],
-    ) -> (f64, usize) {
-        let t = self.sum_terms(scene, y, sig, nodes, candidates, None);
-        (t.sum, t.reach)
-    }
-
-    /// [`Self::pdf_among`], and also `p(X | own)` of guide `own` (a guided sample's own guide,
-    /// whose term the sum computes anyway; 0 without `own`).
-    pub fn pdf_and_term(
-        &self,
-        scene: &Scene,
-        y: &[Vertex],
-        sig: u64,
-        nodes: &[Node],
-        candidates: &[u32],
-        own: Option<usize>,
-    ) -> (f64, f64) {
-        let t = self.sum_terms(scene, y, sig, nodes, candidates, own);
-        (t.sum, t.own)
-    }
-
-    /// The sum behind [`Self::pdf_among`] and its relatives.
-    fn sum_terms(
+    /// [`Self::pdf_among`] with what the sum saw on the way: the own guide's term `p(X | own)`
+    /// (a guided sample's own guide, whose term the sum computes anyway; 0 without `own`) and
+    /// the furthest vertex a term reached.
+    pub fn terms(
         &self,
         scene: &Scene,
         y: &[Vertex],
@@ -452,8 +424,7 @@ impl GuideCache {
         Terms { sum, own, reach }
     }
 
-    /// [`Self::pdf_and_vanishing_vertex`]'s vertex over every guide path (no pruning): the
-    /// reference for tests.
+    /// [`Terms::reach`] over every guide path (no pruning): the reference for tests.
     pub fn vanishing_vertex_brute_force(
         &self,
         scene: &Scene,
@@ -514,10 +485,15 @@ impl PathTerms {
     }
 }
 
-/// What [`GuideCache::sum_terms`] adds up: p_g, the own guide's term, and the furthest vertex
-/// a term reached.
-struct Terms {
-    sum: f64,
-    own: f64,
-    reach: usize,
+/// What [`GuideCache::terms`] finds.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Terms {
+    /// p_g(X) = sum of w_l p(X | l) over the candidates of the path's structure.
+    pub sum: f64,
+    /// p(X | own) of the guide asked for (0 without one).
+    pub own: f64,
+    /// The furthest vertex any candidate's term reached before vanishing (1: x_1 is outside
+    /// every first-vertex kernel of the structure; the path's vertex count when a term is
+    /// non-zero).
+    pub reach: usize,
 }

@@ -1,16 +1,18 @@
 //! The acceleration structure: one obvhs compressed wide BVH (`CwBvh`) over every triangle and
-//! analytic sphere of the scene, with a Möller-Trumbore triangle test and the robust sphere test.
+//! analytic sphere of the scene, with a Möller-Trumbore triangle test and the robust sphere test;
+//! scenes of at most [`FLAT_MAX_PRIMS`] primitives skip the hierarchy ([`super::flat`]).
 //!
 //! Primitives are copied into BVH order so the traversal closure indexes them directly.
 //! Möller-Trumbore is not watertight (obvhs' own note; agreement with Embree was 0.999999 of
 //! rays); rays that leak through shared edges are rare and are counted as misses.
 
+use super::flat::{FLAT_MAX_PRIMS, Flat};
 use super::{Hit, Ray, SHADOW_EPS, Sphere, TriangleMesh, gamma, offset_origin};
 use glam::{Vec2, Vec3, Vec3A};
 use obvhs::{Boundable, BvhBuildParams, aabb::Aabb, cwbvh::CwBvh, ray::RayHit};
 use std::time::Duration;
 
-const SPHERE_TAG: u32 = u32::MAX;
+pub(super) const SPHERE_TAG: u32 = u32::MAX;
 /// Set in `Prim::tri` when the edges were swapped so that `e1 x e2` points to the front side.
 const SWAPPED: u32 = 1 << 31;
 
@@ -18,13 +20,13 @@ const SWAPPED: u32 = 1 << 31;
 /// Triangle edges are ordered so that `e1 x e2` is the front-side normal, so a hit needs no
 /// access to the mesh unless it has vertex normals.
 #[derive(Debug, Clone, Copy)]
-struct Prim {
-    a: Vec3A,
-    b: Vec3A,
-    c: Vec3A,
+pub(super) struct Prim {
+    pub(super) a: Vec3A,
+    pub(super) b: Vec3A,
+    pub(super) c: Vec3A,
     shape: u32,
     /// Triangle index within its mesh (with `SWAPPED`), or `SPHERE_TAG`.
-    tri: u32,
+    pub(super) tri: u32,
 }
 
 struct Bounds(Aabb);
@@ -55,6 +57,8 @@ pub enum ShapeGeometry {
 
 pub struct Accel {
     bvh: Option<CwBvh>,
+    /// Set instead of `bvh` for small scenes.
+    flat: Option<Flat>,
     prims: Vec<Prim>,
     /// The BVH is built and traversed in coordinates multiplied by this power of two (see
     /// [`bvh_scale`]); primitives and hits stay in world space.
@@ -65,6 +69,11 @@ pub struct Accel {
 
 impl Accel {
     pub fn build(shapes: &[ShapeGeometry]) -> Accel {
+        Accel::build_with(shapes, FLAT_MAX_PRIMS)
+    }
+
+    /// [`Accel::build`], testing every primitive without a hierarchy up to `flat_max` of them.
+    fn build_with(shapes: &[ShapeGeometry], flat_max: usize) -> Accel {
         let start = std::time::Instant::now();
         let mut prims = Vec::new();
         let mut bounds = Vec::new();
@@ -110,12 +119,13 @@ impl Accel {
                 }
             }
         }
-        if prims.is_empty() {
+        if prims.len() <= flat_max {
             return Accel {
                 bvh: None,
+                flat: Some(Flat::new(&prims)),
                 prims,
                 scale: 1.0,
-                build_seconds: 0.0,
+                build_seconds: start.elapsed().as_secs_f64(),
             };
         }
         let scale = bvh_scale(&bounds);
@@ -133,6 +143,7 @@ impl Accel {
             .collect();
         Accel {
             bvh: Some(bvh),
+            flat: None,
             prims: ordered,
             scale,
             build_seconds: start.elapsed().as_secs_f64(),
@@ -146,6 +157,11 @@ impl Accel {
     /// Closest hit along the ray; returns the hit and the barycentrics (b1, b2) for triangles.
     pub fn intersect(&self, ray: &Ray, shapes: &[ShapeGeometry]) -> Option<Hit> {
         count_ray();
+        if let Some(flat) = &self.flat {
+            let (i, t, uv) =
+                flat.closest(&self.prims, ray.o.into(), canonical_dir(ray.d), ray.t_max)?;
+            return Some(surface_hit(&self.prims[i], ray, t, uv, shapes));
+        }
         let bvh = self.bvh.as_ref()?;
         let (s, o, d) = (self.scale, Vec3A::from(ray.o), canonical_dir(ray.d));
         let r = obvhs::ray::Ray::new(o * s, d, 0.0, ray.t_max * s);
@@ -172,6 +188,9 @@ impl Accel {
     /// True if nothing blocks the open segment from `o` along unit `d` up to `dist`.
     pub fn unoccluded(&self, o: Vec3, d: Vec3, dist: f32) -> bool {
         count_ray();
+        if let Some(flat) = &self.flat {
+            return flat.unoccluded(&self.prims, o.into(), canonical_dir(d), dist);
+        }
         let Some(bvh) = self.bvh.as_ref() else {
             return true;
         };
@@ -252,7 +271,7 @@ fn canonical_dir(d: Vec3) -> Vec3A {
 }
 
 #[inline]
-fn intersect_prim(p: &Prim, o: Vec3A, d: Vec3A, t_max: f32) -> (f32, Vec2) {
+pub(super) fn intersect_prim(p: &Prim, o: Vec3A, d: Vec3A, t_max: f32) -> (f32, Vec2) {
     if p.tri == SPHERE_TAG {
         let s = Sphere {
             center: p.a.into(),
@@ -339,7 +358,10 @@ fn surface_hit(prim: &Prim, ray: &Ray, t: f32, uv: Vec2, shapes: &[ShapeGeometry
 mod tests {
     use super::*;
 
-    fn unit_quad_scene(scale: f32) -> (Vec<ShapeGeometry>, Accel) {
+    /// Both accelerators: the BVH (`flat_max` 0) and the flat test of small scenes.
+    const BOTH: [usize; 2] = [0, FLAT_MAX_PRIMS];
+
+    fn unit_quad_scene(scale: f32, flat_max: usize) -> (Vec<ShapeGeometry>, Accel) {
         let q = TriangleMesh::quad(
             Vec3::new(-1.0, 0.0, -1.0) * scale,
             Vec3::new(0.0, 0.0, 2.0) * scale,
@@ -350,13 +372,20 @@ mod tests {
             radius: 0.5 * scale,
         };
         let shapes = vec![ShapeGeometry::Mesh(q), ShapeGeometry::Sphere(s)];
-        let accel = Accel::build(&shapes);
+        let accel = Accel::build_with(&shapes, flat_max);
+        assert_eq!(accel.flat.is_some(), flat_max > 0);
         (shapes, accel)
     }
 
     #[test]
     fn closest_hit_and_occlusion() {
-        let (shapes, accel) = unit_quad_scene(1.0);
+        for flat_max in BOTH {
+            closest_hit_and_occlusion_with(flat_max);
+        }
+    }
+
+    fn closest_hit_and_occlusion_with(flat_max: usize) {
+        let (shapes, accel) = unit_quad_scene(1.0, flat_max);
         let h = accel
             .intersect(&Ray::new(Vec3::new(0.1, 5.0, 0.1), -Vec3::Y), &shapes)
             .unwrap();
@@ -380,15 +409,17 @@ mod tests {
             Vec3::new(2.0, 0.0, 0.0),
         );
         let shapes = vec![ShapeGeometry::Mesh(q)];
-        let accel = Accel::build(&shapes);
-        for d in [
-            -Vec3::Y,
-            Vec3::new(-0.0, -1.0, 0.0),
-            Vec3::new(0.0, -1.0, -0.0),
-        ] {
-            let h = accel.intersect(&Ray::new(Vec3::new(0.3, 5.0, -0.2), d), &shapes);
-            assert!(h.is_some_and(|h| (h.t - 5.0).abs() < 1e-5), "{d:?}");
-            assert!(!accel.unoccluded(Vec3::new(0.3, 5.0, -0.2), d, 10.0));
+        for flat_max in BOTH {
+            let accel = Accel::build_with(&shapes, flat_max);
+            for d in [
+                -Vec3::Y,
+                Vec3::new(-0.0, -1.0, 0.0),
+                Vec3::new(0.0, -1.0, -0.0),
+            ] {
+                let h = accel.intersect(&Ray::new(Vec3::new(0.3, 5.0, -0.2), d), &shapes);
+                assert!(h.is_some_and(|h| (h.t - 5.0).abs() < 1e-5), "{d:?}");
+                assert!(!accel.unoccluded(Vec3::new(0.3, 5.0, -0.2), d, 10.0));
+            }
         }
     }
 
@@ -396,8 +427,11 @@ mod tests {
     /// ray must never hit the surface it starts on.
     #[test]
     fn spawned_rays_do_not_self_intersect_at_any_scale() {
-        for scale in [1e-4f32, 1e-2, 1.0, 1e2, 1e4] {
-            let (shapes, accel) = unit_quad_scene(scale);
+        for (scale, flat_max) in [1e-4f32, 1e-2, 1.0, 1e2, 1e4]
+            .into_iter()
+            .flat_map(|s| BOTH.map(|f| (s, f)))
+        {
+            let (shapes, accel) = unit_quad_scene(scale, flat_max);
             let mut rng = crate::math::IndependentSampler::new(7, 0, scale.to_bits() as u64);
             use crate::math::Sampler;
             let mut self_hits = 0;
@@ -435,5 +469,65 @@ mod tests {
             }
             assert_eq!(self_hits, 0, "scale {scale}");
         }
+    }
+
+    /// The flat test of small scenes reports, for every ray, the hit the BVH reports (shape,
+    /// triangle, distance and barycentrics bit for bit) and the same occlusion, in a closed box
+    /// of quads with two spheres inside, from random origins inside it in random directions.
+    #[test]
+    fn flat_and_bvh_agree_bit_for_bit() {
+        use crate::math::{Sampler, warp::square_to_uniform_sphere};
+        let wall = |o: Vec3, u: Vec3, v: Vec3| ShapeGeometry::Mesh(TriangleMesh::quad(o, u, v));
+        let (x, y, z) = (Vec3::X * 2.0, Vec3::Y * 2.0, Vec3::Z * 2.0);
+        let o = Vec3::splat(-1.0);
+        let mut shapes = vec![
+            wall(o, z, x),
+            wall(o + y, x, z),
+            wall(o, x, y),
+            wall(o + z, y, x),
+            wall(o, y, z),
+            wall(o + x, z, y),
+        ];
+        for (c, r) in [
+            (Vec3::new(-0.4, -0.5, 0.2), 0.45),
+            (Vec3::new(0.5, -0.3, -0.3), 0.3),
+        ] {
+            shapes.push(ShapeGeometry::Sphere(Sphere {
+                center: c,
+                radius: r,
+            }));
+        }
+        let bvh = Accel::build_with(&shapes, 0);
+        let flat = Accel::build_with(&shapes, FLAT_MAX_PRIMS);
+        assert!(bvh.flat.is_none() && flat.flat.is_some());
+        let mut rng = crate::math::IndependentSampler::new(11, 0, 0);
+        let mut hits = 0;
+        for _ in 0..20_000 {
+            let origin = (Vec3::new(rng.next_1d(), rng.next_1d(), rng.next_1d()) - 0.5) * 1.9;
+            let d = square_to_uniform_sphere(rng.next_2d());
+            let mut ray = Ray::new(origin, d);
+            ray.t_max = 0.5 + 3.0 * rng.next_1d();
+            let (a, b) = (bvh.intersect(&ray, &shapes), flat.intersect(&ray, &shapes));
+            let key = |h: Option<Hit>| {
+                h.map(|h| {
+                    (
+                        h.shape,
+                        h.prim,
+                        h.t.to_bits(),
+                        h.uv.x.to_bits(),
+                        h.uv.y.to_bits(),
+                    )
+                })
+            };
+            assert_eq!(key(a), key(b), "ray {ray:?}");
+            hits += a.is_some() as u32;
+            assert_eq!(
+                bvh.unoccluded(origin, d, ray.t_max),
+                flat.unoccluded(origin, d, ray.t_max),
+                "ray {ray:?}"
+            );
+        }
+        // Both outcomes occur often enough to mean something.
+        assert!((5_000..19_000).contains(&hits), "{hits} hits");
     }
 }

@@ -11,6 +11,7 @@
 //! relative to the magnitudes involved, so it holds at any scene scale.
 
 pub mod bvh;
+mod flat;
 pub mod heightfield;
 pub mod mesh;
 pub mod sphere;

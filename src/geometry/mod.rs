@@ -1,9 +1,10 @@
 //! Rays, shapes and the acceleration structure.
 //!
 //! Every shape is either a triangle mesh or an analytic sphere. All of them go into one obvhs
-//! `CwBvh` (see [`bvh::Accel`]). A hit reports the geometric normal `ng` (the shape's front side:
-//! triangle winding, or authored vertex normals when present; outward for spheres and cubes) and
-//! a shading normal `ns` on the same side as `ng`.
+//! `CwBvh` (see [`bvh::Accel`]), or, in a scene of at most 32 primitives, into a flat list
+//! tested four triangles at a time (`flat.rs`). A hit reports the geometric normal `ng` (the
+//! shape's front side: triangle winding, or authored vertex normals when present; outward for
+//! spheres and cubes) and a shading normal `ns` on the same side as `ng`.
 //!
 //! Self-intersection is avoided without a scene-dependent epsilon: each hit carries a bound on
 //! the floating-point error of its position (`p_err`, in the style of pbrt's error analysis),

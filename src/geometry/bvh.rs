@@ -55,10 +55,15 @@ pub enum ShapeGeometry {
     Sphere(Sphere),
 }
 
+/// How the primitives are searched.
+enum Index {
+    /// Every primitive tested (scenes of at most [`FLAT_MAX_PRIMS`] primitives, none included).
+    Flat(Flat),
+    Bvh(CwBvh),
+}
+
 pub struct Accel {
-    bvh: Option<CwBvh>,
-    /// Set instead of `bvh` for small scenes.
-    flat: Option<Flat>,
+    index: Index,
     prims: Vec<Prim>,
     /// The BVH is built and traversed in coordinates multiplied by this power of two (see
     /// [`bvh_scale`]); primitives and hits stay in world space.
@@ -121,8 +126,7 @@ impl Accel {
         }
         if prims.len() <= flat_max {
             return Accel {
-                bvh: None,
-                flat: Some(Flat::new(&prims)),
+                index: Index::Flat(Flat::new(&prims)),
                 prims,
                 scale: 1.0,
                 build_seconds: start.elapsed().as_secs_f64(),
@@ -142,8 +146,7 @@ impl Accel {
             .map(|&i| prims[i as usize])
             .collect();
         Accel {
-            bvh: Some(bvh),
-            flat: None,
+            index: Index::Bvh(bvh),
             prims: ordered,
             scale,
             build_seconds: start.elapsed().as_secs_f64(),
@@ -157,12 +160,14 @@ impl Accel {
     /// Closest hit along the ray; returns the hit and the barycentrics (b1, b2) for triangles.
     pub fn intersect(&self, ray: &Ray, shapes: &[ShapeGeometry]) -> Option<Hit> {
         count_ray();
-        if let Some(flat) = &self.flat {
-            let (i, t, uv) =
-                flat.closest(&self.prims, ray.o.into(), canonical_dir(ray.d), ray.t_max)?;
-            return Some(surface_hit(&self.prims[i], ray, t, uv, shapes));
-        }
-        let bvh = self.bvh.as_ref()?;
+        let bvh = match &self.index {
+            Index::Flat(flat) => {
+                let (o, d) = (ray.o.into(), canonical_dir(ray.d));
+                let (i, t, uv) = flat.closest(&self.prims, o, d, ray.t_max)?;
+                return Some(surface_hit(&self.prims[i], ray, t, uv, shapes));
+            }
+            Index::Bvh(bvh) => bvh,
+        };
         let (s, o, d) = (self.scale, Vec3A::from(ray.o), canonical_dir(ray.d));
         let r = obvhs::ray::Ray::new(o * s, d, 0.0, ray.t_max * s);
         let mut hit = RayHit::none();
@@ -188,11 +193,11 @@ impl Accel {
     /// True if nothing blocks the open segment from `o` along unit `d` up to `dist`.
     pub fn unoccluded(&self, o: Vec3, d: Vec3, dist: f32) -> bool {
         count_ray();
-        if let Some(flat) = &self.flat {
-            return flat.unoccluded(&self.prims, o.into(), canonical_dir(d), dist);
-        }
-        let Some(bvh) = self.bvh.as_ref() else {
-            return true;
+        let bvh = match &self.index {
+            Index::Flat(flat) => {
+                return flat.unoccluded(&self.prims, o.into(), canonical_dir(d), dist);
+            }
+            Index::Bvh(bvh) => bvh,
         };
         let (s, o, d) = (self.scale, Vec3A::from(o), canonical_dir(d));
         let r = obvhs::ray::Ray::new(o * s, d, 0.0, dist * s);
@@ -373,7 +378,7 @@ mod tests {
         };
         let shapes = vec![ShapeGeometry::Mesh(q), ShapeGeometry::Sphere(s)];
         let accel = Accel::build_with(&shapes, flat_max);
-        assert_eq!(accel.flat.is_some(), flat_max > 0);
+        assert_eq!(matches!(accel.index, Index::Flat(_)), flat_max > 0);
         (shapes, accel)
     }
 
@@ -499,7 +504,7 @@ mod tests {
         }
         let bvh = Accel::build_with(&shapes, 0);
         let flat = Accel::build_with(&shapes, FLAT_MAX_PRIMS);
-        assert!(bvh.flat.is_none() && flat.flat.is_some());
+        assert!(matches!(bvh.index, Index::Bvh(_)) && matches!(flat.index, Index::Flat(_)));
         let mut rng = crate::math::IndependentSampler::new(11, 0, 0);
         let mut hits = 0;
         for _ in 0..20_000 {

@@ -118,7 +118,7 @@ fn check_cache_sampling(name: &str, scene: &Scene, cache: &GuideCache) {
             g.density
         );
         let (p_g, _) = cache.pdf(scene, &y, sig, &nodes, &mut scratch);
-        let brute = cache.pdf_brute_force(scene, &y, sig, &nodes);
+        let brute = cache.terms_brute_force(scene, &y, sig, &nodes).sum;
         assert!(
             (p_g - brute).abs() <= 1e-12 * brute,
             "{name}: pruned p_g {p_g} vs all guide paths {brute}"

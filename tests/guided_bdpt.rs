@@ -218,9 +218,7 @@ fn coverage_classes_follow_the_cache_and_p_g() {
             if class == Coverage::Zero {
                 let (sig, nodes) = kernel::structure(scene, path, MAX_VERTICES).unwrap();
                 let y = y.expect("BDPT paths come with their vertices");
-                let expected = self
-                    .cache
-                    .vanishing_vertex_brute_force(scene, y, sig, &nodes);
+                let expected = self.cache.terms_brute_force(scene, y, sig, &nodes).reach;
                 *self.vanished.entry(d.vanished_at).or_default() += 1;
                 if d.vanished_at != expected && self.bad.len() < 6 {
                     self.bad.push(format!(
@@ -234,7 +232,7 @@ fn coverage_classes_follow_the_cache_and_p_g() {
                 .is_some_and(|sig| self.cache.holds(sig));
             let p_g_all = match (held, kernel::structure(scene, path, MAX_VERTICES), y) {
                 (true, Some((sig, nodes)), Some(y)) => {
-                    self.cache.pdf_brute_force(scene, y, sig, &nodes)
+                    self.cache.terms_brute_force(scene, y, sig, &nodes).sum
                 }
                 _ => 0.0,
             };

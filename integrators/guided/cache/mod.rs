@@ -367,26 +367,15 @@ impl GuideCache {
             return (0.0, 0);
         }
         self.candidates(scene, y[1].p, scratch);
-        (self.pdf_among(scene, y, sig, nodes, scratch), scratch.len())
+        let sum = self.terms(scene, y, sig, nodes, scratch, None).sum;
+        (sum, scratch.len())
     }
 
     /// [`Self::pdf`] over `candidates`, which must be [`Self::candidates`] of `y[1].p` (they
     /// depend on the direction from the camera to x_1 alone, so every path of one camera
-    /// sample shares them).
-    pub fn pdf_among(
-        &self,
-        scene: &Scene,
-        y: &[Vertex],
-        sig: u64,
-        nodes: &[Node],
-        candidates: &[u32],
-    ) -> f64 {
-        self.terms(scene, y, sig, nodes, candidates, None).sum
-    }
-
-    /// [`Self::pdf_among`] with what the sum saw on the way: the own guide's term `p(X | own)`
-    /// (a guided sample's own guide, whose term the sum computes anyway; 0 without `own`) and
-    /// the furthest vertex a term reached.
+    /// sample shares them), with what the sum saw on the way: the own guide's term
+    /// `p(X | own)` (a guided sample's own guide, whose term the sum computes anyway; 0 without
+    /// `own`) and the furthest vertex a term reached.
     pub fn terms(
         &self,
         scene: &Scene,
@@ -424,32 +413,31 @@ impl GuideCache {
         Terms { sum, own, reach }
     }
 
-    /// [`Terms::reach`] over every guide path (no pruning): the reference for tests.
-    pub fn vanishing_vertex_brute_force(
+    /// [`Self::terms`] over every guide path of the structure, no pruning and no own guide:
+    /// the reference for tests.
+    pub fn terms_brute_force(
         &self,
         scene: &Scene,
         y: &[Vertex],
         sig: u64,
         nodes: &[Node],
-    ) -> usize {
-        (0..self.guides.len())
-            .filter(|&l| {
-                let g = &self.guides[l];
-                g.sig == sig && g.weight != 0.0 && self.nodes_of(l) == nodes
-            })
-            .map(|l| {
-                self.pdf_given_with(scene, l, y, &mut PathTerms::default())
-                    .1
-            })
-            .fold(1, usize::max)
-    }
-
-    /// p_g by summing over every guide path (no pruning): the reference for tests.
-    pub fn pdf_brute_force(&self, scene: &Scene, y: &[Vertex], sig: u64, nodes: &[Node]) -> f64 {
-        (0..self.guides.len())
-            .filter(|&l| self.guides[l].sig == sig && self.nodes_of(l) == nodes)
-            .map(|l| self.guides[l].weight * self.pdf_given(scene, l, y))
-            .sum()
+    ) -> Terms {
+        let (mut sum, mut reach) = (0.0, 1);
+        for (l, g) in self.guides.iter().enumerate() {
+            if g.sig != sig || self.nodes_of(l) != nodes {
+                continue;
+            }
+            let (term, vanished) = self.pdf_given_with(scene, l, y, &mut PathTerms::default());
+            sum += g.weight * term;
+            if g.weight != 0.0 {
+                reach = reach.max(vanished);
+            }
+        }
+        Terms {
+            sum,
+            own: 0.0,
+            reach,
+        }
     }
 
     /// The stored vertices of guide `l` as a complete path (camera first).

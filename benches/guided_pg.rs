@@ -198,6 +198,7 @@ fn bdpt_cost(scene: &Scene, all: &[Install]) {
                 sum: glam::DVec3::ZERO,
                 grid: Default::default(),
                 u_sum: glam::DVec3::ZERO,
+                class_sum: Default::default(),
                 own_image: false,
                 learning: false,
                 measuring: false,

@@ -474,6 +474,7 @@ fn learning_passes_keep_bdpts_own_estimate() {
     let est = Estimator::new(&scene, &u, &cache, 0.5);
     let mut tracer = u.tracer(&scene);
     let (mut bad, mut mixed_differs, mut nonzero, mut splats_seen) = (Vec::new(), 0, 0, 0);
+    let mut held_seen = 0;
     let rel = |a: DVec3, b: DVec3| {
         ((a - b).abs() / a.abs().max(b.abs()).max(DVec3::splat(1e-30))).max_element()
     };
@@ -488,6 +489,7 @@ fn learning_passes_keep_bdpts_own_estimate() {
             sum: DVec3::ZERO,
             grid: [0.0; share::N],
             u_sum: DVec3::ZERO,
+            class_sum: Default::default(),
             own_image: true,
             learning: true,
             measuring: false,
@@ -495,7 +497,45 @@ fn learning_passes_keep_bdpts_own_estimate() {
             out: &mut out,
         };
         u.trace(&mut tracer, &scene, raster, &mut s, &mut col);
-        let (u_sum, mixed) = (col.u_sum, col.sum);
+        let (u_sum, mixed, classes) = (col.u_sum, col.sum, col.class_sum);
+        // The variance account (`coverage.rs`): the pixel's class sums add up to its mixed
+        // value, splatted paths keep theirs, and a class gets luminance exactly when the
+        // sample formed paths of that class (its second moment is non-zero).
+        let lum = lodestar::math::luminance64(mixed);
+        if (classes.iter().sum::<f64>() - lum).abs() > 1e-9 * lum.max(1e-30) && bad.len() < 6 {
+            bad.push(format!(
+                "sample {i}: classes {classes:?}, pixel luminance {lum}"
+            ));
+        }
+        let splat_lums: Vec<f64> = out
+            .splats
+            .iter()
+            .map(|(_, v)| lodestar::math::luminance64(*v))
+            .collect();
+        let class_splat_lums: Vec<f64> = out.class_splats.iter().map(|s| s.2).collect();
+        if splat_lums != class_splat_lums && bad.len() < 6 {
+            bad.push(format!(
+                "sample {i}: splats {splat_lums:?}, classes {class_splat_lums:?}"
+            ));
+        }
+        if out.stats.coverage_m2[1] + out.stats.coverage_m2[2] > 0.0 {
+            held_seen += 1;
+        }
+        for (c, own_pixel) in classes.iter().take(3).enumerate() {
+            let by_class = own_pixel
+                + out
+                    .class_splats
+                    .iter()
+                    .filter(|s| s.1 as usize == c)
+                    .map(|s| s.2)
+                    .sum::<f64>();
+            if (by_class > 0.0) != (out.stats.coverage_m2[c] > 0.0) && bad.len() < 6 {
+                bad.push(format!(
+                    "sample {i}: class {c} luminance {by_class}, second moment {}",
+                    out.stats.coverage_m2[c]
+                ));
+            }
+        }
         if own != DVec3::ZERO {
             nonzero += 1;
         }
@@ -532,6 +572,10 @@ fn learning_passes_keep_bdpts_own_estimate() {
     assert!(
         mixed_differs > 100,
         "the mixed estimate differs on only {mixed_differs}"
+    );
+    assert!(
+        held_seen > 100,
+        "only {held_seen} samples with paths the cache holds"
     );
     assert!(bad.is_empty(), "{}", bad.join("\n"));
 }

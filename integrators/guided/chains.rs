@@ -135,6 +135,7 @@ fn evaluate<U: Unguided>(
         sum: DVec3::ZERO,
         grid: [0.0; share::N],
         u_sum: DVec3::ZERO,
+        class_sum: Default::default(),
         own_image: false,
         learning: true,
         measuring: false,

@@ -20,6 +20,7 @@
 //! run chose (saved with it); `share = fixed` uses `alpha`.
 
 use super::cache::{self, GuideCache, RebuildParams};
+use super::coverage::{self, CoverageVariance};
 use super::estimator::{
     COVERAGE_CLASSES, Collector, Estimator, FAILURE_REASONS, PG_ZERO_VERTICES, RowOutput, Stats,
 };
@@ -31,7 +32,7 @@ use crate::error::Result;
 use crate::film::Film;
 use crate::geometry::bvh::rays_traced;
 use crate::integrators::unguided::Unguided;
-use crate::math::{IndependentSampler, Sampler, luminance};
+use crate::math::{IndependentSampler, Sampler, luminance, luminance64};
 use crate::render::{
     Budget, Integrator, RenderContext, RenderResult, cascade_rows, run_passes_with_snapshots,
 };
@@ -116,6 +117,7 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
                             sum: DVec3::ZERO,
                             grid: [0.0; share::N],
                             u_sum: DVec3::ZERO,
+                            class_sum: Default::default(),
                             own_image: learning,
                             learning,
                             measuring: measure,
@@ -125,6 +127,8 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
                         self.unguided
                             .trace(&mut tracer, scene, raster, &mut sampler, &mut col);
                         let (sum, grid, own) = (col.sum, col.grid, col.u_sum);
+                        let classes = col.class_sum;
+                        out.class_pixels.push(classes);
                         if learning {
                             out.u_pixels.push(own);
                         }
@@ -146,6 +150,9 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
                         let g = est.guided(&mut gs, learning, &mut out.stats, &mut out.candidates);
                         if let Some(g) = g {
                             out.splats.push((g.pixel, g.value));
+                            let lum = luminance64(g.value);
+                            out.class_splats
+                                .push((g.pixel, coverage::GUIDED as u8, lum));
                             if measure {
                                 let v = share::values(g.f_lum, g.p_u, g.p_g);
                                 for (m, x) in out.guided_m2.iter_mut().zip(v) {
@@ -393,6 +400,7 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
         }
         // ---- Rendering with the frozen cache ----
         let render_stats = std::cell::RefCell::new(Stats::default());
+        let class_variance = std::cell::RefCell::new(CoverageVariance::default());
         let render_budget = match budget {
             Budget::Spp(n) => Budget::Spp(n.saturating_sub(learn_passes).max(1)),
             Budget::Seconds(s) => Budget::Seconds((s - learn_seconds).max(0.0)),
@@ -408,6 +416,7 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
                 for r in &rows {
                     render_stats.borrow_mut().add(&r.stats);
                 }
+                class_variance.borrow_mut().add_pass(&rows, w as usize);
             },
             |film, passes| {
                 let n = (kept + passes).max(1) as f64;
@@ -415,6 +424,7 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
             },
         );
         let rs = render_stats.into_inner();
+        let class_var = class_variance.into_inner().variances();
         let total = (kept + passes).max(1);
         let image = film.to_image(total as f64, 1.0 / total as f64);
         let mut out_stats = vec![
@@ -470,6 +480,29 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
             stat(
                 "unguided_second_moment_by_coverage",
                 coverage_shares(&rs.coverage_m2),
+            ),
+            stat(
+                "variance_by_coverage",
+                class_var.map_or_else(
+                    || "n/a".to_string(),
+                    |v| {
+                        let names = coverage::CLASS_NAMES.iter().map(|c| c.to_string());
+                        shares(names, &v[..coverage::CLASSES])
+                    },
+                ),
+            ),
+            stat(
+                "class_variance_over_total",
+                class_var.map_or_else(
+                    || "n/a".to_string(),
+                    |v| {
+                        let classes: f64 = v[..coverage::CLASSES].iter().sum();
+                        format!(
+                            "{:.3}",
+                            classes / v[coverage::CLASSES].max(f64::MIN_POSITIVE)
+                        )
+                    },
+                ),
             ),
             stat(
                 "pg_zero_second_moment_by_vertex",

@@ -24,7 +24,7 @@
 use super::cache::{GuideCache, Record};
 use super::seeder::{Candidate, LearnRow, Source};
 use super::share;
-use super::{contribution, kernel, sampler};
+use super::{contribution, coverage, kernel, sampler};
 use crate::integrators::bdpt::{self, Vertex};
 use crate::integrators::unguided::{PathSink, Unguided};
 use crate::math::{Sampler, luminance, luminance64};
@@ -398,6 +398,10 @@ pub struct RowOutput {
     /// weighted `f / p_u`, the guided technique left out), and U's splats likewise; the image
     /// the learning passes leave when the share turns guiding off.
     pub u_pixels: Vec<DVec3>,
+    /// Per pixel of the row, the luminance its own sample's paths add by coverage class, and
+    /// (pixel, class, luminance) of splatted paths and guided samples (`coverage.rs`).
+    pub class_pixels: Vec<[f64; coverage::CLASSES]>,
+    pub class_splats: Vec<(u32, u8, f64)>,
     pub u_splats: Vec<(u32, DVec3)>,
     /// Luminance of the contributions of U's paths that the cache does not cover (structure
     /// not held, or p_g = 0), summed (the chain seeder's `uncovered` target).
@@ -414,6 +418,8 @@ pub struct Collector<'e, 'a, U: Unguided> {
     /// U's own estimate of this pixel (paths weighted `f / p_u`), accumulated (with U's
     /// splats in `out.u_splats`) when `own_image` is set: in the learning passes.
     pub u_sum: DVec3,
+    /// This pixel's luminance by coverage class (`coverage.rs`).
+    pub class_sum: [f64; coverage::CLASSES],
     pub own_image: bool,
     pub learning: bool,
     pub measuring: bool,
@@ -451,8 +457,10 @@ impl<U: Unguided> PathSink for Collector<'_, '_, U> {
 
         if splat {
             out.splats.push((path.pixel, value));
+            out.class_splats.push((path.pixel, coverage as u8, lum));
         } else {
             self.sum += value;
+            self.class_sum[coverage as usize] += lum;
         }
         if self.measuring {
             let v = share::values(luminance64(f), p_u, p_g);

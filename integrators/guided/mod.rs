@@ -13,7 +13,7 @@
 //!
 //! Where to read: `estimator.rs` (the mixture, one pass's densities and a guided sample),
 //! `driver.rs` (learning, the share, passes), `seeder.rs` (which paths become guides),
-//! `chains.rs` (the Markov-chain seeder),
+//! `chains.rs` (the Markov-chain seeder), `coverage.rs` (where the variance sits),
 //! `cache.rs` (storage, weights, p_g), `kernel.rs` (structures, Gaussians), `sampler.rs`
 //! (building a guided path), `contribution.rs` (f(X) from vertices), `io.rs` (saved caches);
 //! U's side is `integrators/unguided.rs`.
@@ -56,8 +56,12 @@
 //! but not comparable to p_u, and the variance moved within its noise. More guide paths of the
 //! full structure (7.7k instead of 2.7k) raised it. Such paths need the specular suffix guided
 //! on its own (closing note of issue 6). Every render reports this account for its own scene:
-//! `unguided_second_moment_by_coverage` (structure not held / p_g = 0 / covered) and
-//! `pg_zero_second_moment_by_vertex` (where p_g vanished; `estimator.rs`).
+//! `unguided_second_moment_by_coverage` (structure not held / p_g = 0 / covered),
+//! `pg_zero_second_moment_by_vertex` (where p_g vanished; `estimator.rs`) and
+//! `variance_by_coverage`: the render passes' image variance split into the same three
+//! classes plus the guided samples (`coverage.rs`). The second moment counts each class's
+//! mean too; the variance is the error (on dining, direct light holds most of the unguided
+//! second moment and under 2 % of the variance).
 
 // `!(x > 0.0)` deliberately rejects NaN with the invalid values; the small dense linear
 // algebra reads best with explicit indices.
@@ -65,6 +69,7 @@
 
 pub mod cache;
 pub mod chains;
+pub mod coverage;
 pub mod driver;
 pub mod estimator;
 pub mod gaussian;

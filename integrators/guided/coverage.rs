@@ -1,5 +1,5 @@
 //! Where the render's variance sits: the image's per-pass variance split by the coverage
-//! class of the paths that make it up (`unguided_variance_by_coverage`).
+//! class of the paths that make it up (`variance_by_coverage`).
 //!
 //! A path's squared contribution (`unguided_second_moment_by_coverage`) counts its mean too:
 //! direct light, sampled well by every technique, has a large second moment and almost no

@@ -183,7 +183,8 @@ fn mis_weights_with_the_guided_technique_sum_to_one_fog() {
 /// exactly when no guide path has the path's structure, `Zero` otherwise; for `Zero`, the
 /// vertex where p_g vanished
 /// (`pg_zero_second_moment_by_vertex`) is the furthest any guide path of the structure
-/// reaches, computed over the whole cache without the first-vertex BVH. A cache of a few BDPT
+/// reaches, computed over the whole cache without the first-vertex BVH; for covered paths, the
+/// terms and credits of `weights = second_moment` (below). A cache of a few BDPT
 /// paths of the glass box leaves every class and at least two vanishing vertices populated
 /// (checked, so that a classifier with a constant answer fails).
 #[test]
@@ -244,6 +245,25 @@ fn coverage_classes_follow_the_cache_and_p_g() {
                 Coverage::NotHeld
             };
             self.counts[class as usize] += 1;
+            if class == Coverage::Covered {
+                // The terms left for `weights = second_moment` are the sum's terms, and a
+                // sample's credits add up to V² r p_g / (p_u + r p_g): its squared value
+                // shared out by the guided part of the mixture.
+                let terms = &self.candidates.terms;
+                let sum: f64 = terms.iter().map(|t| t.1).sum();
+                let value = f / est.mix(p_u1, p_g1);
+                let mut credits = Vec::new();
+                est.credit(value, p_u1, p_g1, terms, &mut credits);
+                let (v, r) = (lodestar::math::luminance64(value), est.n_g / est.n_u);
+                let expected = v * v * r * p_g1 / (p_u1 + r * p_g1);
+                let got: f64 = credits.iter().map(|c| c.1).sum();
+                let off = |a: f64, b: f64| (a - b).abs() > 1e-12 * b.abs().max(1e-300);
+                if (off(sum, p_g1) || off(got, expected)) && self.bad.len() < 6 {
+                    self.bad.push(format!(
+                        "terms sum to {sum} against p_g {p_g1}; credits {got} against {expected}"
+                    ));
+                }
+            }
             let p_g_off = (p_g1 - p_g_all).abs() > 1e-9 * p_g_all;
             if (class != expected || p_g_off) && self.bad.len() < 6 {
                 self.bad.push(format!(
@@ -254,12 +274,14 @@ fn coverage_classes_follow_the_cache_and_p_g() {
             }
         }
     }
+    let mut candidates = X1Candidates::default();
+    candidates.collect_terms = true;
     let mut check = Classify {
         scene: &scene,
         est: &est,
         cache: &cache,
         stats: Stats::default(),
-        candidates: X1Candidates::default(),
+        candidates,
         counts: [0; 3],
         vanished: Default::default(),
         bad: Vec::new(),
@@ -354,16 +376,26 @@ fn guided_bdpt_is_unbiased_on_a_caustic_and_a_broken_pg_is_caught() {
 /// |z| < 4.5 (false-failure rate about 2e-5 for three channels).
 #[test]
 fn guided_bdpt_agrees_with_bdpt_on_the_cornell_box() {
-    let scene = box_scene("cornell-box.toml", 32);
-    let guided = util::render(
-        &scene,
-        "guided-bdpt",
-        MAX_DEPTH,
-        &["learn_fraction=0.5", "share=fixed"],
-        32,
-        3,
-        2,
+    agrees_with_bdpt_on_the_cornell_box(&[]);
+}
+
+/// The same with the second-moment weight rule, which must change the weights (and so the
+/// image) and nothing of the estimator's exactness.
+#[test]
+fn guided_bdpt_with_second_moment_weights_agrees_with_bdpt() {
+    let with = agrees_with_bdpt_on_the_cornell_box(&["weights=second_moment"]);
+    let without = agrees_with_bdpt_on_the_cornell_box(&[]);
+    assert!(
+        with.pixels != without.pixels,
+        "weights=second_moment changed nothing"
     );
+}
+
+fn agrees_with_bdpt_on_the_cornell_box(extra: &[&str]) -> lodestar::film::Image {
+    let scene = box_scene("cornell-box.toml", 32);
+    let mut options = vec!["learn_fraction=0.5", "share=fixed"];
+    options.extend(extra);
+    let guided = util::render(&scene, "guided-bdpt", MAX_DEPTH, &options, 32, 3, 2);
     let reference = util::render(&scene, "bdpt", MAX_DEPTH, &[], 64, 4, 2);
     let stat = |k: &str| {
         guided
@@ -380,6 +412,7 @@ fn guided_bdpt_agrees_with_bdpt_on_the_cornell_box() {
         guided.stats
     );
     util::assert_same_mean(&guided.image, &reference.image, "guided-bdpt vs bdpt");
+    guided.image
 }
 
 /// A cache learned by guided-pt renders in guided-bdpt (guide paths are complete paths,
@@ -441,15 +474,21 @@ fn power_heuristic_with_guided_bdpt_is_an_error() {
 
 /// guided-bdpt and guided-pt, learning and choosing their share inside the render, give
 /// bit-identical images on 1 and 2 threads (the share is decided from counted rays, not time).
+/// The same with the second-moment weight rule (each guide's credit summed in row order).
 #[test]
 fn guided_renders_do_not_depend_on_the_thread_count() {
     let scene = util::scene(CAUSTIC);
-    for name in ["guided-bdpt", "guided-pt"] {
-        let one = util::render(&scene, name, MAX_DEPTH, &["learn_fraction=0.5"], 8, 5, 1);
-        let two = util::render(&scene, name, MAX_DEPTH, &["learn_fraction=0.5"], 8, 5, 2);
+    let second_moment: &[&str] = &["learn_fraction=0.5", "weights=second_moment"];
+    for (name, options) in [
+        ("guided-bdpt", &["learn_fraction=0.5"][..]),
+        ("guided-pt", &["learn_fraction=0.5"][..]),
+        ("guided-bdpt", second_moment),
+    ] {
+        let one = util::render(&scene, name, MAX_DEPTH, options, 8, 5, 1);
+        let two = util::render(&scene, name, MAX_DEPTH, options, 8, 5, 2);
         assert!(
             one.image.pixels == two.image.pixels,
-            "{name}: 1 and 2 threads differ"
+            "{name} {options:?}: 1 and 2 threads differ"
         );
         let share = |r| util::stat(r, "share_relative_cost");
         assert_eq!(share(&one), share(&two), "{name}");

@@ -19,7 +19,7 @@
 //! a few passes, not the learning budget. A loaded cache renders with the share its learning
 //! run chose (saved with it); `share = fixed` uses `alpha`.
 
-use super::cache::{self, GuideCache, RebuildParams};
+use super::cache::{self, GuideCache, RebuildParams, WeightRule};
 use super::coverage::{self, CoverageVariance};
 use super::estimator::{
     COVERAGE_CLASSES, Collector, Estimator, FAILURE_REASONS, PG_ZERO_VERTICES, RowOutput, Stats,
@@ -95,6 +95,8 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
             .enumerate()
             .map(|(y, (row, crow))| {
                 let mut out = RowOutput::default();
+                out.candidates.collect_terms =
+                    learning && n_g > 0 && self.settings.weights == WeightRule::SecondMoment;
                 let mut tracer = self.unguided.tracer(scene);
                 for (x, acc) in row.iter_mut().enumerate() {
                     let index = y as u64 * w as u64 + x as u64;
@@ -149,6 +151,10 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
                         let mut gs = IndependentSampler::new(ctx.seed, pass, n_pix + j);
                         let g = est.guided(&mut gs, learning, &mut out.stats, &mut out.candidates);
                         if let Some(g) = g {
+                            if out.candidates.collect_terms {
+                                let terms = &out.candidates.terms;
+                                est.credit(g.value, g.p_u, g.p_g, terms, &mut out.responsibility);
+                            }
                             out.splats.push((g.pixel, g.value));
                             let lum = luminance64(g.value);
                             out.class_splats
@@ -316,6 +322,16 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
                         meter.add(image, guided_m2, est.n_u, &pass_stats);
                     }
                     let alpha = est.alpha;
+                    // Each guide's credit, summed in row order (deterministic).
+                    let mut second_moment = Vec::new();
+                    if rows.iter().any(|r| !r.responsibility.is_empty()) {
+                        second_moment = vec![0.0; cache.guides.len()];
+                        for r in &rows {
+                            for &(l, x) in &r.responsibility {
+                                second_moment[l as usize] += x;
+                            }
+                        }
+                    }
                     let mut learn_rows: Vec<LearnRow> = rows.into_iter().map(|r| r.learn).collect();
                     let explore = Explore {
                         seed: ctx.seed,
@@ -360,6 +376,7 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
                             render_mode: done,
                             max_guides: st.max_guides,
                         },
+                        &second_moment,
                     );
                     rebuild_seconds += rebuild_start.elapsed().as_secs_f64();
                     if done {

@@ -141,12 +141,17 @@ impl Stats {
 /// The BVH candidates of the last x_1 queried. All paths of one unguided sample whose first
 /// vertex is the camera ray's hit share x_1 (pt: every path; bdpt: every technique with
 /// t >= 2), and the candidates depend on x_1 alone, so one query serves them all.
+///
+/// With `collect_terms` (learning under `weights = second_moment`), each p_g evaluation also
+/// leaves its non-zero terms `(l, w_l p(X | l))` in `terms`.
 #[derive(Default)]
 pub struct X1Candidates {
     x1: Option<Vec3>,
     list: Vec<u32>,
     /// Query the BVH for every path instead (for measuring what the reuse saves).
     pub no_reuse: bool,
+    pub collect_terms: bool,
+    pub terms: Vec<(u32, f64)>,
 }
 
 impl X1Candidates {
@@ -241,11 +246,23 @@ impl<'a, U: Unguided> Estimator<'a, U> {
                 None => return not_held,
             },
         };
+        let mut each = std::mem::take(&mut candidates.terms);
+        each.clear();
+        let collect = candidates.collect_terms;
         let list = candidates.of(self.cache, self.scene, y[1].p, stats);
-        let terms = self.cache.terms(self.scene, y, sig, &nodes, list, None);
-        let (p_g, vanished_at) = (terms.sum, terms.reach);
+        let terms = self.cache.terms(
+            self.scene,
+            y,
+            sig,
+            &nodes,
+            list,
+            None,
+            collect.then_some(&mut each),
+        );
         stats.pg_evaluations += 1;
         stats.pg_candidates += list.len() as u64;
+        candidates.terms = each;
+        let (p_g, vanished_at) = (terms.sum, terms.reach);
         if p_g > 0.0 {
             // One source for p_u: the same function guided samples use. It re-traces every
             // segment, and visibility is not exactly symmetric in f32 (a ray grazing a mesh's
@@ -292,6 +309,32 @@ impl<'a, U: Unguided> Estimator<'a, U> {
             }
         }
         p_u + (self.n_g / self.n_u) * p_g
+    }
+
+    /// Credit each guide path with its share of a sample's squared value (`weights =
+    /// second_moment`): the sample X, of value V = f / (p_u + r p_g) with r = n_g / n_u,
+    /// adds `V² r w_l p(X | l) / (p_u + r p_g)` to guide l for each term of p_g. Summed over
+    /// a pass's samples (all drawn from the mixture) this estimates `w_l ∫ f² p(X | l) /
+    /// p_mix² dX`, the part of the estimator's second moment that guide l's weight can
+    /// reduce: raising w_l lowers the second moment where this is large (the
+    /// Rao-Blackwellised mixture update of population Monte Carlo, with f² for variance).
+    pub fn credit(
+        &self,
+        value: DVec3,
+        p_u: f64,
+        p_g: f64,
+        terms: &[(u32, f64)],
+        out: &mut Vec<(u32, f64)>,
+    ) {
+        let v = luminance64(value);
+        let r = self.n_g / self.n_u;
+        let mix = p_u + r * p_g;
+        if !(v > 0.0 && mix > 0.0) {
+            return;
+        }
+        for &(l, term) in terms {
+            out.push((l, v * v * r * term / mix));
+        }
     }
 
     /// The selection value `C = f / (α p_u + (1 − α) p_g)` of a path (luminance of f).
@@ -342,11 +385,21 @@ impl<'a, U: Unguided> Estimator<'a, U> {
             stats.fail(sampler::Failure::Structure as usize);
             return None;
         };
+        let mut each = std::mem::take(&mut candidates.terms);
+        each.clear();
+        let collect = candidates.collect_terms;
         let list = candidates.of(self.cache, self.scene, y[1].p, stats);
         let n = list.len();
-        let terms = self
-            .cache
-            .terms(self.scene, &y, sig, &nodes, list, Some(g.guide));
+        let terms = self.cache.terms(
+            self.scene,
+            &y,
+            sig,
+            &nodes,
+            list,
+            Some(g.guide),
+            collect.then_some(&mut each),
+        );
+        candidates.terms = each;
         let (p_g, own) = (terms.sum, terms.own);
         if own == 0.0 {
             stats.fail(EDGE);
@@ -401,6 +454,9 @@ pub struct RowOutput {
     /// Per pixel of the row, the luminance its own sample's paths add by coverage class, and
     /// (pixel, class, luminance) of splatted paths and guided samples (`coverage.rs`).
     pub class_pixels: Vec<[f64; coverage::CLASSES]>,
+    /// While learning under `weights = second_moment`: (guide, credit) of the row's samples
+    /// ([`Estimator::credit`]).
+    pub responsibility: Vec<(u32, f64)>,
     pub class_splats: Vec<(u32, u8, f64)>,
     pub u_splats: Vec<(u32, DVec3)>,
     /// Luminance of the contributions of U's paths that the cache does not cover (structure
@@ -445,6 +501,12 @@ impl<U: Unguided> PathSink for Collector<'_, '_, U> {
             return;
         }
         let lum = luminance64(value);
+        if coverage == Coverage::Covered && out.candidates.collect_terms {
+            let terms = std::mem::take(&mut out.candidates.terms);
+            self.est
+                .credit(value, p_u, p_g, &terms, &mut out.responsibility);
+            out.candidates.terms = terms;
+        }
         out.stats.coverage_paths[coverage as usize] += 1;
         out.stats.coverage_m2[coverage as usize] += lum * lum;
         if coverage == Coverage::Zero {

@@ -28,6 +28,7 @@
 //! | learn_fraction  | [0, 1)        | 0.1     | share of the budget spent learning (`--learn-fraction`) |
 //! | max_guides      | integer >= 1  | 100000  | cache capacity; the lightest guide paths go first (`--max-guides`) |
 //! | intake          | integer >= 1  | 100     | outliers kept per worker (band of rows) and iteration |
+//! | weights         | `c` / `second_moment` | `c` | selection weights: the spec's `C` of each guide path, or half of it replaced by each guide's share of the learning samples' second moment (`cache/build.rs`) |
 //! | kernel_width    | number > 0    | 3       | factor on the conditional Gaussians' standard deviations (1: the spec's; `cache.rs`) |
 //! | first_width     | number > 0    | 2       | factor on the first-vertex kernel's width (1: the spec's) |
 //! | seeder          | `outliers` / `mcmc` | `outliers` | where guide paths come from: the passes' outliers, or also Markov chains started at them (`chains.rs`, `--seeder`) |
@@ -92,7 +93,7 @@ use super::pt::{PathTracer, PtSettings};
 use super::unguided::BdptUnguided;
 use crate::error::{Error, Result};
 use crate::render::Integrator;
-use cache::{GuideCache, KernelWidths};
+use cache::{GuideCache, KernelWidths, WeightRule};
 use std::path::PathBuf;
 
 /// guided-pt: the guider over pt, fed by outliers.
@@ -118,6 +119,8 @@ pub struct GuidedSettings {
     pub max_guides: usize,
     pub intake: usize,
     pub damping: f64,
+    /// The selection weights' update rule (`cache/build.rs`).
+    pub weights: WeightRule,
     pub widths: KernelWidths,
     pub save_guides: Option<PathBuf>,
     pub load_guides: Option<PathBuf>,
@@ -135,6 +138,7 @@ impl Default for GuidedSettings {
             max_guides: 100_000,
             intake: 100,
             damping: 0.5,
+            weights: WeightRule::C,
             widths: KernelWidths::default(),
             save_guides: None,
             load_guides: None,
@@ -234,6 +238,10 @@ fn options(params: &IntegratorParams, default_rr: u32) -> Result<(GuidedSettings
         "uncovered" => ChainTarget::Uncovered,
         _ => ChainTarget::Mixture,
     };
+    let weights = match o.choice("weights", "c", &["c", "second_moment"])? {
+        "second_moment" => WeightRule::SecondMoment,
+        _ => WeightRule::C,
+    };
     let bad = |key: &str, expected: &str, got: String| {
         Err(Error::new(format!(
             "option '{key}': expected {expected}, got {got}"
@@ -297,6 +305,7 @@ fn options(params: &IntegratorParams, default_rr: u32) -> Result<(GuidedSettings
         learn_fraction,
         max_guides,
         intake,
+        weights,
         widths: KernelWidths {
             regression: kernel_width,
             first_vertex: first_width,

@@ -4,7 +4,10 @@
 //! so a saved cache loads to the same state. The widths and their deviations from the spec
 //! are in the parent module's doc.
 
-use super::{Guide, GuideCache, Install, NEIGHBOURS, RebuildParams, Record, SPACING_RANK};
+use super::{
+    Guide, GuideCache, Install, NEIGHBOURS, RebuildParams, Record, SECOND_MOMENT_SHARE,
+    SPACING_RANK,
+};
 use crate::integrators::guided::gaussian::{Mat3, R, cholesky, cholesky_solve, symmetric_eigen};
 use crate::integrators::guided::kernel;
 use crate::integrators::guided::kernel::{
@@ -20,7 +23,16 @@ use std::time::Duration;
 
 impl GuideCache {
     /// Rebuild the cache from its guide paths plus `records` (spec §2.4, §3; module doc).
-    pub fn rebuild(&mut self, scene: &Scene, records: Vec<Record>, params: RebuildParams) {
+    /// `second_moment`: empty, or per guide path of the current cache its share of the
+    /// second moment of the iteration's samples (`responsibility.rs`); non-empty selects
+    /// [`super::WeightRule::SecondMoment`].
+    pub fn rebuild(
+        &mut self,
+        scene: &Scene,
+        records: Vec<Record>,
+        params: RebuildParams,
+        second_moment: &[f64],
+    ) {
         let max_len = crate::path::MAX_VERTICES;
         // ---- C of the old guide paths under the state that drew this iteration ----
         let old_c: Vec<f64> = (0..self.guides.len())
@@ -80,10 +92,21 @@ impl GuideCache {
         }
         // ---- Weights ----
         let sum_c: f64 = entries.iter().map(|e| e.c).sum();
+        let sum_m2: f64 = second_moment.iter().sum();
+        let by_m2 = if sum_m2 > 0.0 && second_moment.len() == old_c.len() {
+            SECOND_MOMENT_SHARE
+        } else {
+            0.0
+        };
         let mut weights: Vec<f64> = entries
             .iter()
-            .map(|e| {
-                let fresh = if sum_c > 0.0 { e.c / sum_c } else { 0.0 };
+            .enumerate()
+            .map(|(i, e)| {
+                let by_c = if sum_c > 0.0 { e.c / sum_c } else { 0.0 };
+                let fresh = match second_moment.get(i) {
+                    Some(m2) if by_m2 > 0.0 => by_m2 * m2 / sum_m2 + (1.0 - by_m2) * by_c,
+                    _ => (1.0 - by_m2) * by_c,
+                };
                 match e.w_old {
                     Some(w) if !params.render_mode => {
                         params.damping * fresh + (1.0 - params.damping) * w

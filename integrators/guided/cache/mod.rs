@@ -30,6 +30,16 @@
 //! issue 6). Factors 2–4 measured alike; 8 was worse, and so was capping kernels at 1–2
 //! footprints (13 % failures, variance 0.07–0.12).
 //!
+//! **Weights by second moment (`weights = second_moment`, not the spec's rule).** The spec's
+//! `C_j` looks at one point, guide path j itself. With this option each learning pass also
+//! credits every guide l with its share of the squared values of the samples the pass drew,
+//! `V² r w_l p(X | l) / (p_u + r p_g)` per sample X (`Estimator::credit`). Summed, this
+//! estimates `w_l ∫ f² p(X | l) / p_mix²`: how much guide l's kernels carry of the
+//! estimator's second moment (population Monte Carlo's Rao-Blackwellised weight update with
+//! f² for variance). The fresh weights are then half `C_j / ΣC` (new guide paths have only
+//! this half) and half each old guide's credit over the total credit. Damping and the final
+//! rebuild work as with `C`.
+//!
 //! **Adaptive first-vertex width (a deviation from the spec, for the cost of p_g).** With the
 //! spec's widths, fixed in pixels, the number of guide paths whose first-vertex kernel covers
 //! a pixel grows in proportion to the cache, and so does the cost of `p_g`. Here a guide's
@@ -100,6 +110,19 @@ pub struct Record {
     pub p_u: f64,
     pub c: f64,
 }
+
+/// How a rebuild sets the selection weights (module doc).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum WeightRule {
+    /// The spec's: `w_j ∝ C_j`, each guide path's own value under the mixture.
+    C,
+    /// Half `C_j / ΣC`, half each old guide's share of the second moment of the samples the
+    /// iteration drew ([`RebuildParams::second_moment`]).
+    SecondMoment,
+}
+
+/// Share of the fresh weights that [`WeightRule::SecondMoment`] gives by second moment.
+pub const SECOND_MOMENT_SHARE: f64 = 0.5;
 
 /// Learning parameters of a rebuild.
 #[derive(Debug, Clone, Copy)]
@@ -367,7 +390,7 @@ impl GuideCache {
             return (0.0, 0);
         }
         self.candidates(scene, y[1].p, scratch);
-        let sum = self.terms(scene, y, sig, nodes, scratch, None).sum;
+        let sum = self.terms(scene, y, sig, nodes, scratch, None, None).sum;
         (sum, scratch.len())
     }
 
@@ -375,7 +398,9 @@ impl GuideCache {
     /// depend on the direction from the camera to x_1 alone, so every path of one camera
     /// sample shares them), with what the sum saw on the way: the own guide's term
     /// `p(X | own)` (a guided sample's own guide, whose term the sum computes anyway; 0 without
-    /// `own`) and the furthest vertex a term reached.
+    /// `own`) and the furthest vertex a term reached. With `each`, every non-zero term
+    /// `w_l p(X | l)` of the sum is pushed as `(l, term)`.
+    #[allow(clippy::too_many_arguments)]
     pub fn terms(
         &self,
         scene: &Scene,
@@ -384,6 +409,7 @@ impl GuideCache {
         nodes: &[Node],
         candidates: &[u32],
         own: Option<usize>,
+        mut each: Option<&mut Vec<(u32, f64)>>,
     ) -> Terms {
         let mut terms = PathTerms::default();
         let mut own_term = None;
@@ -402,6 +428,11 @@ impl GuideCache {
                 }
                 if self.skip_in_pdf != Some(l) {
                     sum += g.weight * term;
+                    if let Some(e) = each.as_deref_mut()
+                        && term > 0.0
+                    {
+                        e.push((l as u32, g.weight * term));
+                    }
                 }
             }
         }

@@ -454,10 +454,10 @@ pub struct RowOutput {
     /// Per pixel of the row, the luminance its own sample's paths add by coverage class, and
     /// (pixel, class, luminance) of splatted paths and guided samples (`coverage.rs`).
     pub class_pixels: Vec<[f64; coverage::CLASSES]>,
+    pub class_splats: Vec<(u32, u8, f64)>,
     /// While learning under `weights = second_moment`: (guide, credit) of the row's samples
     /// ([`Estimator::credit`]).
     pub responsibility: Vec<(u32, f64)>,
-    pub class_splats: Vec<(u32, u8, f64)>,
     pub u_splats: Vec<(u32, DVec3)>,
     /// Luminance of the contributions of U's paths that the cache does not cover (structure
     /// not held, or p_g = 0), summed (the chain seeder's `uncovered` target).

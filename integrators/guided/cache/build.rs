@@ -24,7 +24,7 @@ use std::time::Duration;
 impl GuideCache {
     /// Rebuild the cache from its guide paths plus `records` (spec §2.4, §3; module doc).
     /// `second_moment`: empty, or per guide path of the current cache its share of the
-    /// second moment of the iteration's samples (`responsibility.rs`); non-empty selects
+    /// second moment of the iteration's samples (`Estimator::credit` summed); non-empty selects
     /// [`super::WeightRule::SecondMoment`].
     pub fn rebuild(
         &mut self,

@@ -379,15 +379,20 @@ fn guided_bdpt_agrees_with_bdpt_on_the_cornell_box() {
     agrees_with_bdpt_on_the_cornell_box(&[]);
 }
 
-/// The same with the second-moment weight rule, which must change the weights (and so the
-/// image) and nothing of the estimator's exactness.
+/// The same with the spec's weight rule (`weights=c`; the default is `second_moment`). The
+/// two rules must give different weights (and so images) and be equally exact.
 #[test]
-fn guided_bdpt_with_second_moment_weights_agrees_with_bdpt() {
-    let with = agrees_with_bdpt_on_the_cornell_box(&["weights=second_moment"]);
-    let without = agrees_with_bdpt_on_the_cornell_box(&[]);
+fn guided_bdpt_with_the_specs_weights_agrees_with_bdpt() {
+    let spec = agrees_with_bdpt_on_the_cornell_box(&["weights=c"]);
+    let default = agrees_with_bdpt_on_the_cornell_box(&[]);
+    let second_moment = agrees_with_bdpt_on_the_cornell_box(&["weights=second_moment"]);
     assert!(
-        with.pixels != without.pixels,
-        "weights=second_moment changed nothing"
+        default.pixels == second_moment.pixels,
+        "the default rule is not second_moment"
+    );
+    assert!(
+        spec.pixels != default.pixels,
+        "weights=c and weights=second_moment gave the same image"
     );
 }
 
@@ -474,15 +479,15 @@ fn power_heuristic_with_guided_bdpt_is_an_error() {
 
 /// guided-bdpt and guided-pt, learning and choosing their share inside the render, give
 /// bit-identical images on 1 and 2 threads (the share is decided from counted rays, not time).
-/// The same with the second-moment weight rule (each guide's credit summed in row order).
+/// Both weight rules (the default second-moment rule sums each guide's credit in row order).
 #[test]
 fn guided_renders_do_not_depend_on_the_thread_count() {
     let scene = util::scene(CAUSTIC);
-    let second_moment: &[&str] = &["learn_fraction=0.5", "weights=second_moment"];
+    let spec: &[&str] = &["learn_fraction=0.5", "weights=c"];
     for (name, options) in [
         ("guided-bdpt", &["learn_fraction=0.5"][..]),
         ("guided-pt", &["learn_fraction=0.5"][..]),
-        ("guided-bdpt", second_moment),
+        ("guided-bdpt", spec),
     ] {
         let one = util::render(&scene, name, MAX_DEPTH, options, 8, 5, 1);
         let two = util::render(&scene, name, MAX_DEPTH, options, 8, 5, 2);

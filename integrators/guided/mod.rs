@@ -28,7 +28,7 @@
 //! | learn_fraction  | [0, 1)        | 0.1     | share of the budget spent learning (`--learn-fraction`) |
 //! | max_guides      | integer >= 1  | 100000  | cache capacity; the lightest guide paths go first (`--max-guides`) |
 //! | intake          | integer >= 1  | 100     | outliers kept per worker (band of rows) and iteration |
-//! | weights         | `c` / `second_moment` | `c` | selection weights: the spec's `C` of each guide path, or half of it replaced by each guide's share of the learning samples' second moment (`cache/build.rs`) |
+//! | weights         | `second_moment` / `c` | `second_moment` | selection weights: half the spec's `C` of each guide path and half each guide's share of the learning samples' second moment, or the spec's `C` alone (`cache/mod.rs`) |
 //! | kernel_width    | number > 0    | 3       | factor on the conditional Gaussians' standard deviations (1: the spec's; `cache.rs`) |
 //! | first_width     | number > 0    | 2       | factor on the first-vertex kernel's width (1: the spec's) |
 //! | seeder          | `outliers` / `mcmc` | `outliers` | where guide paths come from: the passes' outliers, or also Markov chains started at them (`chains.rs`, `--seeder`) |
@@ -138,7 +138,7 @@ impl Default for GuidedSettings {
             max_guides: 100_000,
             intake: 100,
             damping: 0.5,
-            weights: WeightRule::C,
+            weights: WeightRule::SecondMoment,
             widths: KernelWidths::default(),
             save_guides: None,
             load_guides: None,
@@ -238,9 +238,9 @@ fn options(params: &IntegratorParams, default_rr: u32) -> Result<(GuidedSettings
         "uncovered" => ChainTarget::Uncovered,
         _ => ChainTarget::Mixture,
     };
-    let weights = match o.choice("weights", "c", &["c", "second_moment"])? {
-        "second_moment" => WeightRule::SecondMoment,
-        _ => WeightRule::C,
+    let weights = match o.choice("weights", "second_moment", &["second_moment", "c"])? {
+        "c" => WeightRule::C,
+        _ => WeightRule::SecondMoment,
     };
     let bad = |key: &str, expected: &str, got: String| {
         Err(Error::new(format!(

@@ -30,7 +30,8 @@
 //! issue 6). Factors 2–4 measured alike; 8 was worse, and so was capping kernels at 1–2
 //! footprints (13 % failures, variance 0.07–0.12).
 //!
-//! **Weights by second moment (`weights = second_moment`, not the spec's rule).** The spec's
+//! **Weights by second moment (`weights = second_moment`, the default; not the spec's rule,
+//! which `weights = c` keeps).** The spec's
 //! `C_j` looks at one point, guide path j itself. With this option each learning pass also
 //! credits every guide l with its share of the squared values of the samples the pass drew,
 //! `V² r w_l p(X | l) / (p_u + r p_g)` per sample X (`Estimator::credit`). Summed, this

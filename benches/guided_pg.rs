@@ -199,6 +199,7 @@ fn bdpt_cost(scene: &Scene, all: &[Install]) {
                 grid: Default::default(),
                 u_sum: glam::DVec3::ZERO,
                 class_sum: Default::default(),
+                classes: true,
                 own_image: false,
                 learning: false,
                 measuring: false,

@@ -534,6 +534,7 @@ fn learning_passes_keep_bdpts_own_estimate() {
             grid: [0.0; share::N],
             u_sum: DVec3::ZERO,
             class_sum: Default::default(),
+            classes: true,
             own_image: true,
             learning: true,
             measuring: false,

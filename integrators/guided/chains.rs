@@ -136,6 +136,7 @@ fn evaluate<U: Unguided>(
         grid: [0.0; share::N],
         u_sum: DVec3::ZERO,
         class_sum: Default::default(),
+        classes: false,
         own_image: false,
         learning: true,
         measuring: false,

@@ -120,6 +120,7 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
                             grid: [0.0; share::N],
                             u_sum: DVec3::ZERO,
                             class_sum: Default::default(),
+                            classes: !learning,
                             own_image: learning,
                             learning,
                             measuring: measure,
@@ -129,8 +130,10 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
                         self.unguided
                             .trace(&mut tracer, scene, raster, &mut sampler, &mut col);
                         let (sum, grid, own) = (col.sum, col.grid, col.u_sum);
-                        let classes = col.class_sum;
-                        out.class_pixels.push(classes);
+                        if !learning {
+                            let classes = col.class_sum;
+                            out.class_pixels.push(classes);
+                        }
                         if learning {
                             out.u_pixels.push(own);
                         }
@@ -156,9 +159,11 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
                                 est.credit(g.value, g.p_u, g.p_g, terms, &mut out.responsibility);
                             }
                             out.splats.push((g.pixel, g.value));
-                            let lum = luminance64(g.value);
-                            out.class_splats
-                                .push((g.pixel, coverage::GUIDED as u8, lum));
+                            if !learning {
+                                let lum = luminance64(g.value);
+                                out.class_splats
+                                    .push((g.pixel, coverage::GUIDED as u8, lum));
+                            }
                             if measure {
                                 let v = share::values(g.f_lum, g.p_u, g.p_g);
                                 for (m, x) in out.guided_m2.iter_mut().zip(v) {

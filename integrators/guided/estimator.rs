@@ -474,8 +474,10 @@ pub struct Collector<'e, 'a, U: Unguided> {
     /// U's own estimate of this pixel (paths weighted `f / p_u`), accumulated (with U's
     /// splats in `out.u_splats`) when `own_image` is set: in the learning passes.
     pub u_sum: DVec3,
-    /// This pixel's luminance by coverage class (`coverage.rs`).
+    /// This pixel's luminance by coverage class (`coverage.rs`), and the splats' in
+    /// `out.class_splats`, kept when `classes` is set: in the render passes.
     pub class_sum: [f64; coverage::CLASSES],
+    pub classes: bool,
     pub own_image: bool,
     pub learning: bool,
     pub measuring: bool,
@@ -519,10 +521,14 @@ impl<U: Unguided> PathSink for Collector<'_, '_, U> {
 
         if splat {
             out.splats.push((path.pixel, value));
-            out.class_splats.push((path.pixel, coverage as u8, lum));
+            if self.classes {
+                out.class_splats.push((path.pixel, coverage as u8, lum));
+            }
         } else {
             self.sum += value;
-            self.class_sum[coverage as usize] += lum;
+            if self.classes {
+                self.class_sum[coverage as usize] += lum;
+            }
         }
         if self.measuring {
             let v = share::values(luminance64(f), p_u, p_g);

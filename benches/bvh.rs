@@ -171,6 +171,16 @@ fn median(mut v: Vec<f64>) -> f64 {
 /// Run `f` over all rays on `threads` threads; returns (Mrays per wall second, Mrays per CPU
 /// second, result count).
 fn trace(rays: &[[f32; 6]], threads: usize, f: impl Fn(&Ray) -> bool + Sync) -> (f64, f64, usize) {
+    trace_chunks(rays, threads, |chunk| chunk.iter().filter(|r| f(r)).count())
+}
+
+/// Run `f` over chunks of 4096 rays on `threads` threads; `f` returns its chunk's result
+/// count. Returns what [`trace`] returns.
+fn trace_chunks(
+    rays: &[[f32; 6]],
+    threads: usize,
+    f: impl Fn(&[Ray]) -> usize + Sync,
+) -> (f64, f64, usize) {
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
@@ -180,15 +190,11 @@ fn trace(rays: &[[f32; 6]], threads: usize, f: impl Fn(&Ray) -> bool + Sync) -> 
     let hits: usize = pool.install(|| {
         rays.par_chunks(4096)
             .map(|chunk| {
-                chunk
+                let rays: Vec<Ray> = chunk
                     .iter()
-                    .filter(|r| {
-                        f(&Ray::new(
-                            Vec3::new(r[0], r[1], r[2]),
-                            Vec3::new(r[3], r[4], r[5]),
-                        ))
-                    })
-                    .count()
+                    .map(|r| Ray::new(Vec3::new(r[0], r[1], r[2]), Vec3::new(r[3], r[4], r[5])))
+                    .collect();
+                f(&rays)
             })
             .sum()
     });
@@ -234,8 +240,29 @@ fn main() {
     for threads in [1, 2] {
         let (mut closest, mut closest_cpu) = (Vec::new(), Vec::new());
         let (mut occl, mut occl_cpu) = (Vec::new(), Vec::new());
+        let (mut many, mut many_cpu) = (Vec::new(), Vec::new());
+        let (mut occl_many, mut occl_many_cpu) = (Vec::new(), Vec::new());
         let (mut hc, mut ho) = (0, 0);
         for _ in 0..3 {
+            // The same rays through the interleaved traversal (`intersect_many`,
+            // `unoccluded_many`): the same hits, checked below.
+            let (m, c, h) = trace_chunks(&rays, threads, |chunk| {
+                let mut out = Vec::new();
+                accel.intersect_many(chunk, &shapes, &mut out);
+                out.iter().filter(|h| h.is_some()).count()
+            });
+            many.push(m);
+            many_cpu.push(c);
+            let hm = h;
+            let (m, c, h) = trace_chunks(&rays, threads, |chunk| {
+                let segments: Vec<_> = chunk.iter().map(|r| (r.o, r.d, f32::INFINITY)).collect();
+                let mut out = Vec::new();
+                accel.unoccluded_many(&segments, &mut out);
+                out.iter().filter(|&&u| !u).count()
+            });
+            occl_many.push(m);
+            occl_many_cpu.push(c);
+            let hom = h;
             let (m, c, h) = trace(&rays, threads, |r| accel.intersect(r, &shapes).is_some());
             closest.push(m);
             closest_cpu.push(c);
@@ -246,6 +273,11 @@ fn main() {
             occl.push(m);
             occl_cpu.push(c);
             ho = h;
+            assert_eq!(
+                (hc, ho),
+                (hm, hom),
+                "interleaved traversal found other hits"
+            );
         }
         let n = rays.len() as f64;
         println!(
@@ -264,8 +296,26 @@ fn main() {
             median(occl_cpu),
             ho as f64 / n
         );
+        println!(
+            "{:<10} {:>7} {:>12.3} {:>14.3} {:>10.6}",
+            "closest*",
+            threads,
+            median(many),
+            median(many_cpu),
+            hc as f64 / n
+        );
+        println!(
+            "{:<10} {:>7} {:>12.3} {:>14.3} {:>10.6}",
+            "occlusion*",
+            threads,
+            median(occl_many),
+            median(occl_many_cpu),
+            ho as f64 / n
+        );
     }
     println!(
-        "(medians of 3 runs; compare with benches/reference/embree_rays.py on the same files)"
+        "(medians of 3 runs; * = {} rays interleaved per thread (`intersect_many`); compare \
+         with benches/reference/embree_rays.py on the same files)",
+        lodestar::geometry::INTERLEAVED_LANES
     );
 }

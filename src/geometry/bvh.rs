@@ -56,18 +56,18 @@ pub enum ShapeGeometry {
 }
 
 /// How the primitives are searched.
-enum Index {
+pub(super) enum Index {
     /// Every primitive tested (scenes of at most [`FLAT_MAX_PRIMS`] primitives, none included).
     Flat(Flat),
     Bvh(CwBvh),
 }
 
 pub struct Accel {
-    index: Index,
-    prims: Vec<Prim>,
+    pub(super) index: Index,
+    pub(super) prims: Vec<Prim>,
     /// The BVH is built and traversed in coordinates multiplied by this power of two (see
     /// [`bvh_scale`]); primitives and hits stay in world space.
-    scale: f32,
+    pub(super) scale: f32,
     /// Seconds spent building.
     pub build_seconds: f64,
 }
@@ -211,7 +211,7 @@ thread_local! {
 }
 
 #[inline]
-fn count_ray() {
+pub(super) fn count_ray() {
     RAYS.with(|r| r.set(r.get() + 1));
 }
 
@@ -271,7 +271,7 @@ pub fn shadow_segment(
 /// large negative number; the two disagree and axis-parallel rays then miss everything.
 /// Adding +0.0 turns -0.0 into +0.0 and leaves every other value unchanged.
 #[inline]
-fn canonical_dir(d: Vec3) -> Vec3A {
+pub(super) fn canonical_dir(d: Vec3) -> Vec3A {
     Vec3A::from(d) + Vec3A::ZERO
 }
 
@@ -311,7 +311,13 @@ pub(super) fn intersect_prim(p: &Prim, o: Vec3A, d: Vec3A, t_max: f32) -> (f32, 
     }
 }
 
-fn surface_hit(prim: &Prim, ray: &Ray, t: f32, uv: Vec2, shapes: &[ShapeGeometry]) -> Hit {
+pub(super) fn surface_hit(
+    prim: &Prim,
+    ray: &Ray,
+    t: f32,
+    uv: Vec2,
+    shapes: &[ShapeGeometry],
+) -> Hit {
     match &shapes[prim.shape as usize] {
         ShapeGeometry::Sphere(s) => {
             let (p, n, p_err) = s.surface_at(ray, t);

@@ -14,11 +14,13 @@
 pub mod bvh;
 mod flat;
 pub mod heightfield;
+mod interleaved;
 pub mod mesh;
 pub mod sphere;
 pub mod transform;
 
 pub use bvh::Accel;
+pub use interleaved::LANES as INTERLEAVED_LANES;
 pub use mesh::TriangleMesh;
 pub use sphere::Sphere;
 pub use transform::Transform;

@@ -366,7 +366,7 @@ pub(super) fn surface_hit(
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
 
     /// Both accelerators: the BVH (`flat_max` 0) and the flat test of small scenes.
@@ -488,17 +488,7 @@ mod tests {
     #[test]
     fn flat_and_bvh_agree_bit_for_bit() {
         use crate::math::{Sampler, warp::square_to_uniform_sphere};
-        let wall = |o: Vec3, u: Vec3, v: Vec3| ShapeGeometry::Mesh(TriangleMesh::quad(o, u, v));
-        let (x, y, z) = (Vec3::X * 2.0, Vec3::Y * 2.0, Vec3::Z * 2.0);
-        let o = Vec3::splat(-1.0);
-        let mut shapes = vec![
-            wall(o, z, x),
-            wall(o + y, x, z),
-            wall(o, x, y),
-            wall(o + z, y, x),
-            wall(o, y, z),
-            wall(o + x, z, y),
-        ];
+        let mut shapes = closed_box();
         for (c, r) in [
             (Vec3::new(-0.4, -0.5, 0.2), 0.45),
             (Vec3::new(0.5, -0.3, -0.3), 0.3),
@@ -540,5 +530,20 @@ mod tests {
         }
         // Both outcomes occur often enough to mean something.
         assert!((5_000..19_000).contains(&hits), "{hits} hits");
+    }
+
+    /// The six quads of the closed box [-1, 1]^3, facing inwards.
+    pub(in crate::geometry) fn closed_box() -> Vec<ShapeGeometry> {
+        let wall = |o: Vec3, u: Vec3, v: Vec3| ShapeGeometry::Mesh(TriangleMesh::quad(o, u, v));
+        let (x, y, z) = (Vec3::X * 2.0, Vec3::Y * 2.0, Vec3::Z * 2.0);
+        let o = Vec3::splat(-1.0);
+        vec![
+            wall(o, z, x),
+            wall(o + y, x, z),
+            wall(o, x, y),
+            wall(o + z, y, x),
+            wall(o, y, z),
+            wall(o + x, z, y),
+        ]
     }
 }

@@ -286,17 +286,7 @@ mod tests {
     /// A closed box (quads) holding a wavy 24 x 24 grid of triangles with vertex normals and
     /// two spheres: 1,166 primitives, so the BVH is several levels deep.
     fn scene() -> (Vec<ShapeGeometry>, Accel) {
-        let wall = |o: Vec3, u: Vec3, v: Vec3| ShapeGeometry::Mesh(TriangleMesh::quad(o, u, v));
-        let (x, y, z) = (Vec3::X * 2.0, Vec3::Y * 2.0, Vec3::Z * 2.0);
-        let o = Vec3::splat(-1.0);
-        let mut shapes = vec![
-            wall(o, z, x),
-            wall(o + y, x, z),
-            wall(o, x, y),
-            wall(o + z, y, x),
-            wall(o, y, z),
-            wall(o + x, z, y),
-        ];
+        let mut shapes = crate::geometry::bvh::tests::closed_box();
         const N: u32 = 24;
         let mut grid = TriangleMesh::default();
         let height = |u: f32, v: f32| 0.15 * (9.0 * u).sin() * (7.0 * v + 0.5).cos();

@@ -23,10 +23,8 @@ use glam::{UVec2, Vec2, Vec3, Vec3A};
 use obvhs::cwbvh::{CwBvh, Traversal, firstbithigh};
 use obvhs::faststack::FastStack;
 
-/// Rays in flight per thread. On the 1M-triangle mesh (one thread, Mrays/s closest /
-/// occlusion): 4 lanes 1.44 / 1.73, 8 1.54 / 1.81, 12 1.70 / 2.04, 16 1.69-1.72 / 2.04-2.09,
-/// 32 1.65 / 1.93 (with both lines of each node and primitive prefetched; 8 lanes prefetching
-/// one line: 1.54 / 1.81); rays one by one 1.2-1.3 / 1.47-1.6.
+/// Rays in flight per thread: the best of 4 to 32 on the 1M-triangle mesh of `cargo bench
+/// --bench bvh` (figures in README, "Throughput against the CPU peers").
 pub const LANES: usize = 16;
 
 /// No node waits to be tested.

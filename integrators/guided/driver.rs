@@ -130,12 +130,11 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
                         self.unguided
                             .trace(&mut tracer, scene, raster, &mut sampler, &mut col);
                         let (sum, grid, own) = (col.sum, col.grid, col.u_sum);
-                        if !learning {
-                            let classes = col.class_sum;
-                            out.class_pixels.push(classes);
-                        }
                         if learning {
                             out.u_pixels.push(own);
+                        } else {
+                            let classes = col.class_sum;
+                            out.class_pixels.push(classes);
                         }
                         (sum, grid)
                     };

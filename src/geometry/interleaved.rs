@@ -208,12 +208,9 @@ impl Accel {
         out: &mut Vec<Option<Hit>>,
     ) {
         out.clear();
-        let bvh = match &self.index {
-            Index::Flat(_) => {
-                out.extend(rays.iter().map(|r| self.intersect(r, shapes)));
-                return;
-            }
-            Index::Bvh(bvh) => bvh,
+        let Index::Bvh(bvh) = &self.index else {
+            out.extend(rays.iter().map(|r| self.intersect(r, shapes)));
+            return;
         };
         out.resize(rays.len(), None);
         let s = self.scale;
@@ -248,16 +245,10 @@ impl Accel {
     /// [`Accel::unoccluded`] segment by segment, with the traversals interleaved (module doc).
     pub fn unoccluded_many(&self, segments: &[(Vec3, Vec3, f32)], out: &mut Vec<bool>) {
         out.clear();
-        let bvh = match &self.index {
-            Index::Flat(_) => {
-                out.extend(
-                    segments
-                        .iter()
-                        .map(|&(o, d, dist)| self.unoccluded(o, d, dist)),
-                );
-                return;
-            }
-            Index::Bvh(bvh) => bvh,
+        let Index::Bvh(bvh) = &self.index else {
+            let one_by_one = segments.iter().map(|&(o, d, l)| self.unoccluded(o, d, l));
+            out.extend(one_by_one);
+            return;
         };
         out.resize(segments.len(), true);
         let s = self.scale;

@@ -140,6 +140,7 @@ fn data(dir: &Path, rays: usize) -> (TriangleMesh, Vec<[f32; 6]>) {
             TriangleMesh {
                 positions,
                 normals: None,
+                grid: None,
                 indices,
             },
             rays,

@@ -119,6 +119,7 @@ fn disk_mesh() -> TriangleMesh {
     let m = TriangleMesh {
         positions,
         normals: None,
+        grid: None,
         indices,
     };
     assert!(close3(m.geometric_normal(0), -Vec3::Z, 0.0, 1e-6));

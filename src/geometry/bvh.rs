@@ -1,12 +1,15 @@
 //! The acceleration structure: one obvhs compressed wide BVH (`CwBvh`) over every triangle and
 //! analytic sphere of the scene, with a Möller-Trumbore triangle test and the robust sphere test;
 //! scenes of at most [`FLAT_MAX_PRIMS`] primitives skip the hierarchy ([`super::flat`]).
+//! Meshes laid out as grids (heightfields) are not in it: they are walked cell by cell
+//! ([`super::grid`]) before the rest is searched up to their hit.
 //!
 //! Primitives are copied into BVH order so the traversal closure indexes them directly.
 //! Möller-Trumbore is not watertight (obvhs' own note; agreement with Embree was 0.999999 of
 //! rays); rays that leak through shared edges are rare and are counted as misses.
 
 use super::flat::{FLAT_MAX_PRIMS, Flat};
+use super::grid::GridIndex;
 use super::{Hit, Ray, SHADOW_EPS, Sphere, TriangleMesh, gamma, offset_origin};
 use glam::{Vec2, Vec3, Vec3A};
 use obvhs::{Boundable, BvhBuildParams, aabb::Aabb, cwbvh::CwBvh, ray::RayHit};
@@ -24,9 +27,35 @@ pub(super) struct Prim {
     pub(super) a: Vec3A,
     pub(super) b: Vec3A,
     pub(super) c: Vec3A,
-    shape: u32,
+    pub(super) shape: u32,
     /// Triangle index within its mesh (with `SWAPPED`), or `SPHERE_TAG`.
     pub(super) tri: u32,
+}
+
+impl Prim {
+    pub(super) const SWAPPED: u32 = SWAPPED;
+
+    /// Triangle `i` of mesh `m` (shape `shape`), or `None` if it is degenerate (never hit).
+    pub(super) fn triangle(m: &TriangleMesh, shape: u32, i: usize) -> Option<Prim> {
+        let [p0, p1, p2] = m.triangle(i).map(Vec3A::from);
+        let (e1, e2) = (p1 - p0, p2 - p0);
+        if e1.cross(e2).length_squared() == 0.0 {
+            return None;
+        }
+        let front = Vec3A::from(m.geometric_normal(i));
+        let (b, c, tri) = if e1.cross(e2).dot(front) >= 0.0 {
+            (e1, e2, i as u32)
+        } else {
+            (e2, e1, i as u32 | SWAPPED)
+        };
+        Some(Prim {
+            a: p0,
+            b,
+            c,
+            shape,
+            tri,
+        })
+    }
 }
 
 struct Bounds(Aabb);
@@ -65,6 +94,8 @@ pub(super) enum Index {
 pub struct Accel {
     pub(super) index: Index,
     pub(super) prims: Vec<Prim>,
+    /// Meshes laid out as grids (heightfields), walked cell by cell instead ([`super::grid`]).
+    pub(super) grids: Vec<GridIndex>,
     /// The BVH is built and traversed in coordinates multiplied by this power of two (see
     /// [`bvh_scale`]); primitives and hits stay in world space.
     pub(super) scale: f32,
@@ -74,40 +105,33 @@ pub struct Accel {
 
 impl Accel {
     pub fn build(shapes: &[ShapeGeometry]) -> Accel {
-        Accel::build_with(shapes, FLAT_MAX_PRIMS)
+        Accel::build_with(shapes, FLAT_MAX_PRIMS, true)
     }
 
-    /// [`Accel::build`], testing every primitive without a hierarchy up to `flat_max` of them.
-    fn build_with(shapes: &[ShapeGeometry], flat_max: usize) -> Accel {
+    /// [`Accel::build`], testing every primitive without a hierarchy up to `flat_max` of them,
+    /// and walking grid meshes cell by cell if `use_grids` (else their triangles join the rest).
+    pub(super) fn build_with(shapes: &[ShapeGeometry], flat_max: usize, use_grids: bool) -> Accel {
         let start = std::time::Instant::now();
         let mut prims = Vec::new();
         let mut bounds = Vec::new();
+        let mut grids = Vec::new();
         for (s, shape) in shapes.iter().enumerate() {
             match shape {
                 ShapeGeometry::Mesh(m) => {
+                    if let Some(grid) = GridIndex::new(m, s as u32).filter(|_| use_grids) {
+                        grids.push(grid);
+                        continue;
+                    }
                     for i in 0..m.indices.len() {
+                        // Degenerate triangles can never be hit.
+                        let Some(prim) = Prim::triangle(m, s as u32, i) else {
+                            continue;
+                        };
                         let [p0, p1, p2] = m.triangle(i).map(Vec3A::from);
-                        if (p1 - p0).cross(p2 - p0).length_squared() == 0.0 {
-                            continue; // degenerate: can never be hit
-                        }
                         let mut bb = Aabb::from_point(p0);
                         bb.extend(p1).extend(p2);
                         bounds.push(Bounds::padded(bb));
-                        let (e1, e2) = (p1 - p0, p2 - p0);
-                        let front = Vec3A::from(m.geometric_normal(i));
-                        let (b, c, tri) = if e1.cross(e2).dot(front) >= 0.0 {
-                            (e1, e2, i as u32)
-                        } else {
-                            (e2, e1, i as u32 | SWAPPED)
-                        };
-                        let shape = s as u32;
-                        prims.push(Prim {
-                            a: p0,
-                            b,
-                            c,
-                            shape,
-                            tri,
-                        });
+                        prims.push(prim);
                     }
                 }
                 ShapeGeometry::Sphere(sp) => {
@@ -128,6 +152,7 @@ impl Accel {
             return Accel {
                 index: Index::Flat(Flat::new(&prims)),
                 prims,
+                grids,
                 scale: 1.0,
                 build_seconds: start.elapsed().as_secs_f64(),
             };
@@ -148,6 +173,7 @@ impl Accel {
         Accel {
             index: Index::Bvh(bvh),
             prims: ordered,
+            grids,
             scale,
             build_seconds: start.elapsed().as_secs_f64(),
         }
@@ -155,11 +181,42 @@ impl Accel {
 
     pub fn primitive_count(&self) -> usize {
         self.prims.len()
+            + self
+                .grids
+                .iter()
+                .map(GridIndex::triangle_count)
+                .sum::<usize>()
     }
 
     /// Closest hit along the ray; returns the hit and the barycentrics (b1, b2) for triangles.
     pub fn intersect(&self, ray: &Ray, shapes: &[ShapeGeometry]) -> Option<Hit> {
         count_ray();
+        if self.grids.is_empty() {
+            return self.intersect_index(ray, shapes);
+        }
+        // The grids first: their hit shortens the search of the rest.
+        let (o, d) = (Vec3A::from(ray.o), canonical_dir(ray.d));
+        let inv_d = d.recip();
+        let mut nearest = None;
+        let mut t_max = ray.t_max;
+        for g in &self.grids {
+            if !g.may_hit(o, inv_d, t_max) {
+                continue;
+            }
+            if let Some((prim, t, uv)) = g.closest(o, d, t_max) {
+                t_max = t;
+                nearest = Some((prim, t, uv));
+            }
+        }
+        let shorter = Ray { t_max, ..*ray };
+        self.intersect_index(&shorter, shapes).or_else(|| {
+            let (prim, t, uv) = nearest?;
+            Some(surface_hit(&prim, ray, t, uv, shapes))
+        })
+    }
+
+    /// [`Self::intersect`] among the primitives of the BVH (or flat list) alone.
+    fn intersect_index(&self, ray: &Ray, shapes: &[ShapeGeometry]) -> Option<Hit> {
         let bvh = match &self.index {
             Index::Flat(flat) => {
                 let (o, d) = (ray.o.into(), canonical_dir(ray.d));
@@ -193,6 +250,12 @@ impl Accel {
     /// True if nothing blocks the open segment from `o` along unit `d` up to `dist`.
     pub fn unoccluded(&self, o: Vec3, d: Vec3, dist: f32) -> bool {
         count_ray();
+        let (oa, da) = (Vec3A::from(o), canonical_dir(d));
+        let inv_d = da.recip();
+        let blocked = |g: &GridIndex| g.may_hit(oa, inv_d, dist) && g.occludes(oa, da, dist);
+        if self.grids.iter().any(blocked) {
+            return false;
+        }
         let bvh = match &self.index {
             Index::Flat(flat) => {
                 return flat.unoccluded(&self.prims, o.into(), canonical_dir(d), dist);
@@ -383,7 +446,7 @@ pub(super) mod tests {
             radius: 0.5 * scale,
         };
         let shapes = vec![ShapeGeometry::Mesh(q), ShapeGeometry::Sphere(s)];
-        let accel = Accel::build_with(&shapes, flat_max);
+        let accel = Accel::build_with(&shapes, flat_max, true);
         assert_eq!(matches!(accel.index, Index::Flat(_)), flat_max > 0);
         (shapes, accel)
     }
@@ -421,7 +484,7 @@ pub(super) mod tests {
         );
         let shapes = vec![ShapeGeometry::Mesh(q)];
         for flat_max in BOTH {
-            let accel = Accel::build_with(&shapes, flat_max);
+            let accel = Accel::build_with(&shapes, flat_max, true);
             for d in [
                 -Vec3::Y,
                 Vec3::new(-0.0, -1.0, 0.0),
@@ -498,8 +561,8 @@ pub(super) mod tests {
                 radius: r,
             }));
         }
-        let bvh = Accel::build_with(&shapes, 0);
-        let flat = Accel::build_with(&shapes, FLAT_MAX_PRIMS);
+        let bvh = Accel::build_with(&shapes, 0, true);
+        let flat = Accel::build_with(&shapes, FLAT_MAX_PRIMS, true);
         assert!(matches!(bvh.index, Index::Bvh(_)) && matches!(flat.index, Index::Flat(_)));
         let mut rng = crate::math::IndependentSampler::new(11, 0, 0);
         let mut hits = 0;

@@ -1,8 +1,21 @@
 //! Heightfields: a grid mesh over a rectangle in the xz plane (centred on the origin) whose
 //! height is a sum of sine waves, with analytic smooth normals. Water surfaces are made with it.
+//! The mesh records its grid ([`GridLayout`]) so the accelerator can walk its cells
+//! (`grid.rs`) instead of putting its triangles in the BVH.
 
 use super::TriangleMesh;
-use glam::{UVec2, Vec2, Vec3};
+use glam::{Affine3A, UVec2, Vec2, Vec3};
+
+/// A mesh whose triangles tile a regular grid: cell (i, j) of `cells.x` by `cells.y` holds
+/// triangles `2 (j cells.x + i)` and `2 (j cells.x + i) + 1`, and maps by `to_cells` into
+/// the box `[i, i + 1] x [h0, h1] x [j, j + 1]` of cell coordinates (u, h, v), h being the
+/// height in the same units as u.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GridLayout {
+    pub cells: UVec2,
+    /// World space to cell coordinates (kept up to date by [`TriangleMesh::transformed`]).
+    pub to_cells: Affine3A,
+}
 
 /// One term `amplitude * sin(2 pi / wavelength * (direction . (x, z)) + phase)`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -51,10 +64,22 @@ pub fn heightfield(size: Vec2, resolution: UVec2, waves: &[Wave]) -> TriangleMes
             indices.push([v(i + 1, j), v(i, j + 1), v(i + 1, j + 1)]);
         }
     }
+    // x = (i / rx - 0.5) size.x, so u = x rx / size.x + rx / 2 (and h scaled like u).
+    let (su, sv) = (resolution.x as f32 / size.x, resolution.y as f32 / size.y);
+    let to_cells = Affine3A::from_cols(
+        Vec3::new(su, 0.0, 0.0).into(),
+        Vec3::new(0.0, su, 0.0).into(),
+        Vec3::new(0.0, 0.0, sv).into(),
+        Vec3::new(0.5 * resolution.x as f32, 0.0, 0.5 * resolution.y as f32).into(),
+    );
     TriangleMesh {
         positions,
         normals: Some(normals),
         indices,
+        grid: Some(Box::new(GridLayout {
+            cells: resolution,
+            to_cells,
+        })),
     }
 }
 

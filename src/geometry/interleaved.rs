@@ -12,7 +12,8 @@
 //! order), so the closest hit, its barycentrics and every shorter `t_max` along the way are the
 //! single-ray traversal's.
 //!
-//! Scenes small enough to skip the BVH ([`super::flat`]) are traced ray by ray.
+//! Scenes small enough to skip the BVH ([`super::flat`]), and scenes with grid meshes
+//! ([`super::grid`]), are traced ray by ray.
 
 use super::bvh::{
     Accel, Index, Prim, ShapeGeometry, canonical_dir, count_ray, intersect_prim, surface_hit,
@@ -208,7 +209,7 @@ impl Accel {
         out: &mut Vec<Option<Hit>>,
     ) {
         out.clear();
-        let Index::Bvh(bvh) = &self.index else {
+        let (Index::Bvh(bvh), true) = (&self.index, self.grids.is_empty()) else {
             out.extend(rays.iter().map(|r| self.intersect(r, shapes)));
             return;
         };
@@ -245,7 +246,7 @@ impl Accel {
     /// [`Accel::unoccluded`] segment by segment, with the traversals interleaved (module doc).
     pub fn unoccluded_many(&self, segments: &[(Vec3, Vec3, f32)], out: &mut Vec<bool>) {
         out.clear();
-        let Index::Bvh(bvh) = &self.index else {
+        let (Index::Bvh(bvh), true) = (&self.index, self.grids.is_empty()) else {
             let one_by_one = segments.iter().map(|&(o, d, l)| self.unoccluded(o, d, l));
             out.extend(one_by_one);
             return;

@@ -2,6 +2,7 @@
 //! (quad, tiled quad, cube, disk).
 
 use super::Transform;
+use super::heightfield::GridLayout;
 use crate::math::{Distribution1D, warp};
 use glam::{Vec2, Vec3};
 
@@ -11,6 +12,9 @@ pub struct TriangleMesh {
     /// Per-vertex shading normals (optional; same length as `positions`).
     pub normals: Option<Vec<Vec3>>,
     pub indices: Vec<[u32; 3]>,
+    /// How the triangles tile a regular grid, for meshes made as one (heightfields): the
+    /// accelerator then walks the grid's cells instead of building a BVH over them.
+    pub grid: Option<Box<GridLayout>>,
 }
 
 impl TriangleMesh {
@@ -70,6 +74,9 @@ impl TriangleMesh {
                 tri.swap(1, 2);
             }
         }
+        if let Some(g) = &mut self.grid {
+            g.to_cells *= t.m.inverse();
+        }
         self
     }
 
@@ -84,6 +91,7 @@ impl TriangleMesh {
                 origin + edge_v,
             ],
             normals: None,
+            grid: None,
             indices: vec![[0, 1, 2], [0, 2, 3]],
         }
     }
@@ -159,6 +167,7 @@ impl TriangleMesh {
         TriangleMesh {
             positions,
             normals: None,
+            grid: None,
             indices,
         }
     }

@@ -4,6 +4,8 @@
 //! Most cases edit one line of a small valid scene (`BASE`) and mark the line the error must
 //! point at with the comment `# <-`; the expected line number is computed from that marker.
 
+use glam::Vec3;
+use lodestar::geometry::Ray;
 use lodestar::geometry::bvh::ShapeGeometry;
 use lodestar::scene::Scene;
 use lodestar::scene::loader::{load_file, load_str};
@@ -825,39 +827,39 @@ fn tiled_quad_without_material() {
 }
 
 #[test]
-fn tiled_quad_is_two_shapes_covering_the_quad() {
-    // A mirroring transform (negative scale) must keep the quad's front side.
-    for scale in ["1", "[-1, 1, 1]"] {
+fn tiled_quad_is_one_quad_with_a_checkerboard_material() {
+    // A mirroring transform (negative scale) must keep the quad's front side and its tiles.
+    for mirror in [1.0f32, -1.0] {
         let text = with(&format!(
-            "{BLUE}[[shape]]\nname = \"tiles\"\ntype = \"quad\"\norigin = [-1, -1, 0]\nedge_u = [2, 0, 0]\nedge_v = [0, 2, 0]\ntiles = [3, 2]\nmaterial = \"white\"\ntile_material = \"blue\"\ntransform = {{ scale = {scale} }}\n"
+            "{BLUE}[[shape]]\nname = \"tiles\"\ntype = \"quad\"\norigin = [-1, -1, 0]\nedge_u = [2, 0, 0]\nedge_v = [0, 2, 0]\ntiles = [3, 2]\nmaterial = \"white\"\ntile_material = \"blue\"\ntransform = {{ scale = [{mirror}, 1, 1] }}\n"
         ));
         let scene = load_str(&text, "ok.toml", None).unwrap();
-        assert_eq!(scene.shapes.len(), 3, "floor plus two halves");
-        let names: Vec<&str> = scene.shape_info[1..]
-            .iter()
-            .map(|s| s.name.as_str())
-            .collect();
-        assert_eq!(names, ["tiles", "tiles (tiles)"]);
-        let material = |i: usize| {
-            scene.materials[scene.shape_info[i].material as usize]
-                .name
-                .as_str()
+        assert_eq!(scene.shapes.len(), 2, "floor plus the tiled quad");
+        let ShapeGeometry::Mesh(m) = &scene.shapes[1] else {
+            panic!("a tiled quad is a mesh")
         };
-        assert_eq!((material(1), material(2)), ("white", "blue"));
-        let mut area = 0.0;
-        for (shape, cells) in [(1, 3), (2, 3)] {
-            let ShapeGeometry::Mesh(m) = &scene.shapes[shape] else {
-                panic!("a tiled quad is made of meshes")
-            };
-            assert_eq!(m.indices.len(), 2 * cells);
-            for t in 0..m.indices.len() {
-                assert!(
-                    m.geometric_normal(t).z > 0.999,
-                    "front side along +z ({scale})"
-                );
-            }
-            area += m.area();
+        assert_eq!(m.indices.len(), 2);
+        assert!((m.area() - 4.0).abs() < 1e-4);
+        for t in 0..2 {
+            assert!(m.geometric_normal(t).z > 0.999, "front side along +z");
         }
-        assert!((area - 4.0).abs() < 1e-4);
+        // Down onto the centre of every tile, and onto points just inside its corners: the
+        // tile at the origin corner and those an even number of steps away are white.
+        for (i, j) in (0..3).flat_map(|i| (0..2).map(move |j| (i, j))) {
+            let expected = if (i + j) % 2 == 0 { "white" } else { "blue" };
+            for (a, b) in [(0.5, 0.5), (0.02, 0.02), (0.98, 0.98), (0.02, 0.98)] {
+                let x = mirror * (-1.0 + 2.0 * (i as f32 + a) / 3.0);
+                let y = -1.0 + 2.0 * (j as f32 + b) / 2.0;
+                let ray = Ray::new(Vec3::new(x, y, 1.0), -Vec3::Z);
+                let sp = scene.intersect(&ray).expect("the quad is below");
+                assert_eq!(sp.info.name, "tiles");
+                let name = &scene.materials[sp.material as usize].name;
+                assert_eq!(name, expected, "tile ({i}, {j}) at ({x}, {y})");
+                assert!(std::ptr::eq(
+                    sp.bsdf,
+                    &scene.materials[sp.material as usize].bsdf
+                ));
+            }
+        }
     }
 }

@@ -156,6 +156,7 @@ fn walk<'a>(
                 bsdf: sp.bsdf,
                 frame: sp.frame,
                 info: sp.info,
+                material: sp.material,
             };
             break Some(Vertex {
                 p_err: sp.hit.p_err,

@@ -118,6 +118,7 @@ impl<'s> At<'s> {
                 bsdf: sp.bsdf,
                 frame: sp.frame,
                 info: sp.info,
+                material: sp.material,
             },
             (None, VertexKind::Medium { medium }) => Kind::Medium { medium },
             _ => Kind::Camera,
@@ -152,7 +153,7 @@ fn surface_vertex(sp: &SurfacePoint) -> PathVertex {
         n: sp.hit.ng,
         ns: sp.hit.ns,
         kind: VertexKind::Surface {
-            material: sp.info.material,
+            material: sp.material,
             shape: sp.info.index,
             delta: sp.bsdf.is_delta(),
         },

@@ -192,6 +192,7 @@ pub fn from_path<'a>(scene: &'a Scene, path: &Path) -> Option<Vec<Vertex<'a>>> {
                         bsdf: &scene.materials[material as usize].bsdf,
                         frame,
                         info,
+                        material,
                     },
                     delta,
                 )
@@ -251,9 +252,14 @@ pub fn to_path_into(vertices: &[Vertex], f: Spectrum, pixel: u32, path: &mut Pat
     for v in vertices {
         let (kind, ns) = match v.kind {
             Kind::Camera => (VertexKind::Camera, Vec3::ZERO),
-            Kind::Surface { bsdf, frame, info } => (
+            Kind::Surface {
+                bsdf,
+                frame,
+                info,
+                material,
+            } => (
                 VertexKind::Surface {
-                    material: info.material,
+                    material,
                     shape: info.index,
                     delta: bsdf.is_delta(),
                 },

@@ -27,6 +27,8 @@ pub enum Kind<'a> {
         bsdf: &'a Bsdf,
         frame: ShadingFrame,
         info: &'a ShapeInfo,
+        /// The material at the vertex (differs from `info.material` on a checkerboard).
+        material: u32,
     },
     Medium {
         medium: u32,

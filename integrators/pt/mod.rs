@@ -318,7 +318,7 @@ impl PathTracer {
             }
             if let Some(r) = &mut rec {
                 let kind = VertexKind::Surface {
-                    material: sp.info.material,
+                    material: sp.material,
                     shape: sp.info.index,
                     delta: sp.bsdf.is_delta(),
                 };

@@ -41,6 +41,8 @@ pub enum Scatter<'a> {
         bsdf: &'a Bsdf,
         frame: ShadingFrame,
         info: &'a ShapeInfo,
+        /// The material at the vertex (differs from `info.material` on a checkerboard).
+        material: u32,
     },
     Medium {
         medium: u32,
@@ -182,12 +184,17 @@ impl<'a> Vertex<'a> {
     pub fn path_vertex(&self) -> crate::path::Vertex {
         use crate::path::VertexKind;
         match self.scatter {
-            Scatter::Surface { bsdf, frame, info } => crate::path::Vertex {
+            Scatter::Surface {
+                bsdf,
+                frame,
+                info,
+                material,
+            } => crate::path::Vertex {
                 p: self.p,
                 n: self.n,
                 ns: frame.frame.n,
                 kind: VertexKind::Surface {
-                    material: info.material,
+                    material,
                     shape: info.index,
                     delta: bsdf.is_delta(),
                 },

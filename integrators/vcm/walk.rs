@@ -180,6 +180,7 @@ impl Walk {
                     bsdf: sp.bsdf,
                     frame: sp.frame,
                     info: sp.info,
+                    material: sp.material,
                 },
                 light,
             ));

@@ -1,5 +1,5 @@
 //! Triangle meshes in world space, and the built-in shapes that are made of them
-//! (quad, tiled quad, cube, disk).
+//! (quad, cube, disk).
 
 use super::Transform;
 use super::heightfield::GridLayout;
@@ -94,38 +94,6 @@ impl TriangleMesh {
             grid: None,
             indices: vec![[0, 1, 2], [0, 2, 3]],
         }
-    }
-
-    /// The cells `(i, j)` with `(i + j) % 2 == parity` of the parallelogram `origin + s edge_u +
-    /// t edge_v` cut into `tiles.x` by `tiles.y` equal cells (`i` along `edge_u`): one colour of
-    /// a checkerboard. The two parities together cover the quad exactly, with shared edges at
-    /// identical positions (no cracks); front side along `edge_u x edge_v` as for [`Self::quad`].
-    pub fn tiled_quad(
-        origin: Vec3,
-        edge_u: Vec3,
-        edge_v: Vec3,
-        tiles: [u32; 2],
-        parity: u32,
-    ) -> TriangleMesh {
-        let [nu, nv] = tiles;
-        let corner = |i: u32, j: u32| {
-            origin + edge_u * (i as f32 / nu as f32) + edge_v * (j as f32 / nv as f32)
-        };
-        let mut mesh = TriangleMesh::default();
-        for j in 0..nv {
-            for i in (0..nu).filter(|i| (i + j) % 2 == parity % 2) {
-                let base = mesh.positions.len() as u32;
-                mesh.positions.extend([
-                    corner(i, j),
-                    corner(i + 1, j),
-                    corner(i + 1, j + 1),
-                    corner(i, j + 1),
-                ]);
-                mesh.indices
-                    .extend([[base, base + 1, base + 2], [base, base + 2, base + 3]]);
-            }
-        }
-        mesh
     }
 
     /// The cube [-1, 1]^3 with outward-facing triangles.
@@ -299,38 +267,6 @@ mod tests {
             let centroid = (a + b + c) / 3.0;
             assert!(m.geometric_normal(i).dot(centroid) > 0.0);
         }
-    }
-
-    #[test]
-    fn tiled_quad_parities_cover_the_quad() {
-        let (o, u, v) = (
-            Vec3::new(-2.0, -1.5, 0.5),
-            Vec3::new(4.0, 0.0, 0.0),
-            Vec3::new(0.0, 0.0, -3.0),
-        );
-        let q = TriangleMesh::quad(o, u, v);
-        // 5 x 3 cells: 8 of one parity, 7 of the other.
-        let even = TriangleMesh::tiled_quad(o, u, v, [5, 3], 0);
-        let odd = TriangleMesh::tiled_quad(o, u, v, [5, 3], 1);
-        assert_eq!((even.indices.len(), odd.indices.len()), (16, 14));
-        assert!((even.area() + odd.area() - q.area()).abs() < 1e-4 * q.area());
-        assert!((even.area() - 8.0 / 15.0 * q.area()).abs() < 1e-4 * q.area());
-        for m in [&even, &odd] {
-            for i in 0..m.indices.len() {
-                assert!((m.geometric_normal(i) - q.geometric_normal(0)).length() < 1e-5);
-            }
-        }
-        // The cell at the origin corner is even; its neighbour along edge_u is odd.
-        let has_cell = |m: &TriangleMesh, centre: Vec3| {
-            (0..m.indices.len()).any(|i| {
-                let [a, _, c] = m.triangle(i);
-                (0.5 * (a + c) - centre).length() < 1e-4
-            })
-        };
-        let cell = |i: f32, j: f32| o + u * ((i + 0.5) / 5.0) + v * ((j + 0.5) / 3.0);
-        assert!(has_cell(&even, cell(0.0, 0.0)) && !has_cell(&odd, cell(0.0, 0.0)));
-        assert!(has_cell(&odd, cell(1.0, 0.0)) && has_cell(&odd, cell(0.0, 1.0)));
-        assert!(has_cell(&even, cell(4.0, 2.0)));
     }
 
     #[test]

@@ -43,6 +43,70 @@ pub struct ShapeInfo {
     pub interface: Option<MediumInterface>,
     /// An index-matched boundary: media and no material; rays pass straight through.
     pub null: bool,
+    /// A quad tiled in two materials: `material` on the even tiles, the checker's on the odd.
+    pub checker: Option<Checker>,
+}
+
+impl ShapeInfo {
+    /// The material at point `p` of the shape.
+    #[inline]
+    pub fn material_at(&self, p: Vec3) -> u32 {
+        match &self.checker {
+            None => self.material,
+            Some(c) => c.material_at(p, self.material),
+        }
+    }
+}
+
+/// A quad tiled in two materials (a scene file's `tiles` with `tile_material`): the point
+/// `origin + s edge_u + t edge_v` lies in tile `(floor(s nu), floor(t nv))`, which takes the
+/// shape's material when `i + j` is even and `odd` otherwise. One quad instead of a mesh per
+/// colour keeps the tiles out of the accelerator.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Checker {
+    pub origin: Vec3,
+    /// `s = du . (p - origin)`, `t = dv . (p - origin)` (rows of the inverse of the edges).
+    pub du: Vec3,
+    pub dv: Vec3,
+    pub tiles: [u32; 2],
+    pub odd: u32,
+}
+
+impl Checker {
+    /// The checkerboard of `tiles` on the parallelogram `origin + s edge_u + t edge_v`, or
+    /// `None` if the edges are parallel.
+    pub fn new(
+        origin: Vec3,
+        edge_u: Vec3,
+        edge_v: Vec3,
+        tiles: [u32; 2],
+        odd: u32,
+    ) -> Option<Checker> {
+        let m = glam::Mat3::from_cols(edge_u, edge_v, edge_u.cross(edge_v));
+        if !m.determinant().is_normal() {
+            return None;
+        }
+        let inv = m.inverse();
+        Some(Checker {
+            origin,
+            du: inv.row(0),
+            dv: inv.row(1),
+            tiles,
+            odd,
+        })
+    }
+
+    /// The material at `p`, `even` being the shape's own.
+    #[inline]
+    pub fn material_at(&self, p: Vec3, even: u32) -> u32 {
+        let q = p - self.origin;
+        let tile = |d: Vec3, n: u32| ((d.dot(q) * n as f32).floor() as i64).clamp(0, n as i64 - 1);
+        if (tile(self.du, self.tiles[0]) + tile(self.dv, self.tiles[1])) % 2 == 0 {
+            even
+        } else {
+            self.odd
+        }
+    }
 }
 
 /// `[render]` defaults of a scene file; the command line overrides them.
@@ -99,6 +163,8 @@ pub struct SurfacePoint<'a> {
     /// The shape's light, media and whether it is an index-matched boundary (kept by
     /// reference: surface points are built for every ray and should stay small).
     pub info: &'a ShapeInfo,
+    /// The material at the hit (`info.material` unless the shape is a checkerboard).
+    pub material: u32,
 }
 
 impl SurfacePoint<'_> {
@@ -165,12 +231,14 @@ impl Scene {
     pub fn intersect(&self, ray: &Ray) -> Option<SurfacePoint<'_>> {
         let hit = self.accel.intersect(ray, &self.shapes)?;
         let info = &self.shape_info[hit.shape as usize];
-        let material = &self.materials[info.material as usize];
+        let material_id = info.material_at(hit.p);
+        let material = &self.materials[material_id as usize];
         let back = material.one_sided && ray.d.dot(hit.ng) > 0.0;
         Some(SurfacePoint {
             bsdf: if back { &BLACK } else { &material.bsdf },
             frame: ShadingFrame::new(hit.ns, hit.ng),
             info,
+            material: material_id,
             hit,
         })
     }

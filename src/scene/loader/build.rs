@@ -2,6 +2,7 @@
 //! accelerator and the features every integrator asks about, with cross-checks between them.
 
 use super::*;
+use crate::scene::Checker;
 
 impl Builder<'_> {
     pub(super) fn build(&self, desc: SceneDesc) -> Result<Scene> {
@@ -76,22 +77,39 @@ impl Builder<'_> {
         let mut shape_info = Vec::new();
         let mut lights = Vec::new();
         let mut triangles = 0usize;
+        let material_id = |m: &Spanned<String>, materials: &[Material]| -> Result<u32> {
+            match by_name.get(m.get_ref()) {
+                Some(&id) => Ok(id),
+                None => {
+                    let known: Vec<&str> = materials.iter().map(|m| m.name.as_str()).collect();
+                    src.err(
+                        m.span(),
+                        format!(
+                            "unknown material '{}' (defined: {})",
+                            m.get_ref(),
+                            if known.is_empty() {
+                                "none".to_string()
+                            } else {
+                                known.join(", ")
+                            }
+                        ),
+                    )
+                }
+            }
+        };
         for (i, s) in desc.shape.iter().enumerate() {
             let d = s.get_ref();
             let label = d
                 .name
                 .clone()
                 .unwrap_or_else(|| format!("shape #{} ({})", i + 1, d.kind.get_ref()));
-            // A tiled quad is two shapes (one per material); every other shape is one.
-            let parts = match self.tiled_quad(s)? {
-                Some([even, odd]) => vec![
-                    (even, d.material.as_ref(), label.clone()),
-                    (odd, d.tile_material.as_ref(), format!("{label} (tiles)")),
-                ],
-                None => vec![(self.shape(s)?, d.material.as_ref(), label)],
+            // A tiled quad is one quad whose material follows a checkerboard.
+            let (geometry, tiling) = match self.tiled_quad(s)? {
+                Some(t) => (t.quad, Some((t.corner_edges, t.tiles, t.tile_material))),
+                None => (self.shape(s)?, None),
             };
-            for (geometry, _, label) in &parts {
-                if let ShapeGeometry::Mesh(m) = geometry {
+            {
+                if let ShapeGeometry::Mesh(m) = &geometry {
                     triangles += m.indices.len();
                     if triangles > MAX_TRIANGLES {
                         return src.err(
@@ -100,7 +118,7 @@ impl Builder<'_> {
                         );
                     }
                 }
-                let outside = match geometry {
+                let outside = match &geometry {
                     ShapeGeometry::Mesh(m) => m.positions.iter().copied().find(|&p| !in_bounds(p)),
                     ShapeGeometry::Sphere(sp) => [sp.center - sp.radius, sp.center + sp.radius]
                         .into_iter()
@@ -137,27 +155,9 @@ impl Builder<'_> {
             if let (None, Some(c)) = (&emission, d.cone_angle.as_ref().or(d.cone_delta.as_ref())) {
                 return src.err(c.span(), "'cone_angle' and 'cone_delta' make an emissive shape a spot light; this shape has no 'emission'");
             }
-            for (geometry, material, label) in parts {
-                let material = match material {
-                    Some(m) => match by_name.get(m.get_ref()) {
-                        Some(&id) => id,
-                        None => {
-                            let known: Vec<&str> =
-                                materials.iter().map(|m| m.name.as_str()).collect();
-                            return src.err(
-                                m.span(),
-                                format!(
-                                    "unknown material '{}' (defined: {})",
-                                    m.get_ref(),
-                                    if known.is_empty() {
-                                        "none".to_string()
-                                    } else {
-                                        known.join(", ")
-                                    }
-                                ),
-                            );
-                        }
-                    },
+            {
+                let material = match d.material.as_ref() {
+                    Some(m) => material_id(m, &materials)?,
                     None if emission.is_some() || null => *black.get_or_insert_with(|| {
                         materials.push(Material {
                             name: "<black>".into(),
@@ -172,6 +172,12 @@ impl Builder<'_> {
                         format!("{label} needs a 'material' (or an 'emission', or 'interior'/'exterior' media for an index-matched boundary)"),
                     );
                     }
+                };
+                let checker = match tiling {
+                    Some(([origin, u, v], tiles, odd)) => {
+                        Checker::new(origin, u, v, tiles, material_id(odd, &materials)?)
+                    }
+                    None => None,
                 };
                 let shape_id = shapes.len() as u32;
                 let light = match emission {
@@ -210,6 +216,7 @@ impl Builder<'_> {
                     light,
                     interface,
                     null,
+                    checker,
                 });
             }
         }
@@ -276,7 +283,9 @@ impl Builder<'_> {
             delta_lights: lights.iter().any(|l| l.is_delta()),
             specular_surfaces: shape_info
                 .iter()
-                .any(|s| materials[s.material as usize].bsdf.is_delta()),
+                .flat_map(|s| [Some(s.material), s.checker.map(|c| c.odd)])
+                .flatten()
+                .any(|m| materials[m as usize].bsdf.is_delta()),
             environment: !infinite_lights.is_empty(),
             emissive_geometry: lights.iter().any(|l| matches!(l, Light::Area(_))),
         };

@@ -61,8 +61,9 @@
 //!
 //! A tiled quad (`tiles = [nu, nv]`, `tile_material = "blue"`) is a checkerboard: the quad cut
 //! into `nu` cells along `edge_u` by `nv` along `edge_v`; the cell at `origin` and every cell an
-//! even number of steps from it take `material`, the others `tile_material`. It becomes two
-//! shapes, named after the shape with ` (tiles)` appended to the second; it cannot emit.
+//! even number of steps from it take `material`, the others `tile_material`. It stays one
+//! quad (two triangles) whose material follows the checkerboard ([`crate::scene::Checker`]);
+//! it cannot emit.
 //!
 //! Files: this one holds the format (the description structs serde reads, the limits, error
 //! positions) and the entry points; `build.rs` assembles a scene from a description,

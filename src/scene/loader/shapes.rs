@@ -3,6 +3,15 @@
 
 use super::*;
 
+/// A quad with `tiles` and `tile_material`, as [`Builder::tiled_quad`] reads it.
+pub(super) struct TiledQuad<'a> {
+    pub quad: ShapeGeometry,
+    /// Origin and the two edges after the transform.
+    pub corner_edges: [Vec3; 3],
+    pub tiles: [u32; 2],
+    pub tile_material: &'a Spanned<String>,
+}
+
 impl Builder<'_> {
     pub(super) fn transform(&self, t: Option<&Spanned<TransformDesc>>) -> Result<Transform> {
         let src = self.src;
@@ -65,15 +74,18 @@ impl Builder<'_> {
         Ok(Transform::new(scale, axis, degrees, translate))
     }
 
-    /// The two checkerboard halves of a quad with `tiles` and `tile_material`, or `None` for
-    /// any other shape (whose keys [`Self::shape`] checks).
-    pub(super) fn tiled_quad(&self, s: &Spanned<ShapeDesc>) -> Result<Option<[ShapeGeometry; 2]>> {
+    /// A quad with `tiles` and `tile_material`: the quad and the origin, edges and tile counts
+    /// of its checkerboard; `None` for any other shape (whose keys [`Self::shape`] checks).
+    pub(super) fn tiled_quad<'a>(
+        &self,
+        s: &'a Spanned<ShapeDesc>,
+    ) -> Result<Option<TiledQuad<'a>>> {
         let src = self.src;
         let d = s.get_ref();
         if d.kind.get_ref() != "quad" || (d.tiles.is_none() && d.tile_material.is_none()) {
             return Ok(None);
         }
-        let (Some(tiles), Some(_)) = (&d.tiles, &d.tile_material) else {
+        let (Some(tiles), Some(tile_material)) = (&d.tiles, &d.tile_material) else {
             let (present, missing) = if d.tiles.is_some() {
                 ("tiles", "tile_material")
             } else {
@@ -105,17 +117,17 @@ impl Builder<'_> {
             );
         }
         // The quad itself (its keys, edges and transform) is checked by `shape`.
-        let ShapeGeometry::Mesh(quad) = self.shape(s)? else {
+        let quad = self.shape(s)?;
+        let ShapeGeometry::Mesh(m) = &quad else {
             unreachable!("a quad is a mesh")
         };
-        let [o, a, _, b] = [0, 1, 2, 3].map(|i| quad.positions[i]);
-        let (mut u, mut v, mut tiles) = (a - o, b - o, [nu, nv]);
-        // A mirroring transform turns the front side over: keep it by swapping the edges.
-        if u.cross(v).dot(quad.geometric_normal(0)) < 0.0 {
-            (u, v, tiles) = (v, u, [nv, nu]);
-        }
-        let half = |parity| ShapeGeometry::Mesh(TriangleMesh::tiled_quad(o, u, v, tiles, parity));
-        Ok(Some([half(0), half(1)]))
+        let [o, a, _, b] = [0, 1, 2, 3].map(|i| m.positions[i]);
+        Ok(Some(TiledQuad {
+            quad,
+            corner_edges: [o, a - o, b - o],
+            tiles: [nu, nv],
+            tile_material,
+        }))
     }
 
     pub(super) fn shape(&self, s: &Spanned<ShapeDesc>) -> Result<ShapeGeometry> {

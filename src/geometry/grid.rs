@@ -228,13 +228,7 @@ impl GridIndex {
         for k in 0..=(j_hi - j_lo).max(-1) {
             let j = if dc.z >= 0.0 { j_lo + k } else { j_hi - k };
             // Where the ray is within the padded row; rows further along start later.
-            let (mut ta, mut tb) = (t0, min(t1, t_max));
-            if dc.z != 0.0 {
-                let a = (j as f32 - q - oc.z) * inv.z;
-                let b = (j as f32 + 1.0 + q - oc.z) * inv.z;
-                ta = max(ta, min(a, b));
-                tb = min(tb, max(a, b));
-            }
+            let (ta, tb) = slab(t0, min(t1, t_max), j, q, oc.z, dc.z, inv.z);
             if ta > t_max {
                 return;
             }
@@ -248,13 +242,7 @@ impl GridIndex {
                 let i = if dc.x >= 0.0 { i_lo + c } else { i_hi - c };
                 let cell = (j * nx + i) as usize;
                 // Skip the cell if the ray passes above or below its triangles there.
-                let (mut tc0, mut tc1) = (ta, min(tb, t_max));
-                if dc.x != 0.0 {
-                    let a = (i as f32 - q - oc.x) * inv.x;
-                    let b = (i as f32 + 1.0 + q - oc.x) * inv.x;
-                    tc0 = max(tc0, min(a, b));
-                    tc1 = min(tc1, max(a, b));
-                }
+                let (tc0, tc1) = slab(ta, min(tb, t_max), i, q, oc.x, dc.x, inv.x);
                 let (h0, h1) = (oc.y + tc0 * dc.y, oc.y + tc1 * dc.y);
                 let [lo, hi] = self.cell_h[cell];
                 if tc0 > tc1 || max(h0, h1) < lo - q || min(h0, h1) > hi + q {
@@ -267,6 +255,18 @@ impl GridIndex {
             }
         }
     }
+}
+
+/// The part of `[t0, t1]` where the coordinate `o + t d` (`inv` = 1 / d) lies in the cell
+/// slab `[k - q, k + 1 + q]`; all of it when `d` is 0.
+#[inline(always)]
+fn slab(t0: f32, t1: f32, k: i64, q: f32, o: f32, d: f32, inv: f32) -> (f32, f32) {
+    if d == 0.0 {
+        return (t0, t1);
+    }
+    let a = (k as f32 - q - o) * inv;
+    let b = (k as f32 + 1.0 + q - o) * inv;
+    (max(t0, min(a, b)), min(t1, max(a, b)))
 }
 
 /// `a.min(b)` for numbers (one instruction; `f32::min`'s NaN rules cost several, and the walk

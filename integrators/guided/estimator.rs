@@ -22,6 +22,7 @@
 //! `unguided_density_disagreements`), which bounds its value by U's own `f / p_u`.
 
 use super::cache::{GuideCache, Record};
+use super::kernel::FirstTest;
 use super::seeder::{Candidate, LearnRow, Source};
 use super::share;
 use super::{contribution, coverage, kernel, sampler};
@@ -138,16 +139,19 @@ impl Stats {
     }
 }
 
-/// The BVH candidates of the last x_1 queried. All paths of one unguided sample whose first
-/// vertex is the camera ray's hit share x_1 (pt: every path; bdpt: every technique with
-/// t >= 2), and the candidates depend on x_1 alone, so one query serves them all.
+/// The candidates of the last x_1 queried (guides whose first-vertex kernel holds it, with
+/// that kernel's density). All paths of one unguided sample whose first vertex is the camera
+/// ray's hit share x_1 (pt: every path; bdpt: every technique with t >= 2), and the
+/// candidates depend on x_1 alone, so one query serves them all.
 ///
 /// With `collect_terms` (learning under `weights = second_moment`), each p_g evaluation also
 /// leaves its non-zero terms `(l, w_l p(X | l))` in `terms`.
 #[derive(Default)]
 pub struct X1Candidates {
-    x1: Option<Vec3>,
-    list: Vec<u32>,
+    /// Position, normal and medium flag of the last x_1 (the density depends on all three)
+    /// and the structure queried.
+    x1: Option<(Vec3, Vec3, bool, u64)>,
+    list: Vec<FirstTest>,
     /// Query the BVH for every path instead (for measuring what the reuse saves).
     pub no_reuse: bool,
     pub collect_terms: bool,
@@ -156,10 +160,18 @@ pub struct X1Candidates {
 
 impl X1Candidates {
     /// The candidates of `x1`, queried only when it differs from the last one.
-    pub fn of(&mut self, cache: &GuideCache, scene: &Scene, x1: Vec3, stats: &mut Stats) -> &[u32] {
-        if self.no_reuse || self.x1 != Some(x1) {
-            cache.candidates(scene, x1, &mut self.list);
-            self.x1 = Some(x1);
+    pub fn of(
+        &mut self,
+        cache: &GuideCache,
+        scene: &Scene,
+        sig: u64,
+        x1: &Vertex,
+        stats: &mut Stats,
+    ) -> &[FirstTest] {
+        let key = (x1.p, x1.n, x1.is_medium(), sig);
+        if self.no_reuse || self.x1 != Some(key) {
+            cache.candidates_of(scene, sig, x1, &mut self.list);
+            self.x1 = Some(key);
             stats.bvh_queries += 1;
         }
         &self.list
@@ -249,7 +261,7 @@ impl<'a, U: Unguided> Estimator<'a, U> {
         let mut each = std::mem::take(&mut candidates.terms);
         each.clear();
         let collect = candidates.collect_terms;
-        let list = candidates.of(self.cache, self.scene, y[1].p, stats);
+        let list = candidates.of(self.cache, self.scene, sig, &y[1], stats);
         let terms = self.cache.terms(
             self.scene,
             y,
@@ -388,7 +400,7 @@ impl<'a, U: Unguided> Estimator<'a, U> {
         let mut each = std::mem::take(&mut candidates.terms);
         each.clear();
         let collect = candidates.collect_terms;
-        let list = candidates.of(self.cache, self.scene, y[1].p, stats);
+        let list = candidates.of(self.cache, self.scene, sig, &y[1], stats);
         let n = list.len();
         let terms = self.cache.terms(
             self.scene,

@@ -340,37 +340,127 @@ pub fn bsdf_branch_density(
 /// Density of the first vertex `y[1]` under the isotropic kernel of std `sigma1` around the
 /// guide's first vertex `g1` (plane through g1 orthogonal to the camera ray; 3D in media).
 pub fn first_vertex_density(scene: &Scene, y: &[Vertex], g1: &PathVertex, sigma1: f32) -> f64 {
-    let x0 = dvec(scene.camera.position);
-    let s2 = (sigma1 as f64) * (sigma1 as f64);
-    let (g, x1) = (dvec(g1.p), &y[1]);
-    // The kernel is isotropic, so only the distance to g1 matters (in the plane through g1
-    // orthogonal to the camera ray, or in 3D): no frame is needed.
-    if x1.is_medium() {
-        let r2 = (dvec(x1.p) - g).length_squared() / s2;
-        return std_trunc_density(3, r2) / (s2 * s2.sqrt());
+    let kernel = FirstKernel::new(scene, g1, sigma1, 0);
+    FirstVertexQuery::new(scene, &y[1]).density(&kernel)
+}
+
+/// A guide's first-vertex kernel as [`FirstVertexQuery::density`] reads it: its centre, its
+/// distance from the camera and its variance, in f64, with the guide's index.
+#[derive(Debug, Clone, Copy)]
+pub struct FirstKernel {
+    g: DVec3,
+    dist: f64,
+    s2: f64,
+    pub guide: u32,
+}
+
+impl FirstKernel {
+    pub fn new(scene: &Scene, g1: &PathVertex, sigma1: f32, guide: u32) -> FirstKernel {
+        let g = dvec(g1.p);
+        FirstKernel {
+            g,
+            dist: (g - dvec(scene.camera.position)).length(),
+            s2: (sigma1 as f64) * (sigma1 as f64),
+            guide,
+        }
     }
-    let d = g - x0;
-    let dist = d.length();
-    let to_x1 = dvec(x1.p) - x0;
-    let d1 = to_x1.length();
-    let w = to_x1 / d1;
-    let cos = d.dot(w) / dist;
-    if !(cos > 0.0) {
-        return 0.0;
+}
+
+/// What the first-vertex density needs of x_1 alone (its direction and distance from the
+/// camera, the cosine at it), computed once and tested against every candidate guide.
+#[derive(Debug, Clone, Copy)]
+pub struct FirstVertexQuery {
+    x0: DVec3,
+    x1: DVec3,
+    medium: bool,
+    /// Unit direction from the camera to x_1, the distance, and |cos| at x_1 (1 in media).
+    w: DVec3,
+    d1: f64,
+    cos1: f64,
+}
+
+impl FirstVertexQuery {
+    pub fn new(scene: &Scene, x1: &Vertex) -> FirstVertexQuery {
+        let x0 = dvec(scene.camera.position);
+        let to_x1 = dvec(x1.p) - x0;
+        let d1 = to_x1.length();
+        let w = to_x1 / d1;
+        let cos1 = if x1.n == Vec3::ZERO {
+            1.0
+        } else {
+            dvec(x1.n).dot(w).abs()
+        };
+        FirstVertexQuery {
+            x0,
+            x1: dvec(x1.p),
+            medium: x1.is_medium(),
+            w,
+            d1,
+            cos1,
+        }
     }
-    let t_p = dist / cos;
-    let r2 = (x0 + w * t_p - g).length_squared() / s2;
-    if r2 > R * R {
-        return 0.0;
+
+    /// Density of x_1 under `k`, in x_1's measure (area on surfaces, volume in media).
+    #[inline]
+    pub fn density(&self, k: &FirstKernel) -> f64 {
+        self.inside(k).map_or(0.0, |t| self.density_of(&t))
     }
-    let pdf_w = std_trunc_density(2, r2) / s2 * t_p * t_p / cos;
-    // Area measure at x1 (|cos| / d^2).
-    let cos1 = if x1.n == Vec3::ZERO {
-        1.0
-    } else {
-        dvec(x1.n).dot(w).abs()
-    };
-    pdf_w * cos1 / (d1 * d1)
+
+    /// Where x_1 falls in `k`'s support, or `None` outside it (density 0): the cheap half of
+    /// [`Self::density`], which [`Self::density_of`] finishes.
+    #[inline]
+    pub fn inside(&self, k: &FirstKernel) -> Option<FirstTest> {
+        // The kernel is isotropic, so only the distance to g1 matters (in the plane through
+        // g1 orthogonal to the camera ray, or in 3D): no frame is needed.
+        if self.medium {
+            let r2 = (self.x1 - k.g).length_squared() / k.s2;
+            return (r2 <= R * R).then_some(FirstTest {
+                guide: k.guide,
+                r2,
+                s2: k.s2,
+                t_p: 0.0,
+                cos: 0.0,
+            });
+        }
+        let d = k.g - self.x0;
+        let cos = d.dot(self.w) / k.dist;
+        if !(cos > 0.0) {
+            return None;
+        }
+        let t_p = k.dist / cos;
+        let r2 = (self.x0 + self.w * t_p - k.g).length_squared() / k.s2;
+        (r2 <= R * R).then_some(FirstTest {
+            guide: k.guide,
+            r2,
+            s2: k.s2,
+            t_p,
+            cos,
+        })
+    }
+
+    /// The density of a kernel that [`Self::inside`] found x_1 in.
+    #[inline]
+    pub fn density_of(&self, t: &FirstTest) -> f64 {
+        if self.medium {
+            return std_trunc_density(3, t.r2) / (t.s2 * t.s2.sqrt());
+        }
+        let pdf_w = std_trunc_density(2, t.r2) / t.s2 * t.t_p * t.t_p / t.cos;
+        // Area measure at x1 (|cos| / d^2).
+        pdf_w * self.cos1 / (self.d1 * self.d1)
+    }
+}
+
+/// A first-vertex kernel that holds x_1 ([`FirstVertexQuery::inside`]): the guide, x_1's
+/// squared distance from the centre in standard deviations, and what the density needs
+/// besides (the kernel's variance; on surfaces the distance to the kernel's plane along the
+/// camera ray and the cosine there).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FirstTest {
+    pub guide: u32,
+    r2: f64,
+    s2: f64,
+    t_p: f64,
+    cos: f64,
 }
 
 /// Density of the Gaussian branch of guide segment (g_prev -> g) with kernel `k` producing

@@ -6,12 +6,12 @@
 
 use super::{
     Guide, GuideCache, Install, NEIGHBOURS, RebuildParams, Record, SECOND_MOMENT_SHARE,
-    SPACING_RANK,
+    SPACING_RANK, StructureIndex,
 };
 use crate::integrators::guided::gaussian::{Mat3, R, cholesky, cholesky_solve, symmetric_eigen};
 use crate::integrators::guided::kernel;
 use crate::integrators::guided::kernel::{
-    Kernel, Node, coords, direction_coords, dvec, is_infinite_vertex, segment_frame,
+    FirstKernel, Kernel, Node, coords, direction_coords, dvec, is_infinite_vertex, segment_frame,
 };
 use crate::math::AliasTable;
 use crate::path::{Vertex as PathVertex, VertexKind};
@@ -19,6 +19,7 @@ use crate::scene::Scene;
 use glam::{Vec3, Vec3A};
 use obvhs::{BvhBuildParams, aabb::Aabb};
 use rayon::prelude::*;
+use std::collections::HashMap;
 use std::time::Duration;
 
 impl GuideCache {
@@ -155,7 +156,6 @@ impl GuideCache {
         self.vertices.clear();
         self.nodes.clear();
         self.kernels.clear();
-        self.sigs.clear();
         self.iteration = iteration;
         let k = iteration.max(1) as f32;
         let pixel_angle = scene.camera.pixel_angle();
@@ -194,7 +194,6 @@ impl GuideCache {
             });
             self.vertices.extend_from_slice(&vertices[1..]);
             self.nodes.extend_from_slice(&nodes);
-            self.sigs.insert(sig);
         }
         self.build_bvh(scene);
         // ---- Neighbours and kernels (candidates under the spec's first-vertex widths) ----
@@ -202,7 +201,8 @@ impl GuideCache {
             .into_par_iter()
             .map(|l| {
                 let mut cand = Vec::new();
-                self.candidates(scene, self.vertex(scene, l, 1).p, &mut cand);
+                let sig = self.guides[l].sig;
+                self.candidates(scene, sig, self.vertex(scene, l, 1).p, &mut cand);
                 let nb = self.neighbours(scene, l, &cand);
                 let kernels = (2..self.guides[l].len as usize)
                     .map(|v| self.build_kernel(scene, l, v, &nb))
@@ -265,13 +265,19 @@ impl GuideCache {
         Aabb::new(Vec3A::from(g1.p - half), Vec3A::from(g1.p + half))
     }
 
+    /// [`Self::first_kernel_box`] in the BVHs' coordinates.
+    pub(super) fn scaled_kernel_box(&self, scene: &Scene, l: usize) -> Aabb {
+        let b = self.first_kernel_box(scene, l);
+        Aabb::new(b.min * self.bvh_scale, b.max * self.bvh_scale)
+    }
+
+    /// One BVH per structure over its guides' first-vertex kernel boxes.
     fn build_bvh(&mut self, scene: &Scene) {
+        self.index.clear();
         if self.guides.is_empty() {
-            self.bvh = None;
-            self.bvh_order.clear();
             return;
         }
-        let mut boxes: Vec<Aabb> = (0..self.guides.len())
+        let boxes: Vec<Aabb> = (0..self.guides.len())
             .map(|l| self.first_kernel_box(scene, l))
             .collect();
         // obvhs skips boxes within an absolute 1e-4 of a ray's origin: build and query in
@@ -282,14 +288,29 @@ impl GuideCache {
             all = all.union(b);
         }
         self.bvh_scale = crate::geometry::bvh::scale_for_obvhs(&all);
-        for b in &mut boxes {
-            b.min *= self.bvh_scale;
-            b.max *= self.bvh_scale;
+        let mut members: HashMap<u64, Vec<u32>> = HashMap::new();
+        for (l, g) in self.guides.iter().enumerate() {
+            members.entry(g.sig).or_default().push(l as u32);
         }
-        let mut t = Duration::ZERO;
-        let bvh = obvhs::cwbvh::builder::build_cwbvh(&boxes, BvhBuildParams::fast_build(), &mut t);
-        self.bvh_order = bvh.primitive_indices.clone();
-        self.bvh = Some(bvh);
+        for (sig, guides) in members {
+            let scaled: Vec<Aabb> = guides
+                .iter()
+                .map(|&l| self.scaled_kernel_box(scene, l as usize))
+                .collect();
+            let mut t = Duration::ZERO;
+            let bvh =
+                obvhs::cwbvh::builder::build_cwbvh(&scaled, BvhBuildParams::fast_build(), &mut t);
+            let kernels = bvh
+                .primitive_indices
+                .iter()
+                .map(|&i| {
+                    let l = guides[i as usize];
+                    let g1 = self.vertex(scene, l as usize, 1);
+                    FirstKernel::new(scene, &g1, self.guides[l as usize].sigma1, l)
+                })
+                .collect();
+            self.index.insert(sig, StructureIndex { bvh, kernels });
+        }
     }
 
     /// The (up to) `NEIGHBOURS` nearest guide paths of `l`'s structure, by summed squared

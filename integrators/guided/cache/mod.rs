@@ -1,7 +1,12 @@
 //! The guide-path cache: compact storage of complete guide paths, their neighbours, the
-//! per-segment conditional Gaussians, selection weights (alias table) and the pruning BVH over
-//! the first-vertex kernels; and `p_g(X)`, the guided density of any path. Building it
-//! (rebuild, install, neighbours, kernels, BVH) is in `build.rs`.
+//! per-segment conditional Gaussians, selection weights (alias table) and one pruning BVH per
+//! structure over its guides' first-vertex kernels; and `p_g(X)`, the guided density of any
+//! path. Building it (rebuild, install, neighbours, kernels, BVHs) is in `build.rs`.
+//!
+//! `p_g` of a path sums over the guides of its structure whose first-vertex kernel holds x_1:
+//! the structure's BVH yields the guides whose kernel box the camera ray through x_1 crosses,
+//! each is tested exactly ([`FirstVertexQuery::inside`]), and only the survivors' terms are
+//! evaluated (every other term is exactly 0 by truncation).
 //!
 //! Storage is flat: one header per guide path ([`Guide`]), its vertices g_1 .. g_{L-1} in
 //! `vertices` (the camera g_0 is the scene's), and one [`Kernel`] per segment g_{v-1} -> g_v
@@ -56,8 +61,8 @@ mod build;
 pub use build::{KERNEL_REFERENCE_HEIGHT, regression_kernel};
 
 use super::kernel::{
-    Kernel, Node, Reach, bsdf_branch_density, bsdf_branch_probability, dvec, first_vertex_density,
-    gaussian_branch_density, is_infinite_vertex,
+    FirstKernel, FirstTest, FirstVertexQuery, Kernel, Node, Reach, bsdf_branch_density,
+    bsdf_branch_probability, dvec, gaussian_branch_density, is_infinite_vertex,
 };
 use crate::integrators::bdpt::Vertex;
 use crate::math::AliasTable;
@@ -65,7 +70,7 @@ use crate::path::{Vertex as PathVertex, VertexKind};
 use crate::scene::Scene;
 use glam::{Vec3, Vec3A};
 use obvhs::cwbvh::CwBvh;
-use std::collections::HashSet;
+use std::collections::HashMap;
 
 /// Neighbours per guide path (the path itself included).
 pub const NEIGHBOURS: usize = 10;
@@ -166,6 +171,14 @@ impl Default for KernelWidths {
     }
 }
 
+/// The pruning BVH over the first-vertex kernel boxes of one structure's guide paths.
+struct StructureIndex {
+    bvh: CwBvh,
+    /// The first-vertex kernel of each BVH primitive, in BVH order (with its guide's index),
+    /// so a query reads its candidates from one compact array.
+    kernels: Vec<FirstKernel>,
+}
+
 #[derive(Default)]
 pub struct GuideCache {
     /// Kernel widths used by [`GuideCache::install`] (saved with the cache).
@@ -175,13 +188,11 @@ pub struct GuideCache {
     pub nodes: Vec<Node>,
     pub kernels: Vec<Kernel>,
     alias: AliasTable,
-    bvh: Option<CwBvh>,
-    /// Guide index of each BVH primitive.
-    bvh_order: Vec<u32>,
-    /// The BVH's coordinates are world coordinates times this power of two.
+    /// One pruning BVH per structure held, by signature (a path is only ever evaluated
+    /// against guides of its own structure; a structure not held is rejected by the lookup).
+    index: HashMap<u64, StructureIndex>,
+    /// The BVHs' coordinates are world coordinates times this power of two.
     bvh_scale: f32,
-    /// Structures held (fast rejection of paths the cache cannot guide).
-    sigs: HashSet<u64>,
     /// Learning iterations the cache has seen.
     pub iteration: u32,
     /// Testing hook: leave this guide path out of `pdf` (a deliberately wrong p_g, which the
@@ -211,12 +222,12 @@ impl GuideCache {
 
     /// Whether some guide path has this structure (else p_g is 0 without any work).
     pub fn holds(&self, sig: u64) -> bool {
-        self.sigs.contains(&sig)
+        self.index.contains_key(&sig)
     }
 
     /// Number of distinct structures among the guide paths.
     pub fn structures(&self) -> usize {
-        self.sigs.len()
+        self.index.len()
     }
 
     /// Vertex v (1 .. L-1) of guide `l`; v = 0 is the camera.
@@ -246,12 +257,13 @@ impl GuideCache {
     }
 
     /// Bytes a guide path of `len` vertices (camera included) occupies: header, vertices and
-    /// nodes of g_1 .. g_{L-1}, kernels of the L - 2 later segments, its BVH and alias entries.
+    /// nodes of g_1 .. g_{L-1}, kernels of the L - 2 later segments, its first-vertex kernel
+    /// in the BVH and its alias entry (the BVH nodes not counted).
     pub fn bytes_for_length(len: usize) -> usize {
         std::mem::size_of::<Guide>()
             + (len - 1) * (std::mem::size_of::<PathVertex>() + std::mem::size_of::<Node>())
             + (len - 2) * std::mem::size_of::<Kernel>()
-            + 4
+            + std::mem::size_of::<FirstKernel>()
             + 20
     }
 
@@ -271,7 +283,8 @@ impl GuideCache {
         }
     }
 
-    /// Bytes held by the cache, per guide path (headers, vertices, nodes, kernels, BVH order).
+    /// Bytes held by the cache, per guide path (headers, vertices, nodes, kernels, the BVHs'
+    /// first-vertex kernels).
     pub fn bytes_per_path(&self) -> f64 {
         if self.guides.is_empty() {
             return 0.0;
@@ -280,7 +293,7 @@ impl GuideCache {
             + self.vertices.len() * std::mem::size_of::<PathVertex>()
             + self.nodes.len() * std::mem::size_of::<Node>()
             + self.kernels.len() * std::mem::size_of::<Kernel>()
-            + self.bvh_order.len() * 4
+            + self.guides.len() * std::mem::size_of::<FirstKernel>()
             + self.alias.len() * 20;
         bytes as f64 / self.guides.len() as f64
     }
@@ -289,23 +302,31 @@ impl GuideCache {
     /// equal): the first-vertex kernel times, per later vertex, the mixture of the BSDF and
     /// Gaussian branches (delta lights: the connection, factor 1).
     pub fn pdf_given(&self, scene: &Scene, l: usize, y: &[Vertex]) -> f64 {
-        self.pdf_given_with(scene, l, y, &mut PathTerms::default())
+        let p1 = self.first_density(scene, l, y);
+        self.pdf_given_with(scene, l, y, p1, &mut PathTerms::default())
             .0
     }
 
-    /// [`Self::pdf_given`] reusing the guide-independent terms of `y` in `terms`, and the
-    /// vertex at which the term vanished (1: x_1 outside the first-vertex kernel; the path's
-    /// vertex count when it did not).
+    /// Density of `y[1]` under guide `l`'s first-vertex kernel.
+    pub fn first_density(&self, scene: &Scene, l: usize, y: &[Vertex]) -> f64 {
+        let k = FirstKernel::new(scene, &self.vertex(scene, l, 1), self.guides[l].sigma1, 0);
+        FirstVertexQuery::new(scene, &y[1]).density(&k)
+    }
+
+    /// [`Self::pdf_given`] from the first-vertex density `p1` ([`Self::first_density`]),
+    /// reusing the guide-independent terms of `y` in `terms`, and the vertex at which the term
+    /// vanished (1: x_1 outside the first-vertex kernel; the path's vertex count when it did
+    /// not).
     fn pdf_given_with(
         &self,
         scene: &Scene,
         l: usize,
         y: &[Vertex],
+        p1: f64,
         terms: &mut PathTerms,
     ) -> (f64, usize) {
-        let guide = &self.guides[l];
-        let len = guide.len as usize;
-        let mut p = first_vertex_density(scene, y, &self.vertex(scene, l, 1), guide.sigma1);
+        let len = self.guides[l].len as usize;
+        let mut p = p1;
         for v in 2..len {
             if p == 0.0 {
                 return (0.0, v - 1);
@@ -364,40 +385,77 @@ impl GuideCache {
         p_b * fb + (1.0 - p_b) * fg
     }
 
-    /// Guide paths whose first-vertex kernel box the camera ray towards `x1` crosses.
-    pub fn candidates(&self, scene: &Scene, x1: Vec3, out: &mut Vec<u32>) {
+    /// Guide paths of structure `sig` whose first-vertex kernel holds `x1` (a path's first
+    /// vertex), with what their kernel's density there needs: the structure's BVH candidates
+    /// ([`Self::candidates`]) tested exactly. A guide left out has `p(X | l) = 0` for every
+    /// path of this structure through `x1`.
+    pub fn candidates_of(&self, scene: &Scene, sig: u64, x1: &Vertex, out: &mut Vec<FirstTest>) {
         out.clear();
-        let Some(bvh) = &self.bvh else { return };
+        let Some(index) = self.index.get(&sig) else {
+            return;
+        };
+        let q = FirstVertexQuery::new(scene, x1);
+        index
+            .bvh
+            .ray_traverse_anyhit(self.camera_ray(scene, x1.p), |_, i| {
+                if let Some(t) = q.inside(&index.kernels[i]) {
+                    out.push(t);
+                }
+            });
+    }
+
+    /// The ray from the camera towards `x1` in the BVHs' coordinates.
+    fn camera_ray(&self, scene: &Scene, x1: Vec3) -> obvhs::ray::Ray {
         let o = scene.camera.position;
         // +0.0 canonicalises -0.0 components (obvhs misclassifies their octant).
         let d = Vec3A::from((x1 - o).normalize()) + Vec3A::ZERO;
-        let ray = obvhs::ray::Ray::new_inf(Vec3A::from(o) * self.bvh_scale, d);
-        bvh.ray_traverse_anyhit(ray, |_, i| out.push(self.bvh_order[i]));
+        obvhs::ray::Ray::new_inf(Vec3A::from(o) * self.bvh_scale, d)
+    }
+
+    /// Guide paths of structure `sig` whose first-vertex kernel box the camera ray towards
+    /// `x1` crosses (what learning picks neighbours among).
+    pub fn candidates(&self, scene: &Scene, sig: u64, x1: Vec3, out: &mut Vec<u32>) {
+        out.clear();
+        let Some(index) = self.index.get(&sig) else {
+            return;
+        };
+        let ray = self.camera_ray(scene, x1);
+        index.bvh.ray_traverse_anyhit(ray, |_, i| {
+            // The BVH's compressed nodes are conservative, so a leaf also yields boxes the
+            // ray misses: each box is tested, so the set does not depend on the tree.
+            let l = index.kernels[i].guide;
+            if self
+                .scaled_kernel_box(scene, l as usize)
+                .intersect_ray(&ray)
+                < f32::INFINITY
+            {
+                out.push(l);
+            }
+        });
     }
 
     /// `p_g(X) = Σ_l w_l p(X | l)` over all guide paths of the path's structure (`sig`,
     /// `nodes`); returns the density and the number of candidates examined. Exact: every guide
-    /// whose first-vertex kernel can contain x_1 is a candidate, and truncation makes the
-    /// others' terms exactly zero.
+    /// whose first-vertex kernel contains x_1 is a candidate, and truncation makes the others'
+    /// terms exactly zero.
     pub fn pdf(
         &self,
         scene: &Scene,
         y: &[Vertex],
         sig: u64,
         nodes: &[Node],
-        scratch: &mut Vec<u32>,
+        scratch: &mut Vec<FirstTest>,
     ) -> (f64, usize) {
         if self.is_empty() || !self.holds(sig) {
             return (0.0, 0);
         }
-        self.candidates(scene, y[1].p, scratch);
+        self.candidates_of(scene, sig, &y[1], scratch);
         let sum = self.terms(scene, y, sig, nodes, scratch, None, None).sum;
         (sum, scratch.len())
     }
 
-    /// [`Self::pdf`] over `candidates`, which must be [`Self::candidates`] of `y[1].p` (they
-    /// depend on the direction from the camera to x_1 alone, so every path of one camera
-    /// sample shares them), with what the sum saw on the way: the own guide's term
+    /// [`Self::pdf`] over `candidates`, which must be [`Self::candidates_of`] `sig` and
+    /// `y[1]` (paths of one structure through one x_1 share them), with what the sum saw on the way: the own guide's term
     /// `p(X | own)` (a guided sample's own guide, whose term the sum computes anyway; 0 without
     /// `own`) and the furthest vertex a term reached. With `each`, every non-zero term
     /// `w_l p(X | l)` of the sum is pushed as `(l, term)`.
@@ -408,7 +466,7 @@ impl GuideCache {
         y: &[Vertex],
         sig: u64,
         nodes: &[Node],
-        candidates: &[u32],
+        candidates: &[FirstTest],
         own: Option<usize>,
         mut each: Option<&mut Vec<(u32, f64)>>,
     ) -> Terms {
@@ -416,13 +474,15 @@ impl GuideCache {
         let mut own_term = None;
         let (mut sum, mut reach) = (0.0, 1);
         if !self.is_empty() && self.holds(sig) {
-            for &l in candidates {
-                let l = l as usize;
+            let first = FirstVertexQuery::new(scene, &y[1]);
+            for c in candidates {
+                let l = c.guide as usize;
                 let g = &self.guides[l];
                 if g.sig != sig || g.weight == 0.0 || self.nodes_of(l) != nodes {
                     continue;
                 }
-                let (term, vanished) = self.pdf_given_with(scene, l, y, &mut terms);
+                let p1 = first.density_of(c);
+                let (term, vanished) = self.pdf_given_with(scene, l, y, p1, &mut terms);
                 reach = reach.max(vanished);
                 if own == Some(l) {
                     own_term = Some(term);
@@ -439,7 +499,10 @@ impl GuideCache {
         }
         // The own guide is a candidate unless rounding put x_1 just outside its box.
         let own = match (own, own_term) {
-            (Some(l), None) => self.pdf_given_with(scene, l, y, &mut terms).0,
+            (Some(l), None) => {
+                let p1 = self.first_density(scene, l, y);
+                self.pdf_given_with(scene, l, y, p1, &mut terms).0
+            }
             (_, t) => t.unwrap_or(0.0),
         };
         Terms { sum, own, reach }
@@ -459,7 +522,8 @@ impl GuideCache {
             if g.sig != sig || self.nodes_of(l) != nodes {
                 continue;
             }
-            let (term, vanished) = self.pdf_given_with(scene, l, y, &mut PathTerms::default());
+            let p1 = self.first_density(scene, l, y);
+            let (term, vanished) = self.pdf_given_with(scene, l, y, p1, &mut PathTerms::default());
             sum += g.weight * term;
             if g.weight != 0.0 {
                 reach = reach.max(vanished);

@@ -3,17 +3,18 @@
 //! Guide-path caches of 1k, 10k and 100k paths are installed from paths pt forms in the pool
 //! scene (the structures and spatial spread of real caches; equal weights), then `p_g` is
 //! evaluated for the same fixed set of pt paths against each. Prints CPU nanoseconds per
-//! evaluation (the BVH query over first-vertex kernels, the structure cull and the exact
-//! products of every surviving candidate; paths whose structure the cache does not hold cost a
-//! hash lookup and are counted too), the mean number of BVH candidates, and the bytes per
+//! evaluation (the query of the path's structure's BVH over first-vertex kernels, the exact
+//! first-vertex test of each box it yields, and the products of every surviving candidate;
+//! paths whose structure the cache does not hold cost a hash lookup and are counted too), the
+//! mean number of candidates (guides whose first-vertex kernel holds x_1), and the bytes per
 //! guide path for path lengths 3 to 8.
 //!
 //! Then the cost of guiding BDPT: CPU nanoseconds per BDPT sample (one camera and one light
 //! subpath, every connection) plain, in recording mode with an empty cache (the sink's
 //! overhead alone), and with the 10k cache (p_g of every path whose structure the cache
 //! holds), once querying the first-vertex BVH for every such path and once per distinct x_1
-//! (every technique with t >= 2 shares the camera ray's hit): p_g evaluations, BVH queries
-//! and candidates per sample.
+//! and structure (every technique with t >= 2 shares the camera ray's hit): p_g evaluations,
+//! BVH queries and candidates per sample.
 //!
 //! ```text
 //! cargo bench --bench guided_pg

@@ -139,10 +139,10 @@ impl Stats {
     }
 }
 
-/// The candidates of the last x_1 queried (guides whose first-vertex kernel holds it, with
-/// that kernel's density). All paths of one unguided sample whose first vertex is the camera
-/// ray's hit share x_1 (pt: every path; bdpt: every technique with t >= 2), and the
-/// candidates depend on x_1 alone, so one query serves them all.
+/// The candidates of the last x_1 and structure queried (guides of that structure whose
+/// first-vertex kernel holds x_1, with what that kernel's density needs). All paths of one
+/// unguided sample whose first vertex is the camera ray's hit share x_1 (pt: every path;
+/// bdpt: every technique with t >= 2), so paths of one structure among them share one query.
 ///
 /// With `collect_terms` (learning under `weights = second_moment`), each p_g evaluation also
 /// leaves its non-zero terms `(l, w_l p(X | l))` in `terms`.

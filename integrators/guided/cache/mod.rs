@@ -62,7 +62,8 @@ pub use build::{KERNEL_REFERENCE_HEIGHT, regression_kernel};
 
 use super::kernel::{
     FirstKernel, FirstTest, FirstVertexQuery, Kernel, Node, Reach, bsdf_branch_density,
-    bsdf_branch_probability, dvec, gaussian_branch_density, is_infinite_vertex,
+    bsdf_branch_probability, dvec, first_vertex_density, gaussian_branch_density,
+    is_infinite_vertex,
 };
 use crate::integrators::bdpt::Vertex;
 use crate::math::AliasTable;
@@ -309,8 +310,7 @@ impl GuideCache {
 
     /// Density of `y[1]` under guide `l`'s first-vertex kernel.
     pub fn first_density(&self, scene: &Scene, l: usize, y: &[Vertex]) -> f64 {
-        let k = FirstKernel::new(scene, &self.vertex(scene, l, 1), self.guides[l].sigma1, 0);
-        FirstVertexQuery::new(scene, &y[1]).density(&k)
+        first_vertex_density(scene, y, &self.vertex(scene, l, 1), self.guides[l].sigma1)
     }
 
     /// [`Self::pdf_given`] from the first-vertex density `p1` ([`Self::first_density`]),

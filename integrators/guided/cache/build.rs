@@ -293,9 +293,10 @@ impl GuideCache {
             members.entry(g.sig).or_default().push(l as u32);
         }
         for (sig, guides) in members {
+            let k = self.bvh_scale;
             let scaled: Vec<Aabb> = guides
                 .iter()
-                .map(|&l| self.scaled_kernel_box(scene, l as usize))
+                .map(|&l| Aabb::new(boxes[l as usize].min * k, boxes[l as usize].max * k))
                 .collect();
             let mut t = Duration::ZERO;
             let bvh =

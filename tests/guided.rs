@@ -159,27 +159,12 @@ fn guided_densities_match_their_evaluation_fog() {
 fn first_vertex_kernels_narrow_where_guides_are_dense() {
     let scene = scene("cornell-box.toml", 32, |t| t);
     let cache = cache_of_pt_paths(&scene, 6, 6000);
-    let cam = &scene.camera;
-    let o = cam.position.as_dvec3();
     let (mut at_bound, mut dense) = (0usize, 0usize);
     for l in 0..cache.len() {
-        let g1 = cache.vertex(&scene, l, 1).p.as_dvec3();
-        let (dist, w) = ((g1 - o).length(), (g1 - o).normalize());
-        // Brute force over every guide path of the structure, in l's kernel plane.
-        let mut gaps: Vec<f64> = (0..cache.len())
-            .filter(|&j| j != l && cache.nodes_of(j) == cache.nodes_of(l))
-            .map(|j| {
-                let wj = (cache.vertex(&scene, j, 1).p.as_dvec3() - o).normalize();
-                (o + wj * (dist / wj.dot(w)) - g1).length()
-            })
-            .collect();
-        if gaps.len() < cache::SPACING_RANK {
+        let Some(bound) = spacing_bound(&scene, &cache, l) else {
             continue;
-        }
-        gaps.sort_by(f64::total_cmp);
+        };
         dense += 1;
-        let footprint = dist * cam.pixel_angle() as f64;
-        let bound = gaps[cache::SPACING_RANK - 1].max(footprint);
         let sigma1 = cache.guides[l].sigma1 as f64;
         assert!(
             sigma1 <= bound * (1.0 + 1e-4),
@@ -411,6 +396,99 @@ fn saved_caches_render_identically_and_bad_files_are_errors() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// The bound on guide `l`'s first-vertex width where first vertices are dense: the distance to
+/// the 10th-nearest other first vertex of its structure in `l`'s kernel plane (brute force),
+/// never below a pixel footprint; `None` where fewer guide paths share the structure.
+fn spacing_bound(scene: &Scene, cache: &GuideCache, l: usize) -> Option<f64> {
+    let o = scene.camera.position.as_dvec3();
+    let g1 = cache.vertex(scene, l, 1).p.as_dvec3();
+    let (dist, w) = ((g1 - o).length(), (g1 - o).normalize());
+    let mut gaps: Vec<f64> = (0..cache.len())
+        .filter(|&j| j != l && cache.nodes_of(j) == cache.nodes_of(l))
+        .map(|j| {
+            let wj = (cache.vertex(scene, j, 1).p.as_dvec3() - o).normalize();
+            (o + wj * (dist / wj.dot(w)) - g1).length()
+        })
+        .collect();
+    if gaps.len() < cache::SPACING_RANK {
+        return None;
+    }
+    gaps.sort_by(f64::total_cmp);
+    let footprint = dist * scene.camera.pixel_angle() as f64;
+    Some(gaps[cache::SPACING_RANK - 1].max(footprint))
+}
+
+/// `first_width_specular` widens the first-vertex kernels of guide paths whose g_1 is specular
+/// and leaves those of rough g_1 alone (the spacing bound may still narrow a kernel), and the
+/// wider kernels still sample exactly what p_g evaluates.
+#[test]
+fn specular_first_vertex_width_applies_to_specular_first_vertices_only() {
+    use lodestar::path::VertexKind;
+    let scene = util::scene(CAUSTIC);
+    let widths = cache::KernelWidths::default();
+    let wide = cache::KernelWidths {
+        first_vertex_specular: 3.0 * widths.first_vertex_specular,
+        ..widths
+    };
+    let base = cache_of_pt_paths(&scene, 6, 2000);
+    let mut paths = Vec::new();
+    for l in 0..base.len() {
+        let g = base.guides[l];
+        let vertices = (0..g.len as usize)
+            .map(|v| base.vertex(&scene, l, v))
+            .collect();
+        paths.push((vertices, g.f, g.p_u, g.weight, g.age));
+    }
+    let mut narrow_cache = GuideCache::with_widths(widths);
+    narrow_cache.install(&scene, paths.clone(), 10_000);
+    let mut wide_cache = GuideCache::with_widths(wide);
+    wide_cache.install(&scene, paths, 10_000);
+    assert_eq!(narrow_cache.len(), wide_cache.len());
+    let (mut specular, mut tripled, mut widened, mut rough) = (0usize, 0usize, 0usize, 0usize);
+    for l in 0..narrow_cache.len() {
+        let (a, b) = (
+            narrow_cache.guides[l].sigma1 as f64,
+            wide_cache.guides[l].sigma1 as f64,
+        );
+        let VertexKind::Surface { material, .. } = narrow_cache.vertex(&scene, l, 1).kind else {
+            continue;
+        };
+        let rho = scene.materials[material as usize].bsdf.roughness();
+        if rho == 1.0 {
+            rough += 1;
+            assert_eq!(a, b, "guide {l}: a rough g_1's kernel changed");
+        } else if rho == 0.0 {
+            specular += 1;
+            // Unless the spacing bound held the narrow kernel, the wide one is three times
+            // as wide, or held by the bound itself.
+            let bound = spacing_bound(&scene, &wide_cache, l).unwrap_or(f64::INFINITY);
+            let expect = if a >= bound * (1.0 - 1e-4) {
+                a
+            } else {
+                (3.0 * a).min(bound)
+            };
+            assert!(
+                (b - expect).abs() <= 1e-4 * expect,
+                "guide {l}: specular kernel {a} -> {b}, expected {expect} (bound {bound})"
+            );
+            tripled += ((b / a - 3.0).abs() < 1e-4) as usize;
+            widened += (b > a * 1.01) as usize;
+        }
+    }
+    eprintln!(
+        "{rough} rough, {specular} specular first vertices, {widened} widened, {tripled} tripled"
+    );
+    assert!(
+        rough > 20 && specular > 5,
+        "{rough} rough, {specular} specular"
+    );
+    assert!(
+        tripled >= 5 && widened > tripled,
+        "{widened} widened, {tripled} tripled"
+    );
+    check_cache_sampling("wide specular first vertices", &scene, &wide_cache);
+}
+
 /// Bad guided-pt settings are errors naming the option and what was expected.
 #[test]
 fn bad_guided_options_are_errors() {
@@ -431,6 +509,10 @@ fn bad_guided_options_are_errors() {
         (
             "first_width=inf",
             "option 'first_width': expected a number > 0",
+        ),
+        (
+            "first_width_specular=0",
+            "option 'first_width_specular': expected a number > 0",
         ),
         ("alpha=0", "option 'alpha': expected a number in (0, 1]"),
         ("intake=0", "option 'intake': expected an integer >= 1"),

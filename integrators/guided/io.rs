@@ -2,7 +2,8 @@
 //!
 //! Layout (little endian): magic `LSGUIDES`, format version (u32), a fingerprint of the scene
 //! (u64: camera, counts of shapes, triangles, materials, lights, media, bounds), the learning
-//! iteration (u32), the kernel widths (two f64: regression, first vertex; since version 2),
+//! iteration (u32), the kernel widths (f64: regression, first vertex, since version 2; first
+//! vertex where g_1 is specular, since version 5),
 //! the guided share the learning run chose (f64 ratio n_g / n_u, -1 for none; since version
 //! 3), the number of guide paths (u32), then per guide path: vertex count (u8),
 //! age (u16), f (f64 since version 4, f32 before), p_u (f64), weight (f64) and its vertices (position, normal, shading
@@ -19,7 +20,7 @@ use glam::Vec3;
 use std::path::Path;
 
 const MAGIC: &[u8; 8] = b"LSGUIDES";
-pub const VERSION: u32 = 4;
+pub const VERSION: u32 = 5;
 
 /// A hash of what a cache depends on in the scene.
 pub fn scene_fingerprint(scene: &Scene) -> u64 {
@@ -56,6 +57,7 @@ pub fn save(scene: &Scene, cache: &GuideCache, file: &Path) -> Result<()> {
     b.extend_from_slice(&cache.iteration.to_le_bytes());
     b.extend_from_slice(&cache.widths.regression.to_le_bytes());
     b.extend_from_slice(&cache.widths.first_vertex.to_le_bytes());
+    b.extend_from_slice(&cache.widths.first_vertex_specular.to_le_bytes());
     b.extend_from_slice(&cache.learned_ratio.unwrap_or(-1.0).to_le_bytes());
     b.extend_from_slice(&(cache.guides.len() as u32).to_le_bytes());
     for (l, g) in cache.guides.iter().enumerate() {
@@ -169,6 +171,7 @@ pub fn load(scene: &Scene, file: &Path) -> Result<GuideCache> {
     let widths = KernelWidths {
         regression: r.f64()?,
         first_vertex: r.f64()?,
+        first_vertex_specular: r.f64()?,
     };
     if !widths.is_valid() {
         return Err(bad(format!("invalid kernel widths {widths:?}")));

@@ -31,6 +31,7 @@
 //! | weights         | `second_moment` / `c` | `second_moment` | selection weights: half the spec's `C` of each guide path and half each guide's share of the learning samples' second moment, or the spec's `C` alone (`cache/mod.rs`) |
 //! | kernel_width    | number > 0    | 3       | factor on the conditional Gaussians' standard deviations (1: the spec's; `cache.rs`) |
 //! | first_width     | number > 0    | 2       | factor on the first-vertex kernel's width (1: the spec's) |
+//! | first_width_specular | number > 0 | 6     | the same where g_1 is specular (roughness 0); interpolated by roughness in between |
 //! | seeder          | `outliers` / `mcmc` | `outliers` | where guide paths come from: the passes' outliers, or also Markov chains started at them (`chains.rs`, `--seeder`) |
 //! | chain_share     | number > 0    | 0.25    | `mcmc`: chain steps per learning iteration, per pixel |
 //! | chain_large_step | [0, 1]       | 0.1     | `mcmc`: large-step probability of the chains |
@@ -224,6 +225,11 @@ fn options(params: &IntegratorParams, default_rr: u32) -> Result<(GuidedSettings
     let default_widths = KernelWidths::default();
     let kernel_width = o.get("kernel_width", default_widths.regression, "a number > 0")?;
     let first_width = o.get("first_width", default_widths.first_vertex, "a number > 0")?;
+    let first_width_specular = o.get(
+        "first_width_specular",
+        default_widths.first_vertex_specular,
+        "a number > 0",
+    )?;
     let save = o.get("save_guides", String::new(), "a file path")?;
     let load = o.get("load_guides", String::new(), "a file path")?;
     let seeder = o.choice("seeder", "outliers", &["outliers", "mcmc"])?;
@@ -285,12 +291,16 @@ fn options(params: &IntegratorParams, default_rr: u32) -> Result<(GuidedSettings
     if intake == 0 {
         return bad("intake", "an integer >= 1", "0".into());
     }
-    for (key, v) in [("kernel_width", kernel_width), ("first_width", first_width)] {
+    for (key, v) in [
+        ("kernel_width", kernel_width),
+        ("first_width", first_width),
+        ("first_width_specular", first_width_specular),
+    ] {
         if !(v > 0.0 && v.is_finite()) {
             return bad(key, "a number > 0", v.to_string());
         }
     }
-    for key in ["kernel_width", "first_width"] {
+    for key in ["kernel_width", "first_width", "first_width_specular"] {
         if !load.is_empty() && o.has(key) {
             return Err(Error::new(format!(
                 "option '{key}' has no effect with load_guides: a loaded cache keeps the \
@@ -309,6 +319,7 @@ fn options(params: &IntegratorParams, default_rr: u32) -> Result<(GuidedSettings
         widths: KernelWidths {
             regression: kernel_width,
             first_vertex: first_width,
+            first_vertex_specular: first_width_specular,
         },
         save_guides: path(save),
         load_guides: path(load),

@@ -178,7 +178,9 @@ impl GuideCache {
             };
             let s = (rho * (90.0 / k + 10.0).max(1.0) + (1.0 - rho) * (90.0 / k + 1.0).max(1.0))
                 * image_scale;
-            let s = s.max(1.0) * self.widths.first_vertex as f32;
+            let w = self.widths;
+            let factor = rho as f64 * w.first_vertex + (1.0 - rho as f64) * w.first_vertex_specular;
+            let s = s.max(1.0) * factor as f32;
             let footprint = (g1.p - scene.camera.position).length() * pixel_angle;
             self.guides.push(Guide {
                 start: self.vertices.len() as u32,
@@ -267,8 +269,7 @@ impl GuideCache {
 
     /// [`Self::first_kernel_box`] in the BVHs' coordinates.
     pub(super) fn scaled_kernel_box(&self, scene: &Scene, l: usize) -> Aabb {
-        let b = self.first_kernel_box(scene, l);
-        Aabb::new(b.min * self.bvh_scale, b.max * self.bvh_scale)
+        scale_box(&self.first_kernel_box(scene, l), self.bvh_scale)
     }
 
     /// One BVH per structure over its guides' first-vertex kernel boxes.
@@ -293,10 +294,9 @@ impl GuideCache {
             members.entry(g.sig).or_default().push(l as u32);
         }
         for (sig, guides) in members {
-            let k = self.bvh_scale;
             let scaled: Vec<Aabb> = guides
                 .iter()
-                .map(|&l| Aabb::new(boxes[l as usize].min * k, boxes[l as usize].max * k))
+                .map(|&l| scale_box(&boxes[l as usize], self.bvh_scale))
                 .collect();
             let mut t = Duration::ZERO;
             let bvh =
@@ -566,4 +566,9 @@ pub const KERNEL_REFERENCE_HEIGHT: f64 = 1000.0;
 
 fn kernel_pixel_scale(scene: &Scene) -> f64 {
     (scene.camera.resolution.y as f64 / KERNEL_REFERENCE_HEIGHT).min(1.0)
+}
+
+/// A box in the pruning BVHs' coordinates (scaled by a power of two, so exactly).
+fn scale_box(b: &Aabb, k: f32) -> Aabb {
+    Aabb::new(b.min * k, b.max * k)
 }

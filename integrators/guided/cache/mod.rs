@@ -150,16 +150,24 @@ pub struct RebuildParams {
 pub struct KernelWidths {
     /// Factor on the conditional (regression) Gaussians, before the eigenvalue clamp.
     pub regression: f64,
-    /// Factor on the first-vertex kernel (after the spec's one-pixel floor).
+    /// Factor on the first-vertex kernel (after the spec's one-pixel floor) where g_1 is
+    /// rough (roughness 1).
     pub first_vertex: f64,
+    /// The same where g_1 is specular (roughness 0); in between the two factors are
+    /// interpolated by the roughness, as the spec interpolates its pixel widths.
+    pub first_vertex_specular: f64,
 }
 
 impl KernelWidths {
     /// Both factors finite and positive (what options and saved caches must give).
     pub fn is_valid(&self) -> bool {
-        [self.regression, self.first_vertex]
-            .iter()
-            .all(|&x| x > 0.0 && x.is_finite())
+        [
+            self.regression,
+            self.first_vertex,
+            self.first_vertex_specular,
+        ]
+        .iter()
+        .all(|&x| x > 0.0 && x.is_finite())
     }
 }
 
@@ -168,6 +176,7 @@ impl Default for KernelWidths {
         KernelWidths {
             regression: 3.0,
             first_vertex: 2.0,
+            first_vertex_specular: 6.0,
         }
     }
 }

@@ -167,7 +167,7 @@ pub struct KernelWidths {
 }
 
 impl KernelWidths {
-    /// Both factors finite and positive (what options and saved caches must give).
+    /// Every factor finite and positive (what options and saved caches must give).
     pub fn is_valid(&self) -> bool {
         [
             self.regression,

@@ -1,0 +1,319 @@
+//! `p_g(X)`, the guided density of a path, from the cache: the candidates of its structure
+//! (the structure's BVH over first-vertex kernel boxes, each box tested exactly), and per
+//! candidate guide the product of its first-vertex kernel and, per later vertex, the mixture
+//! of the BSDF and Gaussian branches. Every guide left out has a term of exactly 0.
+
+use super::GuideCache;
+use crate::integrators::bdpt::Vertex;
+use crate::integrators::guided::kernel::{
+    FirstTest, FirstVertexQuery, Node, Reach, bsdf_branch_density, bsdf_branch_probability, dvec,
+    first_vertex_density, gaussian_branch_density, is_infinite_vertex,
+};
+use crate::scene::Scene;
+use glam::{Vec3, Vec3A};
+
+/// How many candidates ahead [`GuideCache::terms`] prefetches a guide's data.
+const PREFETCH_AHEAD: usize = 4;
+
+impl GuideCache {
+    /// Density `p(X | l)` of building the path `y` by following guide `l` (structure assumed
+    /// equal): the first-vertex kernel times, per later vertex, the mixture of the BSDF and
+    /// Gaussian branches (delta lights: the connection, factor 1).
+    pub fn pdf_given(&self, scene: &Scene, l: usize, y: &[Vertex]) -> f64 {
+        let p1 = self.first_density(scene, l, y);
+        self.pdf_given_with(scene, l, y, p1, &mut PathTerms::default())
+            .0
+    }
+
+    /// Density of `y[1]` under guide `l`'s first-vertex kernel.
+    pub fn first_density(&self, scene: &Scene, l: usize, y: &[Vertex]) -> f64 {
+        first_vertex_density(scene, y, &self.vertex(scene, l, 1), self.guides[l].sigma1)
+    }
+
+    /// [`Self::pdf_given`] from the first-vertex density `p1` ([`Self::first_density`]),
+    /// reusing the guide-independent terms of `y` in `terms`, and the vertex at which the term
+    /// vanished (1: x_1 outside the first-vertex kernel; the path's vertex count when it did
+    /// not).
+    fn pdf_given_with(
+        &self,
+        scene: &Scene,
+        l: usize,
+        y: &[Vertex],
+        p1: f64,
+        terms: &mut PathTerms,
+    ) -> (f64, usize) {
+        let len = self.guides[l].len as usize;
+        let mut p = p1;
+        for v in 2..len {
+            if p == 0.0 {
+                return (0.0, v - 1);
+            }
+            p *= self.vertex_density_with(scene, l, y, v, terms);
+        }
+        (p, if p == 0.0 { len - 1 } else { len })
+    }
+
+    /// Density of vertex `v` of `y` given `y[..v]` when following guide `l`.
+    pub fn vertex_density(&self, scene: &Scene, l: usize, y: &[Vertex], v: usize) -> f64 {
+        self.vertex_density_with(scene, l, y, v, &mut PathTerms::default())
+    }
+
+    fn vertex_density_with(
+        &self,
+        scene: &Scene,
+        l: usize,
+        y: &[Vertex],
+        v: usize,
+        terms: &mut PathTerms,
+    ) -> f64 {
+        let (g_prev, g) = (self.vertex(scene, l, v - 1), self.vertex(scene, l, v));
+        let node = self.node(l, v);
+        if let Node::Emitter {
+            reach: Reach::Delta,
+            ..
+        } = node
+        {
+            return 1.0;
+        }
+        let k = self.kernel(l, v);
+        let (p_b, fb_surface) = terms.get(v, || {
+            let p_b = bsdf_branch_probability(scene, &y[v - 1]);
+            let fb = if p_b > 0.0 && !y[v].is_medium() {
+                bsdf_branch_density(scene, y, v, None)
+            } else {
+                0.0
+            };
+            (p_b, fb)
+        });
+        let fb = if p_b == 0.0 {
+            0.0
+        } else if matches!(node, Node::Medium { .. }) {
+            let ell = (dvec(g.p) - dvec(g_prev.p)).length();
+            bsdf_branch_density(scene, y, v, Some((ell, k.sigma_dist as f64)))
+        } else {
+            fb_surface
+        };
+        let fg = if p_b < 1.0 {
+            let inf = is_infinite_vertex(scene, &g);
+            gaussian_branch_density(scene, y, v, &g_prev, &g, inf, k)
+        } else {
+            0.0
+        };
+        p_b * fb + (1.0 - p_b) * fg
+    }
+
+    /// Ask the memory system for what [`Self::terms`] reads of guide `l` (its header, first
+    /// vertices and nodes, first kernel) a few candidates before it is evaluated.
+    #[inline]
+    fn prefetch_guide(&self, l: usize) {
+        let Some(g) = self.guides.get(l) else {
+            return;
+        };
+        crate::prefetch::line(g);
+        let (start, k) = (g.start as usize, g.kernels as usize);
+        if let Some(v) = self
+            .vertices
+            .get(start..(start + 2).min(self.vertices.len()))
+        {
+            crate::prefetch::slice(v, 2);
+        }
+        if let Some(n) = self.nodes.get(start) {
+            crate::prefetch::line(n);
+        }
+        if let Some(kernels) = self.kernels.get(k..(k + 1).min(self.kernels.len())) {
+            crate::prefetch::slice(kernels, 2);
+        }
+    }
+
+    /// Guide paths of structure `sig` whose first-vertex kernel holds `x1` (a path's first
+    /// vertex), with what their kernel's density there needs: the structure's BVH candidates
+    /// ([`Self::candidates`]) tested exactly. A guide left out has `p(X | l) = 0` for every
+    /// path of this structure through `x1`.
+    pub fn candidates_of(&self, scene: &Scene, sig: u64, x1: &Vertex, out: &mut Vec<FirstTest>) {
+        out.clear();
+        let Some(index) = self.index.get(&sig) else {
+            return;
+        };
+        let q = FirstVertexQuery::new(scene, x1);
+        index
+            .bvh
+            .ray_traverse_anyhit(self.camera_ray(scene, x1.p), |_, i| {
+                if let Some(t) = q.inside(&index.kernels[i]) {
+                    out.push(t);
+                }
+            });
+    }
+
+    /// The ray from the camera towards `x1` in the BVHs' coordinates.
+    fn camera_ray(&self, scene: &Scene, x1: Vec3) -> obvhs::ray::Ray {
+        let o = scene.camera.position;
+        // +0.0 canonicalises -0.0 components (obvhs misclassifies their octant).
+        let d = Vec3A::from((x1 - o).normalize()) + Vec3A::ZERO;
+        obvhs::ray::Ray::new_inf(Vec3A::from(o) * self.bvh_scale, d)
+    }
+
+    /// Guide paths of structure `sig` whose first-vertex kernel box the camera ray towards
+    /// `x1` crosses (what learning picks neighbours among).
+    pub fn candidates(&self, scene: &Scene, sig: u64, x1: Vec3, out: &mut Vec<u32>) {
+        out.clear();
+        let Some(index) = self.index.get(&sig) else {
+            return;
+        };
+        let ray = self.camera_ray(scene, x1);
+        index.bvh.ray_traverse_anyhit(ray, |_, i| {
+            // The BVH's compressed nodes are conservative, so a leaf also yields boxes the
+            // ray misses: each box is tested, so the set does not depend on the tree.
+            let l = index.kernels[i].guide;
+            if self
+                .scaled_kernel_box(scene, l as usize)
+                .intersect_ray(&ray)
+                < f32::INFINITY
+            {
+                out.push(l);
+            }
+        });
+    }
+
+    /// `p_g(X) = Σ_l w_l p(X | l)` over all guide paths of the path's structure (`sig`,
+    /// `nodes`); returns the density and the number of candidates examined. Exact: every guide
+    /// whose first-vertex kernel contains x_1 is a candidate, and truncation makes the others'
+    /// terms exactly zero.
+    pub fn pdf(
+        &self,
+        scene: &Scene,
+        y: &[Vertex],
+        sig: u64,
+        nodes: &[Node],
+        scratch: &mut Vec<FirstTest>,
+    ) -> (f64, usize) {
+        if self.is_empty() || !self.holds(sig) {
+            return (0.0, 0);
+        }
+        self.candidates_of(scene, sig, &y[1], scratch);
+        let sum = self.terms(scene, y, sig, nodes, scratch, None, None).sum;
+        (sum, scratch.len())
+    }
+
+    /// [`Self::pdf`] over `candidates`, which must be [`Self::candidates_of`] `sig` and
+    /// `y[1]` (paths of one structure through one x_1 share them), with what the sum saw on the way: the own guide's term
+    /// `p(X | own)` (a guided sample's own guide, whose term the sum computes anyway; 0 without
+    /// `own`) and the furthest vertex a term reached. With `each`, every non-zero term
+    /// `w_l p(X | l)` of the sum is pushed as `(l, term)`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn terms(
+        &self,
+        scene: &Scene,
+        y: &[Vertex],
+        sig: u64,
+        nodes: &[Node],
+        candidates: &[FirstTest],
+        own: Option<usize>,
+        mut each: Option<&mut Vec<(u32, f64)>>,
+    ) -> Terms {
+        let mut terms = PathTerms::default();
+        let mut own_term = None;
+        let (mut sum, mut reach) = (0.0, 1);
+        if !self.is_empty() && self.holds(sig) {
+            let first = FirstVertexQuery::new(scene, &y[1]);
+            for (i, c) in candidates.iter().enumerate() {
+                if let Some(ahead) = candidates.get(i + PREFETCH_AHEAD) {
+                    self.prefetch_guide(ahead.guide as usize);
+                }
+                let l = c.guide as usize;
+                let g = &self.guides[l];
+                if g.sig != sig || g.weight == 0.0 || self.nodes_of(l) != nodes {
+                    continue;
+                }
+                let p1 = first.density_of(c);
+                let (term, vanished) = self.pdf_given_with(scene, l, y, p1, &mut terms);
+                reach = reach.max(vanished);
+                if own == Some(l) {
+                    own_term = Some(term);
+                }
+                if self.skip_in_pdf != Some(l) {
+                    sum += g.weight * term;
+                    if let Some(e) = each.as_deref_mut()
+                        && term > 0.0
+                    {
+                        e.push((l as u32, g.weight * term));
+                    }
+                }
+            }
+        }
+        // The own guide is a candidate unless rounding put x_1 just outside its box.
+        let own = match (own, own_term) {
+            (Some(l), None) => {
+                let p1 = self.first_density(scene, l, y);
+                self.pdf_given_with(scene, l, y, p1, &mut terms).0
+            }
+            (_, t) => t.unwrap_or(0.0),
+        };
+        Terms { sum, own, reach }
+    }
+
+    /// [`Self::terms`] over every guide path of the structure, no pruning and no own guide:
+    /// the reference for tests.
+    pub fn terms_brute_force(
+        &self,
+        scene: &Scene,
+        y: &[Vertex],
+        sig: u64,
+        nodes: &[Node],
+    ) -> Terms {
+        let (mut sum, mut reach) = (0.0, 1);
+        for (l, g) in self.guides.iter().enumerate() {
+            if g.sig != sig || self.nodes_of(l) != nodes {
+                continue;
+            }
+            let p1 = self.first_density(scene, l, y);
+            let (term, vanished) = self.pdf_given_with(scene, l, y, p1, &mut PathTerms::default());
+            sum += g.weight * term;
+            if g.weight != 0.0 {
+                reach = reach.max(vanished);
+            }
+        }
+        Terms {
+            sum,
+            own: 0.0,
+            reach,
+        }
+    }
+}
+
+/// Terms of a path's guided density that do not depend on the guide path (the BSDF-branch
+/// probability and, for surface targets, the BSDF-branch density), computed once per path
+/// for its first [`PathTerms::CACHED`] vertices (on the stack; longer paths recompute the rest).
+#[derive(Default)]
+struct PathTerms {
+    known: u32,
+    values: [(f64, f64); PathTerms::CACHED],
+}
+
+impl PathTerms {
+    const CACHED: usize = 16;
+
+    fn get(&mut self, v: usize, compute: impl FnOnce() -> (f64, f64)) -> (f64, f64) {
+        if v < Self::CACHED && self.known & (1 << v) != 0 {
+            return self.values[v];
+        }
+        let t = compute();
+        if v < Self::CACHED {
+            self.values[v] = t;
+            self.known |= 1 << v;
+        }
+        t
+    }
+}
+
+/// What [`GuideCache::terms`] finds.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Terms {
+    /// p_g(X) = sum of w_l p(X | l) over the candidates of the path's structure.
+    pub sum: f64,
+    /// p(X | own) of the guide asked for (0 without one).
+    pub own: f64,
+    /// The furthest vertex any candidate's term reached before vanishing (1: x_1 is outside
+    /// every first-vertex kernel of the structure; the path's vertex count when a term is
+    /// non-zero).
+    pub reach: usize,
+}

@@ -1,7 +1,10 @@
 //! `p_g(X)`, the guided density of a path, from the cache: the candidates of its structure
 //! (the structure's BVH over first-vertex kernel boxes, each box tested exactly), and per
 //! candidate guide the product of its first-vertex kernel and, per later vertex, the mixture
-//! of the BSDF and Gaussian branches. Every guide left out has a term of exactly 0.
+//! of the BSDF and Gaussian branches. Every guide left out has a term of exactly 0. While it
+//! evaluates one candidate, [`GuideCache::terms`] asks the memory system for the guide data of
+//! the candidate [`PREFETCH_AHEAD`] further on: on large caches a candidate's cost is mostly
+//! waiting for its kernels (figures in README, "Throughput against the CPU peers").
 
 use super::GuideCache;
 use crate::integrators::bdpt::Vertex;

@@ -33,8 +33,8 @@
 //! them. A specular g_1 is followed by its deterministic lobe, so moving x_1 moves the rest of
 //! the path smoothly and a wider kernel there covers more of a caustic seen through glass or
 //! water; a rough g_1 is followed by its conditional Gaussian, whose regression degrades away
-//! from the guide. The measurements behind each default are in README ("What limits the
-//! headline").
+//! from the guide. The measurements behind each default are in README (the guided
+//! integrators' entry in the tour, and "What limits the headline").
 //!
 //! **Weights by second moment (`weights = second_moment`, the default; not the spec's rule,
 //! which `weights = c` keeps).** The spec's

@@ -3,8 +3,8 @@
 //! candidate guide the product of its first-vertex kernel and, per later vertex, the mixture
 //! of the BSDF and Gaussian branches. Every guide left out has a term of exactly 0. While it
 //! evaluates one candidate, [`GuideCache::terms`] asks the memory system for the guide data of
-//! the candidate [`PREFETCH_AHEAD`] further on: on large caches a candidate's cost is mostly
-//! waiting for its kernels (figures in README, "Throughput against the CPU peers").
+//! the candidate [`PREFETCH_AHEAD`] further on: on large caches much of a candidate's cost is
+//! waiting for its data (figures in README, "Throughput against the CPU peers").
 
 use super::GuideCache;
 use crate::integrators::bdpt::Vertex;

@@ -101,19 +101,19 @@ struct RenderArgs {
     /// out.exr (and out.t0005.png beside --png).
     #[arg(long, value_name = "SECONDS,...")]
     snapshots: Option<String>,
-    /// guided-pt: unguided share once the cache holds guide paths (-O alpha=).
+    /// guided-pt, guided-bdpt: unguided share once the cache holds guide paths (-O alpha=).
     #[arg(long, allow_negative_numbers = true)]
     alpha: Option<f64>,
-    /// guided-pt: share of the budget spent learning (-O learn_fraction=).
+    /// guided-pt, guided-bdpt: share of the budget spent learning (-O learn_fraction=).
     #[arg(long, allow_negative_numbers = true)]
     learn_fraction: Option<f64>,
-    /// guided-pt: guide-path cache capacity (-O max_guides=).
+    /// guided-pt, guided-bdpt: guide-path cache capacity (-O max_guides=).
     #[arg(long, allow_negative_numbers = true)]
     max_guides: Option<u64>,
-    /// guided-pt: write the learned guide-path cache to this file (-O save_guides=).
+    /// guided-pt, guided-bdpt: write the learned guide-path cache to this file (-O save_guides=).
     #[arg(long)]
     save_guides: Option<PathBuf>,
-    /// guided-pt: render with this saved cache instead of learning one (-O load_guides=).
+    /// guided-pt, guided-bdpt: render with this saved cache instead of learning one (-O load_guides=).
     #[arg(long)]
     load_guides: Option<PathBuf>,
     /// guided-pt, guided-bdpt: where guide paths come from, `outliers` or `mcmc` (-O seeder=).

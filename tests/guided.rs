@@ -393,6 +393,19 @@ fn saved_caches_render_identically_and_bad_files_are_errors() {
     let other = util::scene(&CAUSTIC.replace("fov = 40", "fov = 41"));
     let e = load_err("other.guides", &bytes, &other);
     assert!(e.contains("another scene"), "{e}");
+    // Guide paths longer than the render's max_depth would add paths U leaves out.
+    let mut shallow = params(vec![opt("load_guides", &file)]);
+    shallow.max_depth = 2;
+    match run(&shallow, 2, &scene) {
+        Ok(_) => panic!("a cache of longer paths rendered at max_depth 2"),
+        Err(e) => {
+            let e = e.to_string();
+            assert!(
+                e.contains("max_depth 2") && e.contains("caustic.guides"),
+                "{e}"
+            );
+        }
+    }
     std::fs::remove_dir_all(&dir).ok();
 }
 

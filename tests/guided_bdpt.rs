@@ -675,4 +675,15 @@ fn with_guiding_off_the_image_is_the_unguided_image_of_as_many_passes() {
             "control: seeds 3 and 4 differ by only {control}"
         );
     }
+    // keep_learning=false: the image is the render passes' alone, whatever learning chose.
+    let scene = util::cornell(16);
+    let opts = ["learn_fraction=0.25", "keep_learning=false"];
+    let g = util::render(&scene, "guided-bdpt", MAX_DEPTH, &opts, 24, 3, 2);
+    let learned: u64 = stat(&g, "learning_iterations").parse().unwrap();
+    assert_eq!(stat(&g, "learning_passes_kept"), "0");
+    assert!(
+        learned > 0 && g.passes == 24 - learned,
+        "{learned} learning passes, {} in the image",
+        g.passes
+    );
 }

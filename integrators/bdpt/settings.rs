@@ -9,7 +9,8 @@ use crate::integrators::IntegratorParams;
 pub struct BdptSettings {
     /// Maximum number of path segments (default 8).
     pub max_depth: u32,
-    /// Subpath length (segments) from which Russian roulette applies (default 5).
+    /// Subpath length (segments) from which Russian roulette applies (default 1: from the
+    /// first bounce).
     pub rr_depth: u32,
     /// Default `Balance`.
     pub heuristic: Heuristic,

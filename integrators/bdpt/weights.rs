@@ -1,7 +1,9 @@
-//! The MIS weights of bdpt's techniques, from explicit densities: each connection assembles
-//! the densities of every technique that could have made its path (`PathTerms`, from the
-//! subpaths' caches and the densities across the connection edge), and the balance or power
-//! heuristic weighs its own technique among them.
+//! The MIS weights of bdpt's techniques. Explicit: each connection assembles the densities
+//! of every technique that could have made its path (`PathTerms`, from the subpaths' caches
+//! and the densities across the connection edge), and the balance or power heuristic weighs
+//! its own technique among them. Recursive (`weight_recursive`, used when roulette starts at
+//! the first bounce and nothing inspects the densities): the same weight from one running sum
+//! per subpath vertex, O(1) per connection.
 
 use super::*;
 use cache::heuristic;

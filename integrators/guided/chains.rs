@@ -8,7 +8,8 @@
 //! path's `f / (n_u p_u + n_g p_g)`), so chains linger where the current cache and U together
 //! still leave large contributions. Each chain starts at an outlier of an earlier iteration
 //! that U found, drawn in proportion to its C, by replaying that sample's stream (seed, pass,
-//! pixel) exactly; it then takes Kelemen small steps and, with probability `large_step`
+//! pixel; the raster position up to the rounding of its fraction of the image, the rest
+//! exactly); it then takes Kelemen small steps and, with probability `large_step`
 //! (0.1), a fresh sample. The paths of every state a chain evaluates are offered like a pass's
 //! samples (each chain keeps its brightest) and go through the same outlier test as the pass's
 //! own candidates (`Outliers::select`: trust against the iteration's cascade, then per band of
@@ -28,7 +29,8 @@
 //! **Target (`chain_target`).** `mixture` (the default) is the importance above. `uncovered`
 //! counts only the state's paths that the cache does not cover (structure not held, or
 //! p_g = 0), so that chains drift towards what the guided technique cannot yet propose; a
-//! state without such paths has importance 0 and is left at the next proposal.
+//! chain whose state has no such paths (importance 0) moves to the first proposal that has
+//! some (proposals of importance 0 are never accepted).
 //!
 //! For guided-bdpt the chains run over BDPT's whole sample (Kelemen's original PSSMLT over
 //! BDPT), not over `mmlt`'s single techniques: an outlier found by a BDPT sample is replayed
@@ -150,9 +152,15 @@ fn evaluate<U: Unguided>(
     }
     // Chain states are not uniform samples: they stay out of the cascade's statistics.
     out.learn.samples.clear();
-    match target {
+    let importance = match target {
         ChainTarget::Mixture => value,
         ChainTarget::Uncovered => out.uncovered,
+    };
+    // A non-finite importance would freeze the chain (every ratio against it is 0 or NaN).
+    if importance.is_finite() {
+        importance
+    } else {
+        0.0
     }
 }
 

@@ -12,7 +12,9 @@
 //! passes' unguided samples are kept in the image under U's own estimator (each path
 //! weighted `f / p_u`, the guided samples left out: U's image from the same samples, which a
 //! learning pass accumulates beside its mixed one) instead of being discarded, unless
-//! `--dbor` asked for the re-weighted image of the render passes; the render passes then
+//! `--dbor` asked for the re-weighted image of the render passes or `keep_learning = false`
+//! (the choice was made from those samples, so keeping them is consistent but not unbiased;
+//! the bound is at the choice below); the render passes then
 //! continue U's streams, so the image is U's own image of as many passes. When after three
 //! learning iterations every ratio with guided samples loses to U alone by more than 25 %,
 //! learning stops there (unless a cache is to be saved): a scene with nothing to guide costs
@@ -256,7 +258,20 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
     /// error) and check that `save_guides` can be written.
     fn prepare(&mut self, scene: &Scene) -> Result<()> {
         if let Some(file) = &self.settings.load_guides {
-            self.cache = Some(io::load(scene, file)?);
+            let cache = io::load(scene, file)?;
+            // Guided samples follow their guide's length: a guide longer than U's max_depth
+            // would add paths that U, and the image asked for, leave out.
+            let max_depth = self.unguided.max_depth();
+            let longest = cache.guides.iter().map(|g| g.len as u32 - 1).max();
+            if let Some(segments) = longest.filter(|&k| k > max_depth) {
+                return Err(crate::error::Error::new(format!(
+                    "{}: the cache holds guide paths of {segments} segments, more than \
+                     max_depth {max_depth}: render with --max-depth {segments} or more, or \
+                     learn a cache with this max_depth",
+                    file.display()
+                )));
+            }
+            self.cache = Some(cache);
         }
         if let Some(file) = &self.settings.save_guides {
             crate::film::output_dir(file)?;
@@ -404,10 +419,17 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
         let alpha = ratio.map_or(st.alpha, |r| 1.0 / (1.0 + r));
         let est = Estimator::new(scene, &self.unguided, &cache, alpha);
         // Guiding off (the share chose U alone, or the cache is empty): keep the learning
-        // passes' unguided samples under U's own estimator (each pass an unbiased estimate
-        // with U's variance; the guided samples, which cost more than they bring, are left
-        // out) unless the DBOR image of the render passes was asked for.
-        let keep_learning = est.n_g == 0.0 && !ctx.dbor && learn_passes > 0;
+        // passes' unguided samples under U's own estimator (the guided samples, which cost
+        // more than they bring, are left out) unless the DBOR image of the render passes was
+        // asked for or `keep_learning = false`. Each pass alone is an unbiased estimate with
+        // U's variance, but the decision to keep them was made from the same samples (their
+        // outliers seed the cache, their variance enters the share's choice), so the kept
+        // image is consistent, not unbiased: with L learning passes of N and the choice a
+        // coin flip with P(on) = q, a pixel's mean moves by at most
+        // (L / N) sd(mean of the L passes) sqrt(q / (1 − q)), and by nothing where the choice
+        // is certain. `keep_learning = false` renders every image pixel from the render
+        // passes alone, independent of the choice (unbiased, at the price of those passes).
+        let keep_learning = st.keep_learning && est.n_g == 0.0 && !ctx.dbor && learn_passes > 0;
         let (kept, first_stream) = if keep_learning {
             (learn_passes, learn_passes)
         } else {

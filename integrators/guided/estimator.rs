@@ -19,7 +19,11 @@
 //! re-traces every segment, and f32 visibility is not exactly symmetric (a ray grazing an open
 //! mesh rim can hit it in one direction and pass in the other), so it can return 0 for a path
 //! U has just formed: such a path keeps U's own density (counted as
-//! `unguided_density_disagreements`), which bounds its value by U's own `f / p_u`.
+//! `unguided_density_disagreements`), which bounds its value by U's own `f / p_u`. The
+//! guided technique cannot know that density for the same path (it has only the
+//! recomputation, 0), so on that set the two weights sum to `1 + p_u / (p_u + r p_g)`: a
+//! bias confined to paths whose visibility f32 rounding decides, whose size the counter
+//! bounds (README: fog-dragon's bunny rim).
 
 use super::cache::{GuideCache, Record};
 use super::kernel::FirstTest;
@@ -391,8 +395,9 @@ impl<'a, U: Unguided> Estimator<'a, U> {
         }
         // Sampling drew the path from the guide's Gaussians with f64 points; evaluation sees
         // the f32 hit points. Where the two fall on different sides of a truncation edge the
-        // path's own term is 0: such a sample is a failure (value 0), so that what is kept is
-        // exactly where the evaluated density is positive.
+        // path's own term is 0 (likewise when x_1 rounds out of its guide's candidate box):
+        // such a sample is a failure (value 0), so that what is kept is exactly where the
+        // evaluated density holds the own guide's term.
         let Some((sig, nodes)) = kernel::structure(self.scene, &g.path, MAX_VERTICES) else {
             stats.fail(sampler::Failure::Structure as usize);
             return None;

@@ -8,14 +8,16 @@
 //! techniques and the guided one (DESIGN.md §3), so each of BDPT's technique weights gains
 //! `n_g p_g` in its denominator. Guided samples are splatted. Learning (a share of the
 //! budget): iteration 0 is pure U and seeds the cache (`seeder.rs`), later iterations mix,
-//! seed and rebuild the cache (`cache.rs`); then the cache is frozen and the render runs
+//! seed and rebuild the cache (`cache/`); then the cache is frozen and the render runs
 //! (`driver.rs`, which also says how the guided share is chosen).
 //!
 //! Where to read: `estimator.rs` (the mixture, one pass's densities and a guided sample),
 //! `driver.rs` (learning, the share, passes), `seeder.rs` (which paths become guides),
 //! `chains.rs` (the Markov-chain seeder), `coverage.rs` (where the variance sits),
-//! `cache.rs` (storage, weights, p_g), `kernel.rs` (structures, Gaussians), `sampler.rs`
-//! (building a guided path), `contribution.rs` (f(X) from vertices), `io.rs` (saved caches);
+//! `cache/` (storage and weights in `mod.rs`, building in `build.rs`, p_g in `density.rs`),
+//! `kernel.rs` (structures, Gaussians), `sampler.rs`
+//! (building a guided path), `integrators/paths/contribution.rs` (f(X) from vertices), `io.rs`
+//! (saved caches);
 //! U's side is `integrators/unguided.rs`.
 //!
 //! | option          | type          | default | meaning |
@@ -29,13 +31,14 @@
 //! | max_guides      | integer >= 1  | 100000  | cache capacity; the lightest guide paths go first (`--max-guides`) |
 //! | intake          | integer >= 1  | 100     | outliers kept per worker (band of rows) and iteration |
 //! | weights         | `second_moment` / `c` | `second_moment` | selection weights: half the spec's `C` of each guide path and half each guide's share of the learning samples' second moment, or the spec's `C` alone (`cache/mod.rs`) |
-//! | kernel_width    | number > 0    | 3       | factor on the conditional Gaussians' standard deviations (1: the spec's; `cache.rs`) |
+//! | kernel_width    | number > 0    | 3       | factor on the conditional Gaussians' standard deviations (1: the spec's; `cache/build.rs`) |
 //! | first_width     | number > 0    | 2       | factor on the first-vertex kernel's width (1: the spec's) |
 //! | first_width_specular | number > 0 | 6     | the same where g_1 is specular (roughness 0); interpolated by roughness in between |
 //! | seeder          | `outliers` / `mcmc` | `outliers` | where guide paths come from: the passes' outliers, or also Markov chains started at them (`chains.rs`, `--seeder`) |
 //! | chain_share     | number > 0    | 0.25    | `mcmc`: chain steps per learning iteration, per pixel |
 //! | chain_large_step | [0, 1]       | 0.1     | `mcmc`: large-step probability of the chains |
 //! | chain_target    | `mixture` / `uncovered` | `mixture` | `mcmc`: a chain state's importance: all its sample adds under the current mixture, or only its paths with p_g = 0 (`chains.rs`) |
+//! | keep_learning   | `true` / `false` | `true` | with guiding off, keep the learning passes' unguided samples in the image (`false`: strictly unbiased, see `driver.rs`) |
 //! | save_guides     | path          | —       | write the learned cache (`--save-guides`) |
 //! | load_guides     | path          | —       | start from a saved cache and skip learning (`--load-guides`) |
 //!
@@ -128,6 +131,9 @@ pub struct GuidedSettings {
     /// Where guide paths come from: `None` the outliers of the passes, else also the
     /// Markov chains of `chains.rs` with these settings.
     pub chains: Option<ChainSettings>,
+    /// With guiding off, keep the learning passes' unguided samples in the image
+    /// (`driver.rs` says what that trades).
+    pub keep_learning: bool,
 }
 
 impl Default for GuidedSettings {
@@ -144,6 +150,7 @@ impl Default for GuidedSettings {
             save_guides: None,
             load_guides: None,
             chains: None,
+            keep_learning: true,
         }
     }
 }
@@ -244,6 +251,7 @@ fn options(params: &IntegratorParams, default_rr: u32) -> Result<(GuidedSettings
         "uncovered" => ChainTarget::Uncovered,
         _ => ChainTarget::Mixture,
     };
+    let keep_learning = o.get("keep_learning", true, "true or false")?;
     let weights = match o.choice("weights", "second_moment", &["second_moment", "c"])? {
         "c" => WeightRule::C,
         _ => WeightRule::SecondMoment,
@@ -328,6 +336,7 @@ fn options(params: &IntegratorParams, default_rr: u32) -> Result<(GuidedSettings
             large_step: chain_large_step,
             target: chain_target,
         }),
+        keep_learning,
         ..GuidedSettings::default()
     };
     Ok((settings, rr_depth))

@@ -12,9 +12,15 @@
 //!    start-up bias) and then continued on its own stream;
 //! 3. **mutates**: each step proposes a large step (probability `large_step`) or a small
 //!    step, accepts with `a = min(1, I(y) / I(x))`, and splats both states with expected
-//!    values: `a f(y) / I(y)` and `(1 − a) f(x) / I(x)`, times `N_pix b_g / m_g`. A state of
-//!    zero importance (only reachable when nothing else is) accepts any proposal and splats
-//!    nothing; nothing is clamped.
+//!    values: `a f(y) / I(y)` and `(1 − a) f(x) / I(x)`, times `N_pix b_g / m_g`. Chains
+//!    start at states of positive importance and never accept a proposal of zero importance
+//!    (or NaN), so a state of zero importance does not occur; nothing is clamped.
+//!
+//! A group whose bootstrap found no contribution (`b_g = 0`, e.g. a path length the 100k
+//! samples never lit) gets no chains and adds nothing to the image: the estimator is
+//! consistent in the bootstrap size, not unbiased for a finite one (as pbrt's MMLT, which
+//! also starts chains by the bootstrap's distribution). The render's statistics list each
+//! group's `b_g`.
 //!
 //! The image after P passes is the splat sum over P. Every chain owns its streams and its
 //! splats are added in chain order, so the image is bit-identical for any thread count.

@@ -6,7 +6,7 @@
 //! and the Dirac itself is left out: every technique that can produce a path contains the
 //! same Diracs, so they cancel in every ratio. Roulette is not stored in the cached densities;
 //! it is applied when path densities are assembled, because its probability depends on the
-//! direction a vertex is reached from (`strategies.rs`).
+//! direction a vertex is reached from (`terms.rs`).
 
 use crate::bsdf::{Bsdf, ShadingFrame, TransportMode};
 use crate::math::Spectrum;

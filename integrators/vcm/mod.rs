@@ -9,7 +9,8 @@
 //! 1. N light subpaths (`light.rs`), one light chosen by power each, random walks with media
 //!    and Russian roulette from the first bounce; their connectible vertices are stored, and
 //!    each is connected to the pinhole (light tracing, splatted);
-//! 2. a hash grid (`hash_grid.rs`) over the stored surface vertices, cells of 2 r_i;
+//! 2. a hash grid (`hash_grid.rs`) over the stored surface vertices, cells of 4 r_i, each
+//!    vertex stored in every cell its r_i-ball reaches, so a query reads one bucket;
 //! 3. one camera subpath per pixel (`camera.rs`): at every vertex, emitter hits (s = 0),
 //!    next-event estimation (s = 1), connections to every vertex of the light subpath with
 //!    the pixel's index (every other BDPT technique), and merging with all stored light

@@ -200,7 +200,7 @@ impl GuideCache {
     /// [`Self::pdf`] over `candidates`, which must be [`Self::candidates_of`] `sig` and
     /// `y[1]` (paths of one structure through one x_1 share them), with what the sum saw on the way: the own guide's term
     /// `p(X | own)` (a guided sample's own guide, whose term the sum computes anyway; 0 without
-    /// `own`) and the furthest vertex a term reached. With `each`, every non-zero term
+    /// `own` or when `own` is not among the candidates) and the furthest vertex a term reached. With `each`, every non-zero term
     /// `w_l p(X | l)` of the sum is pushed as `(l, term)`.
     #[allow(clippy::too_many_arguments)]
     pub fn terms(
@@ -243,14 +243,10 @@ impl GuideCache {
                 }
             }
         }
-        // The own guide is a candidate unless rounding put x_1 just outside its box.
-        let own = match (own, own_term) {
-            (Some(l), None) => {
-                let p1 = self.first_density(scene, l, y);
-                self.pdf_given_with(scene, l, y, p1, &mut terms).0
-            }
-            (_, t) => t.unwrap_or(0.0),
-        };
+        // The own guide's term counts only where the sum has it: if rounding put x_1 just
+        // outside the own guide's box (so the sum left it out), the sample gets 0 and is a
+        // failure, and the guided samples kept are exactly those whose term p_g holds.
+        let own = own_term.unwrap_or(0.0);
         Terms { sum, own, reach }
     }
 

@@ -198,10 +198,11 @@ impl GuideCache {
     }
 
     /// [`Self::pdf`] over `candidates`, which must be [`Self::candidates_of`] `sig` and
-    /// `y[1]` (paths of one structure through one x_1 share them), with what the sum saw on the way: the own guide's term
-    /// `p(X | own)` (a guided sample's own guide, whose term the sum computes anyway; 0 without
-    /// `own` or when `own` is not among the candidates) and the furthest vertex a term reached. With `each`, every non-zero term
-    /// `w_l p(X | l)` of the sum is pushed as `(l, term)`.
+    /// `y[1]` (paths of one structure through one x_1 share them), with what the sum saw on
+    /// the way: the own guide's term `p(X | own)` (a guided sample's own guide, whose term the
+    /// sum computes anyway; 0 without `own` or when `own` is not among the candidates) and the
+    /// furthest vertex a term reached. With `each`, every non-zero term `w_l p(X | l)` of the
+    /// sum is pushed as `(l, term)`.
     #[allow(clippy::too_many_arguments)]
     pub fn terms(
         &self,

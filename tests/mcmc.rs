@@ -6,6 +6,8 @@
 //!   small-step kernels; the checker catches targets that are not functions of their samples;
 //! - lazy mutation keeps the target's distribution where a dimension goes unread for long
 //!   stretches of the chain (a two-region target with a known answer, both kernels);
+//! - mmlt's per-pixel estimate of the paths E S* L and the s = 0 technique its chains leave
+//!   out estimate the same integral, and the split only zeroes chain states;
 //! - the images converge to pt's: on the Cornell boxes the image means are within 1 % of the
 //!   stored pt references and the error against a pt render falls with the number of
 //!   mutations; on `ajar` mmlt's mean agrees with the stored reference;
@@ -18,6 +20,7 @@
 mod util;
 
 use glam::DVec3;
+use glam::Vec2;
 use lodestar::film::Image;
 use lodestar::integrators::bdpt::Heuristic;
 use lodestar::integrators::mcmc::driver::{
@@ -30,7 +33,7 @@ use lodestar::integrators::mcmc::{
 };
 use lodestar::integrators::pt::{PathTracer, PtSettings};
 use lodestar::integrators::{self, IntegratorParams, Options};
-use lodestar::math::{Sampler, luminance, stream_seed};
+use lodestar::math::{IndependentSampler, Sampler, luminance, stream_seed};
 use lodestar::render::RenderResult;
 use lodestar::scene::Scene;
 use std::path::Path;
@@ -159,6 +162,7 @@ fn every_proposal_and_state_replays_exactly() {
     let mmlt = MmltTarget {
         bdpt: &bdpt,
         scene: &scene,
+        separate_specular: true,
     };
     for small in [SmallStep::default(), SmallStep::Gaussian { sigma: 0.01 }] {
         let mut runs = vec![("pssmlt".to_string(), replay_check(&pss, 0, 1, STEPS, small))];
@@ -287,6 +291,7 @@ fn the_replay_check_catches_targets_that_are_not_functions_of_their_samples() {
     let mmlt = || MmltTarget {
         bdpt: &bdpt,
         scene: &scene,
+        separate_specular: true,
     };
     let calls = || AtomicU64::new(0);
     let small = SmallStep::default();
@@ -419,6 +424,7 @@ fn lazy_small_steps_keep_the_target_distribution() {
             chains: 256,
             large_step: 0.0,
             small_step: small,
+            ..McmcSettings::default()
         };
         let boot = bootstrap(&TwoRegions, 1, s.bootstrap, &s);
         let mut chains = start_chains(&TwoRegions, &boot, 1, 256 * 1000, 1.0, &s);
@@ -587,6 +593,122 @@ fn mmlt_matches_the_ajar_reference() {
     assert!(err.abs().max_element() < 0.06, "mean error {err}");
 }
 
+/// Mean and standard error of `xs`.
+fn mean_se(xs: &[f64]) -> (f64, f64) {
+    let n = xs.len() as f64;
+    let m = xs.iter().sum::<f64>() / n;
+    let var = xs.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (n - 1.0);
+    (m, (var / n).sqrt())
+}
+
+/// Mean and standard error of `xs`, sample i in stratum i % `strata` (equal strata): the
+/// variance within each stratum, not between them.
+fn stratified_mean_se(xs: &[f64], strata: usize) -> (f64, f64) {
+    let per = (xs.len() / strata) as f64;
+    let (mut mean, mut var) = (0.0, 0.0);
+    for k in 0..strata {
+        let v: Vec<f64> = xs.iter().skip(k).step_by(strata).copied().collect();
+        let (m, se) = mean_se(&v);
+        mean += m / strata as f64;
+        var += se * se / (strata * strata) as f64;
+    }
+    debug_assert!(per >= 2.0);
+    (mean, var.sqrt())
+}
+
+/// mmlt's split of the paths E S* L (s = 0 through specular vertices only) adds up.
+///
+/// 1. The per-pixel estimate (`Target::direct`: one camera walk, every length at once) and
+///    the s = 0 technique of every length on its own (`Tracer::sample_technique`, kept where
+///    `camera_inner_specular`, which is what the chains leave out) are two estimates of one
+///    integral, both stratified by pixel on `pool` at 80 x 60 (the light seen in the water's
+///    surface, directly and after refractions: about a tenth of the image). They agree within
+///    `Z` standard errors (from the variance within each pixel), and the
+///    share is at least 2 `Z` of them, so a direct part that missed a class of those paths,
+///    counted one twice, or weighed it differently from the technique would fail.
+/// 2. On the chains' side, sample by sample on the same primary samples (the bootstrap of
+///    every length), the split only zeroes states: each state's importance is the unsplit
+///    one or 0, never another value; and the importance it removes agrees with 1. within `Z`
+///    standard errors (a weak check: the chains' single-technique estimate is heavy-tailed
+///    here, which is why the split exists).
+#[test]
+fn mmlt_specular_split_adds_up() {
+    const Z: f64 = 4.5; // two-sided false failure about 7e-6 per comparison for a normal z
+    let (w, h, spp, depth) = (80u32, 60u32, 192u32, 8u32);
+    let scene = scene_file("pool.toml", w, h);
+    let bdpt = mmlt_bdpt_settings(depth, Heuristic::Balance);
+    let target = |separate_specular| MmltTarget {
+        bdpt: &bdpt,
+        scene: &scene,
+        separate_specular,
+    };
+    let split = target(true);
+    let mut tracer = split.scratch();
+    let raster = |i: u32, sampler: &mut IndependentSampler| {
+        let pixel = i % (w * h);
+        Vec2::new((pixel % w) as f32, (pixel / w) as f32) + sampler.next_2d()
+    };
+    let (mut direct, mut technique) = (Vec::new(), Vec::new());
+    for i in 0..w * h * spp {
+        let mut sampler = IndependentSampler::new(3, i as u64, 0);
+        let r = raster(i, &mut sampler);
+        direct.push(luminance(split.direct(&mut tracer, r, &mut sampler).as_vec3()) as f64);
+        let mut sum = 0.0;
+        for t in 2..=depth as usize + 1 {
+            let mut sampler = IndependentSampler::new(4, i as u64, t as u64);
+            let r = raster(i, &mut sampler);
+            if let Some((_, c)) = tracer.sample_technique(r, 0, t, &mut sampler)
+                && tracer.camera_inner_specular()
+            {
+                sum += luminance(c) as f64;
+            }
+        }
+        technique.push(sum);
+    }
+    let pixels = (w * h) as usize;
+    let ((direct, direct_se), (technique, technique_se)) = (
+        stratified_mean_se(&direct, pixels),
+        stratified_mean_se(&technique, pixels),
+    );
+    let se = (direct_se * direct_se + technique_se * technique_se).sqrt();
+    eprintln!(
+        "split: direct {direct:.5e} +- {direct_se:.2e}, technique {technique:.5e} +- {technique_se:.2e}"
+    );
+    assert!(
+        direct > 2.0 * Z * se,
+        "the share is not visible: {direct} +- {se}"
+    );
+    assert!(
+        (direct - technique).abs() < Z * se,
+        "direct {direct} +- {direct_se}, technique {technique} +- {technique_se}"
+    );
+
+    let settings = McmcSettings::default();
+    let n = 100_000;
+    let (all, chains) = (
+        bootstrap(&target(false), 7, n, &settings),
+        bootstrap(&target(true), 7, n, &settings),
+    );
+    let mut lost = vec![0.0; n as usize];
+    for (a, c) in all.iter().zip(&chains) {
+        for (i, (&a, &c)) in a.importance.iter().zip(&c.importance).enumerate() {
+            assert!(c == a || c == 0.0, "the split changed a state: {a} -> {c}");
+            lost[i] += a - c;
+        }
+    }
+    let (lost, lost_se) = mean_se(&lost);
+    let b: f64 = all.iter().map(|g| g.b).sum();
+    eprintln!(
+        "split: the chains lose {lost:.5e} +- {lost_se:.2e} ({:.1} % of b = {b:.4e})",
+        100.0 * direct / b
+    );
+    let se = (lost_se * lost_se + direct_se * direct_se).sqrt();
+    assert!(
+        (lost - direct).abs() < Z * se,
+        "chains lose {lost} +- {lost_se}, direct {direct} +- {direct_se}"
+    );
+}
+
 // ---- Determinism, options, degenerate scenes ----
 
 fn bits(img: &Image) -> Vec<[u32; 3]> {
@@ -655,6 +777,20 @@ fn bad_options_are_errors_naming_the_key() {
     assert!(err.contains("rr_depth"), "'{err}'");
     let err = build_error("mmlt", &["mis=veach"]).unwrap();
     assert!(err.contains("mis"), "'{err}'");
+    for (option, key) in [
+        ("specular_every=0", "specular_every"),
+        ("separate_specular=maybe", "separate_specular"),
+    ] {
+        let err = build_error("mmlt", &[option]).unwrap_or_else(|| panic!("mmlt -O {option}"));
+        assert!(err.contains(key), "mmlt -O {option}: '{err}'");
+        assert!(
+            build_error("pssmlt", &[option]).is_some(),
+            "pssmlt -O {option}"
+        );
+    }
+    for valid in [&["separate_specular=false"][..], &["specular_every=1"]] {
+        assert_eq!(build_error("mmlt", valid), None, "mmlt {valid:?}");
+    }
 }
 
 /// With no light (an emitter of zero radiance, or none at all), b = 0: no chain starts, and

@@ -7,6 +7,11 @@
 //! position), 1 the light walk, 2 the connection (next-event estimation's light sample), so
 //! that a primary-sample mutation that changes one walk's length does not shift the others'
 //! numbers.
+//!
+//! [`Tracer::specular_emission`] is the s = 0 technique on the paths E S* L (a light seen from
+//! the camera directly or through mirrors and glass), all lengths at once from one camera
+//! walk, for `mmlt`'s per-pixel estimate of the paths its chains leave out
+//! ([`Tracer::camera_inner_specular`]).
 
 use super::cache::cache_subpath;
 use super::{Tracer, light_nee, walk};
@@ -67,5 +72,41 @@ impl<'a> Tracer<'a> {
         self.camera_cache = cc;
         self.light_cache = lc;
         out.filter(|(_, c)| *c != Spectrum::ZERO)
+    }
+
+    /// Whether the camera subpath of the last [`Tracer::sample_technique`] has only delta
+    /// surfaces between the pinhole and its last vertex (for s = 0: a path E S* L).
+    pub fn camera_inner_specular(&self) -> bool {
+        walk::inner_vertices_specular(&self.camera)
+    }
+
+    /// The s = 0 technique's MIS-weighted estimate, summed over every length up to
+    /// `max_depth`, of the paths E S* L through `raster`: one camera walk that stops at its
+    /// first vertex not on a delta surface, with the emission found at each of its vertices
+    /// weighed as [`Tracer::sample_technique`] weighs s = 0 (so this and the techniques
+    /// `sample_technique` gives on all other paths add up to BDPT's estimate).
+    pub fn specular_emission(&mut self, raster: Vec2, sampler: &mut impl Sampler) -> Spectrum {
+        let (scene, st) = (self.scene, self.settings);
+        let mut camera = std::mem::take(&mut self.camera);
+        let mut cc = std::mem::take(&mut self.camera_cache);
+        let max_vertices = st.max_depth as usize + 1;
+        walk::camera_specular_subpath(
+            scene,
+            raster,
+            max_vertices,
+            st.rr_depth,
+            sampler,
+            &mut camera,
+        );
+        self.light.clear();
+        self.light_nee = light_nee(scene, &self.light);
+        cache_subpath(scene, &camera, st.rr_depth, &mut cc);
+        let mut sum = Spectrum::ZERO;
+        for t in 2..=camera.len() {
+            sum += self.hit_emitter(&camera[..t], &cc[..t], None);
+        }
+        self.camera = camera;
+        self.camera_cache = cc;
+        sum
     }
 }

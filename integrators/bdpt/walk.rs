@@ -39,9 +39,52 @@ pub fn camera_subpath<'a>(
         scene.camera_medium,
         max_vertices,
         rr_depth,
+        false,
         sampler,
         path,
     );
+}
+
+/// The camera subpath through `raster` up to and including its first vertex that is not on
+/// a delta surface (a diffuse or glossy surface, a light, a medium event, or the escape):
+/// the paths E S* X whose every inner vertex is specular. Its vertices and densities are
+/// those [`camera_subpath`] gives for the same numbers, cut short.
+pub fn camera_specular_subpath<'a>(
+    scene: &'a Scene,
+    raster: Vec2,
+    max_vertices: usize,
+    rr_depth: u32,
+    sampler: &mut impl Sampler,
+    path: &mut Vec<Vertex<'a>>,
+) {
+    path.clear();
+    let cam = &scene.camera;
+    path.push(Vertex {
+        pdf_fwd: 1.0,
+        medium: scene.camera_medium,
+        ..Vertex::new(Kind::Camera, cam.position, Vec3::ZERO)
+    });
+    walk(
+        scene,
+        cam.generate_ray(raster),
+        Spectrum::ONE,
+        TransportMode::Radiance,
+        scene.camera_medium,
+        max_vertices,
+        rr_depth,
+        true,
+        sampler,
+        path,
+    );
+}
+
+/// Whether every inner vertex of `path` (all but its first and last) is on a delta surface.
+pub fn inner_vertices_specular(path: &[Vertex]) -> bool {
+    path.len() < 2 || path[1..path.len() - 1].iter().all(is_specular_surface)
+}
+
+fn is_specular_surface(v: &Vertex) -> bool {
+    v.delta && matches!(v.kind, Kind::Surface { .. })
 }
 
 /// A light subpath: a light chosen by power, an emitted ray, then the walk.
@@ -100,11 +143,14 @@ pub fn light_subpath<'a>(
         medium,
         max_vertices,
         rr_depth,
+        false,
         sampler,
         path,
     );
 }
 
+/// The random walk from `ray`, pushing vertices up to `max_vertices`; with
+/// `stop_at_non_specular` it ends after the first vertex not on a delta surface.
 #[allow(clippy::too_many_arguments)]
 fn walk<'a>(
     scene: &'a Scene,
@@ -114,6 +160,7 @@ fn walk<'a>(
     mut medium: Option<u32>,
     max_vertices: usize,
     rr_depth: u32,
+    stop_at_non_specular: bool,
     sampler: &mut impl Sampler,
     path: &mut Vec<Vertex<'a>>,
 ) {
@@ -209,7 +256,8 @@ fn walk<'a>(
         }
         let escaped = found.is_none();
         path.push(v);
-        if escaped || path.len() == max_vertices {
+        if escaped || path.len() == max_vertices || stop_at_non_specular && !is_specular_surface(&v)
+        {
             return;
         }
 

@@ -16,6 +16,11 @@
 //!    start at states of positive importance and never accept a proposal of zero importance
 //!    (or NaN), so a state of zero importance does not occur; nothing is clamped.
 //!
+//! 4. **direct** (targets with [`Target::has_direct`], `mmlt`'s lights seen through specular
+//!    chains): paths the target leaves out of its contributions are estimated per pixel,
+//!    every pixel in pass 0 and then each pixel every `direct_every`-th pass (interleaved, on
+//!    its own stream); the image adds their per-pixel mean.
+//!
 //! A group whose bootstrap found no contribution (`b_g = 0`, e.g. a path length the 100k
 //! samples never lit) gets no chains and adds nothing to the image: the estimator is
 //! consistent in the bootstrap size, not unbiased for a finite one (as pbrt's MMLT, which
@@ -28,10 +33,10 @@
 
 use super::primary::{PrimarySampler, SmallStep};
 use crate::film::Image;
-use crate::math::{Sampler, luminance, stream_seed};
+use crate::math::{IndependentSampler, Sampler, luminance, stream_seed};
 use crate::render::{Budget, RenderContext, RenderResult, run_passes_with_snapshots};
 use crate::scene::Scene;
-use glam::DVec3;
+use glam::{DVec3, Vec2};
 use rand::RngExt;
 use rayon::prelude::*;
 use std::time::Instant;
@@ -40,6 +45,7 @@ use std::time::Instant;
 const BOOTSTRAP_KEY: u64 = 0x4d43_4d43_0000_0000;
 const START_KEY: u64 = 0x4d43_4d43_1000_0000;
 const CHAIN_KEY: u64 = 0x4d43_4d43_2000_0000;
+const DIRECT_KEY: u64 = 0x4d43_4d43_3000_0000;
 
 /// A contribution to the image: the pixel it lands in and its RGB value.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -83,6 +89,20 @@ pub trait Target: Sync {
         group: usize,
         sampler: &mut S,
     ) -> Contribution;
+    /// Whether some paths are left out of the chains' contributions and estimated per pixel
+    /// by [`Target::direct`] instead.
+    fn has_direct(&self) -> bool {
+        false
+    }
+    /// One sample at `raster` of what the chains leave out (pixel units).
+    fn direct<S: Sampler>(
+        &self,
+        _scratch: &mut Self::Scratch<'_>,
+        _raster: Vec2,
+        _sampler: &mut S,
+    ) -> DVec3 {
+        DVec3::ZERO
+    }
 }
 
 /// Options of the Metropolis integrators.
@@ -95,6 +115,9 @@ pub struct McmcSettings {
     /// Probability of a large step (default 0.3).
     pub large_step: f64,
     pub small_step: SmallStep,
+    /// A pixel's samples of [`Target::direct`] come every this many passes, after pass 0
+    /// which samples every pixel (default 4).
+    pub direct_every: u64,
 }
 
 impl Default for McmcSettings {
@@ -104,6 +127,7 @@ impl Default for McmcSettings {
             chains: 1024,
             large_step: 0.3,
             small_step: SmallStep::default(),
+            direct_every: 4,
         }
     }
 }
@@ -298,6 +322,9 @@ pub fn advance<T: Target>(
 struct Accumulated {
     sums: Vec<Vec<DVec3>>,
     per_group: Vec<Counters>,
+    /// Per-pixel sums of [`Target::direct`] and their sample counts (empty without).
+    direct: Vec<DVec3>,
+    direct_samples: Vec<u32>,
 }
 
 impl Accumulated {
@@ -311,6 +338,11 @@ impl Accumulated {
     /// (which the splats carry) to the refined one.
     fn image(&self, boot: &[Bootstrap], w: u32, h: u32, passes: u64) -> Image {
         let mut px = vec![DVec3::ZERO; (w * h) as usize];
+        for ((p, d), &n) in px.iter_mut().zip(&self.direct).zip(&self.direct_samples) {
+            if n > 0 {
+                *p += *d / n as f64;
+            }
+        }
         for (g, sums) in self.sums.iter().enumerate() {
             if sums.is_empty() || boot[g].b <= 0.0 {
                 continue;
@@ -326,6 +358,42 @@ impl Accumulated {
             pixels: px.into_iter().map(|p| p.as_vec3()).collect(),
         }
     }
+}
+
+/// Pass `pass`'s samples of [`Target::direct`]: every pixel in pass 0, then each pixel
+/// every `every`-th pass (interleaved over the image), added to `sums` and counted in
+/// `samples` (each pixel on its own stream, so nothing depends on the thread count).
+fn direct_pass<T: Target>(
+    target: &T,
+    seed: u64,
+    (pass, every): (u64, u64),
+    width: u32,
+    sums: &mut [DVec3],
+    samples: &mut [u32],
+) {
+    let w = width as usize;
+    sums.par_chunks_mut(w)
+        .zip(samples.par_chunks_mut(w))
+        .enumerate()
+        .for_each_init(
+            || target.scratch(),
+            |scratch, (y, (row, counts))| {
+                for (x, (sum, count)) in row.iter_mut().zip(counts).enumerate() {
+                    let pixel = (y * w + x) as u64;
+                    if pass > 0 && !(pixel + pass).is_multiple_of(every) {
+                        continue;
+                    }
+                    *count += 1;
+                    let mut sampler = IndependentSampler::new(seed, DIRECT_KEY + pass, pixel);
+                    let raster = Vec2::new(x as f32, y as f32) + sampler.next_2d();
+                    let v = target.direct(scratch, raster, &mut sampler);
+                    // A non-finite sample is dropped (as pt's film drops one), not spread.
+                    if v.is_finite() {
+                        *sum += v;
+                    }
+                }
+            },
+        );
 }
 
 /// Render `target` with Metropolis chains under `budget` (passes of `N_pix` mutations).
@@ -358,8 +426,31 @@ pub fn render<T: Target>(
             })
             .collect(),
         per_group: vec![Counters::default(); groups],
+        direct: if target.has_direct() {
+            vec![DVec3::ZERO; (w * h) as usize]
+        } else {
+            Vec::new()
+        },
+        direct_samples: if target.has_direct() {
+            vec![0; (w * h) as usize]
+        } else {
+            Vec::new()
+        },
     };
-    let pass = |acc: &mut Accumulated, _pass: u64| {
+    let mut direct_seconds = 0.0;
+    let pass = |acc: &mut Accumulated, pass: u64| {
+        if !acc.direct.is_empty() {
+            let t = Instant::now();
+            direct_pass(
+                target,
+                ctx.seed,
+                (pass, settings.direct_every),
+                w,
+                &mut acc.direct,
+                &mut acc.direct_samples,
+            );
+            direct_seconds += t.elapsed().as_secs_f64();
+        }
         let out: Vec<(Vec<(u32, DVec3)>, Counters)> = chains
             .par_iter_mut()
             .map_init(
@@ -389,7 +480,8 @@ pub fn render<T: Target>(
     let b: f64 = (0..groups).map(|g| acc.b(&boot, g)).sum();
     let b_boot: f64 = boot.iter().map(|g| g.b).sum();
     let rate = |a: u64, n: u64| if n > 0 { a as f64 / n as f64 } else { 0.0 };
-    let stats = vec![
+    let image = acc.image(&boot, w, h, passes);
+    let mut stats = vec![
         ("mcmc_b".to_string(), format!("{b:.6e}")),
         ("mcmc_b_bootstrap".to_string(), format!("{b_boot:.6e}")),
         (
@@ -426,8 +518,29 @@ pub fn render<T: Target>(
             c.zero_proposals.to_string(),
         ),
     ];
+    if !acc.direct.is_empty() {
+        // The share of the image's luminance the per-pixel estimate gives.
+        let direct: DVec3 = acc
+            .direct
+            .iter()
+            .zip(&acc.direct_samples)
+            .map(|(d, &n)| if n > 0 { *d / n as f64 } else { DVec3::ZERO })
+            .sum::<DVec3>()
+            / pixels;
+        let all = luminance(image.mean().as_vec3()) as f64;
+        let share = if all > 0.0 {
+            luminance(direct.as_vec3()) as f64 / all
+        } else {
+            0.0
+        };
+        stats.push(("mcmc_direct_share".to_string(), format!("{share:.4e}")));
+        stats.push((
+            "mcmc_direct_seconds".to_string(),
+            format!("{direct_seconds:.3}"),
+        ));
+    }
     RenderResult {
-        image: acc.image(&boot, w, h, passes),
+        image,
         spp: passes,
         passes,
         seconds: seconds + boot_seconds,

@@ -5,6 +5,17 @@
 //! camera walk (stream 0), the light walk (stream 1) and the connection (stream 2). The
 //! contribution is the technique's estimate times its MIS weight among the k + 1 techniques,
 //! times k + 1. Subpaths have fixed lengths, so no roulette is played.
+//!
+//! **Lights seen through specular chains** (`separate_specular`, default on). The s = 0
+//! technique on paths E S* L (a light seen from the camera directly or through mirrors and
+//! glass) is left out of the chains and estimated per pixel instead, one sample per pixel
+//! and pass ([`Tracer::specular_emission`]), as Veach's MLT renders what the camera sees of
+//! the lights directly. These paths make small, very bright regions of the image (a light
+//! seen through a glass object); the chains' normalisation b_k comes from independent
+//! samples that reach such a region with probability (its area) / (k + 1), so b_k's estimate
+//! is heavy-tailed where the region is small: on `fog-dragon` a bootstrap sample of the
+//! light seen through the glass bunny has 8000 times the mean importance, and 240 s renders
+//! without the split were 5.6 % dark. Per pixel, every pass samples each such region.
 
 use super::driver::{self, Contribution, McmcSettings, Target};
 use super::pssmlt::raster_of;
@@ -14,6 +25,7 @@ use crate::integrators::bdpt::{BdptSettings, Heuristic, TECHNIQUE_STREAMS, Trace
 use crate::math::Sampler;
 use crate::render::{Budget, Integrator, RenderContext, RenderResult};
 use crate::scene::Scene;
+use glam::{DVec3, Vec2};
 
 pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     // One chain group per path length, each with its own bootstrap: lengths must be few.
@@ -23,9 +35,17 @@ pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
         "power" => Heuristic::Power,
         _ => Heuristic::Balance,
     };
+    let mut settings = super::settings(o)?;
+    settings.direct_every = o.get("specular_every", settings.direct_every, "an integer >= 1")?;
+    if settings.direct_every == 0 {
+        return Err(Error::new(
+            "option 'specular_every': expected an integer >= 1, got 0",
+        ));
+    }
     Ok(Box::new(Mmlt {
         bdpt: mmlt_bdpt_settings(params.max_depth, heuristic),
-        settings: super::settings(o)?,
+        settings,
+        separate_specular: o.get("separate_specular", true, "true or false")?,
     }))
 }
 
@@ -43,12 +63,16 @@ pub fn mmlt_bdpt_settings(max_depth: u32, heuristic: Heuristic) -> BdptSettings 
 pub struct Mmlt {
     pub bdpt: BdptSettings,
     pub settings: McmcSettings,
+    /// Estimate s = 0 on paths E S* L per pixel, not with the chains.
+    pub separate_specular: bool,
 }
 
 /// One BDPT technique per state, grouped by path length.
 pub struct MmltTarget<'a> {
     pub bdpt: &'a BdptSettings,
     pub scene: &'a Scene,
+    /// Leave s = 0 on paths E S* L out of the chains ([`Target::direct`] gives them).
+    pub separate_specular: bool,
 }
 
 impl Target for MmltTarget<'_> {
@@ -82,12 +106,26 @@ impl Target for MmltTarget<'_> {
         let t = k + 1 - s;
         let raster = raster_of(self.scene, sampler.next_2d());
         match tracer.sample_technique(raster, s, t, sampler) {
+            Some(_) if s == 0 && self.separate_specular && tracer.camera_inner_specular() => {
+                Contribution::ZERO
+            }
             Some((r, c)) => Contribution {
                 pixel: self.scene.camera.pixel_index(r) as u32,
                 value: c.as_dvec3() * n as f64,
             },
             None => Contribution::ZERO,
         }
+    }
+
+    fn has_direct(&self) -> bool {
+        self.separate_specular
+    }
+
+    fn direct<S: Sampler>(&self, tracer: &mut Tracer<'_>, raster: Vec2, sampler: &mut S) -> DVec3 {
+        if !self.separate_specular {
+            return DVec3::ZERO;
+        }
+        tracer.specular_emission(raster, sampler).as_dvec3()
     }
 }
 
@@ -104,6 +142,7 @@ impl Integrator for Mmlt {
         let target = MmltTarget {
             bdpt: &self.bdpt,
             scene: ctx.scene,
+            separate_specular: self.separate_specular,
         };
         driver::render(&target, &self.settings, ctx, budget)
     }

@@ -722,15 +722,33 @@ fn bits(img: &Image) -> Vec<[u32; 3]> {
 #[test]
 fn images_are_bit_identical_on_one_and_two_threads() {
     let scene = util::cornell(24);
-    for int in ["pssmlt", "mmlt"] {
-        let render = |seed, threads| {
-            util::render(&scene, int, 8, &["bootstrap=20000"], 4, seed, threads).image
-        };
+    // The last also renders the light seen directly and in the glass sphere per pixel.
+    for (int, options) in [
+        ("pssmlt", &["bootstrap=20000"][..]),
+        ("mmlt", &["bootstrap=20000"]),
+        ("mmlt", &["bootstrap=20000", "separate_specular=true"]),
+    ] {
+        let render = |seed, threads| util::render(&scene, int, 8, options, 4, seed, threads).image;
         let one = render(5, 1);
-        assert!(one.mean().min_element() > 0.0, "{int}: black image");
-        assert_eq!(bits(&one), bits(&render(5, 2)), "{int}: 1 vs 2 threads");
-        assert_eq!(bits(&one), bits(&render(5, 2)), "{int}: repeated");
-        assert_ne!(bits(&one), bits(&render(6, 2)), "{int}: another seed");
+        assert!(
+            one.mean().min_element() > 0.0,
+            "{int} {options:?}: black image"
+        );
+        assert_eq!(
+            bits(&one),
+            bits(&render(5, 2)),
+            "{int} {options:?}: 1 vs 2 threads"
+        );
+        assert_eq!(
+            bits(&one),
+            bits(&render(5, 2)),
+            "{int} {options:?}: repeated"
+        );
+        assert_ne!(
+            bits(&one),
+            bits(&render(6, 2)),
+            "{int} {options:?}: another seed"
+        );
     }
 }
 
@@ -788,7 +806,10 @@ fn bad_options_are_errors_naming_the_key() {
             "pssmlt -O {option}"
         );
     }
-    for valid in [&["separate_specular=false"][..], &["specular_every=1"]] {
+    for valid in [
+        &["separate_specular=true"][..],
+        &["separate_specular=false", "specular_every=1"],
+    ] {
         assert_eq!(build_error("mmlt", valid), None, "mmlt {valid:?}");
     }
 }

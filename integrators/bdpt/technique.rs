@@ -84,7 +84,9 @@ impl<'a> Tracer<'a> {
     /// `max_depth`, of the paths E S* L through `raster`: one camera walk that stops at its
     /// first vertex not on a delta surface, with the emission found at each of its vertices
     /// weighed as [`Tracer::sample_technique`] weighs s = 0 (so this and the techniques
-    /// `sample_technique` gives on all other paths add up to BDPT's estimate).
+    /// `sample_technique` gives on all other paths add up to BDPT's estimate). Like
+    /// `sample_technique`, it weighs with the explicit densities, so the settings must play
+    /// no roulette along the subpath (`mmlt_bdpt_settings`: rr_depth = max_depth + 1).
     pub fn specular_emission(&mut self, raster: Vec2, sampler: &mut impl Sampler) -> Spectrum {
         let (scene, st) = (self.scene, self.settings);
         let mut camera = std::mem::take(&mut self.camera);

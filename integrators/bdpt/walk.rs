@@ -46,7 +46,8 @@ pub fn camera_subpath<'a>(
 }
 
 /// The camera subpath through `raster` up to and including its first vertex that is not on
-/// a delta surface (a diffuse or glossy surface, a light, a medium event, or the escape):
+/// a delta surface (a diffuse or glossy surface, an emitter's surface unless it is specular,
+/// a medium event, or the escape to a light at infinity):
 /// the paths E S* X whose every inner vertex is specular. Its vertices and densities are
 /// those [`camera_subpath`] gives for the same numbers, cut short.
 pub fn camera_specular_subpath<'a>(

@@ -23,7 +23,7 @@
 //! | sigma      | number in (0, 1)        | 0.01     | deviation of the Gaussian step |
 //! | rr_depth, strategy | as in `pt`      | as in `pt` | `pssmlt`: pt's own settings (`mmlt` walks fixed lengths and never plays roulette) |
 //! | mis        | `balance` / `power`     | `balance`| `mmlt`: MIS heuristic among the techniques of a length |
-//! | separate_specular | `true` / `false` | `true`   | `mmlt`: the s = 0 technique on paths E S* L (lights seen directly or through mirrors and glass) estimated per pixel, not by the chains (`mmlt.rs`) |
+//! | separate_specular | `true` / `false` | `false`  | `mmlt`: the s = 0 technique on paths E S* L (lights seen directly or through mirrors and glass) estimated per pixel, not by the chains (`mmlt.rs`) |
 //! | specular_every | integer >= 1        | 4        | `mmlt`: a pixel's sample of those paths every this many passes (every pixel in the first) |
 //!
 //! ```text

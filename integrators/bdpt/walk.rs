@@ -22,39 +22,31 @@ pub fn camera_subpath<'a>(
     sampler: &mut impl Sampler,
     path: &mut Vec<Vertex<'a>>,
 ) {
-    path.clear();
-    let cam = &scene.camera;
-    let ray = cam.generate_ray(raster);
-    path.push(Vertex {
-        pdf_fwd: 1.0,
-        medium: scene.camera_medium,
-        ..Vertex::new(Kind::Camera, cam.position, Vec3::ZERO)
-    });
-    // We cos / pdf_We = 1 for the pinhole.
-    walk(
-        scene,
-        ray,
-        Spectrum::ONE,
-        TransportMode::Radiance,
-        scene.camera_medium,
-        max_vertices,
-        rr_depth,
-        false,
-        sampler,
-        path,
-    );
+    camera_walk(scene, raster, max_vertices, rr_depth, false, sampler, path);
 }
 
 /// The camera subpath through `raster` up to and including its first vertex that is not on
 /// a delta surface (a diffuse or glossy surface, an emitter's surface unless it is specular,
-/// a medium event, or the escape to a light at infinity):
-/// the paths E S* X whose every inner vertex is specular. Its vertices and densities are
-/// those [`camera_subpath`] gives for the same numbers, cut short.
+/// a medium event, or the escape to a light at infinity): the paths E S* X whose every inner
+/// vertex is specular. Its vertices and densities are those [`camera_subpath`] gives for the
+/// same numbers, cut short.
 pub fn camera_specular_subpath<'a>(
     scene: &'a Scene,
     raster: Vec2,
     max_vertices: usize,
     rr_depth: u32,
+    sampler: &mut impl Sampler,
+    path: &mut Vec<Vertex<'a>>,
+) {
+    camera_walk(scene, raster, max_vertices, rr_depth, true, sampler, path);
+}
+
+fn camera_walk<'a>(
+    scene: &'a Scene,
+    raster: Vec2,
+    max_vertices: usize,
+    rr_depth: u32,
+    stop_at_non_specular: bool,
     sampler: &mut impl Sampler,
     path: &mut Vec<Vertex<'a>>,
 ) {
@@ -65,6 +57,7 @@ pub fn camera_specular_subpath<'a>(
         medium: scene.camera_medium,
         ..Vertex::new(Kind::Camera, cam.position, Vec3::ZERO)
     });
+    // We cos / pdf_We = 1 for the pinhole.
     walk(
         scene,
         cam.generate_ray(raster),
@@ -73,7 +66,7 @@ pub fn camera_specular_subpath<'a>(
         scene.camera_medium,
         max_vertices,
         rr_depth,
-        true,
+        stop_at_non_specular,
         sampler,
         path,
     );

@@ -63,25 +63,25 @@ impl Distribution1D {
         self.pmf[i]
     }
 
-    /// Sample an item; returns (index, pmf, u remapped to [0,1) within the item's interval).
-    pub fn sample(&self, u: f32) -> (usize, f32, f32) {
+    /// The first index whose cdf exceeds u, minus one (at most n - 1), by binary search.
+    fn search(&self, u: f32) -> usize {
+        self.cdf
+            .partition_point(|&c| c <= u)
+            .saturating_sub(1)
+            .min(self.pmf.len() - 1)
+    }
+
+    /// [`Self::search`]'s index, counted without branches (the cdf is sorted and cdf[0] = 0):
+    /// a choice between a few lights or a quad's two triangles is a coin flip, which a binary
+    /// search's branches mispredict half the time.
+    fn scan(&self, u: f32) -> usize {
         let n = self.pmf.len();
-        if n == 1 {
-            // One light, one triangle: no search (the same result as below).
-            return (0, self.pmf[0], u.clamp(0.0, 1.0 - f32::EPSILON));
-        }
-        // First index whose cdf exceeds u, minus one; skip zero-probability items.
-        let mut i = if n <= SCAN_MAX {
-            // The same index as the search below (the cdf is sorted and cdf[0] = 0), counted
-            // without branches: a choice between a few lights or a quad's two triangles is a
-            // coin flip, which a binary search's branches mispredict half the time.
-            self.cdf[1..n].iter().map(|&c| usize::from(c <= u)).sum()
-        } else {
-            self.cdf
-                .partition_point(|&c| c <= u)
-                .saturating_sub(1)
-                .min(n - 1)
-        };
+        self.cdf[1..n].iter().map(|&c| usize::from(c <= u)).sum()
+    }
+
+    /// `i`, or the nearest item after it (else before it) of non-zero probability.
+    fn skip_zero(&self, mut i: usize) -> usize {
+        let n = self.pmf.len();
         if self.has_zero {
             while self.pmf[i] == 0.0 && i + 1 < n {
                 i += 1;
@@ -90,6 +90,22 @@ impl Distribution1D {
                 i -= 1;
             }
         }
+        i
+    }
+
+    /// Sample an item; returns (index, pmf, u remapped to [0,1) within the item's interval).
+    pub fn sample(&self, u: f32) -> (usize, f32, f32) {
+        let n = self.pmf.len();
+        if n == 1 {
+            // One light, one triangle: no search (the same result as below).
+            return (0, self.pmf[0], u.clamp(0.0, 1.0 - f32::EPSILON));
+        }
+        let i = if n <= SCAN_MAX {
+            self.scan(u)
+        } else {
+            self.search(u)
+        };
+        let i = self.skip_zero(i);
         let p = self.pmf[i];
         let u_re = if p > 0.0 {
             ((u - self.cdf[i]) / p).clamp(0.0, 1.0 - f32::EPSILON)
@@ -134,26 +150,12 @@ mod tests {
                     .map(|_| if next() < 0.2 { 0.0 } else { next() })
                     .collect();
                 let d = Distribution1D::new(&w);
-                let search = |u: f32| {
-                    let mut i = d
-                        .cdf
-                        .partition_point(|&c| c <= u)
-                        .saturating_sub(1)
-                        .min(n - 1);
-                    while d.pmf[i] == 0.0 && i + 1 < n {
-                        i += 1;
-                    }
-                    while d.pmf[i] == 0.0 && i > 0 {
-                        i -= 1;
-                    }
-                    i
-                };
                 let mut us: Vec<f32> = (0..64).map(|_| next()).collect();
                 for &c in &d.cdf {
                     us.extend([c, c.next_down(), c.next_up()].map(|u| u.clamp(0.0, 1.0)));
                 }
                 for u in us {
-                    assert_eq!(d.sample(u).0, search(u), "n {n}, u {u}, cdf {:?}", d.cdf);
+                    assert_eq!(d.scan(u), d.search(u), "n {n}, u {u}, cdf {:?}", d.cdf);
                 }
             }
         }

@@ -40,10 +40,13 @@ use crate::render::{
 };
 use crate::scene::{Endpoint, Scene, SurfacePoint};
 use glam::{Vec2, Vec3};
+use guiding::{Guide, Trail};
 pub use recording::PathRecorder;
 use recording::Recording;
 
+pub mod guiding;
 mod recording;
+pub mod sdtree;
 
 /// How emitters are reached.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -77,9 +80,13 @@ impl Default for PtSettings {
 }
 
 pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
-    Ok(Box::new(PathTracer {
+    let pt = PathTracer {
         settings: settings(params)?,
-    }))
+    };
+    Ok(match guiding::settings(params)? {
+        None => Box::new(pt),
+        Some(guiding) => Box::new(guiding::GuidedPathTracer { pt, guiding }),
+    })
 }
 
 /// pt's settings from `max_depth` and the options of the table above (also `pssmlt`'s).
@@ -151,7 +158,30 @@ impl PathTracer {
         sampler: &mut impl Sampler,
         recorder: Option<&mut dyn PathRecorder>,
     ) -> Spectrum {
+        self.li_with(scene, raster, sampler, recorder, None)
+    }
+
+    /// As [`Self::li`], the continuation guided by `guide` (`guiding.rs`).
+    pub fn li_guided(
+        &self,
+        scene: &Scene,
+        raster: Vec2,
+        sampler: &mut impl Sampler,
+        guide: &Guide,
+    ) -> Spectrum {
+        self.li_with(scene, raster, sampler, None, Some(guide))
+    }
+
+    fn li_with(
+        &self,
+        scene: &Scene,
+        raster: Vec2,
+        sampler: &mut impl Sampler,
+        recorder: Option<&mut dyn PathRecorder>,
+        guide: Option<&Guide>,
+    ) -> Spectrum {
         let s = &self.settings;
+        let mut trail = guide.filter(|g| g.learning).map(|_| Trail::default());
         let use_nee = s.strategy != Strategy::Bsdf;
         let mut ray = scene.camera.generate_ray(raster);
         let mut rec = recorder.map(|sink| {
@@ -335,9 +365,10 @@ impl PathTracer {
             }
 
             // ---- Next-event estimation (adds a path of depth + 1 segments) ----
+            let mix = guide.and_then(|g| g.at(sp));
             if use_nee && !sp.bsdf.is_delta() {
                 let q_here = self.roulette_probability(depth, sp.bsdf.continuation());
-                let surface = Scatterer::Surface { sp, wo };
+                let surface = Scatterer::Surface { sp, wo, mix };
                 l += beta
                     * self.direct(
                         scene,
@@ -349,13 +380,17 @@ impl PathTracer {
                     );
             }
 
-            // ---- BSDF sampling: extend the path ----
-            let u_lobe = sampler.next_1d();
-            let u = sampler.next_2d();
-            let Some(bs) = sp
-                .bsdf
-                .sample(&sp.frame, wo, u_lobe, u, TransportMode::Radiance)
-            else {
+            // ---- BSDF sampling (mixed with the guide's directions): extend the path ----
+            let bs = match &mix {
+                Some(m) => m.sample(sp, wo, sampler),
+                None => {
+                    let u_lobe = sampler.next_1d();
+                    let u = sampler.next_2d();
+                    sp.bsdf
+                        .sample(&sp.frame, wo, u_lobe, u, TransportMode::Radiance)
+                }
+            };
+            let Some(bs) = bs else {
                 break;
             };
             beta *= bs.weight;
@@ -377,8 +412,16 @@ impl PathTracer {
             if !self.roulette(depth, sp.bsdf.continuation(), &mut beta, sampler) {
                 break;
             }
+            if let Some(t) = &mut trail
+                && !bs.delta
+            {
+                t.push(hit.p, bs.wi, bs.pdf, beta, l);
+            }
             ray = hit.spawn(bs.wi);
             depth += 1;
+        }
+        if let (Some(t), Some(g)) = (&mut trail, guide) {
+            t.record(g.tree, l);
         }
         l
     }
@@ -540,6 +583,8 @@ enum Scatterer<'a, 'b> {
     Surface {
         sp: &'b SurfacePoint<'a>,
         wo: Vec3,
+        /// The continuation's mixture with a guide, if guided.
+        mix: Option<guiding::Mixture<'b>>,
     },
     Medium {
         phase: &'b HenyeyGreenstein,
@@ -551,10 +596,11 @@ impl Scatterer<'_, '_> {
     /// (f |cos| or the phase function, solid-angle density of sampling `wi` by continuation).
     fn eval(&self, wi: Vec3) -> (Spectrum, f32) {
         match self {
-            Scatterer::Surface { sp, wo } => {
+            Scatterer::Surface { sp, wo, mix } => {
                 let f = sp.bsdf.eval(&sp.frame, *wo, wi, TransportMode::Radiance)
                     * wi.dot(sp.hit.ns).abs();
-                (f, sp.bsdf.pdf(&sp.frame, *wo, wi, TransportMode::Radiance))
+                let pdf = sp.bsdf.pdf(&sp.frame, *wo, wi, TransportMode::Radiance);
+                (f, mix.map_or(pdf, |m| m.pdf(pdf, wi)))
             }
             Scatterer::Medium { phase, wo } => {
                 let p = phase.eval(*wo, wi);

@@ -336,6 +336,17 @@ fn render(args: RenderArgs) -> Result<()> {
     let mut part_meta = Vec::new();
     let mut first_pass = 0;
     if let Some(text) = &args.part {
+        if name == "pt"
+            && params
+                .options
+                .get("guiding", String::from("none"), "a word")?
+                == "sdtree"
+        {
+            return Err(Error::new(
+                "--part with pt -O guiding=sdtree: each part would learn its own tree from its \
+                 own passes, so the parts would not be slices of one render",
+            ));
+        }
         let total = match budget {
             Budget::Spp(n) => Some(n),
             Budget::Seconds(_) => None,

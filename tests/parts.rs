@@ -244,6 +244,10 @@ fn renders_that_cannot_be_split_say_why() {
             vec!["--integrator", "mmlt", "--spp", "4", "--part", "1/2"],
             "cannot be split",
         ),
+        (
+            vec!["--spp", "4", "-O", "guiding=sdtree", "--part", "1/2"],
+            "each part would learn its own tree",
+        ),
         (vec!["--time", "1", "--part", "1/2"], "--part needs --spp"),
         (vec!["--spp", "4", "--part", "1/2", "--dbor"], "--dbor"),
         (vec!["--spp", "2", "--part", "1/3"], "leaves this part none"),

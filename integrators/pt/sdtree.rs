@@ -139,25 +139,22 @@ impl DTree {
         let mut pdf = 1.0f64;
         let mut node = 0usize;
         loop {
-            let e = &self.energy[node];
-            let sum: f64 = e.iter().sum();
-            if sum <= 0.0 || sum.is_nan() {
-                break; // uniform over the node
-            }
-            let target = u() as f64 * sum;
+            // The factors are the quadrants' probabilities times 4 (a node without energy and
+            // all below it: 1, uniform).
+            let n = &self.nodes[node];
+            let target = u() * 4.0;
             let mut q = 3;
-            let mut acc = 0.0;
-            for (i, &ei) in e.iter().enumerate() {
-                acc += ei;
-                if target < acc && ei > 0.0 {
+            let mut acc = 0.0f32;
+            for (i, &fi) in n.factor.iter().enumerate() {
+                acc += fi;
+                if target < acc && fi > 0.0 {
                     q = i;
                     break;
                 }
             }
-            while e[q] <= 0.0 {
+            while n.factor[q] <= 0.0 {
                 q -= 1; // rounding at the top end: the last quadrant with energy
             }
-            let n = &self.nodes[node];
             pdf *= n.factor[q] as f64;
             x |= ((q & 1) as u32) << (31 - depth);
             y |= ((q >> 1) as u32) << (31 - depth);

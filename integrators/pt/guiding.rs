@@ -125,7 +125,7 @@ impl Mixture<'_> {
         &self,
         sp: &SurfacePoint,
         wo: Vec3,
-        sampler: &mut impl Sampler,
+        sampler: &mut (impl Sampler + ?Sized),
     ) -> Option<BsdfSample> {
         let mode = TransportMode::Radiance;
         if sampler.next_1d() >= self.a {

@@ -86,8 +86,6 @@ pub fn settings(params: &IntegratorParams) -> Result<Option<GuidingSettings>> {
 pub struct Guide<'t> {
     pub tree: &'t SdTree,
     pub fraction: f32,
-    /// Record what the paths find (learning iterations).
-    pub learning: bool,
 }
 
 impl Guide<'_> {
@@ -163,7 +161,8 @@ impl Mixture<'_> {
     }
 }
 
-/// The vertices of one path whose continuation the tree learns from.
+/// The vertices of one path whose continuation the tree learns from (scratch kept per row of
+/// a learning pass, so no path allocates).
 #[derive(Default)]
 pub struct Trail {
     at: Vec<(Vec3, Vec3, f32, Spectrum, Spectrum)>,
@@ -219,7 +218,7 @@ struct Frozen<'a> {
 
 impl PixelEstimator for Frozen<'_> {
     fn estimate(&self, scene: &Scene, raster: Vec2, sampler: &mut IndependentSampler) -> Spectrum {
-        self.pt.li_guided(scene, raster, sampler, &self.guide)
+        self.pt.li_guided(scene, raster, sampler, &self.guide, None)
     }
 }
 
@@ -256,16 +255,16 @@ pub fn render(
         let guide = Guide {
             tree: &tree,
             fraction: g.guide_fraction,
-            learning: true,
         };
         for pass in learned..learned + n {
             (0..h).into_par_iter().for_each(|y| {
+                let mut trail = Trail::default();
                 for x in 0..w {
                     let index = y as u64 * w as u64 + x as u64;
                     let mut sampler = IndependentSampler::new(ctx.seed ^ LEARN_KEY, pass, index);
                     let jitter = sampler.next_2d();
                     let raster = Vec2::new(x as f32, y as f32) + jitter;
-                    pt.li_guided(scene, raster, &mut sampler, &guide);
+                    pt.li_guided(scene, raster, &mut sampler, &guide, Some(&mut trail));
                 }
             });
         }
@@ -283,7 +282,6 @@ pub fn render(
         guide: Guide {
             tree: &tree,
             fraction: g.guide_fraction,
-            learning: false,
         },
     };
     let mut result = render_pixel_estimator(ctx, rest, &frozen);

@@ -31,19 +31,20 @@
 use super::IntegratorParams;
 use crate::bsdf::TransportMode;
 use crate::error::{Error, Result};
-use crate::geometry::{Ray, gamma};
+use crate::geometry::Ray;
 use crate::math::{IndependentSampler, Sampler, Spectrum, power_heuristic};
-use crate::medium::HenyeyGreenstein;
 use crate::path::{Path, Vertex as PathVertex, VertexKind};
 use crate::render::{
     Budget, Integrator, PixelEstimator, RenderContext, RenderResult, render_pixel_estimator,
 };
-use crate::scene::{Endpoint, Scene, SurfacePoint};
+use crate::scene::{Endpoint, Scene};
+use direct::Scatterer;
 use glam::{Vec2, Vec3};
 use guiding::{Guide, Trail};
 pub use recording::PathRecorder;
 use recording::Recording;
 
+mod direct;
 pub mod guiding;
 mod recording;
 pub mod sdtree;
@@ -158,18 +159,20 @@ impl PathTracer {
         sampler: &mut impl Sampler,
         recorder: Option<&mut dyn PathRecorder>,
     ) -> Spectrum {
-        self.li_with(scene, raster, sampler, recorder, None)
+        self.li_with(scene, raster, sampler, recorder, None, None)
     }
 
-    /// As [`Self::li`], the continuation guided by `guide` (`guiding.rs`).
+    /// As [`Self::li`], the continuation guided by `guide` (`guiding.rs`); with `trail`
+    /// (learning), what each continuation brings back is recorded into the guide's tree.
     pub fn li_guided(
         &self,
         scene: &Scene,
         raster: Vec2,
         sampler: &mut impl Sampler,
         guide: &Guide,
+        trail: Option<&mut Trail>,
     ) -> Spectrum {
-        self.li_with(scene, raster, sampler, None, Some(guide))
+        self.li_with(scene, raster, sampler, None, Some(guide), trail)
     }
 
     fn li_with(
@@ -179,9 +182,9 @@ impl PathTracer {
         sampler: &mut impl Sampler,
         recorder: Option<&mut dyn PathRecorder>,
         guide: Option<&Guide>,
+        mut trail: Option<&mut Trail>,
     ) -> Spectrum {
         let s = &self.settings;
-        let mut trail = guide.filter(|g| g.learning).map(|_| Trail::default());
         let use_nee = s.strategy != Strategy::Bsdf;
         let mut ray = scene.camera.generate_ray(raster);
         let mut rec = recorder.map(|sink| {
@@ -420,7 +423,7 @@ impl PathTracer {
             ray = hit.spawn(bs.wi);
             depth += 1;
         }
-        if let (Some(t), Some(g)) = (&mut trail, guide) {
+        if let (Some(t), Some(g)) = (trail, guide) {
             t.record(g.tree, l);
         }
         l
@@ -450,99 +453,6 @@ impl PathTracer {
         }
         *beta /= q;
         true
-    }
-
-    /// Next-event estimation from `from` (in `medium` on the scattering side): one light
-    /// chosen by power, one point on it, weighted against the continuation by MIS.
-    fn direct(
-        &self,
-        scene: &Scene,
-        from: &Endpoint,
-        medium: Option<u32>,
-        at: &Scatterer,
-        sampler: &mut impl Sampler,
-        rec: Option<(&mut Recording, Spectrum, f32)>,
-    ) -> Spectrum {
-        let u_light = sampler.next_1d();
-        let u = sampler.next_2d();
-        let Some((light_id, pmf)) = scene.light_sampler.sample(u_light) else {
-            return Spectrum::ZERO;
-        };
-        let Some(ls) = scene.lights[light_id].sample_li(from.p, u) else {
-            return Spectrum::ZERO;
-        };
-        let (f, pdf_scatter) = at.eval(ls.wi);
-        if f == Spectrum::ZERO {
-            return Spectrum::ZERO;
-        }
-        // The shadow ray starts in the medium on the side it leaves towards.
-        let medium = match at {
-            Scatterer::Surface { sp, .. } => scene.medium_after(sp, ls.wi, medium),
-            Scatterer::Medium { .. } => medium,
-        };
-        let target = ls.dist.is_finite().then(|| Endpoint {
-            p: ls.p,
-            n: ls.n,
-            err: gamma(8) * ls.p.abs(),
-        });
-        let Some(t) = scene.transmittance(from, target.as_ref(), ls.wi, medium) else {
-            return Spectrum::ZERO;
-        };
-        let p_light = pmf * ls.pdf;
-        if let Some((r, beta, q_here)) = rec {
-            let l = &scene.lights[light_id];
-            let infinite = l.is_infinite();
-            let (p, n) = if infinite {
-                (from.p + ls.wi, ls.wi)
-            } else {
-                (ls.p, ls.n)
-            };
-            let v = PathVertex {
-                p,
-                n,
-                ns: Vec3::ZERO,
-                kind: VertexKind::Emitter {
-                    light: light_id as u32,
-                    delta: l.is_delta(),
-                },
-            };
-            // Next-event density in the light vertex's measure (area; solid angle at infinity).
-            let nee = if ls.delta || infinite {
-                p_light
-            } else {
-                p_light * ls.n.dot(ls.wi).abs() / (ls.dist * ls.dist)
-            };
-            // The continuation's density of reaching the same light vertex (roulette and free
-            // flight included); delta lights cannot be hit.
-            let by_continuation = if ls.delta {
-                0.0
-            } else if infinite {
-                pdf_scatter * t.pass * q_here
-            } else {
-                pdf_scatter * t.pass * q_here * ls.n.dot(ls.wi).abs() / (ls.dist * ls.dist)
-            };
-            r.record_with(
-                v,
-                nee as f64,
-                by_continuation as f64,
-                beta * f * t.tr * ls.li / p_light,
-                1,
-            );
-        }
-        let w = if ls.delta || self.settings.strategy == Strategy::Nee {
-            1.0
-        } else {
-            power_heuristic(p_light, pdf_scatter * t.pass)
-        };
-        if crate::check::enabled() {
-            use crate::check::{Technique, density, value, weight};
-            let nee = Technique::named("pt next-event");
-            density(nee, p_light as f64);
-            density(nee, pdf_scatter as f64);
-            weight(nee, w as f64);
-            value(nee, f * t.tr * ls.li * (w / p_light));
-        }
-        f * t.tr * ls.li * (w / p_light)
     }
 
     /// MIS weight of emission found by continuing the path (or by the camera ray).
@@ -576,36 +486,4 @@ struct Scattered {
     /// Solid-angle density (or lobe probability) of the sampled direction.
     pdf: f32,
     p: Vec3,
-}
-
-/// Where next-event estimation scatters: a surface or a point in a medium.
-enum Scatterer<'a, 'b> {
-    Surface {
-        sp: &'b SurfacePoint<'a>,
-        wo: Vec3,
-        /// The continuation's mixture with a guide, if guided.
-        mix: Option<guiding::Mixture<'b>>,
-    },
-    Medium {
-        phase: &'b HenyeyGreenstein,
-        wo: Vec3,
-    },
-}
-
-impl Scatterer<'_, '_> {
-    /// (f |cos| or the phase function, solid-angle density of sampling `wi` by continuation).
-    fn eval(&self, wi: Vec3) -> (Spectrum, f32) {
-        match self {
-            Scatterer::Surface { sp, wo, mix } => {
-                let f = sp.bsdf.eval(&sp.frame, *wo, wi, TransportMode::Radiance)
-                    * wi.dot(sp.hit.ns).abs();
-                let pdf = sp.bsdf.pdf(&sp.frame, *wo, wi, TransportMode::Radiance);
-                (f, mix.map_or(pdf, |m| m.pdf(pdf, wi)))
-            }
-            Scatterer::Medium { phase, wo } => {
-                let p = phase.eval(*wo, wi);
-                (Spectrum::splat(p), p)
-            }
-        }
-    }
 }

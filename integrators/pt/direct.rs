@@ -1,0 +1,139 @@
+//! pt's next-event estimation: one light chosen by power, one point on it, weighted against
+//! the continuation (BSDF sampling, or its mixture with a guide) by the power heuristic.
+
+use super::recording::Recording;
+use super::{PathTracer, Strategy, guiding};
+use crate::bsdf::TransportMode;
+use crate::geometry::gamma;
+use crate::math::{Sampler, Spectrum, power_heuristic};
+use crate::medium::HenyeyGreenstein;
+use crate::path::{Vertex as PathVertex, VertexKind};
+use crate::scene::{Endpoint, Scene, SurfacePoint};
+use glam::Vec3;
+
+impl PathTracer {
+    /// Next-event estimation from `from` (in `medium` on the scattering side): one light
+    /// chosen by power, one point on it, weighted against the continuation by MIS.
+    pub(super) fn direct(
+        &self,
+        scene: &Scene,
+        from: &Endpoint,
+        medium: Option<u32>,
+        at: &Scatterer,
+        sampler: &mut impl Sampler,
+        rec: Option<(&mut Recording, Spectrum, f32)>,
+    ) -> Spectrum {
+        let u_light = sampler.next_1d();
+        let u = sampler.next_2d();
+        let Some((light_id, pmf)) = scene.light_sampler.sample(u_light) else {
+            return Spectrum::ZERO;
+        };
+        let Some(ls) = scene.lights[light_id].sample_li(from.p, u) else {
+            return Spectrum::ZERO;
+        };
+        let (f, pdf_scatter) = at.eval(ls.wi);
+        if f == Spectrum::ZERO {
+            return Spectrum::ZERO;
+        }
+        // The shadow ray starts in the medium on the side it leaves towards.
+        let medium = match at {
+            Scatterer::Surface { sp, .. } => scene.medium_after(sp, ls.wi, medium),
+            Scatterer::Medium { .. } => medium,
+        };
+        let target = ls.dist.is_finite().then(|| Endpoint {
+            p: ls.p,
+            n: ls.n,
+            err: gamma(8) * ls.p.abs(),
+        });
+        let Some(t) = scene.transmittance(from, target.as_ref(), ls.wi, medium) else {
+            return Spectrum::ZERO;
+        };
+        let p_light = pmf * ls.pdf;
+        if let Some((r, beta, q_here)) = rec {
+            let l = &scene.lights[light_id];
+            let infinite = l.is_infinite();
+            let (p, n) = if infinite {
+                (from.p + ls.wi, ls.wi)
+            } else {
+                (ls.p, ls.n)
+            };
+            let v = PathVertex {
+                p,
+                n,
+                ns: Vec3::ZERO,
+                kind: VertexKind::Emitter {
+                    light: light_id as u32,
+                    delta: l.is_delta(),
+                },
+            };
+            // Next-event density in the light vertex's measure (area; solid angle at infinity).
+            let nee = if ls.delta || infinite {
+                p_light
+            } else {
+                p_light * ls.n.dot(ls.wi).abs() / (ls.dist * ls.dist)
+            };
+            // The continuation's density of reaching the same light vertex (roulette and free
+            // flight included); delta lights cannot be hit.
+            let by_continuation = if ls.delta {
+                0.0
+            } else if infinite {
+                pdf_scatter * t.pass * q_here
+            } else {
+                pdf_scatter * t.pass * q_here * ls.n.dot(ls.wi).abs() / (ls.dist * ls.dist)
+            };
+            r.record_with(
+                v,
+                nee as f64,
+                by_continuation as f64,
+                beta * f * t.tr * ls.li / p_light,
+                1,
+            );
+        }
+        let w = if ls.delta || self.settings.strategy == Strategy::Nee {
+            1.0
+        } else {
+            power_heuristic(p_light, pdf_scatter * t.pass)
+        };
+        if crate::check::enabled() {
+            use crate::check::{Technique, density, value, weight};
+            let nee = Technique::named("pt next-event");
+            density(nee, p_light as f64);
+            density(nee, pdf_scatter as f64);
+            weight(nee, w as f64);
+            value(nee, f * t.tr * ls.li * (w / p_light));
+        }
+        f * t.tr * ls.li * (w / p_light)
+    }
+}
+
+/// Where next-event estimation scatters: a surface or a point in a medium.
+pub(super) enum Scatterer<'a, 'b> {
+    Surface {
+        sp: &'b SurfacePoint<'a>,
+        wo: Vec3,
+        /// The continuation's mixture with a guide, if guided.
+        mix: Option<guiding::Mixture<'b>>,
+    },
+    Medium {
+        phase: &'b HenyeyGreenstein,
+        wo: Vec3,
+    },
+}
+
+impl Scatterer<'_, '_> {
+    /// (f |cos| or the phase function, solid-angle density of sampling `wi` by continuation).
+    pub(super) fn eval(&self, wi: Vec3) -> (Spectrum, f32) {
+        match self {
+            Scatterer::Surface { sp, wo, mix } => {
+                let f = sp.bsdf.eval(&sp.frame, *wo, wi, TransportMode::Radiance)
+                    * wi.dot(sp.hit.ns).abs();
+                let pdf = sp.bsdf.pdf(&sp.frame, *wo, wi, TransportMode::Radiance);
+                (f, mix.map_or(pdf, |m| m.pdf(pdf, wi)))
+            }
+            Scatterer::Medium { phase, wo } => {
+                let p = phase.eval(*wo, wi);
+                (Spectrum::splat(p), p)
+            }
+        }
+    }
+}

@@ -10,6 +10,7 @@
 //! | max_depth | integer >= 1           | 8       | maximum number of path segments; 1 shows only emitters seen directly, 2 is direct lighting (`--max-depth`) |
 //! | rr_depth  | integer >= 1           | 5       | Russian roulette starts on paths of this many segments (Mitsuba's default) |
 //! | strategy  | `mis` / `bsdf` / `nee` | `mis`   | `bsdf`: emitters only found by BSDF sampling; `nee`: only by next-event estimation (except after delta bounces and for the camera ray) |
+//! | guiding   | `none` / `sdtree`      | `none`  | `sdtree`: learn a distribution of incident radiance and mix it with BSDF sampling at rough surfaces (`guiding.rs`, which also lists `guide_fraction` and `learn_fraction`) |
 //!
 //! Roulette continues with the local probability of the vertex (`Bsdf::continuation`: its
 //! largest reflectance, 1 for glass; a medium's albedo), so that the density of any path, roulette

@@ -146,6 +146,7 @@ fn bdpt_cost(scene: &Scene, all: &[Install]) {
         heuristic: Heuristic::Balance,
         light_tracing: false,
         techniques: Default::default(),
+        direct_splats: false,
     };
     let u = BdptUnguided {
         settings: settings.clone(),

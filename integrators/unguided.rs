@@ -72,18 +72,22 @@ pub trait Unguided: Sync + Send {
 }
 
 /// The technique densities of `y` by BDPT's strategy index s, and k; `None` past `max_depth`.
+/// With `direct_splats` (`BdptSettings::direct_splats`) a directly seen emitter keeps (1, 1).
 fn densities(
     y: &[Vertex],
     scene: &Scene,
     max_depth: u32,
     rr_depth: u32,
+    direct_splats: bool,
 ) -> Option<[f64; MAX_VERTICES]> {
     let k = y.len().checked_sub(1)?;
     if k == 0 || k > max_depth as usize {
         return None;
     }
     let mut p = [0.0f64; MAX_VERTICES];
-    bdpt::path_terms(scene, y, rr_depth).technique_densities(&mut p);
+    let mut terms = bdpt::path_terms(scene, y, rr_depth);
+    terms.direct_vacuum &= !direct_splats;
+    terms.technique_densities(&mut p);
     Some(p)
 }
 
@@ -132,7 +136,7 @@ impl Unguided for PathTracer {
     /// pt's techniques are BDPT's s = 0 and (two or more segments) s = 1.
     fn pdf_unguided(&self, scene: &Scene, y: &[Vertex]) -> f64 {
         let s: &PtSettings = &self.settings;
-        densities(y, scene, s.max_depth, s.rr_depth)
+        densities(y, scene, s.max_depth, s.rr_depth, false)
             .map_or(0.0, |p| p[0] + if y.len() >= 3 { p[1] } else { 0.0 })
     }
 }
@@ -189,7 +193,8 @@ impl Unguided for BdptUnguided {
 
     fn pdf_unguided(&self, scene: &Scene, y: &[Vertex]) -> f64 {
         let s = &self.settings;
-        densities(y, scene, s.max_depth, s.rr_depth).map_or(0.0, |p| p[..y.len()].iter().sum())
+        densities(y, scene, s.max_depth, s.rr_depth, s.direct_splats)
+            .map_or(0.0, |p| p[..y.len()].iter().sum())
     }
 }
 

@@ -44,6 +44,7 @@ fn check_densities(name: &str, scene: &Scene) {
         heuristic: Heuristic::Balance,
         light_tracing: false,
         techniques: Default::default(),
+        direct_splats: false,
     };
     let checked = Rc::new(RefCell::new((0usize, Vec::<String>::new())));
     let sink = checked.clone();
@@ -181,6 +182,7 @@ fn fog_dragon_samples_that_were_nan_are_finite() {
         heuristic: Heuristic::Balance,
         light_tracing: false,
         techniques: Default::default(),
+        direct_splats: false,
     };
     let mut tracer = Tracer::new(&scene, &settings);
     let w = scene.camera.resolution.x as u64;
@@ -281,6 +283,7 @@ fn recursive_against_explicit(
         heuristic,
         light_tracing: false,
         techniques: Default::default(),
+        direct_splats: false,
     };
     let (sr, se) = (settings(recursive), settings(explicit));
     let mut fast = Tracer::new(scene, &sr);
@@ -361,4 +364,57 @@ fn recursive_mis_weights_equal_the_explicit_weights() {
         !bad.is_empty(),
         "control: balance and power weights were not told apart"
     );
+}
+
+/// A directly seen emitter with nothing but vacuum between is left to the camera ray (s = 0;
+/// `PathTerms`' module doc): the pixels that see the Cornell box's light (black, so only the
+/// paths E L end there) are its radiance exactly in every seed for pt, bdpt and vcm, and bdpt's
+/// (1, 1) image is black. Before, the light tracer's splats on the light took part of the
+/// weight there, and these pixels varied from seed to seed. Through fog (cornell-fog) both
+/// techniques stay: its (1, 1) image is not black.
+#[test]
+fn directly_seen_emitters_are_left_to_the_camera() {
+    let scene = scene_file("cornell-box.toml", 128);
+    let le = glam::Vec3::new(17.0, 12.0, 4.0);
+    let pt = util::render(&scene, "pt", 4, &[], 8, 1, 2).image;
+    // Pixels inside the light's image: pt sees only the light there and in the 4 beside.
+    let w = scene.camera.resolution.x as usize;
+    let h = pt.pixels.len() / w;
+    let light: Vec<usize> = (0..pt.pixels.len())
+        .filter(|&i| {
+            let (x, y) = (i % w, i / w);
+            (x >= 1 && y >= 1 && x + 1 < w && y + 1 < h)
+                && [i, i - 1, i + 1, i - w, i + w]
+                    .iter()
+                    .all(|&j| pt.pixels[j] == le)
+        })
+        .collect();
+    assert!(light.len() >= 8, "only {} light pixels", light.len());
+    for name in ["bdpt", "vcm"] {
+        for seed in [1, 2] {
+            let img = util::render(&scene, name, 4, &[], 8, seed, 2).image;
+            for &i in &light {
+                assert_eq!(img.pixels[i], le, "{name}, seed {seed}, pixel {i}");
+            }
+        }
+    }
+    let splats = util::render(&scene, "bdpt", 4, &["only=1,1"], 8, 1, 2).image;
+    assert!(splats.pixels.iter().all(|&p| p == glam::Vec3::ZERO));
+    // cornell-fog's cube, grown to hold most of the box: the light is seen through it.
+    let text = std::fs::read_to_string(format!(
+        "{}/scenes/cornell-fog.toml",
+        env!("CARGO_MANIFEST_DIR")
+    ))
+    .unwrap();
+    let grown = "transform = { scale = [0.98, 0.98, 0.98] }";
+    let fog = util::scene(
+        &text
+            .lines()
+            .map(|l| if l.starts_with("transform") { grown } else { l })
+            .collect::<Vec<_>>()
+            .join("\n")
+            .replace("resolution = [256, 256]", "resolution = [32, 32]"),
+    );
+    let splats = util::render(&fog, "bdpt", 4, &["only=1,1"], 8, 1, 2).image;
+    assert!(splats.pixels.iter().any(|&p| p != glam::Vec3::ZERO));
 }

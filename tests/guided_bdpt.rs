@@ -25,6 +25,7 @@ fn bdpt_settings() -> BdptSettings {
         heuristic: Heuristic::Balance,
         light_tracing: false,
         techniques: Default::default(),
+        direct_splats: false,
     }
 }
 

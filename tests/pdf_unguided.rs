@@ -196,6 +196,7 @@ fn bdpt_paths_round_trip_through_path() {
             heuristic: Heuristic::Balance,
             light_tracing: false,
             techniques: Default::default(),
+            direct_splats: false,
         };
         let failures = Rc::new(RefCell::new((0usize, Vec::<String>::new())));
         let sink = failures.clone();

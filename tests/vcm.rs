@@ -40,6 +40,7 @@ fn settings(merge: bool, radius: f32) -> VcmSettings {
         alpha: 0.75,
         connect: true,
         merge,
+        direct_splats: false,
     }
 }
 

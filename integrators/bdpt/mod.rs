@@ -428,6 +428,15 @@ impl<'a> Tracer<'a> {
         if !cy.connectible {
             return None;
         }
+        // A directly seen emitter is left to the camera walk (s = 0) when nothing but vacuum
+        // lies between (`PathTerms`' module doc); with media that is known after the trace.
+        let direct_to_camera = s == 1
+            && !self.settings.light_tracing
+            && !self.settings.direct_splats
+            && matches!(y.kind, Kind::Light { light } if hittable(scene, light));
+        if direct_to_camera && !scene.features.media {
+            return None;
+        }
         let cs = scene.camera.sample_wi(y.p)?;
         let to_cam = cs.wi;
         let end = if s == 1 {
@@ -451,6 +460,9 @@ impl<'a> Tracer<'a> {
             to_cam,
             medium_towards(scene, y, to_cam),
         )?;
+        if direct_to_camera && tr.first.is_none() {
+            return None;
+        }
         let cos_cam = scene.camera.forward.dot(-to_cam);
         let contribution = y.beta * end.f * tr.tr * (cs.we * cos_cam / (cs.dist * cs.dist));
         let w = if self.settings.light_tracing {

@@ -18,6 +18,11 @@ pub struct BdptSettings {
     pub light_tracing: bool,
     /// Which (s, t) techniques add to the image (default all).
     pub techniques: TechniqueFilter,
+    /// Directly seen emitters also by light-tracing splats, technique (1, 1), weighed by MIS
+    /// (option `direct_splats`, default false: left to the camera ray through vacuum, see
+    /// `paths::terms`; `mmlt` sets it, its length-1 chain needs the technique that always
+    /// reaches the image).
+    pub direct_splats: bool,
 }
 
 /// The `only` / `skip` options: which (s, t) techniques add their weighted contributions.
@@ -93,11 +98,13 @@ pub(super) fn settings(params: &IntegratorParams, light_tracing: bool) -> Result
             }
         };
     }
+    let direct_splats = !light_tracing && o.get("direct_splats", false, "true or false")?;
     Ok(BdptSettings {
         max_depth: params.max_depth,
         rr_depth,
         heuristic,
         light_tracing,
         techniques,
+        direct_splats,
     })
 }

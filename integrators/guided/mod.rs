@@ -377,6 +377,9 @@ pub fn build_bdpt(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
         heuristic: Heuristic::Balance,
         light_tracing: false,
         techniques: Default::default(),
+        direct_splats: params
+            .options
+            .get("direct_splats", false, "true or false")?,
     };
     Ok(match settings.chains {
         Some(chains) => {

@@ -67,6 +67,7 @@ pub fn mmlt_bdpt_settings(max_depth: u32, heuristic: Heuristic) -> BdptSettings 
         heuristic,
         light_tracing: false,
         techniques: Default::default(),
+        direct_splats: true,
     }
 }
 

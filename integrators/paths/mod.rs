@@ -80,7 +80,9 @@ pub fn roulette(q: f32, segments: usize, rr_depth: u32) -> f32 {
 /// segment) and roulette probability is evaluated from the vertices alone. BDPT's rendering
 /// assembles the same terms from cached walk densities; the tests check that they agree, which
 /// makes the MIS weights of all techniques that can produce a path sum to one.
-/// `terms.technique_densities` summed over s is BDPT's `pdf_unguided` for the path.
+/// `terms.technique_densities` summed over s is BDPT's `pdf_unguided` for the path (with
+/// bdpt's default settings: `direct_vacuum` is set for a directly seen emitter through
+/// vacuum; a caller with `BdptSettings::direct_splats` clears it).
 pub fn path_terms(scene: &Scene, y: &[Vertex], rr_depth: u32) -> PathTerms {
     let k = y.len() - 1;
     let mut terms = PathTerms::new(k);
@@ -94,6 +96,7 @@ pub fn path_terms(scene: &Scene, y: &[Vertex], rr_depth: u32) -> PathTerms {
     // Free-flight factors of each segment y_j -> y_{j+1}, towards either end.
     let mut to_next = [1.0f32; MAX_VERTICES];
     let mut to_prev = [1.0f32; MAX_VERTICES];
+    terms.direct_vacuum = k == 1;
     if scene.features.media {
         let mut medium = scene.camera_medium;
         for j in 0..k {
@@ -111,6 +114,9 @@ pub fn path_terms(scene: &Scene, y: &[Vertex], rr_depth: u32) -> PathTerms {
                 return terms;
             };
             let edge = Edge::along(&tr);
+            if j == 0 && edge.first.is_some() {
+                terms.direct_vacuum = false;
+            }
             to_next[j] = edge.factor(scene, y[j + 1].is_medium(), true);
             to_prev[j] = edge.factor(scene, y[j].is_medium(), false);
             medium = tr.end_medium;

@@ -17,6 +17,16 @@
 //! the emitter. The balance heuristic weight of s is `p(s) / sum p`, the power heuristic
 //! `p(s)^2 / sum p^2`; `sum p` is also BDPT's `pdf_unguided` for the path (one sample of
 //! each technique per pixel and pass).
+//!
+//! **Directly seen emitters** (k = 1: the pinhole sees y_1 on an emitter the camera walk can
+//! hit, through no medium) are left to s = 0 alone: technique (s, t) = (1, 1), the emission
+//! origin connected to the pinhole, is not used for them (`p(1) = 0`). The camera's own
+//! sample of such a path is one per pixel and varies only with the emitter across the pixel,
+//! while the light tracer's splats land on a pixel a Poisson number of times, so any weight
+//! they take adds their count noise to the brightest pixels of the image (a bright window
+//! seen directly: dining). pbrt's BDPT and SmallVCM's do the same. Through a medium both
+//! techniques stay (the camera's free flight then passes or not, and the connection's
+//! transmittance is exact).
 
 /// MIS heuristic.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -35,6 +45,9 @@ pub struct PathTerms {
     pub connectible: Vec<bool>,
     /// The camera walk can hit y_k (an emitter that is not a delta).
     pub hittable: bool,
+    /// k = 1 and the segment y_0 y_1 crosses no medium: a directly seen emitter, left to
+    /// s = 0 when `hittable` (see the module doc).
+    pub direct_vacuum: bool,
 }
 
 impl PathTerms {
@@ -46,6 +59,7 @@ impl PathTerms {
             nee_k: 0.0,
             connectible: vec![false; k + 1],
             hittable: false,
+            direct_vacuum: false,
         }
     }
 
@@ -64,6 +78,7 @@ impl PathTerms {
         self.connectible[..=k].fill(false);
         self.nee_k = 0.0;
         self.hittable = false;
+        self.direct_vacuum = false;
     }
 
     /// `out[s]` = density of technique s, for s = 0..=k (other entries are left alone).
@@ -88,6 +103,9 @@ impl PathTerms {
                 } else {
                     0.0
                 }
+            } else if k == 1 && self.hittable && self.direct_vacuum {
+                // (1, 1) on a directly seen emitter: left to s = 0.
+                0.0
             } else if self.connectible[t - 1] && self.connectible[t] {
                 pre * out[s]
             } else {

@@ -86,7 +86,7 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
             };
             let i = v.depth;
             if let Some(li) = light {
-                l += self.emitter_hit(&v, li, prev_p, no_merge_vertex);
+                l += self.emitter_hit(&v, li, prev_p, walk.vacuum, no_merge_vertex);
             }
             if i >= max {
                 break;
@@ -128,8 +128,16 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
         l
     }
 
-    /// s = 0: the camera walk's vertex `v` lies on light `li`, reached from `prev_p`.
-    fn emitter_hit(&self, v: &Vertex<'a>, li: usize, prev_p: Vec3, only: bool) -> Spectrum {
+    /// s = 0: the camera walk's vertex `v` lies on light `li`, reached from `prev_p` along a
+    /// segment that crossed no medium if `vacuum`.
+    fn emitter_hit(
+        &self,
+        v: &Vertex<'a>,
+        li: usize,
+        prev_p: Vec3,
+        vacuum: bool,
+        only: bool,
+    ) -> Spectrum {
         let scene = self.scene;
         let l = &scene.lights[li];
         let le = l.le(v.n, v.wo);
@@ -142,9 +150,10 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
         } else {
             let (p_origin, p_emit) = emission_densities(scene, li, v.n, v.wo);
             let m = &v.mis;
-            // (49); a directly seen emitter competes with light tracing its origin.
+            // (49); a directly seen emitter competes with light tracing its origin, unless
+            // nothing but vacuum lies between (then it is left to this technique).
             let w_cam = if v.depth == 1 {
-                if connectible_light(l) {
+                if connectible_light(l) && (self.settings.direct_splats || !vacuum) {
                     p_origin * m.d_vcm
                 } else {
                     0.0

@@ -288,10 +288,16 @@ impl<'a> LightTracer<'a, '_> {
     ) {
         let scene = self.scene;
         let cam = &scene.camera;
+        let l = &scene.lights[li];
+        // A directly seen emitter is left to the camera ray (s = 0) when nothing but vacuum
+        // lies between (see `paths::PathTerms`); with media that is known after the trace.
+        let direct_to_camera = hittable(l) && !self.settings.direct_splats;
+        if direct_to_camera && !scene.features.media {
+            return;
+        }
         let Some(cs) = cam.sample_wi(e.p) else {
             return;
         };
-        let l = &scene.lights[li];
         let cos0 = if e.n == Vec3::ZERO {
             1.0
         } else {
@@ -314,6 +320,9 @@ impl<'a> LightTracer<'a, '_> {
         ) else {
             return;
         };
+        if direct_to_camera && tr.first.is_none() {
+            return;
+        }
         let cos_cam = cam.forward.dot(-cs.wi);
         let c = le * tr.tr * (cs.we * cos_cam / (cs.dist * cs.dist)) / p_origin;
         // The camera ray hitting the emitter (s = 0) is the only other technique.

@@ -78,6 +78,9 @@ pub struct VcmSettings {
     pub connect: bool,
     /// Vertex merging (default true).
     pub merge: bool,
+    /// Directly seen emitters also by the light origin's splat, weighed by MIS (option
+    /// `direct_splats`, default false: left to the camera ray through vacuum).
+    pub direct_splats: bool,
 }
 
 impl VcmSettings {
@@ -116,12 +119,14 @@ fn settings(params: &IntegratorParams, connect: bool) -> Result<VcmSettings> {
     } else {
         true
     };
+    let direct_splats = connect && o.get("direct_splats", false, "true or false")?;
     Ok(VcmSettings {
         max_depth: params.max_depth,
         radius,
         alpha,
         connect,
         merge,
+        direct_splats,
     })
 }
 

@@ -57,6 +57,8 @@ pub struct Walk {
     nee_origin: Option<(usize, Vec3, Vec3)>,
     /// Cap on every vertex's continuation probability (see [`deep_continuation`]).
     pub q_cap: f32,
+    /// The last traced segment crossed no medium.
+    pub vacuum: bool,
 }
 
 /// vcm's cap on continuation probabilities for a depth limit of `max_depth`: 1 within the
@@ -91,6 +93,7 @@ impl Walk {
             prev_is_medium: false,
             nee_origin: None,
             q_cap: 1.0,
+            vacuum: true,
         }
     }
 
@@ -133,6 +136,7 @@ impl Walk {
             prev_is_medium: false,
             nee_origin: Some((li, p, n)),
             q_cap: 1.0,
+            vacuum: true,
         }
     }
 
@@ -189,6 +193,7 @@ impl Walk {
             return Step::Dead;
         }
         self.depth += 1;
+        self.vacuum = edge.first.is_none();
         let ff_rev = edge.factor(scene, self.prev_is_medium, false);
         let Some((p, n, p_err, scatter, light)) = found else {
             let ff = edge.pass;

@@ -86,7 +86,7 @@ fn densities(
     }
     let mut p = [0.0f64; MAX_VERTICES];
     let mut terms = bdpt::path_terms(scene, y, rr_depth);
-    terms.direct_vacuum &= !direct_splats;
+    terms.direct_by_camera &= !direct_splats;
     terms.technique_densities(&mut p);
     Some(p)
 }

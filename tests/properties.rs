@@ -223,7 +223,7 @@ proptest! {
 
     /// BDPT's MIS weights (balance and power) of all techniques of one path: each in [0, 1],
     /// summing to 1 within 1e-9 relative, for random positive per-vertex densities; a
-    /// directly seen emitter through vacuum (k = 1, `direct_vacuum`) is s = 0's alone.
+    /// directly seen emitter through vacuum (k = 1, `direct_by_camera`) is s = 0's alone.
     #[test]
     fn bdpt_weights_partition_unity(
         k in 1usize..12,
@@ -231,7 +231,7 @@ proptest! {
         pl in prop::collection::vec(log_uniform64(1e-8, 1e8), MAX_VERTICES),
         nee in log_uniform64(1e-8, 1e8),
         power in prop::bool::ANY,
-        direct_vacuum in prop::bool::ANY,
+        direct_by_camera in prop::bool::ANY,
     ) {
         let mut t = PathTerms::new(k);
         t.pc.copy_from_slice(&pc[..=k]);
@@ -239,7 +239,7 @@ proptest! {
         t.nee_k = nee;
         t.connectible.fill(true);
         t.hittable = true;
-        t.direct_vacuum = direct_vacuum;
+        t.direct_by_camera = direct_by_camera;
         let h = if power { Heuristic::Power } else { Heuristic::Balance };
         let mut sum = 0.0;
         for s in 0..=k {
@@ -248,7 +248,7 @@ proptest! {
             sum += w;
         }
         prop_assert!((sum - 1.0).abs() < 1e-9, "weights sum to {sum}");
-        if k == 1 && direct_vacuum {
+        if k == 1 && direct_by_camera {
             let (w0, w1) = (t.weight(0, h), t.weight(1, h));
             prop_assert!(w0 == 1.0 && w1 == 0.0, "direct emitter: s = 0 weighs {w0}, s = 1 {w1}");
         }

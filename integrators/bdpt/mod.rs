@@ -4,8 +4,9 @@
 //! Unbiased. Per pixel and pass: a camera subpath and a light subpath (one light chosen by
 //! power), both random walks with media (`walk.rs`); every prefix pair is connected: s = 0
 //! (the camera walk hits an emitter, including lights at infinity), s = 1 (next-event
-//! estimation), t = 1 (the light vertex connected to the pinhole and splatted), and
-//! s, t >= 2 (a deterministic connection with transmittance through index-matched
+//! estimation), t = 1 (the light vertex connected to the pinhole and splatted; not the
+//! emission origin of an emitter the camera sees directly through vacuum, which is left to
+//! s = 0: `integrators/paths/terms.rs`), and s, t >= 2 (a deterministic connection with transmittance through index-matched
 //! boundaries). The MIS weights (`weights.rs`) include Russian roulette (a local
 //! continuation probability, so the densities exist in both directions) and free-flight
 //! probabilities. With roulette from the first bounce (the default) they are recursive, O(1)
@@ -23,6 +24,7 @@
 //! | mis       | `balance` / `power`  | `balance` | MIS heuristic (`bdpt` only) |
 //! | only      | `s,t`                | none      | render technique (s, t) alone, MIS-weighted (`bdpt` only): the images of every technique sum to the bdpt image |
 //! | skip      | `s,t`                | none      | leave technique (s, t) out (`bdpt` only; biased: a control for tests) |
+//! | direct_splats | `true` / `false` | `false`   | directly seen emitters also by technique (1, 1), MIS-weighted (`bdpt` only; the weights before stop 42) |
 //!
 //! Light subpaths start in the medium around the light (`Scene::light_medium`); lights at
 //! infinity seen through a world medium send none (they are attenuated to nothing).
@@ -45,7 +47,7 @@ pub use super::paths::{
     Heuristic, Kind, PathTerms, Vertex, endpoint, from_path, medium_towards, path_terms,
     pdf_unguided, technique_densities_of, to_path, to_path_into,
 };
-use super::paths::{emission, hittable, nee_density, origin_density};
+use super::paths::{direct_to_camera, emission, hittable, nee_density, origin_density};
 
 use super::IntegratorParams;
 use super::unguided::PathSink;
@@ -428,12 +430,14 @@ impl<'a> Tracer<'a> {
         if !cy.connectible {
             return None;
         }
-        // A directly seen emitter is left to the camera walk (s = 0) when nothing but vacuum
-        // lies between (`PathTerms`' module doc); with media that is known after the trace.
+        // A directly seen emitter is left to the camera walk (s = 0) in a pixel it fills when
+        // nothing but vacuum lies between (`PathTerms`' module doc); with media that is known
+        // after the trace.
         let direct_to_camera = s == 1
             && !self.settings.light_tracing
             && !self.settings.direct_splats
-            && matches!(y.kind, Kind::Light { light } if hittable(scene, light));
+            && matches!(y.kind, Kind::Light { light } if hittable(scene, light))
+            && direct_to_camera(scene, y.p);
         if direct_to_camera && !scene.features.media {
             return None;
         }

@@ -134,8 +134,10 @@ impl<'a> Tracer<'a> {
         }
         terms.connectible[k] = emitter.connectible(scene);
         terms.hittable = hittable(scene, light);
-        terms.direct_vacuum =
-            k == 1 && !self.settings.direct_splats && emitter.edge.first.is_none();
+        terms.direct_by_camera = k == 1
+            && !self.settings.direct_splats
+            && emitter.edge.first.is_none()
+            && direct_to_camera(scene, emitter.p);
         terms.pc[1..=k]
             .iter_mut()
             .zip(&cc[1..=k])
@@ -249,11 +251,12 @@ impl<'a> Tracer<'a> {
         let k = c.len() - 1;
         let pl_k = origin_density(scene, emitter, light) as f64;
         let others = if k == 1 {
-            // The light point connected to the pinhole, unless nothing but vacuum lies
-            // between (a directly seen emitter is left to s = 0: `PathTerms`).
-            let connects = cc[0].connectible
-                && emitter.connectible(scene)
-                && (self.settings.direct_splats || emitter.edge.first.is_some());
+            // The light point connected to the pinhole, unless the emitter fills the pixel
+            // with nothing but vacuum between (then it is left to s = 0: `PathTerms`).
+            let left_to_camera = !self.settings.direct_splats
+                && emitter.edge.first.is_none()
+                && direct_to_camera(scene, emitter.p);
+            let connects = cc[0].connectible && emitter.connectible(scene) && !left_to_camera;
             if connects { r(pl_k, cc[1].fwd) } else { 0.0 }
         } else {
             let nee = if cc[k - 1].connectible {

@@ -35,6 +35,7 @@
 //! | first_width     | number > 0    | 2       | factor on the first-vertex kernel's width (1: the spec's) |
 //! | first_width_specular | number > 0 | 6     | the same where g_1 is specular (roughness 0); interpolated by roughness in between |
 //! | seeder          | `outliers` / `mcmc` | `outliers` | where guide paths come from: the passes' outliers, or also Markov chains started at them (`chains.rs`, `--seeder`) |
+//! | direct_splats   | `true` / `false` | `false` | guided-bdpt: U's directly seen emitters also by technique (1, 1), as `bdpt -O direct_splats` |
 //! | chain_share     | number > 0    | 0.25    | `mcmc`: chain steps per learning iteration, per pixel |
 //! | chain_large_step | [0, 1]       | 0.1     | `mcmc`: large-step probability of the chains |
 //! | chain_target    | `mixture` / `uncovered` | `mixture` | `mcmc`: a chain state's importance: all its sample adds under the current mixture, or only its paths with p_g = 0 (`chains.rs`) |

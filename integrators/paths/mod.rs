@@ -81,8 +81,8 @@ pub fn roulette(q: f32, segments: usize, rr_depth: u32) -> f32 {
 /// assembles the same terms from cached walk densities; the tests check that they agree, which
 /// makes the MIS weights of all techniques that can produce a path sum to one.
 /// `terms.technique_densities` summed over s is BDPT's `pdf_unguided` for the path (with
-/// bdpt's default settings: `direct_vacuum` is set for a directly seen emitter through
-/// vacuum; a caller with `BdptSettings::direct_splats` clears it).
+/// bdpt's default settings: `direct_by_camera` is set for a directly seen emitter through
+/// vacuum in a pixel it fills; a caller with `BdptSettings::direct_splats` clears it).
 pub fn path_terms(scene: &Scene, y: &[Vertex], rr_depth: u32) -> PathTerms {
     let k = y.len() - 1;
     let mut terms = PathTerms::new(k);
@@ -96,7 +96,7 @@ pub fn path_terms(scene: &Scene, y: &[Vertex], rr_depth: u32) -> PathTerms {
     // Free-flight factors of each segment y_j -> y_{j+1}, towards either end.
     let mut to_next = [1.0f32; MAX_VERTICES];
     let mut to_prev = [1.0f32; MAX_VERTICES];
-    terms.direct_vacuum = k == 1;
+    terms.direct_by_camera = k == 1 && direct_to_camera(scene, y[1].p);
     if scene.features.media {
         let mut medium = scene.camera_medium;
         for j in 0..k {
@@ -115,7 +115,7 @@ pub fn path_terms(scene: &Scene, y: &[Vertex], rr_depth: u32) -> PathTerms {
             };
             let edge = Edge::along(&tr);
             if j == 0 && edge.first.is_some() {
-                terms.direct_vacuum = false;
+                terms.direct_by_camera = false;
             }
             to_next[j] = edge.factor(scene, y[j + 1].is_medium(), true);
             to_prev[j] = edge.factor(scene, y[j].is_medium(), false);
@@ -301,6 +301,16 @@ pub fn emission(light: &Light, n: Vec3, w: Vec3) -> Spectrum {
 }
 
 /// Whether a camera walk can hit this light (it has area or extent at infinity).
+/// Whether a path pinhole -> `x1` on an emitter (through vacuum) is left to the camera ray:
+/// the emitter fills the pixel `x1` projects to (`terms.rs`, `Scene::emitter_fills_pixel`).
+/// Every technique asks this of the same point, so their weights stay a partition of unity.
+pub fn direct_to_camera(scene: &Scene, x1: Vec3) -> bool {
+    scene
+        .camera
+        .world_to_raster(x1)
+        .is_some_and(|r| scene.emitter_fills_pixel(scene.camera.pixel_index(r)))
+}
+
 pub fn hittable(scene: &Scene, light: usize) -> bool {
     matches!(
         scene.lights[light],

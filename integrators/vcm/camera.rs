@@ -150,10 +150,14 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
         } else {
             let (p_origin, p_emit) = emission_densities(scene, li, v.n, v.wo);
             let m = &v.mis;
-            // (49); a directly seen emitter competes with light tracing its origin, unless
-            // nothing but vacuum lies between (then it is left to this technique).
+            // (49); a directly seen emitter competes with light tracing its origin, unless it
+            // fills the pixel with nothing but vacuum between (then it is left to this
+            // technique).
             let w_cam = if v.depth == 1 {
-                if connectible_light(l) && (self.settings.direct_splats || !vacuum) {
+                let left_to_camera = !self.settings.direct_splats
+                    && vacuum
+                    && crate::integrators::paths::direct_to_camera(scene, v.p);
+                if connectible_light(l) && !left_to_camera {
                     p_origin * m.d_vcm
                 } else {
                     0.0

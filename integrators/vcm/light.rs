@@ -7,6 +7,7 @@ use super::walk::{Step, Walk};
 use super::{Inspector, PassConstants, Record, Technique, VcmSettings};
 use crate::bsdf::TransportMode;
 use crate::geometry::{Ray, gamma, offset_origin};
+use crate::integrators::paths::direct_to_camera;
 use crate::math::{IndependentSampler, Sampler, Spectrum};
 use crate::path::{Path, Vertex as PathVertex, VertexKind};
 use crate::scene::{Endpoint, Scene};
@@ -289,9 +290,11 @@ impl<'a> LightTracer<'a, '_> {
         let scene = self.scene;
         let cam = &scene.camera;
         let l = &scene.lights[li];
-        // A directly seen emitter is left to the camera ray (s = 0) when nothing but vacuum
-        // lies between (see `paths::PathTerms`); with media that is known after the trace.
-        let direct_to_camera = hittable(l) && !self.settings.direct_splats;
+        // A directly seen emitter is left to the camera ray (s = 0) in a pixel it fills when
+        // nothing but vacuum lies between (see `paths::PathTerms`); with media that is known
+        // after the trace.
+        let direct_to_camera =
+            hittable(l) && !self.settings.direct_splats && direct_to_camera(scene, e.p);
         if direct_to_camera && !scene.features.media {
             return;
         }

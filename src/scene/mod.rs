@@ -1,6 +1,7 @@
 //! The scene: camera, shapes, materials, lights and the accelerator, immutable after loading and
 //! shared by reference across threads. `loader` reads the TOML scene format (DESIGN.md §6).
 
+mod coverage;
 mod features;
 pub mod loader;
 
@@ -153,6 +154,8 @@ pub struct Scene {
     pub center: Vec3,
     pub radius: f32,
     pub render: RenderDefaults,
+    /// Per pixel, whether an emitter fills it (`coverage.rs`), computed on first use.
+    pub filled_pixels: std::sync::OnceLock<Vec<bool>>,
 }
 
 /// A surface point with what is needed to scatter there.

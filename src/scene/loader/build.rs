@@ -309,6 +309,7 @@ impl Builder<'_> {
             center,
             radius,
             render,
+            filled_pixels: Default::default(),
         };
         scene.locate_media();
         Ok(scene)

@@ -5,15 +5,16 @@
 //! power), both random walks with media (`walk.rs`); every prefix pair is connected: s = 0
 //! (the camera walk hits an emitter, including lights at infinity), s = 1 (next-event
 //! estimation), t = 1 (the light vertex connected to the pinhole and splatted; not the
-//! emission origin of an emitter the camera sees directly through vacuum, which is left to
-//! s = 0: `integrators/paths/terms.rs`), and s, t >= 2 (a deterministic connection with transmittance through index-matched
-//! boundaries). The MIS weights (`weights.rs`) include Russian roulette (a local
-//! continuation probability, so the densities exist in both directions) and free-flight
-//! probabilities. With roulette from the first bounce (the default) they are recursive, O(1)
-//! per connection (one running sum per subpath vertex, kept in `cache.rs`); otherwise (`-O
-//! rr_depth` > 1, `lt`, `--check`, guided-bdpt's recording, which adds the guided density)
-//! each connection assembles every technique's density explicitly (`PathTerms`,
-//! `integrators/paths/terms.rs`); a test checks the two agree. What every
+//! emission origin of an emitter the camera sees directly through vacuum in a pixel it
+//! fills, which is left to s = 0: `integrators/paths/terms.rs`), and s, t >= 2 (a
+//! deterministic connection with transmittance through index-matched boundaries). The MIS
+//! weights (`weights.rs`) include Russian roulette (a local continuation probability, so the
+//! densities exist in both directions) and free-flight probabilities. With roulette from the
+//! first bounce (the default) they are recursive, O(1) per connection (one running sum per
+//! subpath vertex, kept in `cache.rs`); otherwise (`-O rr_depth` > 1, `lt`, `--check`,
+//! guided-bdpt's recording, which adds the guided density) each connection assembles every
+//! technique's density explicitly (`PathTerms`, `integrators/paths/terms.rs`); a test checks
+//! the two agree. What every
 //! connection through a vertex reuses is cached once per subpath (`cache.rs`), and each
 //! connection end costs one BSDF evaluation (`f` and the densities in both directions).
 //!

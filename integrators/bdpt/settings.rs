@@ -19,8 +19,8 @@ pub struct BdptSettings {
     /// Which (s, t) techniques add to the image (default all).
     pub techniques: TechniqueFilter,
     /// Directly seen emitters also by light-tracing splats, technique (1, 1), weighed by MIS
-    /// (option `direct_splats`, default false: left to the camera ray through vacuum, see
-    /// `paths::terms`; `mmlt` sets it, its length-1 chain needs the technique that always
+    /// (option `direct_splats`, default false: left to the camera ray through vacuum in the
+    /// pixels they fill, see `paths::terms`; `mmlt` sets it, its length-1 chain needs the technique that always
     /// reaches the image).
     pub direct_splats: bool,
 }

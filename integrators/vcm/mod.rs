@@ -34,7 +34,7 @@
 //! | radius | number > 0        | 0.003 x the scene's bounding-sphere radius | initial merging radius r_0 (scene units) |
 //! | alpha  | number in (0, 1]  | 0.75                                   | radius schedule exponent (1: fixed radius) |
 //! | merge  | `true` / `false`  | `true`                                 | merging on (`vcm` only; `false` gives BDPT's techniques) |
-//! | direct_splats | `true` / `false` | `false`                         | directly seen emitters also by the light origin's splat, MIS-weighted (`vcm` only; otherwise left to the camera ray through vacuum, as bdpt) |
+//! | direct_splats | `true` / `false` | `false`                         | directly seen emitters also by the light origin's splat, MIS-weighted (`vcm` only; otherwise left to the camera ray through vacuum in the pixels they fill, as bdpt) |
 //!
 //! Light subpaths start in the medium around the light, as in `bdpt`. Limits: no merging in
 //! media.
@@ -80,7 +80,8 @@ pub struct VcmSettings {
     /// Vertex merging (default true).
     pub merge: bool,
     /// Directly seen emitters also by the light origin's splat, weighed by MIS (option
-    /// `direct_splats`, default false: left to the camera ray through vacuum).
+    /// `direct_splats`, default false: left to the camera ray through vacuum in the pixels
+    /// they fill).
     pub direct_splats: bool,
 }
 

@@ -1,5 +1,8 @@
-//! Which pixels an emitter fills: the pixels whose every ray of a 3 x 3 grid meets, first, an
-//! emitter the camera can hit (an area light with radiance towards the pinhole). BDPT-family
+//! Which pixels an emitter fills: the pixels whose every ray of a 3 x 3 grid over the closed
+//! pixel square (its corners, its sides' midpoints and its centre) meets, first, an emitter
+//! the camera can hit (an area light with radiance towards the pinhole). With the corners
+//! tested, an emitter's straight edge (or an occluder's) can only cut a pixel it fills at a
+//! corner region between two test rays, not along a side. BDPT-family
 //! integrators leave a directly seen emitter to the camera ray in such pixels
 //! (`integrators/paths/terms.rs`), where the camera's one sample per pixel is exact up to the
 //! emitter's radiance varying across the pixel, and keep the light tracer's splats at the
@@ -46,9 +49,8 @@ impl Scene {
             .into_par_iter()
             .map(|i| {
                 let corner = Vec2::new((i as u32 % res.x) as f32, (i as u32 / res.x) as f32);
-                let at = |a: u32, b: u32| {
-                    corner + Vec2::new(a as f32 + 0.5, b as f32 + 0.5) / GRID as f32
-                };
+                let at =
+                    |a: u32, b: u32| corner + Vec2::new(a as f32, b as f32) / (GRID - 1) as f32;
                 let centre = GRID / 2;
                 sees_emitter(at(centre, centre))
                     && (0..GRID * GRID).all(|j| {

@@ -437,8 +437,8 @@ impl<'a> Tracer<'a> {
         let direct_to_camera = s == 1
             && !self.settings.light_tracing
             && !self.settings.direct_splats
-            && matches!(y.kind, Kind::Light { light } if hittable(scene, light))
-            && direct_to_camera(scene, y.p);
+            && matches!(y.kind, Kind::Light { light }
+                if hittable(scene, light) && direct_to_camera(scene, light, y.p));
         if direct_to_camera && !scene.features.media {
             return None;
         }

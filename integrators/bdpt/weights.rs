@@ -137,7 +137,7 @@ impl<'a> Tracer<'a> {
         terms.direct_by_camera = k == 1
             && !self.settings.direct_splats
             && emitter.edge.first.is_none()
-            && direct_to_camera(scene, emitter.p);
+            && direct_to_camera(scene, light, emitter.p);
         terms.pc[1..=k]
             .iter_mut()
             .zip(&cc[1..=k])
@@ -255,7 +255,7 @@ impl<'a> Tracer<'a> {
             // with nothing but vacuum between (then it is left to s = 0: `PathTerms`).
             let left_to_camera = !self.settings.direct_splats
                 && emitter.edge.first.is_none()
-                && direct_to_camera(scene, emitter.p);
+                && direct_to_camera(scene, light, emitter.p);
             let connects = cc[0].connectible && emitter.connectible(scene) && !left_to_camera;
             if connects { r(pl_k, cc[1].fwd) } else { 0.0 }
         } else {

@@ -96,7 +96,7 @@ pub fn path_terms(scene: &Scene, y: &[Vertex], rr_depth: u32) -> PathTerms {
     // Free-flight factors of each segment y_j -> y_{j+1}, towards either end.
     let mut to_next = [1.0f32; MAX_VERTICES];
     let mut to_prev = [1.0f32; MAX_VERTICES];
-    terms.direct_by_camera = k == 1 && direct_to_camera(scene, y[1].p);
+    terms.direct_by_camera = k == 1 && direct_to_camera(scene, light, y[1].p);
     if scene.features.media {
         let mut medium = scene.camera_medium;
         for j in 0..k {
@@ -301,14 +301,16 @@ pub fn emission(light: &Light, n: Vec3, w: Vec3) -> Spectrum {
 }
 
 /// Whether a camera walk can hit this light (it has area or extent at infinity).
-/// Whether a path pinhole -> `x1` on an emitter (through vacuum) is left to the camera ray:
-/// the emitter fills the pixel `x1` projects to (`terms.rs`, `Scene::emitter_fills_pixel`).
-/// Every technique asks this of the same point, so their weights stay a partition of unity.
-pub fn direct_to_camera(scene: &Scene, x1: Vec3) -> bool {
-    scene
-        .camera
-        .world_to_raster(x1)
-        .is_some_and(|r| scene.emitter_fills_pixel(scene.camera.pixel_index(r)))
+/// Whether a path pinhole -> `x1` on light `light` (through vacuum) is left to the camera ray:
+/// `light` is an area light and an emitter fills the pixel `x1` projects to (`terms.rs`,
+/// `Scene::emitter_fills_pixel`). Every technique asks this of the same light and point, so
+/// their weights stay a partition of unity.
+pub fn direct_to_camera(scene: &Scene, light: usize, x1: Vec3) -> bool {
+    matches!(scene.lights[light], Light::Area(_))
+        && scene
+            .camera
+            .world_to_raster(x1)
+            .is_some_and(|r| scene.emitter_fills_pixel(scene.camera.pixel_index(r)))
 }
 
 pub fn hittable(scene: &Scene, light: usize) -> bool {

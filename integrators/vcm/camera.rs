@@ -156,7 +156,7 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
             let w_cam = if v.depth == 1 {
                 let left_to_camera = !self.settings.direct_splats
                     && vacuum
-                    && crate::integrators::paths::direct_to_camera(scene, v.p);
+                    && crate::integrators::paths::direct_to_camera(scene, li, v.p);
                 if connectible_light(l) && !left_to_camera {
                     p_origin * m.d_vcm
                 } else {

@@ -294,7 +294,7 @@ impl<'a> LightTracer<'a, '_> {
         // nothing but vacuum lies between (see `paths::PathTerms`); with media that is known
         // after the trace.
         let direct_to_camera =
-            hittable(l) && !self.settings.direct_splats && direct_to_camera(scene, e.p);
+            hittable(l) && !self.settings.direct_splats && direct_to_camera(scene, li, e.p);
         if direct_to_camera && !scene.features.media {
             return;
         }

@@ -416,6 +416,14 @@ impl<'a> Tracer<'a> {
         contribution * w as f32
     }
 
+    /// Whether a path pinhole -> `x1` on `light` through vacuum is left to s = 0 under these
+    /// settings (`paths::direct_to_camera`; never for `lt` or with `direct_splats`).
+    pub(super) fn left_to_camera(&self, light: usize, x1: Vec3) -> bool {
+        !self.settings.light_tracing
+            && !self.settings.direct_splats
+            && direct_to_camera(self.scene, light, x1)
+    }
+
     /// t = 1: connect the last light vertex to the pinhole; returns the raster position and
     /// the value to splat there.
     fn connect_camera(
@@ -434,11 +442,8 @@ impl<'a> Tracer<'a> {
         // A directly seen emitter is left to the camera walk (s = 0) in a pixel it fills when
         // nothing but vacuum lies between (`PathTerms`' module doc); with media that is known
         // after the trace.
-        let direct_to_camera = s == 1
-            && !self.settings.light_tracing
-            && !self.settings.direct_splats
-            && matches!(y.kind, Kind::Light { light }
-                if hittable(scene, light) && direct_to_camera(scene, light, y.p));
+        let direct_to_camera =
+            s == 1 && matches!(y.kind, Kind::Light { light } if self.left_to_camera(light, y.p));
         if direct_to_camera && !scene.features.media {
             return None;
         }

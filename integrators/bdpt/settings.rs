@@ -20,8 +20,8 @@ pub struct BdptSettings {
     pub techniques: TechniqueFilter,
     /// Directly seen emitters also by light-tracing splats, technique (1, 1), weighed by MIS
     /// (option `direct_splats`, default false: left to the camera ray through vacuum in the
-    /// pixels they fill, see `paths::terms`; `mmlt` sets it, its length-1 chain needs the technique that always
-    /// reaches the image).
+    /// pixels they fill, see `paths::terms`; `mmlt` sets it, its length-1 chain needs the
+    /// technique that always reaches the image).
     pub direct_splats: bool,
 }
 

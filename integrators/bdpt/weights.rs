@@ -127,6 +127,8 @@ impl<'a> Tracer<'a> {
         if self.recursive_mis() {
             return self.weight_emitter_hit_recursive(c, cc, emitter, light);
         }
+        let direct_by_camera =
+            k == 1 && emitter.edge.first.is_none() && self.left_to_camera(light, emitter.p);
         let terms = &mut self.terms;
         terms.reset(k);
         for (j, v) in cc[..k].iter().enumerate() {
@@ -134,10 +136,7 @@ impl<'a> Tracer<'a> {
         }
         terms.connectible[k] = emitter.connectible(scene);
         terms.hittable = hittable(scene, light);
-        terms.direct_by_camera = k == 1
-            && !self.settings.direct_splats
-            && emitter.edge.first.is_none()
-            && direct_to_camera(scene, light, emitter.p);
+        terms.direct_by_camera = direct_by_camera;
         terms.pc[1..=k]
             .iter_mut()
             .zip(&cc[1..=k])
@@ -253,9 +252,8 @@ impl<'a> Tracer<'a> {
         let others = if k == 1 {
             // The light point connected to the pinhole, unless the emitter fills the pixel
             // with nothing but vacuum between (then it is left to s = 0: `PathTerms`).
-            let left_to_camera = !self.settings.direct_splats
-                && emitter.edge.first.is_none()
-                && direct_to_camera(scene, light, emitter.p);
+            let left_to_camera =
+                emitter.edge.first.is_none() && self.left_to_camera(light, emitter.p);
             let connects = cc[0].connectible && emitter.connectible(scene) && !left_to_camera;
             if connects { r(pl_k, cc[1].fwd) } else { 0.0 }
         } else {

@@ -300,7 +300,6 @@ pub fn emission(light: &Light, n: Vec3, w: Vec3) -> Spectrum {
     }
 }
 
-/// Whether a camera walk can hit this light (it has area or extent at infinity).
 /// Whether a path pinhole -> `x1` on light `light` (through vacuum) is left to the camera ray:
 /// `light` is an area light and an emitter fills the pixel `x1` projects to (`terms.rs`,
 /// `Scene::emitter_fills_pixel`). Every technique asks this of the same light and point, so
@@ -313,6 +312,7 @@ pub fn direct_to_camera(scene: &Scene, light: usize, x1: Vec3) -> bool {
             .is_some_and(|r| scene.emitter_fills_pixel(scene.camera.pixel_index(r)))
 }
 
+/// Whether a camera walk can hit this light (it has area or extent at infinity).
 pub fn hittable(scene: &Scene, light: usize) -> bool {
     matches!(
         scene.lights[light],

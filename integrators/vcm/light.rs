@@ -293,8 +293,7 @@ impl<'a> LightTracer<'a, '_> {
         // A directly seen emitter is left to the camera ray (s = 0) in a pixel it fills when
         // nothing but vacuum lies between (see `paths::PathTerms`); with media that is known
         // after the trace.
-        let direct_to_camera =
-            hittable(l) && !self.settings.direct_splats && direct_to_camera(scene, li, e.p);
+        let direct_to_camera = !self.settings.direct_splats && direct_to_camera(scene, li, e.p);
         if direct_to_camera && !scene.features.media {
             return;
         }

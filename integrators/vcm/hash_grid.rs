@@ -50,10 +50,8 @@ impl<T> Default for HashGrid<T> {
     }
 }
 
-/// The most cache lines of a bucket [`HashGrid::prefetch_entries`] asks for. SmallVCM's box,
-/// vcm, 4 iterations, one thread, user s: 2 lines (the scan then waited on the first load of
-/// most entries: two thirds of the merge function's samples) 3.74 / 3.74 / 3.90, 32 lines
-/// 3.59 / 3.61 / 3.65, the same image.
+/// The most cache lines of a bucket [`HashGrid::prefetch_entries`] asks for: more than a
+/// typical bucket has (README, "Throughput against the CPU peers", has the measurements).
 const PREFETCH_LINES: usize = 32;
 
 /// A point within this fraction of a cell side from a cell face (a quarter: r of 4r, with a

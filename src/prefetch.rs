@@ -17,9 +17,11 @@ pub fn line<T>(p: *const T) {
     #[cfg(target_arch = "x86_64")]
     // SAFETY: PREFETCHT0 is a hint: it never faults and reads or writes nothing the program
     // can observe, whatever `p` points at (even a dangling or unmapped address); SSE is part
-    // of the x86-64 baseline. The only `unsafe` in lodestar, for vcm's merging (3-4 % of its
-    // time on SmallVCM's box) and the interleaved BVH traversal (1.35-1.4x the rays per
-    // second on a 1M-triangle mesh; README "Throughput against the CPU peers").
+    // of the x86-64 baseline. For vcm's merging (about 8 % of its time on SmallVCM's box)
+    // and the interleaved BVH traversal (1.35-1.4x the rays per second on a 1M-triangle
+    // mesh; README "Throughput against the CPU peers"). lodestar's other `unsafe`: the AVX
+    // triangle test of small scenes (`geometry/flat.rs`, about 9 % of pt's time on the
+    // Cornell box).
     unsafe {
         std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(p as *const i8)
     }

@@ -1,12 +1,14 @@
-//! The accelerator of small scenes: no hierarchy, every primitive tested, triangles four at a
+//! The accelerator of small scenes: no hierarchy, every primitive tested, triangles eight at a
 //! time.
 //!
 //! A scene of a few dozen primitives (the Cornell boxes, SmallVCM's box) gains nothing from a
 //! BVH: a ray visits most of its leaves anyway, and decoding compressed nodes costs more than
 //! testing the triangles they hold. Here the triangles are stored as structure-of-arrays groups
-//! of four lanes (`v0`, `e1`, `e2` per axis, in `Vec4`s) and tested with the same Möller-Trumbore
+//! of eight lanes (`v0`, `e1`, `e2` per axis) and tested with the same Möller-Trumbore
 //! arithmetic as [`super::bvh`]'s scalar test, operation for operation, so a lane reports
-//! bit for bit the distance and barycentrics the scalar test would. Spheres are tested one by
+//! bit for bit the distance and barycentrics the scalar test would. A group is tested in one
+//! AVX register where the CPU has AVX (checked at run time, [`avx`]), else as two halves in
+//! the x86-64 baseline's SSE registers; both give the same bits. Spheres are tested one by
 //! one. [`super::Accel::build`] picks this below [`FLAT_MAX_PRIMS`] primitives.
 
 use super::bvh::{Prim, SPHERE_TAG, intersect_prim};
@@ -18,16 +20,22 @@ use glam::{Vec2, Vec3A, Vec4};
 /// primitives 38 % slower.
 pub const FLAT_MAX_PRIMS: usize = 32;
 
-/// Four triangles, one per lane: vertex `a`, edges `b` and `c` (as in [`Prim`]). Unused lanes
-/// hold zero edges, whose determinant is zero: they never report a hit.
+/// Triangles per group: eight, one per lane (two SSE registers, one AVX register).
+const LANES: usize = 8;
+
+/// One value per lane.
+type Lanes = [f32; LANES];
+
+/// Eight triangles, one per lane: vertex `a`, edges `b` and `c` (as in [`Prim`]), per axis.
+/// Unused lanes hold zero edges, whose determinant is zero: they never report a hit.
 #[derive(Debug, Clone, Copy)]
 struct Group {
-    a: [Vec4; 3],
-    b: [Vec4; 3],
-    c: [Vec4; 3],
+    a: [Lanes; 3],
+    b: [Lanes; 3],
+    c: [Lanes; 3],
 }
 
-/// Every primitive of a small scene: triangles in groups of four, then spheres.
+/// Every primitive of a small scene: triangles in groups of eight, then spheres.
 #[derive(Debug, Clone)]
 pub struct Flat {
     groups: Vec<Group>,
@@ -35,14 +43,16 @@ pub struct Flat {
     lanes: Vec<u32>,
     /// Indices of the spheres in the primitive list.
     spheres: Vec<u32>,
+    /// The CPU has AVX: a group is tested in one 8-lane register ([`avx`]).
+    avx: bool,
 }
 
 /// The per-lane test: a mask of hits with `0 < t < t_max` and the lanes' `t`, `u`, `v`.
 struct LaneHits {
     mask: u32,
-    t: Vec4,
-    u: Vec4,
-    v: Vec4,
+    t: Lanes,
+    u: Lanes,
+    v: Lanes,
 }
 
 impl Flat {
@@ -57,11 +67,11 @@ impl Flat {
                 !sphere
             })
             .collect();
-        for chunk in tris.chunks(4) {
+        for chunk in tris.chunks(LANES) {
             let mut g = Group {
-                a: [Vec4::ZERO; 3],
-                b: [Vec4::ZERO; 3],
-                c: [Vec4::ZERO; 3],
+                a: [[0.0; LANES]; 3],
+                b: [[0.0; LANES]; 3],
+                c: [[0.0; LANES]; 3],
             };
             for (lane, &i) in chunk.iter().enumerate() {
                 let p = &prims[i as usize];
@@ -73,13 +83,21 @@ impl Flat {
             }
             groups.push(g);
             lanes.extend(chunk.iter().copied());
-            lanes.extend(std::iter::repeat_n(u32::MAX, 4 - chunk.len()));
+            lanes.extend(std::iter::repeat_n(u32::MAX, LANES - chunk.len()));
         }
         Flat {
             groups,
             lanes,
             spheres,
+            avx: has_avx(),
         }
+    }
+
+    /// This list tested by the code for any x86-64 (for tests that compare both).
+    #[cfg(test)]
+    pub(super) fn without_avx(mut self) -> Flat {
+        self.avx = false;
+        self
     }
 
     /// The closest primitive along `o + t d` with `t < t_max`: its index in the primitive list,
@@ -91,19 +109,66 @@ impl Flat {
         d: Vec3A,
         t_max: f32,
     ) -> Option<(usize, f32, Vec2)> {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx {
+            // SAFETY: `avx` is set only where the running CPU reports AVX (`has_avx`).
+            return unsafe { self.closest_avx(prims, o, d, t_max) };
+        }
+        self.closest_lanes(prims, o, d, t_max, Group::test)
+    }
+
+    /// True if no primitive is hit along `o + t d` with `0 < t < t_max`.
+    pub fn unoccluded(&self, prims: &[Prim], o: Vec3A, d: Vec3A, t_max: f32) -> bool {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx {
+            // SAFETY: as in `closest`.
+            return unsafe { self.unoccluded_avx(prims, o, d, t_max) };
+        }
+        self.unoccluded_lanes(prims, o, d, t_max, Group::test)
+    }
+
+    /// [`Flat::closest`] with each group tested in AVX registers.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    fn closest_avx(
+        &self,
+        prims: &[Prim],
+        o: Vec3A,
+        d: Vec3A,
+        t_max: f32,
+    ) -> Option<(usize, f32, Vec2)> {
+        self.closest_lanes(prims, o, d, t_max, |g, o, d, t| avx::test(g, o, d, t))
+    }
+
+    /// [`Flat::unoccluded`] with each group tested in AVX registers.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx")]
+    fn unoccluded_avx(&self, prims: &[Prim], o: Vec3A, d: Vec3A, t_max: f32) -> bool {
+        self.unoccluded_lanes(prims, o, d, t_max, |g, o, d, t| avx::test(g, o, d, t))
+    }
+
+    #[inline(always)]
+    fn closest_lanes(
+        &self,
+        prims: &[Prim],
+        o: Vec3A,
+        d: Vec3A,
+        t_max: f32,
+        test: impl Fn(&Group, Vec3A, Vec3A, f32) -> LaneHits,
+    ) -> Option<(usize, f32, Vec2)> {
         let mut best: Option<(usize, f32, Vec2)> = None;
         let mut t_best = t_max;
         for (gi, g) in self.groups.iter().enumerate() {
-            let hits = g.test(o, d, t_best);
+            let hits = test(g, o, d, t_best);
             if hits.mask == 0 {
                 continue;
             }
-            for lane in 0..4 {
+            for lane in 0..LANES {
                 // Strictly closer only, as the scalar test's `t < t_max`.
                 if hits.mask & (1 << lane) != 0 && hits.t[lane] < t_best {
                     t_best = hits.t[lane];
                     let uv = Vec2::new(hits.u[lane], hits.v[lane]);
-                    best = Some((self.lanes[4 * gi + lane] as usize, t_best, uv));
+                    best = Some((self.lanes[LANES * gi + lane] as usize, t_best, uv));
                 }
             }
         }
@@ -117,13 +182,32 @@ impl Flat {
         best
     }
 
-    /// True if no primitive is hit along `o + t d` with `0 < t < t_max`.
-    pub fn unoccluded(&self, prims: &[Prim], o: Vec3A, d: Vec3A, t_max: f32) -> bool {
-        self.groups.iter().all(|g| g.test(o, d, t_max).mask == 0)
+    #[inline(always)]
+    fn unoccluded_lanes(
+        &self,
+        prims: &[Prim],
+        o: Vec3A,
+        d: Vec3A,
+        t_max: f32,
+        test: impl Fn(&Group, Vec3A, Vec3A, f32) -> LaneHits,
+    ) -> bool {
+        self.groups.iter().all(|g| test(g, o, d, t_max).mask == 0)
             && self
                 .spheres
                 .iter()
                 .all(|&i| intersect_prim(&prims[i as usize], o, d, t_max).0 >= t_max)
+    }
+}
+
+/// True if the running CPU has AVX (checked once per accelerator).
+fn has_avx() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
     }
 }
 
@@ -145,21 +229,40 @@ fn dot(p: [Vec4; 3], q: [Vec4; 3]) -> Vec4 {
 }
 
 impl Group {
-    /// Möller-Trumbore on four lanes, exactly [`super::bvh`]'s scalar test per lane.
+    /// Möller-Trumbore on eight lanes, exactly [`super::bvh`]'s scalar test per lane: two
+    /// halves of four in SSE registers (the x86-64 baseline).
     #[inline(always)]
     fn test(&self, o: Vec3A, d: Vec3A, t_max: f32) -> LaneHits {
+        let lo = self.test4(0, o, d, t_max);
+        let hi = self.test4(4, o, d, t_max);
+        let join = |l: Vec4, h: Vec4| -> Lanes {
+            std::array::from_fn(|i| if i < 4 { l[i] } else { h[i - 4] })
+        };
+        LaneHits {
+            mask: lo.0 | hi.0 << 4,
+            t: join(lo.1, hi.1),
+            u: join(lo.2, hi.2),
+            v: join(lo.3, hi.3),
+        }
+    }
+
+    /// Lanes `first .. first + 4`: their hit mask, `t`, `u` and `v`.
+    #[inline(always)]
+    fn test4(&self, first: usize, o: Vec3A, d: Vec3A, t_max: f32) -> (u32, Vec4, Vec4, Vec4) {
+        let half = |x: &[Lanes; 3]| x.map(|axis| Vec4::from_slice(&axis[first..first + 4]));
+        let (a, b, c) = (half(&self.a), half(&self.b), half(&self.c));
         let ds = [Vec4::splat(d.x), Vec4::splat(d.y), Vec4::splat(d.z)];
-        let pvec = cross(ds, self.c);
-        let det = dot(self.b, pvec);
+        let pvec = cross(ds, c);
+        let det = dot(b, pvec);
         let tvec = [
-            Vec4::splat(o.x) - self.a[0],
-            Vec4::splat(o.y) - self.a[1],
-            Vec4::splat(o.z) - self.a[2],
+            Vec4::splat(o.x) - a[0],
+            Vec4::splat(o.y) - a[1],
+            Vec4::splat(o.z) - a[2],
         ];
         let u_det = dot(tvec, pvec);
-        let qvec = cross(tvec, self.b);
+        let qvec = cross(tvec, b);
         let v_det = dot(ds, qvec);
-        let t_det = dot(self.c, qvec);
+        let t_det = dot(c, qvec);
         let (sign, abs_det) = (det.signum(), det.abs());
         let (u_s, v_s, t_s) = (u_det * sign, v_det * sign, t_det * sign);
         let usable = det.cmpne(Vec4::ZERO) & det.is_finite_mask();
@@ -167,23 +270,122 @@ impl Group {
             & v_s.cmpge(Vec4::ZERO)
             & (u_s + v_s).cmple(abs_det)
             & t_s.cmpgt(Vec4::ZERO);
-        let mut mask = (usable & inside).bitmask();
+        let mask = (usable & inside).bitmask();
         if mask == 0 {
-            return LaneHits {
-                mask,
-                t: Vec4::ZERO,
-                u: Vec4::ZERO,
-                v: Vec4::ZERO,
-            };
+            return (0, Vec4::ZERO, Vec4::ZERO, Vec4::ZERO);
         }
         let inv_det = Vec4::ONE / det;
         let t = t_det * inv_det;
-        mask &= t.cmplt(Vec4::splat(t_max)).bitmask();
+        let mask = mask & t.cmplt(Vec4::splat(t_max)).bitmask();
+        (mask, t, u_det * inv_det, v_det * inv_det)
+    }
+}
+
+/// [`Group::test`] in AVX registers: the same operations in the same order on all eight lanes
+/// at once (no fused multiply-add), so every lane's `t`, `u`, `v` and mask are bit for bit
+/// the portable test's.
+#[cfg(target_arch = "x86_64")]
+mod avx {
+    use super::{Group, LANES, LaneHits, Lanes};
+    use glam::Vec3A;
+    use std::arch::x86_64::*;
+
+    #[inline]
+    #[target_feature(enable = "avx")]
+    fn load(x: &Lanes) -> __m256 {
+        // SAFETY: `x` is eight readable f32s; the load has no alignment requirement.
+        unsafe { _mm256_loadu_ps(x.as_ptr()) }
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx")]
+    fn store(x: __m256) -> Lanes {
+        let mut out = [0.0; LANES];
+        // SAFETY: `out` is eight writable f32s; the store has no alignment requirement.
+        unsafe { _mm256_storeu_ps(out.as_mut_ptr(), x) };
+        out
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx")]
+    fn cross(p: [__m256; 3], q: [__m256; 3]) -> [__m256; 3] {
+        let m = _mm256_mul_ps;
+        [
+            _mm256_sub_ps(m(p[1], q[2]), m(p[2], q[1])),
+            _mm256_sub_ps(m(p[2], q[0]), m(p[0], q[2])),
+            _mm256_sub_ps(m(p[0], q[1]), m(p[1], q[0])),
+        ]
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx")]
+    fn dot(p: [__m256; 3], q: [__m256; 3]) -> __m256 {
+        let m = _mm256_mul_ps;
+        _mm256_add_ps(_mm256_add_ps(m(p[0], q[0]), m(p[1], q[1])), m(p[2], q[2]))
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx")]
+    pub(super) fn test(g: &Group, o: Vec3A, d: Vec3A, t_max: f32) -> LaneHits {
+        let ld3 = |x: &[Lanes; 3]| [load(&x[0]), load(&x[1]), load(&x[2])];
+        let (a, b, c) = (ld3(&g.a), ld3(&g.b), ld3(&g.c));
+        let ds = [
+            _mm256_set1_ps(d.x),
+            _mm256_set1_ps(d.y),
+            _mm256_set1_ps(d.z),
+        ];
+        let pvec = cross(ds, c);
+        let det = dot(b, pvec);
+        let tvec = [
+            _mm256_sub_ps(_mm256_set1_ps(o.x), a[0]),
+            _mm256_sub_ps(_mm256_set1_ps(o.y), a[1]),
+            _mm256_sub_ps(_mm256_set1_ps(o.z), a[2]),
+        ];
+        let u_det = dot(tvec, pvec);
+        let qvec = cross(tvec, b);
+        let v_det = dot(ds, qvec);
+        let t_det = dot(c, qvec);
+        // signum (±1 with det's sign; NaN lanes are dropped by `usable`) and |det|.
+        let neg_zero = _mm256_set1_ps(-0.0);
+        let sign = _mm256_or_ps(_mm256_and_ps(det, neg_zero), _mm256_set1_ps(1.0));
+        let abs_det = _mm256_andnot_ps(neg_zero, det);
+        let (u_s, v_s, t_s) = (
+            _mm256_mul_ps(u_det, sign),
+            _mm256_mul_ps(v_det, sign),
+            _mm256_mul_ps(t_det, sign),
+        );
+        let zero = _mm256_setzero_ps();
+        let usable = _mm256_and_ps(
+            _mm256_cmp_ps::<_CMP_NEQ_OQ>(det, zero),
+            _mm256_cmp_ps::<_CMP_LT_OQ>(abs_det, _mm256_set1_ps(f32::INFINITY)),
+        );
+        let inside = _mm256_and_ps(
+            _mm256_and_ps(
+                _mm256_cmp_ps::<_CMP_GE_OQ>(u_s, zero),
+                _mm256_cmp_ps::<_CMP_GE_OQ>(v_s, zero),
+            ),
+            _mm256_and_ps(
+                _mm256_cmp_ps::<_CMP_LE_OQ>(_mm256_add_ps(u_s, v_s), abs_det),
+                _mm256_cmp_ps::<_CMP_GT_OQ>(t_s, zero),
+            ),
+        );
+        let mut mask = _mm256_movemask_ps(_mm256_and_ps(usable, inside)) as u32;
+        if mask == 0 {
+            return LaneHits {
+                mask,
+                t: [0.0; LANES],
+                u: [0.0; LANES],
+                v: [0.0; LANES],
+            };
+        }
+        let inv_det = _mm256_div_ps(_mm256_set1_ps(1.0), det);
+        let t = _mm256_mul_ps(t_det, inv_det);
+        mask &= _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(t, _mm256_set1_ps(t_max))) as u32;
         LaneHits {
             mask,
-            t,
-            u: u_det * inv_det,
-            v: v_det * inv_det,
+            t: store(t),
+            u: store(_mm256_mul_ps(u_det, inv_det)),
+            v: store(_mm256_mul_ps(v_det, inv_det)),
         }
     }
 }

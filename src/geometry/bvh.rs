@@ -205,13 +205,14 @@ impl Accel {
             }
             if let Some((prim, t, uv)) = g.closest(o, d, t_max) {
                 t_max = t;
-                nearest = Some((prim, t, uv));
+                nearest = Some((g, prim, t, uv));
             }
         }
         let shorter = Ray { t_max, ..*ray };
         self.intersect_index(&shorter, shapes).or_else(|| {
-            let (prim, t, uv) = nearest?;
-            Some(surface_hit(&prim, ray, t, uv, shapes))
+            let (g, prim, t, uv) = nearest?;
+            let shading = |_: &TriangleMesh, i: usize, b: Vec2| g.shading_normal(i, b);
+            Some(surface_hit_shaded(&prim, ray, t, uv, shapes, shading))
         })
     }
 
@@ -381,6 +382,19 @@ pub(super) fn surface_hit(
     uv: Vec2,
     shapes: &[ShapeGeometry],
 ) -> Hit {
+    surface_hit_shaded(prim, ray, t, uv, shapes, TriangleMesh::shading_normal)
+}
+
+/// [`surface_hit`] with a triangle's shading normal from `shading(mesh, triangle, (b1, b2))`.
+#[inline(always)]
+pub(super) fn surface_hit_shaded(
+    prim: &Prim,
+    ray: &Ray,
+    t: f32,
+    uv: Vec2,
+    shapes: &[ShapeGeometry],
+    shading: impl Fn(&TriangleMesh, usize, Vec2) -> Option<Vec3>,
+) -> Hit {
     match &shapes[prim.shape as usize] {
         ShapeGeometry::Sphere(s) => {
             let (p, n, p_err) = s.surface_at(ray, t);
@@ -409,7 +423,7 @@ pub(super) fn surface_hit(
             } else {
                 uv
             };
-            let ns = match m.shading_normal(i as usize, uv) {
+            let ns = match shading(m, i as usize, uv) {
                 Some(ns) if ns.dot(ng) < 0.0 => -ns,
                 Some(ns) => ns,
                 None => ng,

@@ -14,6 +14,9 @@
 //! triangle (about 20 bytes), so pool's 60k-triangle water fits the core's L2 cache, and a
 //! ray crossing the water's thin slab visits a few cells instead of descending a tree. A mesh
 //! whose triangles do not sit in their cells (a layout that does not match) stays in the BVH.
+//! The index keeps its own copy of the vertex normals too: a hit's shading normal is read
+//! from it, with the normals asked for as soon as the walk finds the triangle, instead of
+//! from the mesh's arrays, which the walk never touches (cold misses on pool's water).
 
 use super::TriangleMesh;
 use super::bvh::{Prim, intersect_prim};
@@ -41,6 +44,9 @@ pub(super) struct GridIndex {
     cell_h: Vec<[f32; 2]>,
     positions: Vec<Vec3>,
     indices: Vec<[u32; 3]>,
+    /// The mesh's vertex normals, if it has them: a hit's shading normal is read here, beside
+    /// the indices the walk has just read, instead of from the mesh's own arrays.
+    normals: Option<Vec<Vec3>>,
     flags: Vec<u8>,
     /// A world-space box around every triangle, for a cheap first test.
     world_lo: Vec3A,
@@ -108,6 +114,7 @@ impl GridIndex {
             cell_h,
             positions: m.positions.clone(),
             indices: m.indices.clone(),
+            normals: m.normals.clone(),
             flags,
             world_lo: world_lo - Vec3A::splat(slack),
             world_hi: world_hi + Vec3A::splat(slack),
@@ -117,6 +124,12 @@ impl GridIndex {
             a.map(|p| (p.a, p.b, p.c, p.tri)) == b.map(|p| (p.a, p.b, p.c, p.tri))
         }));
         Some(index)
+    }
+
+    /// [`TriangleMesh::shading_normal`] of triangle `i` from this index's copy of the mesh.
+    #[inline]
+    pub(super) fn shading_normal(&self, i: usize, b: Vec2) -> Option<Vec3> {
+        TriangleMesh::interpolate_normal(self.normals.as_deref()?, self.indices[i], b)
     }
 
     pub(super) fn triangle_count(&self) -> usize {
@@ -165,12 +178,19 @@ impl GridIndex {
     pub(super) fn closest(&self, o: Vec3A, d: Vec3A, t_max: f32) -> Option<(Prim, f32, Vec2)> {
         let mut nearest = None;
         self.walk(o, d, t_max, |cell, mut t_max| {
-            for t in [2 * cell, 2 * cell + 1] {
-                let Some(prim) = self.prim(t) else { continue };
+            for tri in [2 * cell, 2 * cell + 1] {
+                let Some(prim) = self.prim(tri) else { continue };
                 let (t, uv) = intersect_prim(&prim, o, d, t_max);
                 if t < t_max {
                     t_max = t;
                     nearest = Some((prim, t, uv));
+                    // Its shading normal is read after the rest of the scene is searched:
+                    // ask for the vertices' normals now.
+                    if let Some(n) = &self.normals {
+                        for k in self.indices[tri] {
+                            crate::prefetch::line(&n[k as usize]);
+                        }
+                    }
                 }
             }
             Next::Until(t_max)

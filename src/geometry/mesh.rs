@@ -53,8 +53,13 @@ impl TriangleMesh {
 
     /// Interpolated shading normal at barycentrics (b1, b2), or `None` without vertex normals.
     pub fn shading_normal(&self, i: usize, b: Vec2) -> Option<Vec3> {
-        let n = self.normals.as_ref()?;
-        let [ia, ib, ic] = self.indices[i];
+        Self::interpolate_normal(self.normals.as_ref()?, self.indices[i], b)
+    }
+
+    /// The normals `n` of a triangle's vertices `[ia, ib, ic]` interpolated at barycentrics
+    /// (b1, b2) and normalised, or `None` where they cancel.
+    #[inline]
+    pub(crate) fn interpolate_normal(n: &[Vec3], [ia, ib, ic]: [u32; 3], b: Vec2) -> Option<Vec3> {
         let v = n[ia as usize] * (1.0 - b.x - b.y) + n[ib as usize] * b.x + n[ic as usize] * b.y;
         let v = v.normalize_or_zero();
         (v != Vec3::ZERO).then_some(v)

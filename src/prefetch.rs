@@ -8,7 +8,8 @@
 //! prefetches each ray's next node or leaf while the other rays take their steps; the guided
 //! density `p_g` prefetches the guide data of the candidate a few ahead of the one it
 //! evaluates (`cargo bench --bench guided_pg`: 8 % less time per `p_g` at 10k guide paths, 22 %
-//! at 100k). Hints only:
+//! at 100k); the heightfield walk asks for a hit triangle's vertex normals when it finds it.
+//! Hints only:
 //! no fault, nothing written, no effect on results.
 
 /// Ask for the cache line holding `p`.

@@ -96,6 +96,21 @@ pub trait Integrator: Send {
 pub trait PixelEstimator: Sync {
     /// One sample of pixel `pixel`'s value; `raster` is the jittered raster position.
     fn estimate(&self, scene: &Scene, raster: Vec2, sampler: &mut IndependentSampler) -> Spectrum;
+
+    /// [`Self::estimate`] for each raster position of a row with its sampler, into `out`
+    /// (by default one after the other; an estimator may trace them together, as long as
+    /// each value is the one `estimate` gives).
+    fn estimate_row(
+        &self,
+        scene: &Scene,
+        rasters: &[Vec2],
+        samplers: &mut [IndependentSampler],
+        out: &mut [Spectrum],
+    ) {
+        for ((&r, sampler), o) in rasters.iter().zip(samplers).zip(out) {
+            *o = self.estimate(scene, r, sampler);
+        }
+    }
 }
 
 /// Run `pass(i)` for i = 0, 1, ... until the budget is spent; returns (passes, seconds).
@@ -214,6 +229,18 @@ fn progress_bar(progress: bool, budget: Budget) -> ProgressBar {
 /// index, value) to any pixel (light tracing, BDPT's t = 1), merged after the pass in row order.
 pub trait RowTracer {
     fn sample(&mut self, raster: Vec2, sampler: &mut IndependentSampler) -> Spectrum;
+    /// [`Self::sample`] for every pixel of a row, in order, into `out` (by default one after
+    /// the other; a tracer may trace them together if each value and splat stays the same).
+    fn sample_row(
+        &mut self,
+        rasters: &[Vec2],
+        samplers: &mut [IndependentSampler],
+        out: &mut [Spectrum],
+    ) {
+        for ((&r, sampler), o) in rasters.iter().zip(samplers).zip(out) {
+            *o = self.sample(r, sampler);
+        }
+    }
     /// Splats made since the last call (none by default).
     fn take_splats(&mut self) -> Vec<(u32, Spectrum)> {
         Vec::new()
@@ -242,11 +269,18 @@ pub fn render_rows<T: RowTracer>(
             .enumerate()
             .map(|(y, (row, crow))| {
                 let mut tracer = new_tracer();
-                for (x, acc) in row.iter_mut().enumerate() {
+                let mut samplers = Vec::with_capacity(row.len());
+                let mut rasters = Vec::with_capacity(row.len());
+                for x in 0..row.len() {
                     let index = y as u64 * w as u64 + x as u64;
                     let mut sampler = IndependentSampler::new(ctx.seed, pass, index);
                     let jitter = crate::math::Sampler::next_2d(&mut sampler);
-                    let l = tracer.sample(Vec2::new(x as f32, y as f32) + jitter, &mut sampler);
+                    rasters.push(Vec2::new(x as f32, y as f32) + jitter);
+                    samplers.push(sampler);
+                }
+                let mut values = vec![Spectrum::ZERO; row.len()];
+                tracer.sample_row(&rasters, &mut samplers, &mut values);
+                for (x, (acc, l)) in row.iter_mut().zip(values).enumerate() {
                     crate::check::value(crate::check::Technique::named("pixel sample"), l);
                     if is_finite3(l) && l.min_element() >= 0.0 {
                         *acc += l.as_dvec3();
@@ -296,6 +330,14 @@ pub fn render_pixel_estimator<E: PixelEstimator>(
     impl<E: PixelEstimator> RowTracer for Rows<'_, E> {
         fn sample(&mut self, raster: Vec2, sampler: &mut IndependentSampler) -> Spectrum {
             self.0.estimate(self.1, raster, sampler)
+        }
+        fn sample_row(
+            &mut self,
+            rasters: &[Vec2],
+            samplers: &mut [IndependentSampler],
+            out: &mut [Spectrum],
+        ) {
+            self.0.estimate_row(self.1, rasters, samplers, out);
         }
     }
     render_rows(ctx, budget, || Rows(estimator, ctx.scene))

@@ -43,6 +43,9 @@ What it measures
     thread). The printed cpu_s/wall_s ratio shows what was really used.
 
 Scene (lodestar's Cornell box, y up, camera on +z looking at the origin)
+    (with --ply PATH: the walls and light below around that mesh, scaled by 0.8 and
+    translated by (0,-0.15,0), white diffuse, 128x128: the scene of `cargo bench --bench
+    pt_batch`, whose meshes it writes)
     walls: quads of [-1,1]^3, open at z=+1; floor y=-1, ceiling y=+1, back z=-1
       white (0.73,0.73,0.73); left x=-1 red (0.65,0.05,0.05); right x=+1 green
       (0.12,0.45,0.15); all diffuse, two-sided (lodestar's diffuse is two-sided)
@@ -87,7 +90,7 @@ REPO = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
 RES = 256
 
 
-def cornell_scene(max_depth=8):
+def cornell_scene(max_depth=8, ply=None):
     T = mi.ScalarTransform4f
 
     def diffuse(rgb, twosided=True):
@@ -96,7 +99,7 @@ def cornell_scene(max_depth=8):
 
     white = (0.73, 0.73, 0.73)
     # `rectangle` is [-1,1]^2 in the local xy plane with normal +z.
-    return {
+    scene = {
         "type": "scene",
         "integrator": {"type": "path", "max_depth": max_depth, "rr_depth": 5},
         "sensor": {
@@ -142,13 +145,24 @@ def cornell_scene(max_depth=8):
                   "bsdf": diffuse((0.0, 0.0, 0.0), twosided=False),
                   "emitter": {"type": "area",
                               "radiance": {"type": "rgb", "value": [17.0, 12.0, 4.0]}}},
+        **({} if ply is None else {"noisy_sphere": {
+            # `cargo bench --bench pt_batch`'s scene: the PLY (face normals, as lodestar
+            # uses for a PLY without normals) scaled by 0.8 and raised 0.15 above the centre
+            "type": "ply", "filename": ply, "face_normals": True,
+            "to_world": T().translate([0, -0.15, 0]).scale(0.8),
+            "bsdf": diffuse(white)}}),
+    }
+    if ply is not None:
+        return scene
+    scene.update({
         "tall_box": {"type": "cube",
                      "to_world": T().translate([-0.35, -0.4, -0.3]).rotate([0, 1, 0], 18)
                                     .scale([0.3, 0.6, 0.3]),
                      "bsdf": diffuse(white)},
         "sphere": {"type": "sphere", "center": [0.4, -0.65, 0.3], "radius": 0.35,
                    "bsdf": {"type": "dielectric", "int_ior": 1.5, "ext_ior": 1.0}},
-    }
+    })
+    return scene
 
 
 def image_mean(img):
@@ -241,7 +255,7 @@ def median_of(runs):
 
 
 def main():
-    global dr, mi
+    global dr, mi, RES
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--variant", choices=VARIANTS, default="scalar_rgb",
@@ -259,7 +273,13 @@ def main():
     ap.add_argument("--exr", default=os.path.join(REPO, "target", "mitsuba-cornell.exr"),
                     help="write the last render here ('' = skip)")
     ap.add_argument("--preview", metavar="PNG", help="also write an sRGB PNG of the last render")
+    ap.add_argument("--ply", metavar="PLY",
+                    help="replace the tall box and the glass sphere by this mesh, as `cargo "
+                         "bench --bench pt_batch` does (e.g. target/bench-data/pt-batch/"
+                         "noisy-sphere-289.ply), rendered at 128x128")
     args = ap.parse_args()
+    if args.ply:
+        RES = 128
 
     if args.variant.startswith("llvm") and not os.environ.get("DRJIT_LIBLLVM_PATH"):
         if os.path.exists(DEBIAN_LIBLLVM):
@@ -284,7 +304,7 @@ def main():
         print(f"reference {args.mse_against} mean_rgb=({m[0]:.5f},{m[1]:.5f},{m[2]:.5f})",
               flush=True)
     t0 = time.perf_counter()
-    scene = mi.load_dict(cornell_scene(args.max_depth))
+    scene = mi.load_dict(cornell_scene(args.max_depth, args.ply))
     print(f"scene load {time.perf_counter() - t0:.3f} s", flush=True)
 
     img = None

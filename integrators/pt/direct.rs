@@ -8,12 +8,15 @@ use crate::geometry::gamma;
 use crate::math::{Sampler, Spectrum, power_heuristic};
 use crate::medium::HenyeyGreenstein;
 use crate::path::{Vertex as PathVertex, VertexKind};
-use crate::scene::{Endpoint, Scene, SurfacePoint};
+use crate::scene::{Endpoint, Scene, SurfacePoint, Transmittance};
 use glam::Vec3;
 
 impl PathTracer {
     /// Next-event estimation from `from` (in `medium` on the scattering side): one light
-    /// chosen by power, one point on it, weighted against the continuation by MIS.
+    /// chosen by power, one point on it, weighted against the continuation by MIS. Whether
+    /// the connection is free comes from `shadow`: traced at once ([`TraceNow`]), or left to a
+    /// batch ([`Queue`]), in which case the value returned is the one of a free connection.
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn direct(
         &self,
         scene: &Scene,
@@ -22,6 +25,7 @@ impl PathTracer {
         at: &Scatterer,
         sampler: &mut impl Sampler,
         rec: Option<(&mut Recording, Spectrum, f32)>,
+        shadow: &mut impl ShadowTest,
     ) -> Spectrum {
         let u_light = sampler.next_1d();
         let u = sampler.next_2d();
@@ -45,7 +49,7 @@ impl PathTracer {
             n: ls.n,
             err: gamma(8) * ls.p.abs(),
         });
-        let Some(t) = scene.transmittance(from, target.as_ref(), ls.wi, medium) else {
+        let Some(t) = shadow.test(scene, from, target.as_ref(), ls.wi, medium) else {
             return Spectrum::ZERO;
         };
         let p_light = pmf * ls.pdf;
@@ -103,6 +107,58 @@ impl PathTracer {
             value(nee, f * t.tr * ls.li * (w / p_light));
         }
         f * t.tr * ls.li * (w / p_light)
+    }
+}
+
+/// How next-event estimation learns whether its connection is free.
+pub(super) trait ShadowTest {
+    /// The transmittance from `from` to `to` (or to infinity along `dir`) starting in
+    /// `medium`, `None` when blocked.
+    fn test(
+        &mut self,
+        scene: &Scene,
+        from: &Endpoint,
+        to: Option<&Endpoint>,
+        dir: Vec3,
+        medium: Option<u32>,
+    ) -> Option<Transmittance>;
+}
+
+/// Trace the shadow ray at once ([`Scene::transmittance`]).
+pub(super) struct TraceNow;
+
+impl ShadowTest for TraceNow {
+    #[inline(always)]
+    fn test(
+        &mut self,
+        scene: &Scene,
+        from: &Endpoint,
+        to: Option<&Endpoint>,
+        dir: Vec3,
+        medium: Option<u32>,
+    ) -> Option<Transmittance> {
+        scene.transmittance(from, to, dir, medium)
+    }
+}
+
+/// Leave the shadow ray to a batch (scenes without media): keep its query (origin,
+/// direction, length: [`Scene::shadow_query`]) and answer "free", which is what
+/// [`Scene::transmittance`] gives a free connection without media.
+#[derive(Default)]
+pub(super) struct Queue(pub Option<(Vec3, Vec3, f32)>);
+
+impl ShadowTest for Queue {
+    #[inline(always)]
+    fn test(
+        &mut self,
+        scene: &Scene,
+        from: &Endpoint,
+        to: Option<&Endpoint>,
+        dir: Vec3,
+        medium: Option<u32>,
+    ) -> Option<Transmittance> {
+        self.0 = Some(scene.shadow_query(from, to, dir));
+        Some(Transmittance::unblocked(medium))
     }
 }
 

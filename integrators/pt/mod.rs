@@ -10,6 +10,7 @@
 //! | max_depth | integer >= 1           | 8       | maximum number of path segments; 1 shows only emitters seen directly, 2 is direct lighting (`--max-depth`) |
 //! | rr_depth  | integer >= 1           | 5       | Russian roulette starts on paths of this many segments (Mitsuba's default) |
 //! | strategy  | `mis` / `bsdf` / `nee` | `mis`   | `bsdf`: emitters only found by BSDF sampling; `nee`: only by next-event estimation (except after delta bounces and for the camera ray) |
+//! | batch     | `auto` / `on` / `off`  | `auto`  | trace a row's paths together, segment by segment, so that their rays through a large BVH overlap their cache misses (`batch.rs`; the same image bit for bit) |
 //! | guiding   | `none` / `sdtree`      | `none`  | `sdtree`: learn a distribution of incident radiance and mix it with BSDF sampling at rough surfaces (`guiding.rs`, which also lists `guide_fraction` and `learn_fraction`) |
 //!
 //! Roulette continues with the local probability of the vertex (`Bsdf::continuation`: its
@@ -38,13 +39,15 @@ use crate::path::{Path, Vertex as PathVertex, VertexKind};
 use crate::render::{
     Budget, Integrator, PixelEstimator, RenderContext, RenderResult, render_pixel_estimator,
 };
-use crate::scene::{Endpoint, Scene};
-use direct::Scatterer;
+use crate::scene::{Endpoint, Scene, SurfacePoint};
+use batch::BatchMode;
+use direct::{Queue, Scatterer, TraceNow};
 use glam::{Vec2, Vec3};
 use guiding::{Guide, Trail};
 pub use recording::PathRecorder;
 use recording::Recording;
 
+pub mod batch;
 mod direct;
 pub mod guiding;
 mod recording;
@@ -85,8 +88,15 @@ pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     let pt = PathTracer {
         settings: settings(params)?,
     };
+    let batch = BatchMode::parse(params)?;
     Ok(match guiding::settings(params)? {
-        None => Box::new(pt),
+        None => Box::new(batch::Pt { pt, batch }),
+        Some(_) if batch == BatchMode::On => {
+            return Err(Error::new(
+                "option 'batch': 'on' does not apply with guiding=sdtree (guided paths are \
+                 traced one at a time); use 'auto' or 'off'",
+            ));
+        }
         Some(guiding) => Box::new(guiding::GuidedPathTracer { pt, guiding }),
     })
 }
@@ -185,147 +195,115 @@ impl PathTracer {
         guide: Option<&Guide>,
         mut trail: Option<&mut Trail>,
     ) -> Spectrum {
+        let mut path = PathState::new(scene, raster);
+        // Built in place (a path of 64 vertices): `Extras` only borrows it.
+        let mut rec = recorder.map(|sink| {
+            let pixel = scene.camera.pixel_index(raster) as u32;
+            Recording::new(scene, sink, path.ray.d, pixel)
+        });
+        let mut extras = Extras {
+            rec: rec.as_mut(),
+            guide,
+            trail: trail.as_deref_mut(),
+            deferred: None,
+        };
+        loop {
+            let sp = scene.intersect(&path.ray);
+            if !self.advance(scene, &mut path, sp.as_ref(), sampler, &mut extras) {
+                break;
+            }
+        }
+        if let (Some(t), Some(g)) = (trail, guide) {
+            t.record(g.tree, path.l);
+        }
+        path.l
+    }
+
+    /// One segment of the path: from what `path.ray` found (`sp`, `None` for a miss) to the
+    /// next ray. Returns false when the path ends. Next-event estimation either traces its
+    /// shadow ray here or, with `extras.deferred`, queues it for a batch (`batch.rs`).
+    /// Inlined into both loops (`li_with`, `li_row`), as is `next_event`: pt on the Cornell
+    /// box ran 5-10 % slower with them as calls (the state round-trips through memory).
+    #[inline(always)]
+    fn advance(
+        &self,
+        scene: &Scene,
+        path: &mut PathState,
+        sp: Option<&SurfacePoint>,
+        sampler: &mut impl Sampler,
+        extras: &mut Extras,
+    ) -> bool {
         let s = &self.settings;
         let use_nee = s.strategy != Strategy::Bsdf;
-        let mut ray = scene.camera.generate_ray(raster);
-        let mut rec = recorder.map(|sink| {
-            Recording::new(scene, sink, ray.d, scene.camera.pixel_index(raster) as u32)
-        });
-        let mut medium = scene.camera_medium;
-        let mut l = Spectrum::ZERO;
-        let mut beta = Spectrum::ONE;
-        // The last scattering vertex (the pinhole is a delta vertex), for MIS on emitters that
-        // the continuation finds, and the free-flight pass probability since then.
-        let mut prev = Scattered {
-            delta: true,
-            pdf: 0.0,
-            p: ray.o,
-        };
-        let mut pass = 1.0f32;
-        // Number of segments of the path once `ray` reaches its next vertex.
-        let mut depth = 1u32;
-        let mut null_crossings = 0u32;
+        // The segment just traced (fields read where used: a copy of the whole ray, stored
+        // field by field by `Hit::spawn`, stalls on store forwarding).
+        let ray = &path.ray;
 
-        loop {
-            let sp = scene.intersect(&ray);
-
-            // ---- Medium: scatter before the surface, or pass it ----
-            if let Some(m) = medium {
-                let m = &scene.media[m as usize];
-                let t_hit = sp.as_ref().map_or(f32::INFINITY, |sp| sp.hit.t);
-                let flight = m.sample_distance(t_hit, sampler.next_1d(), sampler.next_1d());
-                beta *= flight.weight;
-                if flight.scattered {
-                    if depth == s.max_depth {
-                        break;
-                    }
-                    let p = ray.at(flight.t);
-                    let wo = -ray.d;
-                    let here = Endpoint::point(p);
-                    if let Some(r) = &mut rec {
-                        let v = PathVertex {
-                            p,
-                            n: Vec3::ZERO,
-                            ns: Vec3::ZERO,
-                            kind: VertexKind::Medium {
-                                medium: medium.unwrap_or(0),
-                            },
-                        };
-                        r.arrive(scene, v, pass * flight.pdf);
-                    }
-                    if use_nee {
-                        let q_here = self.roulette_probability(depth, m.continuation());
-                        let phase = Scatterer::Medium {
-                            phase: &m.phase,
-                            wo,
-                        };
-                        l += beta
-                            * self.direct(
-                                scene,
-                                &here,
-                                medium,
-                                &phase,
-                                sampler,
-                                rec.as_mut().map(|r| (r, beta, q_here)),
-                            );
-                    }
-                    let (wi, pdf) = m.phase.sample(wo, sampler.next_2d());
-                    if let Some(r) = &mut rec {
-                        r.scatter(pdf, self.roulette_probability(depth, m.continuation()));
-                    }
-                    prev = Scattered {
-                        delta: false,
-                        pdf,
+        // ---- Medium: scatter before the surface, or pass it ----
+        if let Some(mi) = path.medium {
+            let m = &scene.media[mi as usize];
+            let t_hit = sp.map_or(f32::INFINITY, |sp| sp.hit.t);
+            let flight = m.sample_distance(t_hit, sampler.next_1d(), sampler.next_1d());
+            path.beta *= flight.weight;
+            if flight.scattered {
+                if path.depth == s.max_depth {
+                    return false;
+                }
+                let p = ray.at(flight.t);
+                let wo = -ray.d;
+                let here = Endpoint::point(p);
+                if let Some(r) = &mut extras.rec {
+                    let v = PathVertex {
                         p,
+                        n: Vec3::ZERO,
+                        ns: Vec3::ZERO,
+                        kind: VertexKind::Medium { medium: mi },
                     };
-                    pass = 1.0;
-                    if !self.roulette(depth, m.continuation(), &mut beta, sampler) {
-                        break;
-                    }
-                    ray = Ray::new(p, wi);
-                    depth += 1;
-                    continue;
+                    r.arrive(scene, v, path.pass * flight.pdf);
                 }
-                pass *= flight.pdf;
-                if beta == Spectrum::ZERO {
-                    break;
+                if use_nee {
+                    let q_here = self.roulette_probability(path.depth, m.continuation());
+                    let phase = Scatterer::Medium {
+                        phase: &m.phase,
+                        wo,
+                    };
+                    self.next_event(scene, path, &here, &phase, sampler, extras, q_here);
                 }
+                let (wi, pdf) = m.phase.sample(wo, sampler.next_2d());
+                if let Some(r) = &mut extras.rec {
+                    r.scatter(pdf, self.roulette_probability(path.depth, m.continuation()));
+                }
+                path.prev = Scattered {
+                    delta: false,
+                    pdf,
+                    p,
+                };
+                path.pass = 1.0;
+                if !self.roulette(path.depth, m.continuation(), &mut path.beta, sampler) {
+                    return false;
+                }
+                path.ray = Ray::new(p, wi);
+                path.depth += 1;
+                return true;
             }
-
-            let Some(sp) = &sp else {
-                // ---- Escaped: lights at infinity ----
-                for &li in &scene.infinite_lights {
-                    let light = &scene.lights[li];
-                    let le = light.le(Vec3::ZERO, ray.d);
-                    if le != Spectrum::ZERO {
-                        if let Some(r) = &mut rec {
-                            let at = r.path.vertices().last().map_or(ray.o, |v| v.p) + ray.d;
-                            let v = PathVertex {
-                                p: at,
-                                n: ray.d,
-                                ns: Vec3::ZERO,
-                                kind: VertexKind::Emitter {
-                                    light: li as u32,
-                                    delta: false,
-                                },
-                            };
-                            let nee = if prev.delta {
-                                0.0
-                            } else {
-                                scene.light_sampler.pmf(li) as f64
-                                    * light.pdf_li(prev.p, Vec3::ZERO, Vec3::ZERO, ray.d) as f64
-                            };
-                            r.emitter(scene, v, pass, nee, beta * le);
-                        }
-                        let pdf_li = || light.pdf_li(prev.p, Vec3::ZERO, Vec3::ZERO, ray.d);
-                        l += beta * le * self.emission_weight(scene, li, &prev, pass, pdf_li);
-                    }
-                }
-                break;
-            };
-            let hit = &sp.hit;
-
-            // ---- Index-matched boundary: straight through, still the same segment ----
-            if sp.is_null() {
-                null_crossings += 1;
-                if null_crossings > 256 {
-                    break;
-                }
-                medium = scene.medium_after(sp, ray.d, medium);
-                ray = hit.spawn(ray.d);
-                continue;
+            path.pass *= flight.pdf;
+            if path.beta == Spectrum::ZERO {
+                return false;
             }
-            let wo = -ray.d;
+        }
 
-            // ---- Emission of a hit emitter ----
-            if let Some(li) = sp.light() {
+        let Some(sp) = sp else {
+            // ---- Escaped: lights at infinity ----
+            for &li in &scene.infinite_lights {
                 let light = &scene.lights[li];
-                let le = light.le(hit.ng, wo);
+                let le = light.le(Vec3::ZERO, ray.d);
                 if le != Spectrum::ZERO {
-                    if let Some(r) = &mut rec {
+                    let prev = &path.prev;
+                    if let Some(r) = &mut extras.rec {
+                        let at = r.path.vertices().last().map_or(ray.o, |v| v.p) + ray.d;
                         let v = PathVertex {
-                            p: hit.p,
-                            n: hit.ng,
+                            p: at,
+                            n: ray.d,
                             ns: Vec3::ZERO,
                             kind: VertexKind::Emitter {
                                 light: li as u32,
@@ -335,99 +313,162 @@ impl PathTracer {
                         let nee = if prev.delta {
                             0.0
                         } else {
-                            let d2 = (hit.p - prev.p).length_squared() as f64;
                             scene.light_sampler.pmf(li) as f64
-                                * light.pdf_li(prev.p, hit.p, hit.ng, ray.d) as f64
-                                * hit.ng.dot(ray.d).abs() as f64
-                                / d2
+                                * light.pdf_li(prev.p, Vec3::ZERO, Vec3::ZERO, ray.d) as f64
                         };
-                        r.emitter(scene, v, pass, nee, beta * le);
+                        r.emitter(scene, v, path.pass, nee, path.beta * le);
                     }
-                    let pdf_li = || light.pdf_li(prev.p, hit.p, hit.ng, ray.d);
-                    l += beta * le * self.emission_weight(scene, li, &prev, pass, pdf_li);
+                    let pdf_li = || light.pdf_li(prev.p, Vec3::ZERO, Vec3::ZERO, ray.d);
+                    let w = self.emission_weight(scene, li, prev, path.pass, pdf_li);
+                    path.l += path.beta * le * w;
                 }
             }
-            if sp.bsdf.is_black() || depth == s.max_depth {
-                break;
+            return false;
+        };
+        let hit = &sp.hit;
+
+        // ---- Index-matched boundary: straight through, still the same segment ----
+        if sp.is_null() {
+            path.null_crossings += 1;
+            if path.null_crossings > 256 {
+                return false;
             }
-            if let Some(r) = &mut rec {
-                let kind = VertexKind::Surface {
-                    material: sp.material,
-                    shape: sp.info.index,
-                    delta: sp.bsdf.is_delta(),
-                };
-                r.arrive(
-                    scene,
-                    PathVertex {
+            path.medium = scene.medium_after(sp, ray.d, path.medium);
+            path.ray = hit.spawn(ray.d);
+            return true;
+        }
+        let wo = -ray.d;
+
+        // ---- Emission of a hit emitter ----
+        if let Some(li) = sp.light() {
+            let light = &scene.lights[li];
+            let le = light.le(hit.ng, wo);
+            if le != Spectrum::ZERO {
+                let prev = &path.prev;
+                if let Some(r) = &mut extras.rec {
+                    let v = PathVertex {
                         p: hit.p,
                         n: hit.ng,
-                        ns: hit.ns,
-                        kind,
-                    },
-                    pass,
-                );
-            }
-
-            // ---- Next-event estimation (adds a path of depth + 1 segments) ----
-            let mix = guide.and_then(|g| g.at(sp));
-            if use_nee && !sp.bsdf.is_delta() {
-                let q_here = self.roulette_probability(depth, sp.bsdf.continuation());
-                let surface = Scatterer::Surface { sp, wo, mix };
-                l += beta
-                    * self.direct(
-                        scene,
-                        &Endpoint::surface(hit),
-                        medium,
-                        &surface,
-                        sampler,
-                        rec.as_mut().map(|r| (r, beta, q_here)),
-                    );
-            }
-
-            // ---- BSDF sampling (mixed with the guide's directions): extend the path ----
-            let bs = match &mix {
-                Some(m) => m.sample(sp, wo, sampler),
-                None => {
-                    let u_lobe = sampler.next_1d();
-                    let u = sampler.next_2d();
-                    sp.bsdf
-                        .sample(&sp.frame, wo, u_lobe, u, TransportMode::Radiance)
+                        ns: Vec3::ZERO,
+                        kind: VertexKind::Emitter {
+                            light: li as u32,
+                            delta: false,
+                        },
+                    };
+                    let nee = if prev.delta {
+                        0.0
+                    } else {
+                        let d2 = (hit.p - prev.p).length_squared() as f64;
+                        scene.light_sampler.pmf(li) as f64
+                            * light.pdf_li(prev.p, hit.p, hit.ng, ray.d) as f64
+                            * hit.ng.dot(ray.d).abs() as f64
+                            / d2
+                    };
+                    r.emitter(scene, v, path.pass, nee, path.beta * le);
                 }
-            };
-            let Some(bs) = bs else {
-                break;
-            };
-            beta *= bs.weight;
-            if let Some(r) = &mut rec {
-                r.scatter(
-                    bs.pdf,
-                    self.roulette_probability(depth, sp.bsdf.continuation()),
-                );
+                let pdf_li = || light.pdf_li(prev.p, hit.p, hit.ng, ray.d);
+                let w = self.emission_weight(scene, li, prev, path.pass, pdf_li);
+                path.l += path.beta * le * w;
             }
-            if bs.transmission {
-                medium = scene.medium_after(sp, bs.wi, medium);
-            }
-            prev = Scattered {
-                delta: bs.delta,
-                pdf: bs.pdf,
+        }
+        if sp.bsdf.is_black() || path.depth == s.max_depth {
+            return false;
+        }
+        if let Some(r) = &mut extras.rec {
+            let kind = VertexKind::Surface {
+                material: sp.material,
+                shape: sp.info.index,
+                delta: sp.bsdf.is_delta(),
+            };
+            let v = PathVertex {
                 p: hit.p,
+                n: hit.ng,
+                ns: hit.ns,
+                kind,
             };
-            pass = 1.0;
-            if !self.roulette(depth, sp.bsdf.continuation(), &mut beta, sampler) {
-                break;
-            }
-            if let Some(t) = &mut trail
-                && !bs.delta
-            {
-                t.push(hit.p, bs.wi, bs.pdf, beta, l);
-            }
-            ray = hit.spawn(bs.wi);
-            depth += 1;
+            r.arrive(scene, v, path.pass);
         }
-        if let (Some(t), Some(g)) = (trail, guide) {
-            t.record(g.tree, l);
+
+        // ---- Next-event estimation (adds a path of depth + 1 segments) ----
+        let mix = extras.guide.and_then(|g| g.at(sp));
+        if use_nee && !sp.bsdf.is_delta() {
+            let q_here = self.roulette_probability(path.depth, sp.bsdf.continuation());
+            let surface = Scatterer::Surface { sp, wo, mix };
+            let from = Endpoint::surface(hit);
+            self.next_event(scene, path, &from, &surface, sampler, extras, q_here);
         }
-        l
+
+        // ---- BSDF sampling (mixed with the guide's directions): extend the path ----
+        let bs = match &mix {
+            Some(m) => m.sample(sp, wo, sampler),
+            None => {
+                let u_lobe = sampler.next_1d();
+                let u = sampler.next_2d();
+                sp.bsdf
+                    .sample(&sp.frame, wo, u_lobe, u, TransportMode::Radiance)
+            }
+        };
+        let Some(bs) = bs else {
+            return false;
+        };
+        path.beta *= bs.weight;
+        if let Some(r) = &mut extras.rec {
+            r.scatter(
+                bs.pdf,
+                self.roulette_probability(path.depth, sp.bsdf.continuation()),
+            );
+        }
+        if bs.transmission {
+            path.medium = scene.medium_after(sp, bs.wi, path.medium);
+        }
+        path.prev = Scattered {
+            delta: bs.delta,
+            pdf: bs.pdf,
+            p: hit.p,
+        };
+        path.pass = 1.0;
+        if !self.roulette(path.depth, sp.bsdf.continuation(), &mut path.beta, sampler) {
+            return false;
+        }
+        if let Some(t) = &mut extras.trail
+            && !bs.delta
+        {
+            t.push(hit.p, bs.wi, bs.pdf, path.beta, path.l);
+        }
+        path.ray = hit.spawn(bs.wi);
+        path.depth += 1;
+        true
+    }
+
+    /// Next-event estimation at the path's current vertex (`q_here`: its roulette
+    /// continuation, for the recorder): added to `path.l` now, or queued with its shadow
+    /// query when `extras.deferred` collects them (scenes without media only).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn next_event(
+        &self,
+        scene: &Scene,
+        path: &mut PathState,
+        from: &Endpoint,
+        at: &Scatterer,
+        sampler: &mut impl Sampler,
+        extras: &mut Extras,
+        q_here: f32,
+    ) {
+        let rec = extras.rec.as_deref_mut().map(|r| (r, path.beta, q_here));
+        let Some(queue) = &mut extras.deferred else {
+            let nee = self.direct(scene, from, path.medium, at, sampler, rec, &mut TraceNow);
+            path.l += path.beta * nee;
+            return;
+        };
+        let mut shadow = Queue::default();
+        let value = self.direct(scene, from, path.medium, at, sampler, rec, &mut shadow);
+        let query = shadow.0;
+        queue.push(Deferred {
+            beta: path.beta,
+            value,
+            query,
+        });
     }
 
     /// Russian roulette on paths of `rr_depth` segments or more, continuing with the local
@@ -480,7 +521,66 @@ impl PathTracer {
     }
 }
 
+/// One camera path between two segments: what [`PathTracer::advance`] carries from one
+/// segment to the next.
+pub(super) struct PathState {
+    /// The segment to trace next.
+    ray: Ray,
+    /// The medium `ray` starts in.
+    medium: Option<u32>,
+    /// Radiance gathered so far, and the throughput of the path up to `ray`'s origin.
+    l: Spectrum,
+    beta: Spectrum,
+    /// The last scattering vertex (the pinhole is a delta vertex), for MIS on emitters that
+    /// the continuation finds, and the free-flight pass probability since then.
+    prev: Scattered,
+    pass: f32,
+    /// Number of segments of the path once `ray` reaches its next vertex.
+    depth: u32,
+    null_crossings: u32,
+}
+
+impl PathState {
+    /// The camera ray through raster position `raster`.
+    fn new(scene: &Scene, raster: Vec2) -> PathState {
+        let ray = scene.camera.generate_ray(raster);
+        PathState {
+            ray,
+            medium: scene.camera_medium,
+            l: Spectrum::ZERO,
+            beta: Spectrum::ONE,
+            prev: Scattered {
+                delta: true,
+                pdf: 0.0,
+                p: ray.o,
+            },
+            pass: 1.0,
+            depth: 1,
+            null_crossings: 0,
+        }
+    }
+}
+
+/// What a path may carry besides its state: the recorder, the directional guide and its
+/// learning trail, and the queue of next-event samples waiting for their shadow rays.
+struct Extras<'e, 'r, 'g, 't, 'q> {
+    rec: Option<&'e mut Recording<'r>>,
+    guide: Option<&'g Guide<'g>>,
+    trail: Option<&'t mut Trail>,
+    deferred: Option<&'q mut Vec<Deferred>>,
+}
+
+/// A next-event sample waiting for its shadow ray: `path.l += beta * value` if `query`
+/// (origin, direction, length) is unoccluded, else `beta * 0` (so a non-finite throughput
+/// shows as it does when the ray is traced at once).
+struct Deferred {
+    beta: Spectrum,
+    value: Spectrum,
+    query: Option<(Vec3, Vec3, f32)>,
+}
+
 /// The last scattering vertex of the path.
+#[derive(Clone, Copy)]
 struct Scattered {
     /// Delta BSDF (or the pinhole): no other strategy shares the next vertex.
     delta: bool,

@@ -198,7 +198,32 @@ fn run(
     }
 }
 
+/// The size of a BVH (nodes and primitives) from which [`Accel::batches_pay`]. Below it the
+/// BVH stays in the caches, a single ray rarely waits on memory, and the interleaved
+/// traversal's bookkeeping costs more than it hides (`cargo bench --bench pt_batch`, pt on
+/// noisy spheres in the Cornell box, batched against one path at a time: 0.79x at 3.4 MB,
+/// 0.87x at 8.3 MB, 1.16x at 21 MB, 1.26x at 69 MB; README, "Batched pt").
+pub const BATCH_MIN_BYTES: usize = 16 << 20;
+
 impl Accel {
+    /// Whether batches of rays ([`Self::intersect_many`], [`Self::unoccluded_many`]) are
+    /// worth what their callers pay to form them: the scene is searched through a BVH (no
+    /// grids: those are traced ray by ray) of at least [`BATCH_MIN_BYTES`].
+    pub fn batches_pay(&self) -> bool {
+        matches!(self.index, Index::Bvh(_))
+            && self.grids.is_empty()
+            && self.bvh_bytes() >= BATCH_MIN_BYTES
+    }
+
+    /// Bytes of the BVH's nodes (none when primitives are tested flat) and primitives.
+    pub fn bvh_bytes(&self) -> usize {
+        let nodes = match &self.index {
+            Index::Bvh(bvh) => std::mem::size_of_val(bvh.nodes.as_slice()),
+            Index::Flat(_) => 0,
+        };
+        nodes + std::mem::size_of_val(self.prims.as_slice())
+    }
+
     /// Closest hits of `rays` into `out` (cleared first; `out[i]` for `rays[i]`): the same as
     /// [`Accel::intersect`] ray by ray, bit for bit, with the rays' traversals interleaved
     /// (module doc).

@@ -16,7 +16,7 @@ pub mod bvh;
 mod flat;
 mod grid;
 pub mod heightfield;
-mod interleaved;
+pub mod interleaved;
 pub mod mesh;
 pub mod sphere;
 pub mod transform;

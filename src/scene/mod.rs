@@ -224,6 +224,21 @@ pub struct Transmittance {
     pub end_medium: Option<u32>,
 }
 
+impl Transmittance {
+    /// A connection with nothing in the way (no medium, no crossing), ending in `medium`:
+    /// what [`Scene::transmittance`] gives a free connection in a scene without media.
+    #[inline]
+    pub fn unblocked(medium: Option<u32>) -> Transmittance {
+        Transmittance {
+            tr: Spectrum::ONE,
+            pass: 1.0,
+            first: None,
+            last: None,
+            end_medium: medium,
+        }
+    }
+}
+
 impl Scene {
     /// The built-in Cornell box.
     pub fn cornell_box() -> Scene {
@@ -233,17 +248,50 @@ impl Scene {
 
     pub fn intersect(&self, ray: &Ray) -> Option<SurfacePoint<'_>> {
         let hit = self.accel.intersect(ray, &self.shapes)?;
+        Some(self.surface_point(hit, ray))
+    }
+
+    /// Closest hits of `rays` into `out` (`out[i]` for `rays[i]`): what [`Self::intersect`]
+    /// finds, ray for ray and bit for bit, with the traversals interleaved where the
+    /// accelerator supports it ([`crate::geometry::interleaved`]); [`Self::surface_point`]
+    /// turns a hit into the surface point `intersect` returns.
+    pub fn intersect_many(&self, rays: &[Ray], out: &mut Vec<Option<Hit>>) {
+        self.accel.intersect_many(rays, &self.shapes, out);
+    }
+
+    /// For each shadow query `(o, d, dist)` of [`Self::shadow_query`], whether nothing blocks
+    /// it: what [`Self::transmittance`] finds in a scene without media, query for query.
+    pub fn unoccluded_many(&self, queries: &[(Vec3, Vec3, f32)], out: &mut Vec<bool>) {
+        self.accel.unoccluded_many(queries, out);
+        for (free, &(_, _, dist)) in out.iter_mut().zip(queries) {
+            *free |= dist <= 0.0; // as `transmittance`: nothing to test
+        }
+    }
+
+    /// The open segment [`Self::transmittance`] tests from `a` to `b` (or from `a` to
+    /// infinity along unit `dir`): (origin, unit direction, length).
+    #[inline(always)]
+    pub fn shadow_query(&self, a: &Endpoint, b: Option<&Endpoint>, dir: Vec3) -> (Vec3, Vec3, f32) {
+        match b {
+            Some(b) => shadow_segment(a.p, a.err, a.n, b.p, b.err, b.n),
+            None => (offset_origin(a.p, a.err, a.n, dir), dir, f32::INFINITY),
+        }
+    }
+
+    /// The surface point of `hit`, found along `ray`.
+    #[inline(always)]
+    pub fn surface_point(&self, hit: Hit, ray: &Ray) -> SurfacePoint<'_> {
         let info = &self.shape_info[hit.shape as usize];
         let material_id = info.material_at(hit.p);
         let material = &self.materials[material_id as usize];
         let back = material.one_sided && ray.d.dot(hit.ng) > 0.0;
-        Some(SurfacePoint {
+        SurfacePoint {
             bsdf: if back { &BLACK } else { &material.bsdf },
             frame: ShadingFrame::new(hit.ns, hit.ng),
             info,
             material: material_id,
             hit,
-        })
+        }
     }
 
     /// Medium after leaving surface point `sp` along `d` (transmission or pass-through), given
@@ -350,17 +398,8 @@ impl Scene {
         dir: Vec3,
         medium: Option<u32>,
     ) -> Option<Transmittance> {
-        let (mut o, d, mut remaining) = match b {
-            Some(b) => shadow_segment(a.p, a.err, a.n, b.p, b.err, b.n),
-            None => (offset_origin(a.p, a.err, a.n, dir), dir, f32::INFINITY),
-        };
-        let mut out = Transmittance {
-            tr: Spectrum::ONE,
-            pass: 1.0,
-            first: None,
-            last: None,
-            end_medium: medium,
-        };
+        let (mut o, d, mut remaining) = self.shadow_query(a, b, dir);
+        let mut out = Transmittance::unblocked(medium);
         if !self.features.media {
             let free = remaining <= 0.0 || self.accel.unoccluded(o, d, remaining);
             return free.then_some(out);

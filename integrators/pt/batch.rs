@@ -1,0 +1,186 @@
+//! Batched pt: the samples of a whole row of pixels traced together, segment by segment.
+//!
+//! In each round every path of the row still running takes one segment: the row's rays go
+//! through the BVH together ([`Scene::intersect_many`]), each path then does its vertex
+//! ([`PathTracer::advance`]: emission, next-event sample, continuation) with its shadow ray
+//! queued, and the queued shadow rays go through the BVH together
+//! ([`Scene::unoccluded_many`]). On a BVH larger than the caches a single ray waits on one
+//! memory miss after another; a batch keeps 16 rays in flight so their misses overlap
+//! ([`crate::geometry::interleaved`]). Each path draws from its own sample stream in the
+//! order [`PathTracer::li`] does and adds to its radiance in the same order, so the image is
+//! pt's bit for bit (test `batched_pt_is_pt_bit_for_bit` in `tests/pt_batch.rs`).
+//!
+//! | option | values               | default | meaning |
+//! |--------|----------------------|---------|---------|
+//! | batch  | `auto` / `on` / `off` | `auto`  | `auto`: batched where the accelerator says batches pay (`Accel::batches_pay`: a BVH of at least 4 MB); `on`: wherever it applies; `off`: one path at a time |
+//!
+//! It applies to plain pt in scenes without media (a shadow ray through media crosses its
+//! boundaries one segment at a time) and not under `--check` (which inspects each
+//! next-event value once its visibility is known); elsewhere pt traces one path at a time
+//! whatever the option says.
+
+use super::{Deferred, Extras, PathState, PathTracer};
+use crate::error::Result;
+use crate::integrators::IntegratorParams;
+use crate::math::{IndependentSampler, Spectrum};
+use crate::render::{
+    Budget, Integrator, PixelEstimator, RenderContext, RenderResult, render_pixel_estimator,
+};
+use crate::scene::Scene;
+use glam::{Vec2, Vec3};
+
+/// When pt traces a row's paths together.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BatchMode {
+    Auto,
+    On,
+    Off,
+}
+
+impl BatchMode {
+    pub fn parse(params: &IntegratorParams) -> Result<BatchMode> {
+        Ok(
+            match params
+                .options
+                .choice("batch", "auto", &["auto", "on", "off"])?
+            {
+                "on" => BatchMode::On,
+                "off" => BatchMode::Off,
+                _ => BatchMode::Auto,
+            },
+        )
+    }
+
+    /// Whether pt traces `scene`'s rows batched under this mode.
+    pub fn applies(self, scene: &Scene) -> bool {
+        let possible = !scene.features.media && !crate::check::enabled();
+        possible
+            && match self {
+                BatchMode::Auto => scene.accel.batches_pay(),
+                BatchMode::On => true,
+                BatchMode::Off => false,
+            }
+    }
+}
+
+/// `pt` as registered: the path tracer and its batch mode.
+pub struct Pt {
+    pub pt: PathTracer,
+    pub batch: BatchMode,
+}
+
+impl Integrator for Pt {
+    fn name(&self) -> &'static str {
+        "pt"
+    }
+
+    fn settings(&self) -> String {
+        format!("{:?}, batch: {:?}", self.pt.settings, self.batch)
+    }
+
+    fn render(&mut self, ctx: &RenderContext, budget: Budget) -> RenderResult {
+        if self.batch.applies(ctx.scene) {
+            render_pixel_estimator(ctx, budget, &Batched(&self.pt))
+        } else {
+            render_pixel_estimator(ctx, budget, &self.pt)
+        }
+    }
+}
+
+/// pt estimating a row at a time.
+pub struct Batched<'a>(pub &'a PathTracer);
+
+impl PixelEstimator for Batched<'_> {
+    fn estimate(&self, scene: &Scene, raster: Vec2, sampler: &mut IndependentSampler) -> Spectrum {
+        self.0.li(scene, raster, sampler)
+    }
+
+    fn estimate_row(
+        &self,
+        scene: &Scene,
+        rasters: &[Vec2],
+        samplers: &mut [IndependentSampler],
+        out: &mut [Spectrum],
+    ) {
+        self.0.li_row(scene, rasters, samplers, out);
+    }
+}
+
+/// One round's buffers, kept across rounds.
+#[derive(Default)]
+struct Round {
+    rays: Vec<crate::geometry::Ray>,
+    hits: Vec<Option<crate::geometry::Hit>>,
+    alive: Vec<bool>,
+    /// Next-event samples of the round, and the path (index in `lanes`) of each.
+    deferred: Vec<Deferred>,
+    owner: Vec<usize>,
+    queries: Vec<(Vec3, Vec3, f32)>,
+    free: Vec<bool>,
+}
+
+impl PathTracer {
+    /// [`Self::li`] for the rasters of a row, each with its own sampler, into `out`: the same
+    /// values bit for bit, traced in rounds of one segment per path (module doc). The scene
+    /// must have no media.
+    pub fn li_row(
+        &self,
+        scene: &Scene,
+        rasters: &[Vec2],
+        samplers: &mut [IndependentSampler],
+        out: &mut [Spectrum],
+    ) {
+        assert!(
+            !scene.features.media,
+            "batched pt traces scenes without media"
+        );
+        let mut lanes: Vec<(usize, PathState)> = rasters
+            .iter()
+            .enumerate()
+            .map(|(i, &r)| (i, PathState::new(scene, r)))
+            .collect();
+        let mut b = Round::default();
+        while !lanes.is_empty() {
+            b.rays.clear();
+            b.rays.extend(lanes.iter().map(|(_, p)| p.ray));
+            scene.intersect_many(&b.rays, &mut b.hits);
+
+            b.alive.clear();
+            b.deferred.clear();
+            b.owner.clear();
+            for (k, (i, path)) in lanes.iter_mut().enumerate() {
+                let sp = b.hits[k].take().map(|h| scene.surface_point(h, &path.ray));
+                let before = b.deferred.len();
+                let mut extras = Extras {
+                    rec: None,
+                    guide: None,
+                    trail: None,
+                    deferred: Some(&mut b.deferred),
+                };
+                let alive = self.advance(scene, path, sp.as_ref(), &mut samplers[*i], &mut extras);
+                b.alive.push(alive);
+                b.owner.resize(b.deferred.len().max(before), k);
+            }
+
+            b.queries.clear();
+            b.queries.extend(b.deferred.iter().filter_map(|d| d.query));
+            scene.unoccluded_many(&b.queries, &mut b.free);
+            let mut free = b.free.iter();
+            for (d, &k) in b.deferred.iter().zip(&b.owner) {
+                let visible = d.query.is_none() || *free.next().expect("one answer per query");
+                let value = if visible { d.value } else { Spectrum::ZERO };
+                let path = &mut lanes[k].1;
+                path.l += d.beta * value;
+            }
+
+            let mut alive = b.alive.iter();
+            lanes.retain(|(i, path)| {
+                let keep = *alive.next().expect("one flag per lane");
+                if !keep {
+                    out[*i] = path.l;
+                }
+                keep
+            });
+        }
+    }
+}

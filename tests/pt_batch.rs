@@ -46,6 +46,11 @@ fn batched_pt_is_pt_bit_for_bit() {
                 one.image == batched.image,
                 "{name}, max_depth {max_depth}: batched pt differs from pt"
             );
+            let one_thread = render(&scene, "pt", max_depth, &["batch=on"], 3, 7, 1);
+            assert!(
+                one_thread.image == batched.image,
+                "{name}: thread count matters"
+            );
         }
     }
 }

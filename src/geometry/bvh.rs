@@ -99,6 +99,9 @@ pub struct Accel {
     /// The BVH is built and traversed in coordinates multiplied by this power of two (see
     /// [`bvh_scale`]); primitives and hits stay in world space.
     pub(super) scale: f32,
+    /// The CPU has AVX2: batches of rays ([`Accel::intersect_many`]) test nodes eight children
+    /// at a time ([`super::node_avx2`]; the same hits bit for bit).
+    pub(super) avx2: bool,
     /// Seconds spent building.
     pub build_seconds: f64,
 }
@@ -154,6 +157,7 @@ impl Accel {
                 prims,
                 grids,
                 scale: 1.0,
+                avx2: false,
                 build_seconds: start.elapsed().as_secs_f64(),
             };
         }
@@ -175,8 +179,16 @@ impl Accel {
             prims: ordered,
             grids,
             scale,
+            avx2: super::node_avx2::has_avx2(),
             build_seconds: start.elapsed().as_secs_f64(),
         }
+    }
+
+    /// The same accelerator with batches tested by obvhs' SSE node test (for tests of both).
+    #[cfg(test)]
+    pub(super) fn without_avx2(mut self) -> Accel {
+        self.avx2 = false;
+        self
     }
 
     pub fn primitive_count(&self) -> usize {

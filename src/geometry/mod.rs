@@ -18,6 +18,7 @@ mod grid;
 pub mod heightfield;
 pub mod interleaved;
 pub mod mesh;
+mod node_avx2;
 pub mod sphere;
 pub mod transform;
 

@@ -180,18 +180,19 @@ fn run(
     start: impl FnMut(usize) -> Lane,
     finish: impl FnMut(&Lane),
 ) {
+    #[cfg(target_arch = "x86_64")]
     if accel.avx2 {
         // SAFETY: `avx2` is set only where the running CPU reports AVX2.
-        unsafe { run_avx2(accel, bvh, count, start, finish) }
-    } else {
-        run_lanes::<false>(accel, bvh, count, start, finish)
+        return unsafe { run_avx2(accel, bvh, count, start, finish) };
     }
+    run_lanes::<false>(accel, bvh, count, start, finish)
 }
 
 /// [`run_lanes`] compiled for AVX2, with its node test.
 ///
 /// # Safety
 /// The CPU must have AVX2.
+#[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 unsafe fn run_avx2(
     accel: &Accel,

@@ -12,7 +12,7 @@
 //!
 //! | option | values               | default | meaning |
 //! |--------|----------------------|---------|---------|
-//! | batch  | `auto` / `on` / `off` | `auto`  | `auto`: batched where the accelerator says batches pay (`Accel::batches_pay`: a BVH of at least 4 MB); `on`: wherever it applies; `off`: one path at a time |
+//! | batch  | `auto` / `on` / `off` | `auto`  | `auto`: batched where the accelerator says batches pay (`Accel::batches_pay`: a BVH of at least 16 MB, `BATCH_MIN_BYTES`); `on`: wherever it applies; `off`: one path at a time |
 //!
 //! It applies to plain pt in scenes without media (a shadow ray through media crosses its
 //! boundaries one segment at a time) and not under `--check` (which inspects each

@@ -90,21 +90,10 @@ pub fn light_subpath<'a>(
     path: &mut Vec<Vertex<'a>>,
 ) {
     path.clear();
-    let u_light = sampler.next_1d();
-    let (u_pos, u_dir) = (sampler.next_2d(), sampler.next_2d());
-    let Some((light, pmf)) = scene.light_sampler.sample(u_light) else {
+    let Some((light, pmf, e)) = scene.sample_emission(sampler) else {
         return;
     };
     let l = &scene.lights[light];
-    if !scene.light_reaches_scene(light) {
-        return;
-    }
-    let Some(e) = l.sample_le(u_pos, u_dir) else {
-        return;
-    };
-    if e.pdf_pos <= 0.0 || e.pdf_dir <= 0.0 || e.le == Spectrum::ZERO {
-        return;
-    }
     let infinite = l.is_infinite();
     let origin_pdf = pmf * if infinite { e.pdf_dir } else { e.pdf_pos };
     let n0 = if infinite { -e.dir } else { e.n };

@@ -295,32 +295,9 @@ impl PathTracer {
         let Some(sp) = sp else {
             // ---- Escaped: lights at infinity ----
             for &li in &scene.infinite_lights {
-                let light = &scene.lights[li];
-                let le = light.le(Vec3::ZERO, ray.d);
+                let le = scene.lights[li].le(Vec3::ZERO, path.ray.d);
                 if le != Spectrum::ZERO {
-                    let prev = &path.prev;
-                    if let Some(r) = &mut extras.rec {
-                        let at = r.path.vertices().last().map_or(ray.o, |v| v.p) + ray.d;
-                        let v = PathVertex {
-                            p: at,
-                            n: ray.d,
-                            ns: Vec3::ZERO,
-                            kind: VertexKind::Emitter {
-                                light: li as u32,
-                                delta: false,
-                            },
-                        };
-                        let nee = if prev.delta {
-                            0.0
-                        } else {
-                            scene.light_sampler.pmf(li) as f64
-                                * light.pdf_li(prev.p, Vec3::ZERO, Vec3::ZERO, ray.d) as f64
-                        };
-                        r.emitter(scene, v, path.pass, nee, path.beta * le);
-                    }
-                    let pdf_li = || light.pdf_li(prev.p, Vec3::ZERO, Vec3::ZERO, ray.d);
-                    let w = self.emission_weight(scene, li, prev, path.pass, pdf_li);
-                    path.l += path.beta * le * w;
+                    self.emission(scene, path, extras, li, le, EmitterAt::Infinity);
                 }
             }
             return false;
@@ -341,34 +318,13 @@ impl PathTracer {
 
         // ---- Emission of a hit emitter ----
         if let Some(li) = sp.light() {
-            let light = &scene.lights[li];
-            let le = light.le(hit.ng, wo);
+            let le = scene.lights[li].le(hit.ng, wo);
             if le != Spectrum::ZERO {
-                let prev = &path.prev;
-                if let Some(r) = &mut extras.rec {
-                    let v = PathVertex {
-                        p: hit.p,
-                        n: hit.ng,
-                        ns: Vec3::ZERO,
-                        kind: VertexKind::Emitter {
-                            light: li as u32,
-                            delta: false,
-                        },
-                    };
-                    let nee = if prev.delta {
-                        0.0
-                    } else {
-                        let d2 = (hit.p - prev.p).length_squared() as f64;
-                        scene.light_sampler.pmf(li) as f64
-                            * light.pdf_li(prev.p, hit.p, hit.ng, ray.d) as f64
-                            * hit.ng.dot(ray.d).abs() as f64
-                            / d2
-                    };
-                    r.emitter(scene, v, path.pass, nee, path.beta * le);
-                }
-                let pdf_li = || light.pdf_li(prev.p, hit.p, hit.ng, ray.d);
-                let w = self.emission_weight(scene, li, prev, path.pass, pdf_li);
-                path.l += path.beta * le * w;
+                let at = EmitterAt::Surface {
+                    p: hit.p,
+                    n: hit.ng,
+                };
+                self.emission(scene, path, extras, li, le, at);
             }
         }
         if sp.bsdf.is_black() || path.depth == s.max_depth {
@@ -497,6 +453,56 @@ impl PathTracer {
         true
     }
 
+    /// Emission `le` of light `li` that `path.ray` found `at`: added to `path.l` under its MIS
+    /// weight against next-event estimation, and handed to the recorder as an emitter vertex
+    /// with next-event estimation's density for it (solid angle for a light at infinity, area
+    /// on a surface).
+    #[inline(always)]
+    fn emission(
+        &self,
+        scene: &Scene,
+        path: &mut PathState,
+        extras: &mut Extras,
+        li: usize,
+        le: Spectrum,
+        at: EmitterAt,
+    ) {
+        let (light, prev, d) = (&scene.lights[li], &path.prev, path.ray.d);
+        let pdf_li = || match at {
+            EmitterAt::Infinity => light.pdf_li(prev.p, Vec3::ZERO, Vec3::ZERO, d),
+            EmitterAt::Surface { p, n } => light.pdf_li(prev.p, p, n, d),
+        };
+        if let Some(r) = &mut extras.rec {
+            let (p, n, to_vertex_measure) = match at {
+                EmitterAt::Infinity => {
+                    let last = r.path.vertices().last().map_or(path.ray.o, |v| v.p);
+                    (last + d, d, 1.0)
+                }
+                EmitterAt::Surface { p, n } => {
+                    let d2 = (p - prev.p).length_squared() as f64;
+                    (p, n, n.dot(d).abs() as f64 / d2)
+                }
+            };
+            let v = PathVertex {
+                p,
+                n,
+                ns: Vec3::ZERO,
+                kind: VertexKind::Emitter {
+                    light: li as u32,
+                    delta: false,
+                },
+            };
+            let nee = if prev.delta {
+                0.0
+            } else {
+                scene.light_sampler.pmf(li) as f64 * pdf_li() as f64 * to_vertex_measure
+            };
+            r.emitter(scene, v, path.pass, nee, path.beta * le);
+        }
+        let w = self.emission_weight(scene, li, prev, path.pass, pdf_li);
+        path.l += path.beta * le * w;
+    }
+
     /// MIS weight of emission found by continuing the path (or by the camera ray).
     fn emission_weight(
         &self,
@@ -519,6 +525,15 @@ impl PathTracer {
         crate::check::weight(crate::check::Technique::named("pt emitter hit"), w as f64);
         w
     }
+}
+
+/// Where the continuation found an emitter.
+#[derive(Clone, Copy)]
+enum EmitterAt {
+    /// A light at infinity, in the direction of the segment.
+    Infinity,
+    /// A point of an area light and its geometric normal.
+    Surface { p: Vec3, n: Vec3 },
 }
 
 /// One camera path between two segments: what [`PathTracer::advance`] carries from one

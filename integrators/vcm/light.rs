@@ -197,21 +197,10 @@ impl<'a> LightTracer<'a, '_> {
     ) {
         let (scene, st) = (self.scene, self.settings);
         let max = st.max_depth;
-        let u_light = sampler.next_1d();
-        let (u_pos, u_dir) = (sampler.next_2d(), sampler.next_2d());
-        let Some((li, pick)) = scene.light_sampler.sample(u_light) else {
+        let Some((li, pick, e)) = scene.sample_emission(sampler) else {
             return;
         };
         let l = &scene.lights[li];
-        if !scene.light_reaches_scene(li) {
-            return;
-        }
-        let Some(e) = l.sample_le(u_pos, u_dir) else {
-            return;
-        };
-        if e.pdf_pos <= 0.0 || e.pdf_dir <= 0.0 || e.le == Spectrum::ZERO {
-            return;
-        }
         let infinite = l.is_infinite();
         // For lights at infinity the origin's "normal" is the direction towards the light.
         let n0 = if infinite { -e.dir } else { e.n };

@@ -11,7 +11,7 @@ use crate::bsdf::{Bsdf, ShadingFrame};
 use crate::camera::Camera;
 use crate::geometry::bvh::{ShapeGeometry, shadow_segment};
 use crate::geometry::{Accel, Hit, Ray, SHADOW_EPS, offset_origin};
-use crate::light::{Light, LightSampler};
+use crate::light::{EmissionSample, Light, LightSampler};
 use crate::math::Spectrum;
 use crate::medium::{HomogeneousMedium, MediumInterface};
 use glam::Vec3;
@@ -364,6 +364,27 @@ impl Scene {
     /// they escape), so light paths from it are not started.
     pub fn light_reaches_scene(&self, light: usize) -> bool {
         !(self.lights[light].is_infinite() && self.world_medium.is_some())
+    }
+
+    /// The start of a light subpath (BDPT, vcm): a light chosen by power and a point and
+    /// direction of emission from it, from three uniforms drawn in that order; with the light's
+    /// index and selection pmf. `None` when no light path starts: no light, a light that does
+    /// not reach the scene, or an emission sample of zero density or value.
+    pub fn sample_emission(
+        &self,
+        sampler: &mut impl crate::math::Sampler,
+    ) -> Option<(usize, f32, EmissionSample)> {
+        let u_light = sampler.next_1d();
+        let (u_pos, u_dir) = (sampler.next_2d(), sampler.next_2d());
+        let (light, pmf) = self.light_sampler.sample(u_light)?;
+        if !self.light_reaches_scene(light) {
+            return None;
+        }
+        let e = self.lights[light].sample_le(u_pos, u_dir)?;
+        if e.pdf_pos <= 0.0 || e.pdf_dir <= 0.0 || e.le == Spectrum::ZERO {
+            return None;
+        }
+        Some((light, pmf, e))
     }
 
     /// Fill `camera_medium` and `light_media` by `medium_at` (after the accelerator is built).

@@ -34,7 +34,7 @@ use super::IntegratorParams;
 use crate::bsdf::TransportMode;
 use crate::error::{Error, Result};
 use crate::geometry::Ray;
-use crate::math::{IndependentSampler, Sampler, Spectrum, power_heuristic};
+use crate::math::{IndependentSampler, Sampler, Spectrum};
 use crate::path::{Path, Vertex as PathVertex, VertexKind};
 use crate::render::{
     Budget, Integrator, PixelEstimator, RenderContext, RenderResult, render_pixel_estimator,
@@ -42,6 +42,7 @@ use crate::render::{
 use crate::scene::{Endpoint, Scene, SurfacePoint};
 use batch::BatchMode;
 use direct::{Queue, Scatterer, TraceNow};
+use emission::EmitterAt;
 use glam::{Vec2, Vec3};
 use guiding::{Guide, Trail};
 pub use recording::PathRecorder;
@@ -49,6 +50,7 @@ use recording::Recording;
 
 pub mod batch;
 mod direct;
+mod emission;
 pub mod guiding;
 mod recording;
 pub mod sdtree;
@@ -452,88 +454,6 @@ impl PathTracer {
         *beta /= q;
         true
     }
-
-    /// Emission `le` of light `li` that `path.ray` found `at`: added to `path.l` under its MIS
-    /// weight against next-event estimation, and handed to the recorder as an emitter vertex
-    /// with next-event estimation's density for it (solid angle for a light at infinity, area
-    /// on a surface).
-    #[inline(always)]
-    fn emission(
-        &self,
-        scene: &Scene,
-        path: &mut PathState,
-        extras: &mut Extras,
-        li: usize,
-        le: Spectrum,
-        at: EmitterAt,
-    ) {
-        let (light, prev, d) = (&scene.lights[li], &path.prev, path.ray.d);
-        let pdf_li = || match at {
-            EmitterAt::Infinity => light.pdf_li(prev.p, Vec3::ZERO, Vec3::ZERO, d),
-            EmitterAt::Surface { p, n } => light.pdf_li(prev.p, p, n, d),
-        };
-        if let Some(r) = &mut extras.rec {
-            let (p, n, to_vertex_measure) = match at {
-                EmitterAt::Infinity => {
-                    let last = r.path.vertices().last().map_or(path.ray.o, |v| v.p);
-                    (last + d, d, 1.0)
-                }
-                EmitterAt::Surface { p, n } => {
-                    let d2 = (p - prev.p).length_squared() as f64;
-                    (p, n, n.dot(d).abs() as f64 / d2)
-                }
-            };
-            let v = PathVertex {
-                p,
-                n,
-                ns: Vec3::ZERO,
-                kind: VertexKind::Emitter {
-                    light: li as u32,
-                    delta: false,
-                },
-            };
-            let nee = if prev.delta {
-                0.0
-            } else {
-                scene.light_sampler.pmf(li) as f64 * pdf_li() as f64 * to_vertex_measure
-            };
-            r.emitter(scene, v, path.pass, nee, path.beta * le);
-        }
-        let w = self.emission_weight(scene, li, prev, path.pass, pdf_li);
-        path.l += path.beta * le * w;
-    }
-
-    /// MIS weight of emission found by continuing the path (or by the camera ray).
-    fn emission_weight(
-        &self,
-        scene: &Scene,
-        light: usize,
-        prev: &Scattered,
-        pass: f32,
-        pdf_li: impl FnOnce() -> f32,
-    ) -> f32 {
-        if prev.delta {
-            return 1.0; // no other strategy can produce this path
-        }
-        let w = match self.settings.strategy {
-            Strategy::Bsdf => 1.0,
-            Strategy::Nee => 0.0,
-            Strategy::Mis => {
-                power_heuristic(prev.pdf * pass, scene.light_sampler.pmf(light) * pdf_li())
-            }
-        };
-        crate::check::weight(crate::check::Technique::named("pt emitter hit"), w as f64);
-        w
-    }
-}
-
-/// Where the continuation found an emitter.
-#[derive(Clone, Copy)]
-enum EmitterAt {
-    /// A light at infinity, in the direction of the segment.
-    Infinity,
-    /// A point of an area light and its geometric normal.
-    Surface { p: Vec3, n: Vec3 },
 }
 
 /// One camera path between two segments: what [`PathTracer::advance`] carries from one

@@ -186,7 +186,7 @@ fn bdpt_cost(scene: &Scene, all: &[Install]) {
         ("10k guides, BVH query per path", &cache, true),
         ("10k guides, BVH query per x_1", &cache, false),
     ] {
-        let est = Estimator::new(scene, &u, cache, 0.5);
+        let est = Estimator::new(scene, &u, (), cache, 0.5);
         let mut out = RowOutput::default();
         out.candidates.no_reuse = no_reuse;
         let mut tracer = Tracer::new(scene, &settings);

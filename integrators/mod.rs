@@ -50,6 +50,11 @@ pub static REGISTRY: &[Entry] = &[
         build: guided::build_bdpt,
     },
     Entry {
+        name: "guided-vcm",
+        summary: "selective guided sampling with complete guide paths, mixed with vcm (bdpt's techniques and merging, explicit balance weights; consistent)",
+        build: guided::build_vcm,
+    },
+    Entry {
         name: "bdpt",
         summary: "bidirectional path tracing: all (s, t) techniques, full MIS, media",
         build: bdpt::build,

@@ -12,8 +12,13 @@
 //! |-----------|----------------------------|
 //! | `pt`      | the continuation hitting the emitter (s = 0) and next-event estimation (s = 1) |
 //! | `bdpt`    | every (s, t) split (`bdpt::path_terms`) |
+//! | `vcm`     | every (s, t) split, and merging at every non-delta surface vertex with the pass's radius (`bdpt/merging.rs`) |
+//!
+//! Samples of pt and bdpt are independent; vcm's share the light subpaths of their pass
+//! (traced once per pass by `begin_pass`), so everything that traces or weighs is given the
+//! pass's state (`Unguided::Pass`).
 
-use super::bdpt::{self, BdptSettings, Vertex};
+use super::bdpt::{self, BdptSettings, SharedLights, Vertex};
 use super::pt::{PathRecorder, PathTracer, PtSettings};
 use crate::math::{IndependentSampler, Sampler};
 use crate::path::{MAX_VERTICES, Path};
@@ -37,11 +42,31 @@ pub trait Unguided: Sync + Send {
     type Tracer<'s>
     where
         Self: 's;
+    /// What one pass's samples share (vcm: the light subpaths and the merging grid; `()` for
+    /// pt and bdpt).
+    type Pass<'s>: Sync
+    where
+        Self: 's;
 
-    /// Registry name of the estimator alone (`pt`, `bdpt`).
+    /// Registry name of the estimator alone (`pt`, `bdpt`, `vcm`).
     fn name(&self) -> &'static str;
     fn max_depth(&self) -> u32;
-    fn tracer<'s>(&'s self, scene: &'s Scene) -> Self::Tracer<'s>;
+    /// The shared state of a pass: `stream` is the pass's random-stream index, `ordinal` its
+    /// position among the passes of the render (0, 1, ...; vcm's radius shrinks with it).
+    fn begin_pass<'s>(
+        &'s self,
+        scene: &'s Scene,
+        seed: u64,
+        stream: u64,
+        ordinal: u64,
+    ) -> Self::Pass<'s>;
+    fn tracer<'s, 'p: 's>(&'s self, scene: &'s Scene, pass: &'s Self::Pass<'p>)
+    -> Self::Tracer<'s>;
+    /// Whether a sample can be traced alone, from any stream (a Markov chain replaying its
+    /// primary samples): false when samples share their pass's state.
+    fn independent_samples(&self) -> bool {
+        true
+    }
     /// One sample through raster position `raster`; every path it forms goes to `sink`.
     fn trace(
         &self,
@@ -63,8 +88,8 @@ pub trait Unguided: Sync + Send {
         splats: &mut Vec<(u32, DVec3)>,
     ) -> DVec3;
     /// Sum over the estimator's techniques of their densities for path `y` (camera first,
-    /// a light last); 0 for paths it cannot form (longer than `max_depth`).
-    fn pdf_unguided(&self, scene: &Scene, y: &[Vertex]) -> f64;
+    /// a light last) in pass `pass`; 0 for paths it cannot form (longer than `max_depth`).
+    fn pdf_unguided(&self, scene: &Scene, pass: &Self::Pass<'_>, y: &[Vertex]) -> f64;
     /// Samples of each technique per pass (n_u): one per pixel.
     fn samples_per_pass(&self, scene: &Scene) -> f64 {
         scene.camera.pixel_count() as f64
@@ -93,6 +118,7 @@ fn densities(
 
 impl Unguided for PathTracer {
     type Tracer<'s> = ();
+    type Pass<'s> = ();
 
     fn name(&self) -> &'static str {
         "pt"
@@ -102,7 +128,9 @@ impl Unguided for PathTracer {
         self.settings.max_depth
     }
 
-    fn tracer<'s>(&'s self, _: &'s Scene) {}
+    fn begin_pass<'s>(&'s self, _: &'s Scene, _: u64, _: u64, _: u64) {}
+
+    fn tracer<'s, 'p: 's>(&'s self, _: &'s Scene, _: &'s ()) {}
 
     fn trace(
         &self,
@@ -134,7 +162,7 @@ impl Unguided for PathTracer {
     }
 
     /// pt's techniques are BDPT's s = 0 and (two or more segments) s = 1.
-    fn pdf_unguided(&self, scene: &Scene, y: &[Vertex]) -> f64 {
+    fn pdf_unguided(&self, scene: &Scene, _: &(), y: &[Vertex]) -> f64 {
         let s: &PtSettings = &self.settings;
         densities(y, scene, s.max_depth, s.rr_depth, false)
             .map_or(0.0, |p| p[0] + if y.len() >= 3 { p[1] } else { 0.0 })
@@ -149,6 +177,7 @@ pub struct BdptUnguided {
 
 impl Unguided for BdptUnguided {
     type Tracer<'s> = bdpt::Tracer<'s>;
+    type Pass<'s> = ();
 
     fn name(&self) -> &'static str {
         "bdpt"
@@ -158,7 +187,9 @@ impl Unguided for BdptUnguided {
         self.settings.max_depth
     }
 
-    fn tracer<'s>(&'s self, scene: &'s Scene) -> bdpt::Tracer<'s> {
+    fn begin_pass<'s>(&'s self, _: &'s Scene, _: u64, _: u64, _: u64) {}
+
+    fn tracer<'s, 'p: 's>(&'s self, scene: &'s Scene, _: &'s ()) -> bdpt::Tracer<'s> {
         bdpt::Tracer::new(scene, &self.settings)
     }
 
@@ -191,10 +222,109 @@ impl Unguided for BdptUnguided {
         finite(v.as_dvec3())
     }
 
-    fn pdf_unguided(&self, scene: &Scene, y: &[Vertex]) -> f64 {
+    fn pdf_unguided(&self, scene: &Scene, _: &(), y: &[Vertex]) -> f64 {
         let s = &self.settings;
         densities(y, scene, s.max_depth, s.rr_depth, s.direct_splats)
             .map_or(0.0, |p| p[..y.len()].iter().sum())
+    }
+}
+
+/// VCM as an unguided estimator: BDPT's techniques and vertex merging, all weighed by the
+/// balance heuristic from explicit densities (`bdpt/merging.rs`). Consistent: merging's
+/// radius shrinks with the pass, r_i = r_0 (i + 1)^((alpha - 1) / 2).
+pub struct VcmUnguided {
+    pub settings: BdptSettings,
+    /// Initial radius r_0 (`None`: 0.003 x the scene's bounding-sphere radius, as `vcm`).
+    pub radius: Option<f32>,
+    pub alpha: f32,
+}
+
+impl VcmUnguided {
+    /// The merging radius of the pass with this ordinal.
+    pub fn radius_at(&self, scene: &Scene, ordinal: u64) -> f32 {
+        self.radius.unwrap_or(0.003 * scene.radius)
+            * ((ordinal + 1) as f32).powf(0.5 * (self.alpha - 1.0))
+    }
+}
+
+impl Unguided for VcmUnguided {
+    type Tracer<'s> = bdpt::Tracer<'s>;
+    type Pass<'s> = SharedLights<'s>;
+
+    fn name(&self) -> &'static str {
+        "vcm"
+    }
+
+    fn max_depth(&self) -> u32 {
+        self.settings.max_depth
+    }
+
+    fn begin_pass<'s>(
+        &'s self,
+        scene: &'s Scene,
+        seed: u64,
+        stream: u64,
+        ordinal: u64,
+    ) -> SharedLights<'s> {
+        let r = self.radius_at(scene, ordinal);
+        SharedLights::trace(scene, &self.settings, seed, stream, r)
+    }
+
+    fn tracer<'s, 'p: 's>(
+        &'s self,
+        scene: &'s Scene,
+        pass: &'s SharedLights<'p>,
+    ) -> bdpt::Tracer<'s> {
+        bdpt::Tracer::merging(scene, &self.settings, pass)
+    }
+
+    fn independent_samples(&self) -> bool {
+        false
+    }
+
+    fn trace(
+        &self,
+        tracer: &mut bdpt::Tracer<'_>,
+        _: &Scene,
+        raster: Vec2,
+        sampler: &mut impl Sampler,
+        sink: &mut dyn PathSink,
+    ) {
+        tracer.sample_recorded(raster, sampler, sink);
+    }
+
+    fn estimate(
+        &self,
+        tracer: &mut bdpt::Tracer<'_>,
+        _: &Scene,
+        raster: Vec2,
+        sampler: &mut IndependentSampler,
+        splats: &mut Vec<(u32, DVec3)>,
+    ) -> DVec3 {
+        let v = tracer.sample(raster, sampler);
+        for (p, c) in tracer.splats.drain(..) {
+            let c = finite(c.as_dvec3());
+            if c != DVec3::ZERO {
+                splats.push((p, c));
+            }
+        }
+        finite(v.as_dvec3())
+    }
+
+    fn pdf_unguided(&self, scene: &Scene, pass: &SharedLights<'_>, y: &[Vertex]) -> f64 {
+        let s = &self.settings;
+        let k = y.len().saturating_sub(1);
+        if k == 0 || k > s.max_depth as usize {
+            return 0.0;
+        }
+        let mut terms = bdpt::path_terms(scene, y, s.rr_depth);
+        terms.direct_by_camera &= !s.direct_splats;
+        terms.eta = pass.eta;
+        let mut p = [0.0f64; 2 * MAX_VERTICES];
+        let (vc, vm) = p.split_at_mut(MAX_VERTICES);
+        terms.technique_densities(vc);
+        let merge = terms.merge_densities(|j| bdpt::mergeable(scene, &y[j]), vm);
+        vc[..=k].iter().sum::<f64>() + merge
     }
 }
 

@@ -89,7 +89,7 @@ fn check_weights(name: &str, scene: &Scene) {
     let u = BdptUnguided {
         settings: bdpt_settings(),
     };
-    let est = Estimator::new(scene, &u, &cache, 0.5);
+    let est = Estimator::new(scene, &u, (), &cache, 0.5);
     assert_eq!(
         est.n_g, est.n_u,
         "alpha 0.5 gives one guided path per pixel"
@@ -120,7 +120,7 @@ fn check_weights(name: &str, scene: &Scene) {
             let mut p = [0.0f64; MAX_VERTICES];
             bdpt::path_terms(scene, y, 5).technique_densities(&mut p);
             let bdpt_weights: f64 = p[..=k].iter().sum::<f64>() / est.mix(p_u_mix, p_g);
-            let p_u_guided = est.unguided.pdf_unguided(scene, y);
+            let p_u_guided = est.unguided.pdf_unguided(scene, &(), y);
             let r = est.n_g / est.n_u;
             let guided_weight = r * p_g / est.mix(p_u_guided, p_g);
             if guided_weight > 0.05 {
@@ -198,7 +198,7 @@ fn coverage_classes_follow_the_cache_and_p_g() {
     let u = BdptUnguided {
         settings: bdpt_settings(),
     };
-    let est = Estimator::new(&scene, &u, &cache, 0.5);
+    let est = Estimator::new(&scene, &u, (), &cache, 0.5);
     struct Classify<'e, 'a> {
         scene: &'a Scene,
         est: &'e Estimator<'a, BdptUnguided>,
@@ -516,8 +516,8 @@ fn learning_passes_keep_bdpts_own_estimate() {
     let u = BdptUnguided {
         settings: bdpt_settings(),
     };
-    let est = Estimator::new(&scene, &u, &cache, 0.5);
-    let mut tracer = u.tracer(&scene);
+    let est = Estimator::new(&scene, &u, (), &cache, 0.5);
+    let mut tracer = u.tracer(&scene, &());
     let (mut bad, mut mixed_differs, mut nonzero, mut splats_seen) = (Vec::new(), 0, 0, 0);
     let mut held_seen = 0;
     let rel = |a: DVec3, b: DVec3| {

@@ -231,7 +231,7 @@ fn p_u_has_one_source_where_guiding_can_make_the_path() {
     let mut cache = GuideCache::default();
     cache.install(&scene, pt_installs(&scene, 256), 10_000);
     let u = pt(6);
-    let est = Estimator::new(&scene, &u, &cache, 0.5);
+    let est = Estimator::new(&scene, &u, (), &cache, 0.5);
     struct Check<'e, 'a> {
         est: &'e Estimator<'a, PathTracer>,
         scene: &'a Scene,
@@ -257,7 +257,7 @@ fn p_u_has_one_source_where_guiding_can_make_the_path() {
             if p_g > 0.0 {
                 self.with_pg += 1;
                 let y: Vec<Vertex> = bdpt::from_path(self.scene, path).unwrap();
-                let reference = Unguided::pdf_unguided(self.est.unguided, self.scene, &y);
+                let reference = Unguided::pdf_unguided(self.est.unguided, self.scene, &(), &y);
                 self.differs += (recorded != reference) as usize;
                 if p_u != reference && self.bad.len() < 4 {
                     self.bad
@@ -290,13 +290,15 @@ struct Disagreeing(PathTracer);
 
 impl Unguided for Disagreeing {
     type Tracer<'s> = ();
+    type Pass<'s> = ();
     fn name(&self) -> &'static str {
         "pt"
     }
     fn max_depth(&self) -> u32 {
         self.0.max_depth()
     }
-    fn tracer<'s>(&'s self, _: &'s Scene) {}
+    fn begin_pass<'s>(&'s self, _: &'s Scene, _: u64, _: u64, _: u64) {}
+    fn tracer<'s, 'p: 's>(&'s self, _: &'s Scene, _: &'s ()) {}
     fn trace(
         &self,
         t: &mut (),
@@ -317,7 +319,7 @@ impl Unguided for Disagreeing {
     ) -> DVec3 {
         self.0.estimate(t, scene, raster, sampler, splats)
     }
-    fn pdf_unguided(&self, _: &Scene, _: &[Vertex]) -> f64 {
+    fn pdf_unguided(&self, _: &Scene, _: &(), _: &[Vertex]) -> f64 {
         0.0
     }
 }
@@ -331,7 +333,7 @@ fn a_path_u_formed_keeps_its_density_where_the_recomputation_calls_it_impossible
     let mut cache = GuideCache::default();
     cache.install(&scene, pt_installs(&scene, 256), 10_000);
     let u = Disagreeing(pt(6));
-    let est = Estimator::new(&scene, &u, &cache, 0.5);
+    let est = Estimator::new(&scene, &u, (), &cache, 0.5);
     struct Check<'e, 'a> {
         est: &'e Estimator<'a, Disagreeing>,
         with_pg: u64,
@@ -385,7 +387,7 @@ fn every_failed_guided_sample_has_a_reason() {
         let mut cache = GuideCache::default();
         cache.install(&scene, pt_installs(&scene, 256), 10_000);
         let u = pt(6);
-        let est = Estimator::new(&scene, &u, &cache, 0.5);
+        let est = Estimator::new(&scene, &u, (), &cache, 0.5);
         let mut stats = Stats::default();
         let mut candidates = X1Candidates::default();
         let mut ok = 0;

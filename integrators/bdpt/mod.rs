@@ -37,6 +37,7 @@
 //! ```
 
 mod cache;
+mod merging;
 mod recording;
 mod settings;
 mod technique;
@@ -61,6 +62,7 @@ use crate::render::{Budget, Integrator, RenderContext, RenderResult, RowTracer, 
 use crate::scene::{Endpoint, Scene};
 use cache::{Cached, cache_subpath, mis_sums};
 use glam::{Vec2, Vec3};
+pub use merging::{SharedLights, mergeable};
 use settings::settings;
 pub use settings::{BdptSettings, RR_DEPTH, TechniqueFilter};
 pub use technique::TECHNIQUE_STREAMS;
@@ -161,6 +163,11 @@ pub struct Tracer<'a> {
     /// Weigh by assembling every technique's density even where the recursive weights apply
     /// (for tests: the two must agree).
     pub explicit_weights: bool,
+    /// Vertex merging (`merging.rs`): the pass's light subpaths, used instead of tracing
+    /// one per sample, and merged with at every mergeable camera vertex.
+    pub shared: Option<&'a SharedLights<'a>>,
+    /// Scratch: the photons of the current merge query.
+    photons: Vec<merging::Photon>,
 }
 
 impl<'a> Tracer<'a> {
@@ -187,7 +194,21 @@ impl<'a> Tracer<'a> {
             path_buf: Path::default(),
             pixel: 0,
             explicit_weights: false,
+            shared: None,
+            photons: Vec::new(),
         }
+    }
+
+    /// A tracer that merges with the light subpaths of `shared` (`merging.rs`).
+    pub fn merging(
+        scene: &'a Scene,
+        settings: &'a BdptSettings,
+        shared: &'a SharedLights<'a>,
+    ) -> Tracer<'a> {
+        let mut t = Tracer::new(scene, settings);
+        t.terms.eta = shared.eta;
+        t.shared = Some(shared);
+        t
     }
 
     /// The recursive (O(1)) MIS weights apply: roulette from the first bounce (every
@@ -200,6 +221,7 @@ impl<'a> Tracer<'a> {
             && !self.explicit_weights
             && !self.recording
             && self.inspector.is_none()
+            && self.shared.is_none()
             && !crate::check::enabled()
     }
 
@@ -220,9 +242,9 @@ impl<'a> Tracer<'a> {
         self.pixel = scene.camera.pixel_index(raster) as u32;
         let max_depth = st.max_depth as usize;
         let mut camera = std::mem::take(&mut self.camera);
-        let mut light = std::mem::take(&mut self.light);
+        let mut light_buf = std::mem::take(&mut self.light);
         let mut cc = std::mem::take(&mut self.camera_cache);
-        let mut lc = std::mem::take(&mut self.light_cache);
+        let mut lc_buf = std::mem::take(&mut self.light_cache);
         let camera_vertices = if st.light_tracing { 1 } else { max_depth + 1 };
         walk::camera_subpath(
             scene,
@@ -232,17 +254,41 @@ impl<'a> Tracer<'a> {
             sampler,
             &mut camera,
         );
-        walk::light_subpath(scene, max_depth + 1, st.rr_depth, sampler, &mut light);
         cache_subpath(scene, &camera, st.rr_depth, &mut cc);
-        cache_subpath(scene, &light, st.rr_depth, &mut lc);
-        self.light_nee = light_nee(scene, &light);
-        if self.recursive_mis() {
-            mis_sums(&camera, &mut cc, None, st.heuristic);
-            mis_sums(&light, &mut lc, Some(self.light_nee), st.heuristic);
-        }
+        // The light subpath: the pass's of this pixel when merging, else traced here.
+        let (light_p, lc_p): (&[Vertex<'a>], &[Cached]) = if let Some(shared) = self.shared {
+            let (lv, lcache, nee) = shared.path(self.pixel as usize);
+            self.light_nee = nee;
+            (lv, lcache)
+        } else {
+            walk::light_subpath(scene, max_depth + 1, st.rr_depth, sampler, &mut light_buf);
+            cache_subpath(scene, &light_buf, st.rr_depth, &mut lc_buf);
+            self.light_nee = light_nee(scene, &light_buf);
+            if self.recursive_mis() {
+                mis_sums(&camera, &mut cc, None, st.heuristic);
+                mis_sums(&light_buf, &mut lc_buf, Some(self.light_nee), st.heuristic);
+            }
+            (&light_buf, &lc_buf)
+        };
+        let (light, lc) = (light_p, lc_p);
         let mut l = Spectrum::ZERO;
         for t in 1..=camera.len() {
+            // Merging's bucket, asked for now so that its cache misses overlap the
+            // connections below (as `vcm` does).
+            let bucket = match self.shared {
+                Some(sh) if t >= 2 => {
+                    let b = sh.grid.bucket_of(camera[t - 1].p);
+                    sh.grid.prefetch_range(b);
+                    Some((sh, b))
+                }
+                _ => None,
+            };
             for s in 0..=light.len() {
+                if s == 2
+                    && let Some((sh, b)) = bucket
+                {
+                    sh.grid.prefetch_entries(b);
+                }
                 let k = s + t - 1;
                 if k == 0
                     || k > max_depth
@@ -275,11 +321,14 @@ impl<'a> Tracer<'a> {
                     }
                 }
             }
+            if self.shared.is_some() && t >= 2 {
+                l += self.merge_at(&camera[..t], &cc[..t], sink.as_deref_mut());
+            }
         }
         self.camera = camera;
-        self.light = light;
+        self.light = light_buf;
         self.camera_cache = cc;
-        self.light_cache = lc;
+        self.light_cache = lc_buf;
         l
     }
 

@@ -32,27 +32,35 @@ impl<'a> Tracer<'a> {
         self.splats.clear();
     }
 
-    /// Recording mode: keep the path `vertices` (camera first) weighed as technique `s`; the
-    /// raw estimate is returned by the technique and handed on by `deliver`.
-    pub(super) fn hold<'v>(
-        &mut self,
-        vertices: impl Iterator<Item = &'v Vertex<'a>>,
-        s: usize,
-    ) -> f64
-    where
-        'a: 'v,
-    {
+    /// Explicit balance weights: the path `c` followed by `lp` reversed (camera first)
+    /// weighed as technique `own` (s = 0..=k for BDPT's techniques, k + 1 + j for merging
+    /// at y_j), among all of BDPT's techniques and, with merging (`Tracer::shared`), merging
+    /// at every mergeable vertex. In recording mode the path and its densities are kept for
+    /// `deliver` and the return is 1 (the raw estimate is delivered); otherwise it is the
+    /// weight.
+    pub(super) fn hold(&mut self, c: &[Vertex<'a>], lp: &[Vertex<'a>], own: usize) -> f64 {
         let k = self.terms.k;
-        self.densities.resize(self.densities.len().max(k + 1), 0.0);
-        self.terms.technique_densities(&mut self.densities);
-        let p_s = self.densities[s];
-        let p_u: f64 = self.densities[..=k].iter().sum();
+        self.densities
+            .resize(self.densities.len().max(2 * (k + 1)), 0.0);
+        let (vc, vm) = self.densities.split_at_mut(k + 1);
+        self.terms.technique_densities(vc);
+        let scene = self.scene;
+        let t = c.len();
+        let vm_sum = self.terms.merge_densities(
+            |j| super::mergeable(scene, if j < t { &c[j] } else { &lp[k - j] }),
+            vm,
+        );
+        let p_s = if own <= k { vc[own] } else { vm[own - k - 1] };
+        let p_u: f64 = vc.iter().sum::<f64>() + vm_sum;
         self.pending = None;
         if !(p_s > 0.0 && p_s.is_finite() && p_u.is_finite()) {
             return 0.0;
         }
+        if !self.recording {
+            return (p_s / p_u).min(1.0);
+        }
         self.joined.clear();
-        self.joined.extend(vertices.copied());
+        self.joined.extend(c.iter().chain(lp.iter().rev()));
         self.pending = Some(Pending { p_s, p_u });
         1.0
     }

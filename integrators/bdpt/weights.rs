@@ -92,8 +92,8 @@ impl<'a> Tracer<'a> {
             s,
             terms,
         );
-        if self.recording {
-            return self.hold(c.iter().chain(lp.iter().rev()), s);
+        if self.recording || self.shared.is_some() {
+            return self.hold(c, lp, s);
         }
         self.densities.resize(self.densities.len().max(k + 1), 0.0);
         self.terms
@@ -161,8 +161,8 @@ impl<'a> Tracer<'a> {
             0,
             terms,
         );
-        if self.recording {
-            return self.hold(c[..k].iter().chain(std::iter::once(emitter)), 0);
+        if self.recording || self.shared.is_some() {
+            return self.hold(&c[..k], std::slice::from_ref(emitter), 0);
         }
         self.densities.resize(self.densities.len().max(k + 1), 0.0);
         self.terms

@@ -207,7 +207,7 @@ impl Seeder for Mcmc {
                     SmallStep::default(),
                     st.large_step,
                 );
-                let mut tracer = explore.est.unguided.tracer(scene);
+                let mut tracer = explore.est.unguided.tracer(scene, &explore.est.pass);
                 let mut out = RowOutput::default();
                 let mut current =
                     evaluate(&explore, st.target, &mut tracer, &mut out, &mut sampler);

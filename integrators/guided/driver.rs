@@ -99,7 +99,7 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
                 let mut out = RowOutput::default();
                 out.candidates.collect_terms =
                     learning && n_g > 0 && self.settings.weights == WeightRule::SecondMoment;
-                let mut tracer = self.unguided.tracer(scene);
+                let mut tracer = est.unguided.tracer(est.scene, &est.pass);
                 for (x, acc) in row.iter_mut().enumerate() {
                     let index = y as u64 * w as u64 + x as u64;
                     let mut sampler = IndependentSampler::new(ctx.seed, pass, index);
@@ -319,7 +319,8 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
             if let Some(lb) = learn_budget {
                 let mut k = 0u64;
                 loop {
-                    let est = Estimator::new(scene, &self.unguided, &cache, st.alpha);
+                    let shared = self.unguided.begin_pass(scene, ctx.seed, k, k);
+                    let est = Estimator::new(scene, &self.unguided, shared, &cache, st.alpha);
                     let measure = st.share == Share::Auto && est.n_g > 0.0;
                     // The learning film averages the learning passes (each an unbiased
                     // estimate); it is what snapshots during learning show.
@@ -365,6 +366,7 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
                         rows: &mut learn_rows,
                     });
                     drop(learn_rows);
+                    drop(est);
                     k += 1;
                     if let Some(snap) = ctx.snapshots {
                         snap.emit_due(k, k, || film.to_image(k as f64, 1.0 / k as f64));
@@ -417,7 +419,7 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
             Share::Fixed => None,
         };
         let alpha = ratio.map_or(st.alpha, |r| 1.0 / (1.0 + r));
-        let est = Estimator::new(scene, &self.unguided, &cache, alpha);
+        let (alpha, _, n_g) = Estimator::split(scene, &self.unguided, &cache, alpha);
         // Guiding off (the share chose U alone, or the cache is empty): keep the learning
         // passes' unguided samples under U's own estimator (the guided samples, which cost
         // more than they bring, are left out) unless the DBOR image of the render passes was
@@ -429,7 +431,7 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
         // (L / N) sd(mean of the L passes) sqrt(q / (1 − q)), and by nothing where the choice
         // is certain. `keep_learning = false` renders every image pixel from the render
         // passes alone, independent of the choice (unbiased, at the price of those passes).
-        let keep_learning = st.keep_learning && est.n_g == 0.0 && !ctx.dbor && learn_passes > 0;
+        let keep_learning = st.keep_learning && n_g == 0.0 && !ctx.dbor && learn_passes > 0;
         let (kept, first_stream) = if keep_learning {
             (learn_passes, learn_passes)
         } else {
@@ -454,8 +456,12 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
             render_budget,
             &mut film,
             |film, p| {
-                let (rows, _) =
-                    self.pass(ctx, &est, film, None, &mut cascade, first_stream + p, false);
+                let stream = first_stream + p;
+                let shared = self
+                    .unguided
+                    .begin_pass(scene, ctx.seed, stream, learn_passes + p);
+                let est = Estimator::new(scene, &self.unguided, shared, &cache, alpha);
+                let (rows, _) = self.pass(ctx, &est, film, None, &mut cascade, stream, false);
                 for r in &rows {
                     render_stats.borrow_mut().add(&r.stats);
                 }
@@ -480,7 +486,7 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
             stat("learning_seconds", format!("{learn_seconds:.3}")),
             stat("cache_rebuild_seconds", format!("{rebuild_seconds:.3}")),
             stat("render_seconds", format!("{render_seconds:.3}")),
-            stat("unguided_share", format!("{:.3}", est.alpha)),
+            stat("unguided_share", format!("{alpha:.3}")),
             stat(
                 "share_relative_cost",
                 decision.as_ref().map_or("-".to_string(), |d| {

@@ -18,12 +18,15 @@
 //! techniques that can form X come from the same numbers and sum to one. The recomputation
 //! re-traces every segment, and f32 visibility is not exactly symmetric (a ray grazing an open
 //! mesh rim can hit it in one direction and pass in the other), so it can return 0 for a path
-//! U has just formed: such a path keeps U's own density (counted as
-//! `unguided_density_disagreements`), which bounds its value by U's own `f / p_u`. The
-//! guided technique cannot know that density for the same path (it has only the
-//! recomputation, 0), so on that set the two weights sum to `1 + p_u / (p_u + r p_g)`: a
-//! bias confined to paths whose visibility f32 rounding decides, whose size the counter
-//! bounds (README: fog-dragon's bunny rim).
+//! U has just formed; and a path vcm merged is not a traced path (the camera vertex stands in
+//! for the photon within the radius; in a corner, where the next vertex is about as near as
+//! the radius, its densities recomputed from the vertices can differ from the merge's by
+//! orders of magnitude). Where the recomputation is not within a factor 2 of U's own density,
+//! the path keeps U's own (counted as `unguided_density_disagreements`), which bounds its
+//! value by U's own `f / p_u`. The guided technique cannot know that density for the same
+//! path (it has only the recomputation), so on that set the two weights do not sum to one:
+//! a bias confined to paths whose visibility f32 rounding decides (README: fog-dragon's bunny
+//! rim), and for guided-vcm to merges near corners, a region that shrinks with the radius.
 
 use super::cache::{GuideCache, Record};
 use super::kernel::FirstTest;
@@ -199,6 +202,8 @@ pub struct GuidedValue {
 pub struct Estimator<'a, U: Unguided> {
     pub scene: &'a Scene,
     pub unguided: &'a U,
+    /// U's shared state of this pass (`Unguided::begin_pass`).
+    pub pass: U::Pass<'a>,
     pub cache: &'a GuideCache,
     /// Unguided share α of this pass (1: no guided samples).
     pub alpha: f64,
@@ -209,17 +214,30 @@ pub struct Estimator<'a, U: Unguided> {
 
 impl<'a, U: Unguided> Estimator<'a, U> {
     /// The estimator with unguided share `alpha` (taken as 1 with an empty cache).
-    pub fn new(scene: &'a Scene, unguided: &'a U, cache: &'a GuideCache, alpha: f64) -> Self {
-        let alpha = if cache.is_empty() { 1.0 } else { alpha };
-        let n_u = unguided.samples_per_pass(scene);
+    pub fn new(
+        scene: &'a Scene,
+        unguided: &'a U,
+        pass: U::Pass<'a>,
+        cache: &'a GuideCache,
+        alpha: f64,
+    ) -> Self {
+        let (alpha, n_u, n_g) = Self::split(scene, unguided, cache, alpha);
         Estimator {
             scene,
             unguided,
+            pass,
             cache,
             alpha,
             n_u,
-            n_g: (n_u * (1.0 - alpha) / alpha).round(),
+            n_g,
         }
+    }
+
+    /// The share α (1 with an empty cache), n_u and n_g of an estimator with share `alpha`.
+    pub fn split(scene: &Scene, unguided: &U, cache: &GuideCache, alpha: f64) -> (f64, f64, f64) {
+        let alpha = if cache.is_empty() { 1.0 } else { alpha };
+        let n_u = unguided.samples_per_pass(scene);
+        (alpha, n_u, (n_u * (1.0 - alpha) / alpha).round())
     }
 
     /// `p_u` and `p_g` of a path U reported with density sum `p_u` (see the module doc for
@@ -286,8 +304,8 @@ impl<'a, U: Unguided> Estimator<'a, U> {
             // call a path U has just formed impossible. U's own density then stands in, which
             // bounds the value by U's own f / p_u; with 0 the value would be f / (r p_g),
             // unbounded (fireflies of 1e5 on fog-dragon before).
-            let recomputed = self.unguided.pdf_unguided(self.scene, y);
-            let p_u = if recomputed > 0.0 {
+            let recomputed = self.unguided.pdf_unguided(self.scene, &self.pass, y);
+            let p_u = if recomputed > 0.5 * p_u && recomputed < 2.0 * p_u {
                 recomputed
             } else {
                 stats.pu_disagreements += 1;
@@ -422,7 +440,7 @@ impl<'a, U: Unguided> Estimator<'a, U> {
             stats.fail(EDGE);
             return None;
         }
-        let p_u = self.unguided.pdf_unguided(self.scene, &y);
+        let p_u = self.unguided.pdf_unguided(self.scene, &self.pass, &y);
         stats.pg_evaluations += 1;
         stats.pg_candidates += n as u64;
         stats.pg_candidates_guided += n as u64;

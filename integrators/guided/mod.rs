@@ -1,8 +1,10 @@
-//! `guided-pt`, `guided-bdpt` — selective guided sampling with complete paths (Reibold et al.
-//! 2018), mixed with path tracing or with bidirectional path tracing.
+//! `guided-pt`, `guided-bdpt`, `guided-vcm` — selective guided sampling with complete paths
+//! (Reibold et al. 2018), mixed with path tracing, bidirectional path tracing, or vertex
+//! connection and merging.
 //!
-//! Every pass runs one sample per pixel of the unguided estimator U (`pt`, or `bdpt` with
-//! all its (s, t) techniques) and, once the cache holds guide paths, `(1 − α) / α` guided
+//! Every pass runs one sample per pixel of the unguided estimator U (`pt`, `bdpt` with
+//! all its (s, t) techniques, or `vcm`: bdpt's techniques on light subpaths shared by the
+//! pass plus merging at every non-delta surface vertex, `bdpt/merging.rs`) and, once the cache holds guide paths, `(1 − α) / α` guided
 //! paths per pixel (spec §4). Every complete path X either side forms adds
 //! `f(X) / (n_u p_u(X) + n_g p_g(X))` to the pixel of x_1: the balance heuristic over U's
 //! techniques and the guided one (DESIGN.md §3), so each of BDPT's technique weights gains
@@ -35,7 +37,9 @@
 //! | first_width     | number > 0    | 2       | factor on the first-vertex kernel's width (1: the spec's) |
 //! | first_width_specular | number > 0 | 6     | the same where g_1 is specular (roughness 0); interpolated by roughness in between |
 //! | seeder          | `outliers` / `mcmc` | `outliers` | where guide paths come from: the passes' outliers, or also Markov chains started at them (`chains.rs`, `--seeder`) |
-//! | direct_splats   | `true` / `false` | `false` | guided-bdpt: U's directly seen emitters also by technique (1, 1), as `bdpt -O direct_splats` |
+//! | direct_splats   | `true` / `false` | `false` | guided-bdpt, guided-vcm: U's directly seen emitters also by technique (1, 1), as `bdpt -O direct_splats` |
+//! | radius          | number > 0    | 0.003 x scene radius | guided-vcm: initial merging radius r_0, as `vcm -O radius` |
+//! | radius_alpha    | (0, 1]        | 0.75    | guided-vcm: radius schedule exponent, as `vcm -O alpha` |
 //! | chain_share     | number > 0    | 0.25    | `mcmc`: chain steps per learning iteration, per pixel |
 //! | chain_large_step | [0, 1]       | 0.1     | `mcmc`: large-step probability of the chains |
 //! | chain_target    | `mixture` / `uncovered` | `mixture` | `mcmc`: a chain state's importance: all its sample adds under the current mixture, or only its paths with p_g = 0 (`chains.rs`) |
@@ -46,7 +50,14 @@
 //! ```text
 //! lodestar render scenes/pool.toml --integrator guided-pt --time 60 -O alpha=0.5
 //! lodestar render scenes/pool.toml --integrator guided-bdpt --time 60
+//! lodestar render scenes/dining.toml --integrator guided-vcm --time 60
 //! ```
+//!
+//! guided-vcm is consistent, not unbiased (merging's radius shrinks with the passes, as in
+//! `vcm`); its weights are explicit, so with guiding off it is slower per pass than `vcm`,
+//! whose recursive weights are O(1) per connection. It takes only the `outliers` seeder:
+//! a Markov chain replays one sample alone, and vcm's samples share their pass's light
+//! subpaths.
 //!
 //! A cache saved by guided-pt loads into guided-bdpt and back: guide paths are complete
 //! paths, whichever estimator found them.
@@ -95,7 +106,7 @@ pub use seeder::{Outliers, Seeder};
 use super::IntegratorParams;
 use super::bdpt::{BdptSettings, Heuristic};
 use super::pt::{PathTracer, PtSettings};
-use super::unguided::BdptUnguided;
+use super::unguided::{BdptUnguided, VcmUnguided};
 use crate::error::{Error, Result};
 use crate::render::Integrator;
 use cache::{GuideCache, KernelWidths, WeightRule};
@@ -359,20 +370,20 @@ pub fn build_pt(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     })
 }
 
-pub fn build_bdpt(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
-    let (settings, rr_depth) = options(params, crate::integrators::bdpt::RR_DEPTH)?;
+/// U's settings for guided-bdpt and guided-vcm (`name`), with the balance heuristic.
+fn bdpt_settings(params: &IntegratorParams, name: &str, rr_depth: u32) -> Result<BdptSettings> {
     if params
         .options
         .choice("mis", "balance", &["balance", "power"])?
         == "power"
     {
-        return Err(Error::new(
-            "option 'mis': guided-bdpt needs 'balance': the guided technique joins BDPT's \
+        return Err(Error::new(format!(
+            "option 'mis': {name} needs 'balance': the guided technique joins BDPT's \
              techniques by adding n_g p_g to the balance heuristic's denominator, which the \
-             power heuristic has no place for",
-        ));
+             power heuristic has no place for"
+        )));
     }
-    let bdpt = BdptSettings {
+    Ok(BdptSettings {
         max_depth: params.max_depth,
         rr_depth,
         heuristic: Heuristic::Balance,
@@ -381,7 +392,12 @@ pub fn build_bdpt(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
         direct_splats: params
             .options
             .get("direct_splats", false, "true or false")?,
-    };
+    })
+}
+
+pub fn build_bdpt(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
+    let (settings, rr_depth) = options(params, crate::integrators::bdpt::RR_DEPTH)?;
+    let bdpt = bdpt_settings(params, "guided-bdpt", rr_depth)?;
     Ok(match settings.chains {
         Some(chains) => {
             let seeder = Mcmc::new(settings.intake, chains);
@@ -389,4 +405,45 @@ pub fn build_bdpt(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
         }
         None => Box::new(GuidedBdpt::new(bdpt, settings, None)),
     })
+}
+
+pub fn build_vcm(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
+    let (settings, rr_depth) = options(params, crate::integrators::bdpt::RR_DEPTH)?;
+    let bdpt = bdpt_settings(params, "guided-vcm", rr_depth)?;
+    if settings.chains.is_some() {
+        return Err(Error::new(
+            "option 'seeder': guided-vcm takes 'outliers' only: a Markov chain replays one \
+             sample alone, and vcm's samples share their pass's light subpaths",
+        ));
+    }
+    let o = &params.options;
+    let radius = match o.get::<String>("radius", String::new(), "a number > 0")? {
+        r if r.is_empty() => None,
+        r => match r.parse::<f32>() {
+            Ok(v) if v.is_finite() && v > 0.0 => Some(v),
+            _ => {
+                return Err(Error::new(format!(
+                    "option 'radius': expected a number > 0, got '{r}'"
+                )));
+            }
+        },
+    };
+    let radius_alpha: f32 = o.get("radius_alpha", 0.75, "a number in (0, 1]")?;
+    if !(radius_alpha > 0.0 && radius_alpha <= 1.0) {
+        return Err(Error::new(format!(
+            "option 'radius_alpha': expected a number in (0, 1], got {radius_alpha}"
+        )));
+    }
+    let seeder = Outliers::new(settings.intake);
+    Ok(Box::new(Guided {
+        name: "guided-vcm",
+        seeder,
+        unguided: VcmUnguided {
+            settings: bdpt,
+            radius,
+            alpha: radius_alpha,
+        },
+        settings,
+        cache: None,
+    }))
 }

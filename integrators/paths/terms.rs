@@ -52,6 +52,9 @@ pub struct PathTerms {
     /// k = 1, the segment y_0 y_1 crosses no medium and an emitter fills y_1's pixel: a
     /// directly seen emitter, left to s = 0 when `hittable` (see the module doc).
     pub direct_by_camera: bool,
+    /// Vertex merging (`guided-vcm`'s estimator): eta = pi r^2 N, the number of light
+    /// subpaths a merge draws from times the kernel's area; 0 without merging.
+    pub eta: f64,
 }
 
 impl PathTerms {
@@ -64,6 +67,7 @@ impl PathTerms {
             connectible: vec![false; k + 1],
             hittable: false,
             direct_by_camera: false,
+            eta: 0.0,
         }
     }
 
@@ -119,6 +123,36 @@ impl PathTerms {
                 pre *= self.pc[t];
             }
         }
+    }
+
+    /// Vertex merging at y_j (1 <= j < k, `mergeable(j)`: a non-delta surface vertex): the
+    /// camera walk and a light walk both generate y_j, and the kernel of radius r accepts
+    /// the pair, with N light subpaths per pass:
+    /// `p_vm(j) = eta prod_{l <= j} pc[l] prod_{l >= j} pl[l]` (pc[0], the pinhole, left
+    /// out as in [`PathTerms::technique_densities`]). Writes `out[j]` for j = 0..=k (0 where
+    /// nothing merges) and returns their sum; all 0 when `eta` is 0.
+    pub fn merge_densities(&self, mergeable: impl Fn(usize) -> bool, out: &mut [f64]) -> f64 {
+        let k = self.k;
+        out[..=k].fill(0.0);
+        if self.eta == 0.0 || k < 2 {
+            return 0.0;
+        }
+        let mut pre = 1.0f64;
+        for (j, o) in out.iter_mut().enumerate().take(k).skip(1) {
+            pre *= self.pc[j];
+            *o = pre;
+        }
+        let (mut suf, mut sum) = (self.pl[k], 0.0);
+        for j in (1..k).rev() {
+            suf *= self.pl[j];
+            out[j] = if mergeable(j) {
+                self.eta * out[j] * suf
+            } else {
+                0.0
+            };
+            sum += out[j];
+        }
+        sum
     }
 
     /// MIS weight of technique `s` for this path.

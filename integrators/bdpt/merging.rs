@@ -1,0 +1,277 @@
+//! Vertex merging inside bdpt's tracer: the unguided estimator of `guided-vcm`
+//! (`integrators::unguided::VcmUnguided`).
+//!
+//! A pass first traces N light subpaths (one per pixel, N = the pixel count) into
+//! [`SharedLights`], with a hash grid over their non-delta surface vertices. The tracer of
+//! pixel k then uses light subpath k for every BDPT technique (instead of tracing its own),
+//! and at each non-delta surface vertex y_m of its camera subpath it also merges with every
+//! stored light vertex within radius r of it (VCM, Georgiev et al. 2012): the merged path is
+//! the camera prefix y_0 .. y_m followed by the light prefix before the photon, and its value
+//! is `beta_cam f(y_m) beta_light / (pi r^2 N)`.
+//!
+//! Unlike `vcm` (recursive weights), every weight here is explicit (`PathTerms`): the density
+//! of each connection technique of the path plus, for each non-delta surface vertex y_j, the
+//! merging density `eta prod_{l <= j} pc[l] prod_{l >= j} pl[l]` with `eta = pi r^2 N`
+//! (`PathTerms::merge_densities`). So the sum of all densities is a `p_u` that a further
+//! technique (the guider) can join by adding its own density. At a merge the two vertices
+//! the kernel pairs stand for one: the camera side keeps its densities up to y_m, the light
+//! side its own from the photon on, and the densities across y_m are evaluated from the
+//! camera vertex's BSDF with the photon's incoming direction (as VCM's weights are).
+//! Merging is consistent, not unbiased: the radius shrinks with the pass,
+//! r_i = r_0 (i + 1)^((alpha - 1) / 2), as in `vcm`.
+
+use super::cache::{Cached, cache_subpath};
+use super::walk::{light_subpath, roulette};
+use super::{BdptSettings, Kind, Tracer, Vertex, hittable, light_nee};
+use crate::bsdf::TransportMode;
+use crate::integrators::unguided::PathSink;
+use crate::integrators::vcm::HashGrid;
+use crate::math::{IndependentSampler, PI, Spectrum};
+use crate::scene::Scene;
+use rayon::prelude::*;
+
+/// Stream index offset of the shared light subpaths (pixels use 0 .. N, guided samples
+/// N ..; the offset keeps the light subpaths apart from both).
+const LIGHT_STREAMS: u64 = 1 << 48;
+
+/// What a merge needs of a stored light vertex before touching its subpath, kept in the grid
+/// beside its position (one run of memory per query).
+#[derive(Clone, Copy, Default)]
+pub struct Photon {
+    /// Unit direction towards the light walk's previous vertex.
+    wo: glam::Vec3,
+    /// Its light subpath, and its depth there (segments from the light).
+    path: u32,
+    depth: u32,
+}
+
+/// The light subpaths of one pass, shared by every pixel's tracer, and the merging grid
+/// over their vertices.
+#[derive(Default)]
+pub struct SharedLights<'a> {
+    vertices: Vec<Vertex<'a>>,
+    caches: Vec<Cached>,
+    /// Light subpath i has vertices `starts[i] .. starts[i + 1]`.
+    starts: Vec<u32>,
+    /// The subpath each vertex belongs to.
+    path_of: Vec<u32>,
+    /// Next-event density of each subpath's origin from its second vertex.
+    nee: Vec<f64>,
+    pub(super) grid: HashGrid<Photon>,
+    /// eta = pi r^2 N, and 1 / eta (the merge's normalisation).
+    pub eta: f64,
+    pub radius: f32,
+}
+
+/// Whether a vertex can be merged at: a non-delta, non-black surface (not in media).
+pub fn mergeable(scene: &Scene, v: &Vertex) -> bool {
+    matches!(v.kind, Kind::Surface { .. }) && v.connectible(scene)
+}
+
+impl<'a> SharedLights<'a> {
+    /// Trace the N light subpaths of pass `stream` (light subpath k from stream
+    /// (seed, stream, LIGHT_STREAMS + k)) and grid their mergeable vertices at `radius`.
+    pub fn trace(
+        scene: &'a Scene,
+        settings: &BdptSettings,
+        seed: u64,
+        stream: u64,
+        radius: f32,
+    ) -> SharedLights<'a> {
+        let n = scene.camera.pixel_count();
+        let rows = scene.camera.resolution.y.max(1) as usize;
+        let per_row = n.div_ceil(rows);
+        let max_vertices = settings.max_depth as usize + 1;
+        let parts: Vec<(Vec<Vertex<'a>>, Vec<Cached>, Vec<u32>, Vec<f64>)> = (0..rows)
+            .into_par_iter()
+            .map(|r| {
+                let (mut vs, mut cs, mut lens, mut nee) =
+                    (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+                let (mut path, mut cache) = (Vec::new(), Vec::new());
+                for k in (r * per_row)..((r + 1) * per_row).min(n) {
+                    let mut sampler =
+                        IndependentSampler::new(seed, stream, LIGHT_STREAMS + k as u64);
+                    light_subpath(
+                        scene,
+                        max_vertices,
+                        settings.rr_depth,
+                        &mut sampler,
+                        &mut path,
+                    );
+                    cache_subpath(scene, &path, settings.rr_depth, &mut cache);
+                    nee.push(light_nee(scene, &path));
+                    lens.push(path.len() as u32);
+                    vs.extend_from_slice(&path);
+                    cs.extend_from_slice(&cache);
+                }
+                (vs, cs, lens, nee)
+            })
+            .collect();
+        let mut s = SharedLights {
+            radius,
+            eta: PI as f64 * radius as f64 * radius as f64 * n as f64,
+            ..SharedLights::default()
+        };
+        s.starts.push(0);
+        for (vs, cs, lens, nee) in parts {
+            for len in lens {
+                let i = s.starts.len() as u32 - 1;
+                s.path_of.extend(std::iter::repeat_n(i, len as usize));
+                s.starts.push(s.starts.last().unwrap() + len);
+            }
+            s.vertices.extend(vs);
+            s.caches.extend(cs);
+            s.nee.extend(nee);
+        }
+        let points: Vec<(glam::Vec3, Photon)> = (s.vertices.iter().enumerate())
+            .filter_map(|(g, v)| {
+                let path = s.path_of[g];
+                let depth = g as u32 - s.starts[path as usize];
+                let photon = Photon {
+                    wo: s.caches[g].wo,
+                    path,
+                    depth,
+                };
+                (depth > 0 && mergeable(scene, v)).then_some((v.p, photon))
+            })
+            .collect();
+        s.grid = HashGrid::new(&points, radius);
+        s
+    }
+
+    /// Light subpath `k`: its vertices, their caches and its origin's next-event density.
+    pub fn path(&self, k: usize) -> (&[Vertex<'a>], &[Cached], f64) {
+        let (a, b) = (self.starts[k] as usize, self.starts[k + 1] as usize);
+        (&self.vertices[a..b], &self.caches[a..b], self.nee[k])
+    }
+
+    /// Number of light subpaths.
+    pub fn len(&self) -> usize {
+        self.nee.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.nee.is_empty()
+    }
+
+    /// Number of vertices in the merging grid.
+    pub fn merge_vertices(&self) -> usize {
+        self.grid.len()
+    }
+}
+
+impl<'a> Tracer<'a> {
+    /// Merge the last camera vertex of `c` with every photon within the radius (paths of at
+    /// most `max_depth` segments). With `sink` (recording mode) each merged path goes there
+    /// and the return is zero.
+    pub(super) fn merge_at<'k>(
+        &mut self,
+        c: &[Vertex<'a>],
+        cc: &[Cached],
+        mut sink: Option<&mut (dyn PathSink + 'k)>,
+    ) -> Spectrum {
+        let Some(shared) = self.shared else {
+            return Spectrum::ZERO;
+        };
+        let m = c.len() - 1;
+        let a = &c[m];
+        let Kind::Surface { bsdf, frame, .. } = a.kind else {
+            return Spectrum::ZERO;
+        };
+        if m == 0 || !cc[m].connectible {
+            return Spectrum::ZERO;
+        }
+        let max = self.settings.max_depth as usize;
+        let mut found = std::mem::take(&mut self.photons);
+        found.clear();
+        shared.grid.query(a.p, |ph| {
+            if m + ph.depth as usize <= max {
+                found.push(*ph);
+            }
+        });
+        let norm = (1.0 / shared.eta) as f32;
+        let mut sum = Spectrum::ZERO;
+        for ph in &found {
+            let e = bsdf.eval_pdfs(&frame, cc[m].wo, ph.wo, TransportMode::Radiance);
+            if e.f == Spectrum::ZERO {
+                continue;
+            }
+            let (lv, lc, nee) = shared.path(ph.path as usize);
+            let i = ph.depth as usize;
+            let raw = a.beta * e.f * lv[i].beta * norm;
+            let w = self.weight_merge(c, cc, &lv[..=i], &lc[..=i], e.pdf_fwd, e.pdf_rev, nee);
+            let value = raw * w as f32;
+            match sink.as_deref_mut() {
+                Some(sink) => self.deliver(value, None, sink),
+                None => sum += value,
+            }
+        }
+        self.photons = found;
+        sum
+    }
+
+    /// Weight of merging camera prefix `c` (its last vertex y_m) with the last vertex of
+    /// light prefix `lp` (the photon, at depth i): the path y_0 .. y_m, then `lp` before the
+    /// photon, reversed (k = m + i segments). `pdf_fwd` / `pdf_rev`: the camera vertex's BSDF
+    /// densities from its `wo` to the photon's incoming direction and back.
+    #[allow(clippy::too_many_arguments)]
+    fn weight_merge(
+        &mut self,
+        c: &[Vertex<'a>],
+        cc: &[Cached],
+        lp: &[Vertex<'a>],
+        lc: &[Cached],
+        pdf_fwd: f32,
+        pdf_rev: f32,
+        nee_k: f64,
+    ) -> f64 {
+        let scene = self.scene;
+        let rr_depth = self.settings.rr_depth;
+        let rr = |q: f32, segments: usize| roulette(q, segments, rr_depth) as f64;
+        let (m, i) = (c.len() - 1, lp.len() - 1);
+        let k = m + i;
+        let Kind::Light { light } = lp[0].kind else {
+            return 0.0;
+        };
+        let (a, b) = (&c[m], &lp[i]);
+        let terms = &mut self.terms;
+        terms.reset(k);
+        terms.hittable = hittable(scene, light);
+        terms.nee_k = nee_k;
+        // y_j is c[j] for j <= m and lp[k - j] after; y_m is both.
+        for (j, v) in cc.iter().enumerate() {
+            terms.connectible[j] = v.connectible;
+        }
+        for (ii, v) in lc[..i].iter().enumerate() {
+            terms.connectible[k - ii] = v.connectible;
+        }
+        // Camera side: its own walk up to y_m, then from y_m towards the photon's previous
+        // vertex along the photon's direction, then the light walk's reverse densities.
+        terms.pc[1..=m]
+            .iter_mut()
+            .zip(&cc[1..=m])
+            .for_each(|(p, v)| *p = v.fwd);
+        terms.pc[m + 1] =
+            (pdf_fwd * lc[i].to_prev * b.edge.factor(scene, lp[i - 1].is_medium(), false)) as f64
+                * rr(cc[m].q, m);
+        for j in m + 2..=k {
+            let ii = k - j;
+            terms.pc[j] = rr(lc[ii + 1].q, j - 1) * lp[ii].pdf_rev as f64;
+        }
+        // Light side: its own walk up to the photon, then from y_m back to y_{m-1} having
+        // come along the photon's direction, then the camera walk's reverse densities.
+        for j in m..=k {
+            terms.pl[j] = lc[k - j].fwd;
+        }
+        if m >= 2 {
+            terms.pl[m - 1] =
+                (pdf_rev * cc[m].to_prev * a.edge.factor(scene, c[m - 1].is_medium(), false))
+                    as f64
+                    * rr(cc[m].q, i);
+        }
+        for j in 1..m.saturating_sub(1) {
+            terms.pl[j] = rr(cc[j + 1].q, k - j - 1) * c[j].pdf_rev as f64;
+        }
+        self.hold(c, &lp[..i], k + 1 + m)
+    }
+}

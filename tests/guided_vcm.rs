@@ -1,0 +1,239 @@
+//! guided-vcm: its unguided side's density sum `p_u` (BDPT's techniques plus merging) against
+//! vcm's independently computed recursive weights, the densities its tracer reports against
+//! the recomputation from the vertices, its image against bdpt's, thread-count independence,
+//! and its option errors.
+//!
+//! Statistical checks are z-tests at |z| < 4.5 per pixel and channel (`util::assert_same_mean`,
+//! false-failure rate about 2e-5 for three channels) with fixed seeds.
+
+mod util;
+
+use glam::DVec3;
+use lodestar::integrators::bdpt::{self, BdptSettings, Heuristic, Vertex};
+use lodestar::integrators::unguided::{PathSink, Unguided, VcmUnguided};
+use lodestar::integrators::vcm::{self, Record, Technique, VcmSettings};
+use lodestar::path::Path;
+use lodestar::scene::Scene;
+use util::guided::{CAUSTIC, sample_stream};
+
+const MAX_DEPTH: u32 = 6;
+const RADIUS: f32 = 0.05;
+
+fn box_scene(name: &str, res: u32) -> Scene {
+    let text =
+        std::fs::read_to_string(format!("{}/scenes/{name}", env!("CARGO_MANIFEST_DIR"))).unwrap();
+    util::scene(&text.replace(
+        "resolution = [256, 256]",
+        &format!("resolution = [{res}, {res}]"),
+    ))
+}
+
+fn unguided() -> VcmUnguided {
+    VcmUnguided {
+        settings: BdptSettings {
+            max_depth: MAX_DEPTH,
+            rr_depth: 1,
+            heuristic: Heuristic::Balance,
+            light_tracing: false,
+            techniques: Default::default(),
+            direct_splats: false,
+        },
+        radius: Some(RADIUS),
+        alpha: 0.75,
+    }
+}
+
+/// vcm weighs each connection by the balance heuristic over every connection and every merge
+/// of its path, recursively (`integrators/vcm`, tested against densities from scratch in
+/// `tests/vcm.rs`). guided-vcm's `pdf_unguided` must be that heuristic's denominator: for
+/// every connection vcm makes in a pass, its technique density over guided-vcm's `p_u` of
+/// the same pass equals vcm's weight (relative 2e-3: f32 densities). With eta off by a factor
+/// (a merge counted per pixel instead of per light subpath, say) the weights of paths with a
+/// mergeable vertex differ by far more, which the count of such paths below makes visible.
+#[test]
+fn p_u_is_the_denominator_of_vcms_weights() {
+    for name in ["cornell-box.toml", "cornell-fog.toml"] {
+        let scene = box_scene(name, 16);
+        let u = unguided();
+        let st = VcmSettings {
+            max_depth: MAX_DEPTH,
+            radius: Some(RADIUS),
+            alpha: 0.75,
+            connect: true,
+            merge: true,
+            direct_splats: false,
+        };
+        let (mut n, mut with_merges, mut bad) = (0usize, 0usize, Vec::new());
+        for pass in 0..2u64 {
+            let shared = u.begin_pass(&scene, 7, pass, pass);
+            vcm::inspect_pass(&scene, &st, 7, pass, &mut |r: &Record| {
+                let Technique::Connect { s } = r.technique else {
+                    return;
+                };
+                let Some(y) = bdpt::from_path(&scene, &r.path) else {
+                    return;
+                };
+                let k = y.len() - 1;
+                let mut p = [0.0f64; lodestar::path::MAX_VERTICES];
+                bdpt::path_terms(&scene, &y, 1).technique_densities(&mut p);
+                let p_u = u.pdf_unguided(&scene, &shared, &y);
+                if !(p_u > 0.0) || p[s] == 0.0 {
+                    return;
+                }
+                n += 1;
+                let vc: f64 = p[..=k].iter().sum();
+                with_merges += (p_u > vc * 1.01) as usize;
+                let w = p[s] / p_u;
+                if (w - r.weight).abs() > 2e-3 * r.weight.max(1e-3) && bad.len() < 6 {
+                    bad.push(format!(
+                        "k {k}, s {s}: vcm {} vs guided-vcm {w} (no merges {})",
+                        r.weight,
+                        p[s] / vc
+                    ));
+                }
+            });
+        }
+        assert!(n > 1000, "{name}: only {n} connections");
+        assert!(
+            with_merges > n / 10,
+            "{name}: merges weigh on only {with_merges} of {n}"
+        );
+        assert!(bad.is_empty(), "{name}:\n{}", bad.join("\n"));
+    }
+}
+
+/// Every path guided-vcm's tracer reports carries the `p_u` that `pdf_unguided` recomputes
+/// from its vertices: exactly (relative 2e-3) for connections, which join two true subpaths;
+/// for merged paths, where the camera vertex stands in for the light vertex within the
+/// radius, up to O(r / distance) terms (the estimator keeps U's own density where the two
+/// differ by more than a factor 2). Also: the reported f over p_u sums to the tracer's own
+/// estimate of the same sample (recording and weighing agree), and merges are reported.
+#[test]
+fn reported_densities_match_the_recomputation() {
+    let scene = box_scene("cornell-box.toml", 16);
+    let u = unguided();
+    let shared = u.begin_pass(&scene, 3, 0, 0);
+    struct Check<'a, 's> {
+        scene: &'a Scene,
+        u: &'a VcmUnguided,
+        shared: &'a bdpt::SharedLights<'s>,
+        exact: Vec<f64>,
+        merged: Vec<f64>,
+        sum: DVec3,
+    }
+    impl PathSink for Check<'_, '_> {
+        fn record(&mut self, _: &Path, y: Option<&[Vertex]>, f: DVec3, p_u: f64, _: bool) {
+            let y = y.expect("the tracer hands over its vertices");
+            self.sum += f / p_u;
+            let again = self.u.pdf_unguided(self.scene, self.shared, y);
+            let err = (p_u - again).abs() / again.max(1e-300);
+            // The sink is not told which technique made a path: connections are the ones
+            // that agree to rounding, and the rest (merged paths) is bounded below.
+            if err < 2e-3 {
+                self.exact.push(err);
+            } else {
+                self.merged.push(err);
+            }
+        }
+    }
+    let mut tracer = u.tracer(&scene, &shared);
+    let mut check = Check {
+        scene: &scene,
+        u: &u,
+        shared: &shared,
+        exact: Vec::new(),
+        merged: Vec::new(),
+        sum: DVec3::ZERO,
+    };
+    let (mut own, mut recorded) = (DVec3::ZERO, DVec3::ZERO);
+    for i in 0..1024u64 {
+        let (raster, mut a) = sample_stream(&scene, 11, i);
+        let (_, mut b) = sample_stream(&scene, 11, i);
+        check.sum = DVec3::ZERO;
+        tracer.sample_recorded(raster, &mut a, &mut check);
+        recorded += check.sum;
+        let v = tracer.sample(raster, &mut b);
+        own += v.as_dvec3();
+        for (_, c) in tracer.splats.drain(..) {
+            own += c.as_dvec3();
+        }
+    }
+    let n = check.exact.len() + check.merged.len();
+    assert!(n > 2000, "only {n} paths");
+    // Merged paths are a minority: at most a tenth of all paths may disagree at all, and
+    // half of those by less than 5 % (measured: 4 %, and 1.9 %; in a corner, where the next
+    // vertex is as near as the radius, by up to a factor 4000).
+    assert!(
+        check.merged.len() < n / 10,
+        "{} of {n} paths' p_u differ from the recomputation by more than 2e-3",
+        check.merged.len()
+    );
+    let mut m = check.merged.clone();
+    m.sort_by(f64::total_cmp);
+    if !m.is_empty() {
+        let median = m[(m.len() - 1) / 2];
+        assert!(median < 0.05, "merged paths: median error {median}");
+    }
+    let rel = ((own - recorded).abs() / own.abs()).max_element();
+    assert!(
+        rel < 1e-4,
+        "recorded sum {recorded} vs the tracer's estimate {own}"
+    );
+}
+
+/// guided-vcm, learning its cache inside the render with guided samples forced on, converges
+/// to bdpt's image on the Cornell box (merging's bias at this radius is below the noise of
+/// these renders, as for vcm in `tests/vcm.rs`).
+#[test]
+fn guided_vcm_agrees_with_bdpt_on_the_cornell_box() {
+    let scene = box_scene("cornell-box.toml", 32);
+    let options = ["learn_fraction=0.5", "share=fixed", "radius=0.02"];
+    let guided = util::render(&scene, "guided-vcm", MAX_DEPTH, &options, 32, 3, 2);
+    let reference = util::render(&scene, "bdpt", MAX_DEPTH, &[], 64, 4, 2);
+    let guided_samples: u64 = util::stat(&guided, "guided_samples")
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(guided_samples > 10_000, "{:?}", guided.stats);
+    util::assert_same_mean(&guided.image, &reference.image, "guided-vcm vs bdpt");
+}
+
+/// guided-vcm gives bit-identical images on 1 and 2 threads (light subpaths are traced from
+/// their own streams and laid out in path order, whatever thread traced them).
+#[test]
+fn guided_vcm_does_not_depend_on_the_thread_count() {
+    let scene = util::scene(CAUSTIC);
+    let options = ["learn_fraction=0.5"];
+    let one = util::render(&scene, "guided-vcm", MAX_DEPTH, &options, 8, 5, 1);
+    let two = util::render(&scene, "guided-vcm", MAX_DEPTH, &options, 8, 5, 2);
+    assert!(
+        one.image.pixels == two.image.pixels,
+        "1 and 2 threads differ"
+    );
+}
+
+/// The chain seeder and the power heuristic are errors that say why; vcm's options are read.
+#[test]
+fn guided_vcm_option_errors() {
+    use lodestar::integrators::{IntegratorParams, Options, build};
+    let build_with = |opts: &[&str]| {
+        let params = IntegratorParams {
+            max_depth: 6,
+            options: Options::parse(&opts.iter().map(|s| s.to_string()).collect::<Vec<_>>())
+                .unwrap(),
+        };
+        build("guided-vcm", &params).map(|_| ())
+    };
+    let err = build_with(&["seeder=mcmc"]).unwrap_err().to_string();
+    assert!(err.contains("option 'seeder': guided-vcm"), "{err}");
+    let err = build_with(&["mis=power"]).unwrap_err().to_string();
+    assert!(
+        err.contains("option 'mis': guided-vcm needs 'balance'"),
+        "{err}"
+    );
+    let err = build_with(&["radius=-1"]).unwrap_err().to_string();
+    assert!(err.contains("option 'radius'"), "{err}");
+    let err = build_with(&["radius_alpha=0"]).unwrap_err().to_string();
+    assert!(err.contains("option 'radius_alpha'"), "{err}");
+    assert!(build_with(&["radius=0.01", "radius_alpha=0.5"]).is_ok());
+}

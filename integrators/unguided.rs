@@ -62,11 +62,6 @@ pub trait Unguided: Sync + Send {
     ) -> Self::Pass<'s>;
     fn tracer<'s, 'p: 's>(&'s self, scene: &'s Scene, pass: &'s Self::Pass<'p>)
     -> Self::Tracer<'s>;
-    /// Whether a sample can be traced alone, from any stream (a Markov chain replaying its
-    /// primary samples): false when samples share their pass's state.
-    fn independent_samples(&self) -> bool {
-        true
-    }
     /// One sample through raster position `raster`; every path it forms goes to `sink`.
     fn trace(
         &self,
@@ -90,6 +85,15 @@ pub trait Unguided: Sync + Send {
     /// Sum over the estimator's techniques of their densities for path `y` (camera first,
     /// a light last) in pass `pass`; 0 for paths it cannot form (longer than `max_depth`).
     fn pdf_unguided(&self, scene: &Scene, pass: &Self::Pass<'_>, y: &[Vertex]) -> f64;
+    /// Rays the pass's shared work took (vcm: its light subpaths), counted with U's cost.
+    fn pass_rays(&self, _pass: &Self::Pass<'_>) -> u64 {
+        0
+    }
+    /// U's own integrator with the same settings, to render with when guiding is off, where
+    /// it is faster than the guider's passes of U alone (`None`: those passes).
+    fn own_integrator(&self) -> Option<Box<dyn crate::render::Integrator>> {
+        None
+    }
     /// Samples of each technique per pass (n_u): one per pixel.
     fn samples_per_pass(&self, scene: &Scene) -> f64 {
         scene.camera.pixel_count() as f64
@@ -270,6 +274,10 @@ impl Unguided for VcmUnguided {
         SharedLights::trace(scene, &self.settings, seed, stream, r)
     }
 
+    fn pass_rays(&self, pass: &SharedLights<'_>) -> u64 {
+        pass.rays
+    }
+
     fn tracer<'s, 'p: 's>(
         &'s self,
         scene: &'s Scene,
@@ -278,8 +286,23 @@ impl Unguided for VcmUnguided {
         bdpt::Tracer::merging(scene, &self.settings, pass)
     }
 
-    fn independent_samples(&self) -> bool {
-        false
+    /// `vcm` with the same radius schedule, depth and directly-seen-emitter rule: the same
+    /// estimator with recursive (O(1)) weights; only with roulette from the first bounce,
+    /// which is what vcm plays.
+    fn own_integrator(&self) -> Option<Box<dyn crate::render::Integrator>> {
+        let s = &self.settings;
+        (s.rr_depth <= 1).then(|| {
+            Box::new(super::vcm::Vcm {
+                settings: super::vcm::VcmSettings {
+                    max_depth: s.max_depth,
+                    radius: self.radius,
+                    alpha: self.alpha,
+                    connect: true,
+                    merge: true,
+                    direct_splats: s.direct_splats,
+                },
+            }) as Box<dyn crate::render::Integrator>
+        })
     }
 
     fn trace(

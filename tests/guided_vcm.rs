@@ -77,7 +77,7 @@ fn p_u_is_the_denominator_of_vcms_weights() {
                 let mut p = [0.0f64; lodestar::path::MAX_VERTICES];
                 bdpt::path_terms(&scene, &y, 1).technique_densities(&mut p);
                 let p_u = u.pdf_unguided(&scene, &shared, &y);
-                if !(p_u > 0.0) || p[s] == 0.0 {
+                if p_u.is_nan() || p_u <= 0.0 || p[s] == 0.0 {
                     return;
                 }
                 n += 1;

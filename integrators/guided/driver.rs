@@ -337,6 +337,7 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
                     for r in &rows {
                         pass_stats.add(&r.stats);
                     }
+                    pass_stats.rays_u += est.unguided.pass_rays(&est.pass);
                     stats.add(&pass_stats);
                     if let Some((image, guided_m2)) = measured {
                         meter.add(image, guided_m2, est.n_u, &pass_stats);
@@ -451,31 +452,56 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
             Budget::Seconds(s) => Budget::Seconds((s - learn_seconds).max(0.0)),
         };
         let mut cascade = ctx.dbor.then(|| Cascade::new(w, h));
-        let (passes, render_seconds) = run_passes_with_snapshots(
-            ctx,
-            render_budget,
-            &mut film,
-            |film, p| {
-                let stream = first_stream + p;
-                let shared = self
-                    .unguided
-                    .begin_pass(scene, ctx.seed, stream, learn_passes + p);
-                let est = Estimator::new(scene, &self.unguided, shared, &cache, alpha);
-                let (rows, _) = self.pass(ctx, &est, film, None, &mut cascade, stream, false);
-                for r in &rows {
-                    render_stats.borrow_mut().add(&r.stats);
-                }
-                class_variance.borrow_mut().add_pass(&rows, w as usize);
-            },
-            |film, passes| {
-                let n = (kept + passes).max(1) as f64;
-                film.to_image(n, 1.0 / n)
-            },
-        );
+        // Guiding off: U's own integrator, where it has a faster one (vcm's recursive weights
+        // against the explicit ones guided-vcm's estimator needs), renders the passes that
+        // remain, on the streams this driver's passes would use; its image is averaged with
+        // the kept learning passes by pass count. (Snapshots meanwhile show its passes alone.)
+        let own = (n_g == 0.0 && keep_learning && !ctx.dbor)
+            .then(|| self.unguided.own_integrator())
+            .flatten();
+        let mut own_image = None;
+        let (passes, render_seconds) = if let Some(mut own) = own {
+            let sub = RenderContext {
+                first_pass: ctx.first_pass + first_stream,
+                ..*ctx
+            };
+            let r = own.render(&sub, render_budget);
+            let kept_image = film.to_image(kept.max(1) as f64, 1.0 / kept.max(1) as f64);
+            let total = (kept + r.passes).max(1) as f32;
+            let (a, b) = (kept as f32 / total, r.passes as f32 / total);
+            let mut image = r.image;
+            for (p, q) in image.pixels.iter_mut().zip(&kept_image.pixels) {
+                *p = *q * a + *p * b;
+            }
+            own_image = Some(image);
+            (r.passes, r.seconds)
+        } else {
+            run_passes_with_snapshots(
+                ctx,
+                render_budget,
+                &mut film,
+                |film, p| {
+                    let stream = first_stream + p;
+                    let shared =
+                        self.unguided
+                            .begin_pass(scene, ctx.seed, stream, learn_passes + p);
+                    let est = Estimator::new(scene, &self.unguided, shared, &cache, alpha);
+                    let (rows, _) = self.pass(ctx, &est, film, None, &mut cascade, stream, false);
+                    for r in &rows {
+                        render_stats.borrow_mut().add(&r.stats);
+                    }
+                    class_variance.borrow_mut().add_pass(&rows, w as usize);
+                },
+                |film, passes| {
+                    let n = (kept + passes).max(1) as f64;
+                    film.to_image(n, 1.0 / n)
+                },
+            )
+        };
         let rs = render_stats.into_inner();
         let class_var = class_variance.into_inner().variances();
         let total = (kept + passes).max(1);
-        let image = film.to_image(total as f64, 1.0 / total as f64);
+        let image = own_image.unwrap_or_else(|| film.to_image(total as f64, 1.0 / total as f64));
         let mut out_stats = vec![
             stat("guide_paths", cache.len()),
             stat(

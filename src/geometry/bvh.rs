@@ -291,6 +291,12 @@ pub(super) fn count_ray() {
     RAYS.with(|r| r.set(r.get() + 1));
 }
 
+/// Count `n` units of work that is not a ray as that many rays' worth (guided-vcm's merges,
+/// whose cost the guider's share must see beside the rays; `integrators/bdpt/merging.rs`).
+pub fn count_ray_equivalents(n: u64) {
+    RAYS.with(|r| r.set(r.get() + n));
+}
+
 /// Rays (closest-hit and occlusion) the calling thread has traced so far. Differences of two
 /// readings on one thread count the rays of the work in between: a deterministic measure of
 /// cost (the guider compares its techniques' costs with it, where wall time would make the

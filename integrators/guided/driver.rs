@@ -23,10 +23,9 @@
 
 use super::cache::{self, GuideCache, RebuildParams, WeightRule};
 use super::coverage::{self, CoverageVariance};
-use super::estimator::{
-    COVERAGE_CLASSES, Collector, Estimator, FAILURE_REASONS, PG_ZERO_VERTICES, RowOutput, Stats,
-};
+use super::estimator::{Collector, Estimator, RowOutput, Stats};
 use super::io;
+use super::report::{self, stat};
 use super::seeder::{Candidate, Explore, LearnPass, LearnRow, Seeder, Source};
 use super::{GuidedSettings, Share, share};
 use crate::dbor::Cascade;
@@ -239,10 +238,6 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
         }
         (rows, measured)
     }
-}
-
-fn stat(k: &str, v: impl ToString) -> (String, String) {
-    (k.to_string(), v.to_string())
 }
 
 impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
@@ -502,92 +497,19 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
         let class_var = class_variance.into_inner().variances();
         let total = (kept + passes).max(1);
         let image = own_image.unwrap_or_else(|| film.to_image(total as f64, 1.0 / total as f64));
-        let mut out_stats = vec![
-            stat("guide_paths", cache.len()),
-            stat(
-                "bytes_per_guide_path",
-                format!("{:.0}", cache.bytes_per_path()),
-            ),
-            stat("learning_iterations", learn_passes),
-            stat("learning_seconds", format!("{learn_seconds:.3}")),
-            stat("cache_rebuild_seconds", format!("{rebuild_seconds:.3}")),
-            stat("render_seconds", format!("{render_seconds:.3}")),
-            stat("unguided_share", format!("{alpha:.3}")),
-            stat(
-                "share_relative_cost",
-                decision.as_ref().map_or("-".to_string(), |d| {
-                    let cells: Vec<String> = share::RATIOS
-                        .iter()
-                        .zip(d.relative)
-                        .map(|(r, c)| format!("{r:.3}:{c:.3}"))
-                        .collect();
-                    cells.join("/")
-                }),
-            ),
-            stat("rays_unguided", rs.rays_u),
-            stat("rays_guided", rs.rays_g),
-            stat("pg_candidates", rs.pg_candidates),
-            stat("learning_passes_kept", kept),
-            stat("guided_samples", rs.guided),
-            stat(
-                "failed_guided_share",
-                format!("{:.4}", rs.failed as f64 / rs.guided.max(1) as f64),
-            ),
-            stat(
-                "mean_pg_candidates",
-                format!(
-                    "{:.2}",
-                    rs.pg_candidates as f64 / rs.pg_evaluations.max(1) as f64
-                ),
-            ),
-            stat("pg_evaluations", rs.pg_evaluations),
-            stat("invalid_unguided_paths", rs.invalid),
-            stat(
-                "unguided_density_disagreements",
-                stats.pu_disagreements + rs.pu_disagreements,
-            ),
-            stat("learning_guided_samples", stats.guided),
-            stat("guide_structures", cache.structures()),
-            stat(
-                "unguided_paths_by_coverage",
-                coverage_shares(&rs.coverage_paths.map(|n| n as f64)),
-            ),
-            stat(
-                "unguided_second_moment_by_coverage",
-                coverage_shares(&rs.coverage_m2),
-            ),
-            stat(
-                "variance_by_coverage",
-                class_var.map_or_else(
-                    || "n/a".to_string(),
-                    |v| {
-                        let names = coverage::CLASS_NAMES.iter().map(|c| c.to_string());
-                        shares(names, &v[..coverage::CLASSES])
-                    },
-                ),
-            ),
-            stat(
-                "class_variance_over_total",
-                class_var.map_or_else(
-                    || "n/a".to_string(),
-                    |v| {
-                        let classes: f64 = v[..coverage::CLASSES].iter().sum();
-                        format!(
-                            "{:.3}",
-                            classes / v[coverage::CLASSES].max(f64::MIN_POSITIVE)
-                        )
-                    },
-                ),
-            ),
-            stat(
-                "pg_zero_second_moment_by_vertex",
-                vertex_shares(&rs.pg_zero_m2_by_vertex),
-            ),
-            stat(
-                &format!("failures_{FAILURE_REASONS}"),
-                format!("{:?}", rs.reasons),
-            ),
-        ];
+        let mut out_stats = report::stats(&report::Facts {
+            cache: &cache,
+            learn_passes,
+            learn_seconds,
+            rebuild_seconds,
+            render_seconds,
+            alpha,
+            decision: decision.as_ref(),
+            learning: &stats,
+            render: &rs,
+            kept,
+            class_var,
+        });
         out_stats.push(stat("seeder", self.seeder.name()));
         out_stats.extend(self.seeder.stats());
         self.cache = Some(cache);
@@ -600,29 +522,4 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
             stats: out_stats,
         }
     }
-}
-
-/// `class:share/...` of U's paths or second moment by [`COVERAGE_CLASSES`].
-fn coverage_shares(sums: &[f64; 3]) -> String {
-    shares(COVERAGE_CLASSES.iter().map(|c| c.to_string()), sums)
-}
-
-/// `x1:share/.../x7+:share` of the p_g = 0 class's second moment by the vertex where p_g
-/// vanished.
-fn vertex_shares(sums: &[f64; PG_ZERO_VERTICES]) -> String {
-    let names = (1..=PG_ZERO_VERTICES).map(|v| match v {
-        PG_ZERO_VERTICES => format!("x{v}+"),
-        _ => format!("x{v}"),
-    });
-    shares(names, sums)
-}
-
-/// `name:share/...`, each sum's share of their total.
-fn shares(names: impl Iterator<Item = String>, sums: &[f64]) -> String {
-    let total: f64 = sums.iter().sum();
-    let cells: Vec<String> = names
-        .zip(sums)
-        .map(|(name, x)| format!("{name}:{:.3}", x / total.max(f64::MIN_POSITIVE)))
-        .collect();
-    cells.join("/")
 }

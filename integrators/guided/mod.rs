@@ -86,6 +86,7 @@
 
 pub mod cache;
 pub mod chains;
+pub mod collector;
 pub mod coverage;
 pub mod driver;
 pub mod estimator;
@@ -93,6 +94,7 @@ pub mod gaussian;
 pub mod io;
 pub mod kernel;
 pub mod learn;
+pub mod report;
 pub mod sampler;
 pub mod seeder;
 pub mod share;

@@ -216,14 +216,7 @@ impl Unguided for BdptUnguided {
         sampler: &mut IndependentSampler,
         splats: &mut Vec<(u32, DVec3)>,
     ) -> DVec3 {
-        let v = tracer.sample(raster, sampler);
-        for (p, c) in tracer.splats.drain(..) {
-            let c = finite(c.as_dvec3());
-            if c != DVec3::ZERO {
-                splats.push((p, c));
-            }
-        }
-        finite(v.as_dvec3())
+        bdpt_estimate(tracer, raster, sampler, splats)
     }
 
     fn pdf_unguided(&self, scene: &Scene, _: &(), y: &[Vertex]) -> f64 {
@@ -324,14 +317,7 @@ impl Unguided for VcmUnguided {
         sampler: &mut IndependentSampler,
         splats: &mut Vec<(u32, DVec3)>,
     ) -> DVec3 {
-        let v = tracer.sample(raster, sampler);
-        for (p, c) in tracer.splats.drain(..) {
-            let c = finite(c.as_dvec3());
-            if c != DVec3::ZERO {
-                splats.push((p, c));
-            }
-        }
-        finite(v.as_dvec3())
+        bdpt_estimate(tracer, raster, sampler, splats)
     }
 
     fn pdf_unguided(&self, scene: &Scene, pass: &SharedLights<'_>, y: &[Vertex]) -> f64 {
@@ -358,4 +344,22 @@ fn finite(v: DVec3) -> DVec3 {
     } else {
         DVec3::ZERO
     }
+}
+
+/// bdpt's tracer's own estimate of one sample (its weights), its splats moved to `splats`
+/// (BDPT's and vcm's `Unguided::estimate`).
+fn bdpt_estimate(
+    tracer: &mut bdpt::Tracer<'_>,
+    raster: Vec2,
+    sampler: &mut IndependentSampler,
+    splats: &mut Vec<(u32, DVec3)>,
+) -> DVec3 {
+    let v = tracer.sample(raster, sampler);
+    for (p, c) in tracer.splats.drain(..) {
+        let c = finite(c.as_dvec3());
+        if c != DVec3::ZERO {
+            splats.push((p, c));
+        }
+    }
+    finite(v.as_dvec3())
 }

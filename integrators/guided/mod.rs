@@ -418,24 +418,8 @@ pub fn build_vcm(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
              sample alone, and vcm's samples share their pass's light subpaths",
         ));
     }
-    let o = &params.options;
-    let radius = match o.get::<String>("radius", String::new(), "a number > 0")? {
-        r if r.is_empty() => None,
-        r => match r.parse::<f32>() {
-            Ok(v) if v.is_finite() && v > 0.0 => Some(v),
-            _ => {
-                return Err(Error::new(format!(
-                    "option 'radius': expected a number > 0, got '{r}'"
-                )));
-            }
-        },
-    };
-    let radius_alpha: f32 = o.get("radius_alpha", 0.75, "a number in (0, 1]")?;
-    if !(radius_alpha > 0.0 && radius_alpha <= 1.0) {
-        return Err(Error::new(format!(
-            "option 'radius_alpha': expected a number in (0, 1], got {radius_alpha}"
-        )));
-    }
+    let (radius, radius_alpha) =
+        crate::integrators::vcm::radius_options(&params.options, "radius_alpha")?;
     let seeder = Outliers::new(settings.intake);
     Ok(Box::new(Guided {
         name: "guided-vcm",

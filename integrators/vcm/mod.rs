@@ -97,8 +97,13 @@ impl VcmSettings {
     }
 }
 
-fn settings(params: &IntegratorParams, connect: bool) -> Result<VcmSettings> {
-    let o = &params.options;
+/// The merging radius and its schedule exponent from options `radius` (a number > 0; absent:
+/// `None`, the scene's default) and `alpha_key` (in (0, 1], default 0.75): vcm's `alpha`,
+/// guided-vcm's `radius_alpha`.
+pub fn radius_options(
+    o: &crate::integrators::Options,
+    alpha_key: &str,
+) -> Result<(Option<f32>, f32)> {
     let radius = match o.get::<String>("radius", String::new(), "a number > 0")? {
         r if r.is_empty() => None,
         r => match r.parse::<f32>() {
@@ -110,12 +115,18 @@ fn settings(params: &IntegratorParams, connect: bool) -> Result<VcmSettings> {
             }
         },
     };
-    let alpha: f32 = o.get("alpha", 0.75, "a number in (0, 1]")?;
+    let alpha: f32 = o.get(alpha_key, 0.75, "a number in (0, 1]")?;
     if !(alpha > 0.0 && alpha <= 1.0) {
         return Err(Error::new(format!(
-            "option 'alpha': expected a number in (0, 1], got {alpha}"
+            "option '{alpha_key}': expected a number in (0, 1], got {alpha}"
         )));
     }
+    Ok((radius, alpha))
+}
+
+fn settings(params: &IntegratorParams, connect: bool) -> Result<VcmSettings> {
+    let o = &params.options;
+    let (radius, alpha) = radius_options(o, "alpha")?;
     let merge = if connect {
         o.get("merge", true, "true or false")?
     } else {

@@ -61,8 +61,6 @@ pub struct SharedLights<'a> {
     caches: Vec<Cached>,
     /// Light subpath i has vertices `starts[i] .. starts[i + 1]`.
     starts: Vec<u32>,
-    /// The subpath each vertex belongs to.
-    path_of: Vec<u32>,
     /// Next-event density of each subpath's origin from its second vertex.
     nee: Vec<f64>,
     pub(super) grid: HashGrid<Photon>,
@@ -125,11 +123,12 @@ impl<'a> SharedLights<'a> {
             ..SharedLights::default()
         };
         s.starts.push(0);
+        let mut path_of: Vec<u32> = Vec::new();
         for (vs, cs, lens, nee, rays) in parts {
             s.rays += rays;
             for len in lens {
                 let i = s.starts.len() as u32 - 1;
-                s.path_of.extend(std::iter::repeat_n(i, len as usize));
+                path_of.extend(std::iter::repeat_n(i, len as usize));
                 s.starts.push(s.starts.last().unwrap() + len);
             }
             s.vertices.extend(vs);
@@ -138,7 +137,7 @@ impl<'a> SharedLights<'a> {
         }
         let points: Vec<(glam::Vec3, Photon)> = (s.vertices.iter().enumerate())
             .filter_map(|(g, v)| {
-                let path = s.path_of[g];
+                let path = path_of[g];
                 let depth = g as u32 - s.starts[path as usize];
                 let photon = Photon {
                     wo: s.caches[g].wo,
@@ -156,20 +155,6 @@ impl<'a> SharedLights<'a> {
     pub fn path(&self, k: usize) -> (&[Vertex<'a>], &[Cached], f64) {
         let (a, b) = (self.starts[k] as usize, self.starts[k + 1] as usize);
         (&self.vertices[a..b], &self.caches[a..b], self.nee[k])
-    }
-
-    /// Number of light subpaths.
-    pub fn len(&self) -> usize {
-        self.nee.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.nee.is_empty()
-    }
-
-    /// Number of vertices in the merging grid.
-    pub fn merge_vertices(&self) -> usize {
-        self.grid.len()
     }
 }
 

@@ -34,6 +34,23 @@ pub trait PathSink {
     /// per pixel; equal to `pdf_unguided`). `splat`: the path lands in another pixel than the
     /// one traced.
     fn record(&mut self, path: &Path, y: Option<&[Vertex]>, f: DVec3, p_u: f64, splat: bool);
+
+    /// Whether the sink needs the densities of the path `head` followed by `tail` reversed
+    /// (camera first) before the estimator has assembled them. An estimator whose own MIS
+    /// weights are cheaper than its densities (bdpt's and vcm's recursive weights: O(1)
+    /// against O(k) per path) asks this first, and hands a path the sink declines to
+    /// [`PathSink::record_weighted`], weighted by its own techniques alone. The default
+    /// takes every path with its densities.
+    fn needs_densities(&mut self, _head: &[Vertex], _tail: &[Vertex]) -> bool {
+        true
+    }
+
+    /// A path declined by [`PathSink::needs_densities`]: `value` is its contribution under
+    /// the estimator's own weights, `f / p_u`, for `pixel` (`splat` as in `record`).
+    fn record_weighted(&mut self, pixel: u32, value: DVec3, splat: bool) {
+        let _ = (pixel, value, splat);
+        unreachable!("a sink that declines densities takes the weighted paths too");
+    }
 }
 
 /// An unbiased estimator a guided technique can be mixed with.

@@ -237,3 +237,101 @@ fn guided_vcm_option_errors() {
     assert!(err.contains("option 'radius_alpha'"), "{err}");
     assert!(build_with(&["radius=0.01", "radius_alpha=0.5"]).is_ok());
 }
+
+/// The recursive weights (O(1) per path, merges included: `bdpt/cache.rs` `mis_sums`) give
+/// each path the value its explicitly assembled densities give, `f / p_u`: the tracer run
+/// twice on the same streams, once with a sink that asks for every path's densities and
+/// once with one that declines them all (`PathSink::needs_densities`), reports the same
+/// paths in the same order with the same values (relative 1e-3: f32 densities), for bdpt's
+/// tracer (guided-bdpt) and the merging one (guided-vcm), in a plain, a glossy and a fog box.
+/// A merge term missing from the sums (or counted twice) moves the weights of every path
+/// with a mergeable vertex by far more.
+#[test]
+fn recursive_weights_give_the_explicit_values() {
+    #[derive(Default)]
+    struct Values {
+        declines: bool,
+        got: Vec<(u32, bool, DVec3)>,
+    }
+    impl PathSink for Values {
+        fn record(&mut self, path: &Path, _: Option<&[Vertex]>, f: DVec3, p_u: f64, splat: bool) {
+            self.got.push((path.pixel, splat, f / p_u));
+        }
+        fn needs_densities(&mut self, _: &[Vertex], _: &[Vertex]) -> bool {
+            !self.declines
+        }
+        fn record_weighted(&mut self, pixel: u32, value: DVec3, splat: bool) {
+            self.got.push((pixel, splat, value));
+        }
+    }
+    fn run(
+        scene: &Scene,
+        mut trace: impl FnMut(glam::Vec2, &mut dyn PathSink, u64),
+        declines: bool,
+    ) -> Vec<(u32, bool, DVec3)> {
+        let mut sink = Values {
+            declines,
+            ..Default::default()
+        };
+        for i in 0..512u64 {
+            let (raster, _) = sample_stream(scene, 5, i);
+            trace(raster, &mut sink, i);
+        }
+        sink.got
+    }
+    for name in [
+        "cornell-box.toml",
+        "cornell-glossy.toml",
+        "cornell-fog.toml",
+    ] {
+        let scene = box_scene(name, 16);
+        let vcm = unguided();
+        let bdpt_u = lodestar::integrators::unguided::BdptUnguided {
+            settings: vcm.settings.clone(),
+        };
+        let shared = vcm.begin_pass(&scene, 9, 0, 0);
+        for merging in [false, true] {
+            let trace_with = |declines: bool| {
+                let mut tracer = if merging {
+                    vcm.tracer(&scene, &shared)
+                } else {
+                    bdpt_u.tracer(&scene, &())
+                };
+                run(
+                    &scene,
+                    |raster, sink, i| {
+                        let (_, mut s) = sample_stream(&scene, 5, i);
+                        tracer.sample_recorded(raster, &mut s, sink);
+                    },
+                    declines,
+                )
+            };
+            let (explicit, recursive) = (trace_with(false), trace_with(true));
+            let what = if merging { "merging" } else { "bdpt" };
+            assert!(
+                explicit.len() > 2000,
+                "{name} {what}: {} paths",
+                explicit.len()
+            );
+            assert_eq!(
+                explicit.len(),
+                recursive.len(),
+                "{name} {what}: path counts"
+            );
+            let mut bad = Vec::new();
+            for (a, b) in explicit.iter().zip(&recursive) {
+                let rel = ((a.2 - b.2).abs() / a.2.abs().max(DVec3::splat(1e-12))).max_element();
+                if a.0 != b.0 || a.1 != b.1 || rel > 1e-3 {
+                    bad.push(format!("{a:?} vs {b:?}"));
+                }
+            }
+            assert!(
+                bad.is_empty(),
+                "{name} {what}: {} of {} paths differ, e.g.\n{}",
+                bad.len(),
+                explicit.len(),
+                bad[..bad.len().min(6)].join("\n")
+            );
+        }
+    }
+}

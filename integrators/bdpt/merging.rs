@@ -9,18 +9,21 @@
 //! the camera prefix y_0 .. y_m followed by the light prefix before the photon, and its value
 //! is `beta_cam f(y_m) beta_light / (pi r^2 N)`.
 //!
-//! Unlike `vcm` (recursive weights), every weight here is explicit (`PathTerms`): the density
-//! of each connection technique of the path plus, for each non-delta surface vertex y_j, the
-//! merging density `eta prod_{l <= j} pc[l] prod_{l >= j} pl[l]` with `eta = pi r^2 N`
+//! Each path's densities can be assembled explicitly (`PathTerms`): the density of each
+//! connection technique of the path plus, for each non-delta surface vertex y_j, the merging
+//! density `eta prod_{l <= j} pc[l] prod_{l >= j} pl[l]` with `eta = pi r^2 N`
 //! (`PathTerms::merge_densities`). So the sum of all densities is a `p_u` that a further
-//! technique (the guider) can join by adding its own density. At a merge the two vertices
+//! technique (the guider) can join by adding its own density. Where the sink does not need
+//! them (`PathSink::needs_densities`: the guider, for a path whose structure its cache does
+//! not hold), the same weights come from VCM's recursive form instead, O(1) per path: each
+//! subpath vertex's running sum holds the merges beside the connections (`cache::mis_sums`). At a merge the two vertices
 //! the kernel pairs stand for one: the camera side keeps its densities up to y_m, the light
 //! side its own from the photon on, and the densities across y_m are evaluated from the
 //! camera vertex's BSDF with the photon's incoming direction (as VCM's weights are).
 //! Merging is consistent, not unbiased: the radius shrinks with the pass,
 //! r_i = r_0 (i + 1)^((alpha - 1) / 2), as in `vcm`.
 
-use super::cache::{Cached, cache_subpath};
+use super::cache::{Cached, cache_subpath, mis_sums};
 use super::walk::{light_subpath, roulette};
 use super::{BdptSettings, Kind, Tracer, Vertex, hittable, light_nee};
 use crate::bsdf::TransportMode;
@@ -90,6 +93,7 @@ impl<'a> SharedLights<'a> {
         let rows = scene.camera.resolution.y.max(1) as usize;
         let per_row = n.div_ceil(rows);
         let max_vertices = settings.max_depth as usize + 1;
+        let eta = PI as f64 * radius as f64 * radius as f64 * n as f64;
         #[allow(clippy::type_complexity)]
         let parts: Vec<(Vec<Vertex<'a>>, Vec<Cached>, Vec<u32>, Vec<f64>, u64)> = (0..rows)
             .into_par_iter()
@@ -109,7 +113,11 @@ impl<'a> SharedLights<'a> {
                         &mut path,
                     );
                     cache_subpath(scene, &path, settings.rr_depth, &mut cache);
-                    nee.push(light_nee(scene, &path));
+                    let nee_k = light_nee(scene, &path);
+                    // The sums of the recursive weights (used where they apply).
+                    let h = settings.heuristic;
+                    mis_sums(scene, &path, &mut cache, Some(nee_k), h, eta);
+                    nee.push(nee_k);
                     lens.push(path.len() as u32);
                     vs.extend_from_slice(&path);
                     cs.extend_from_slice(&cache);
@@ -119,7 +127,7 @@ impl<'a> SharedLights<'a> {
             .collect();
         let mut s = SharedLights {
             radius,
-            eta: PI as f64 * radius as f64 * radius as f64 * n as f64,
+            eta,
             ..SharedLights::default()
         };
         s.starts.push(0);
@@ -200,7 +208,7 @@ impl<'a> Tracer<'a> {
             let w = self.weight_merge(c, cc, &lv[..=i], &lc[..=i], e.pdf_fwd, e.pdf_rev, nee);
             let value = raw * w as f32;
             match sink.as_deref_mut() {
-                Some(sink) => self.deliver(value, None, sink),
+                Some(sink) => self.deliver(value, None, sink, c, &lv[..i]),
                 None => sum += value,
             }
         }
@@ -234,6 +242,26 @@ impl<'a> Tracer<'a> {
             return 0.0;
         };
         let (a, b) = (&c[m], &lp[i]);
+        // The two densities across the merged vertex: y_{m+1} generated from y_m having come
+        // from y_{m-1}, and y_{m-1} from y_m having come from y_{m+1}.
+        let pc_next = (pdf_fwd * lc[i].to_prev * b.edge.factor(scene, lp[i - 1].is_medium(), false))
+            as f64
+            * rr(cc[m].q, m);
+        let pl_prev = if m >= 2 {
+            (pdf_rev * cc[m].to_prev * a.edge.factor(scene, c[m - 1].is_medium(), false)) as f64
+                * rr(cc[m].q, i)
+        } else {
+            0.0
+        };
+        let recursive = self.recursive_mis().then(|| {
+            let h = self.settings.heuristic;
+            weight_merge_recursive(cc, lc, pc_next, pl_prev, self.terms.eta, h)
+        });
+        if let Some(w) = recursive
+            && !self.recording
+        {
+            return w;
+        }
         let terms = &mut self.terms;
         terms.reset(k);
         terms.hittable = hittable(scene, light);
@@ -251,9 +279,7 @@ impl<'a> Tracer<'a> {
             .iter_mut()
             .zip(&cc[1..=m])
             .for_each(|(p, v)| *p = v.fwd);
-        terms.pc[m + 1] =
-            (pdf_fwd * lc[i].to_prev * b.edge.factor(scene, lp[i - 1].is_medium(), false)) as f64
-                * rr(cc[m].q, m);
+        terms.pc[m + 1] = pc_next;
         for j in m + 2..=k {
             let ii = k - j;
             terms.pc[j] = rr(lc[ii + 1].q, j - 1) * lp[ii].pdf_rev as f64;
@@ -264,14 +290,50 @@ impl<'a> Tracer<'a> {
             terms.pl[j] = lc[k - j].fwd;
         }
         if m >= 2 {
-            terms.pl[m - 1] =
-                (pdf_rev * cc[m].to_prev * a.edge.factor(scene, c[m - 1].is_medium(), false))
-                    as f64
-                    * rr(cc[m].q, i);
+            terms.pl[m - 1] = pl_prev;
         }
         for j in 1..m.saturating_sub(1) {
             terms.pl[j] = rr(cc[j + 1].q, k - j - 1) * c[j].pdf_rev as f64;
         }
+        if let Some(w) = recursive {
+            return self.hold_recursive(w, k + 1 + m);
+        }
         self.hold(c, &lp[..i], k + 1 + m)
     }
+}
+
+/// Recursive MIS weight of merging the last vertex y_m of a camera subpath (cache `cc`) with
+/// the photon, the last vertex of a light subpath (cache `lc`, depth i): the number
+/// `weight_merge` assembles explicitly, from the subpaths' sums (`cache::mis_sums` with
+/// eta). Relative to the merge's density `eta pc[m] g(m)` (g(t): the generic density of
+/// connecting y_{t-1} with y_t), the techniques with fewer camera vertices sum to
+/// `(mis_valid_m + h(pl[m-1] / pc[m-1]) (mis_valid_{m-1} + mis_merge_{m-1} + S_{m-2})) /
+/// h(eta pc[m])`, those with more likewise from the light side; `pc_next` = pc[m+1] and
+/// `pl_prev` = pl[m-1] are the densities across the merged vertex.
+fn weight_merge_recursive(
+    cc: &[Cached],
+    lc: &[Cached],
+    pc_next: f64,
+    pl_prev: f64,
+    eta: f64,
+    h: super::Heuristic,
+) -> f64 {
+    use super::cache::heuristic;
+    let (m, i) = (cc.len() - 1, lc.len() - 1);
+    let r = |num: f64, den: f64| heuristic(h, num / den);
+    let camera = {
+        let before = if m >= 2 {
+            r(pl_prev, cc[m - 1].fwd)
+                * (cc[m - 1].mis_valid + cc[m - 1].mis_merge + cc[m - 2].mis_sum)
+        } else {
+            0.0
+        };
+        (cc[m].mis_valid + before) / heuristic(h, eta * cc[m].fwd)
+    };
+    let light = {
+        let sum = if i >= 2 { lc[i - 2].mis_sum } else { 0.0 };
+        let before = r(pc_next, lc[i - 1].fwd) * (lc[i - 1].mis_valid + lc[i - 1].mis_merge + sum);
+        (lc[i].mis_valid + before) / heuristic(h, eta * lc[i].fwd)
+    };
+    super::weights::inverse_or_zero(1.0 + camera + light)
 }

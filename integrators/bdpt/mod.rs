@@ -169,6 +169,8 @@ pub struct Tracer<'a> {
     pub shared: Option<&'a SharedLights<'a>>,
     /// Scratch: the photons of the current merge query.
     photons: Vec<merging::Photon>,
+    /// Recording mode: the light vertex of the last next-event estimation (for `deliver`).
+    nee_vertex: Vertex<'a>,
 }
 
 impl<'a> Tracer<'a> {
@@ -197,6 +199,7 @@ impl<'a> Tracer<'a> {
             explicit_weights: false,
             shared: None,
             photons: Vec::new(),
+            nee_vertex: Vertex::new(Kind::Camera, Vec3::ZERO, Vec3::ZERO),
         }
     }
 
@@ -214,15 +217,14 @@ impl<'a> Tracer<'a> {
 
     /// The recursive (O(1)) MIS weights apply: roulette from the first bounce (every
     /// roulette factor is the vertex's local probability, from either end), no path longer
-    /// than the deep-path cap, and nobody inspecting the explicit densities.
+    /// than the deep-path cap, and nobody inspecting the explicit densities. (In recording
+    /// mode they weigh the paths the sink takes without densities: `recording.rs`.)
     fn recursive_mis(&self) -> bool {
         self.settings.rr_depth <= 1
             && (self.settings.max_depth as usize) < super::paths::DEEP_SEGMENTS
             && !self.settings.light_tracing
             && !self.explicit_weights
-            && !self.recording
             && self.inspector.is_none()
-            && self.shared.is_none()
             && !crate::check::enabled()
     }
 
@@ -256,7 +258,13 @@ impl<'a> Tracer<'a> {
             &mut camera,
         );
         cache_subpath(scene, &camera, st.rr_depth, &mut cc);
-        // The light subpath: the pass's of this pixel when merging, else traced here.
+        let recursive = self.recursive_mis();
+        let eta = self.shared.map_or(0.0, |sh| sh.eta);
+        if recursive {
+            mis_sums(scene, &camera, &mut cc, None, st.heuristic, eta);
+        }
+        // The light subpath: the pass's of this pixel when merging (its sums made with the
+        // pass), else traced here.
         let (light_p, lc_p): (&[Vertex<'a>], &[Cached]) = if let Some(shared) = self.shared {
             let (lv, lcache, nee) = shared.path(self.pixel as usize);
             self.light_nee = nee;
@@ -265,9 +273,15 @@ impl<'a> Tracer<'a> {
             walk::light_subpath(scene, max_depth + 1, st.rr_depth, sampler, &mut light_buf);
             cache_subpath(scene, &light_buf, st.rr_depth, &mut lc_buf);
             self.light_nee = light_nee(scene, &light_buf);
-            if self.recursive_mis() {
-                mis_sums(&camera, &mut cc, None, st.heuristic);
-                mis_sums(&light_buf, &mut lc_buf, Some(self.light_nee), st.heuristic);
+            if recursive {
+                mis_sums(
+                    scene,
+                    &light_buf,
+                    &mut lc_buf,
+                    Some(self.light_nee),
+                    st.heuristic,
+                    0.0,
+                );
             }
             (&light_buf, &lc_buf)
         };
@@ -306,7 +320,9 @@ impl<'a> Tracer<'a> {
                     {
                         let pixel = scene.camera.pixel_index(raster) as u32;
                         match sink.as_deref_mut() {
-                            Some(sink) => self.deliver(c, Some(pixel), sink),
+                            Some(sink) => {
+                                self.deliver(c, Some(pixel), sink, &camera[..1], &light[..s])
+                            }
                             None => self.splats.push((pixel, c)),
                         }
                     }
@@ -317,7 +333,13 @@ impl<'a> Tracer<'a> {
                         self.connect(&camera[..t], &cc[..t], &light[..s], &lc[..s])
                     };
                     match sink.as_deref_mut() {
-                        Some(sink) => self.deliver(c, None, sink),
+                        Some(sink) => {
+                            // Next-event estimation's light vertex is its own, not the
+                            // light subpath's.
+                            let nee = [self.nee_vertex];
+                            let lp = if s == 1 { &nee[..] } else { &light[..s] };
+                            self.deliver(c, None, sink, &camera[..t], lp)
+                        }
                         None => l += c,
                     }
                 }
@@ -357,7 +379,13 @@ impl<'a> Tracer<'a> {
             };
             let value = y.beta * le * w as f32;
             match sink.as_deref_mut() {
-                Some(sink) => tracer.deliver(value, None, sink),
+                Some(sink) => tracer.deliver(
+                    value,
+                    None,
+                    sink,
+                    &c[..t - 1],
+                    std::slice::from_ref(&emitter),
+                ),
                 None => sum += value,
             }
         };
@@ -463,6 +491,9 @@ impl<'a> Tracer<'a> {
         };
         let lc = [Cached::first(scene, &lv)];
         let w = self.weight_connection(c, cc, std::slice::from_ref(&lv), &lc, &bridge, nee_k);
+        if self.recording {
+            self.nee_vertex = lv;
+        }
         contribution * w as f32
     }
 

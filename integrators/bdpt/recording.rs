@@ -7,12 +7,15 @@ use crate::integrators::unguided::PathSink;
 use crate::math::{Sampler, Spectrum};
 use glam::Vec2;
 
-/// Densities of the path a weight function saw in recording mode: its own technique's and
-/// the sum over every technique (BDPT's `pdf_unguided` of the path).
+/// What the last weight function left for [`Tracer::deliver`] in recording mode.
 #[derive(Clone, Copy)]
-pub(super) struct Pending {
-    p_s: f64,
-    p_u: f64,
+pub(super) enum Pending {
+    /// The path's densities, assembled: its own technique's and the sum over every
+    /// technique (`pdf_unguided` of the path).
+    Explicit { p_s: f64, p_u: f64 },
+    /// The recursive weight `w` of technique `own`; `Tracer::terms` holds the path's inputs
+    /// should the sink ask for its densities.
+    Recursive { w: f64, own: usize },
 }
 
 impl<'a> Tracer<'a> {
@@ -20,6 +23,9 @@ impl<'a> Tracer<'a> {
     /// to `sink` with f(X) (the technique's raw estimate times its density), the sum of every
     /// technique's density (`p_u`) and its pixel. The sink forms the weight, e.g. the balance
     /// heuristic over BDPT's techniques and a guided technique (`integrators::unguided`).
+    /// Where the recursive weights apply, the sink is asked first whether it needs a path's
+    /// densities ([`PathSink::needs_densities`]); if not, the path goes to it weighted by the
+    /// recursive weight, and its densities are never assembled.
     pub fn sample_recorded(
         &mut self,
         raster: Vec2,
@@ -32,13 +38,16 @@ impl<'a> Tracer<'a> {
         self.splats.clear();
     }
 
-    /// Explicit balance weights: the path `c` followed by `lp` reversed (camera first)
-    /// weighed as technique `own` (s = 0..=k for BDPT's techniques, k + 1 + j for merging
-    /// at y_j), among all of BDPT's techniques and, with merging (`Tracer::shared`), merging
-    /// at every mergeable vertex. In recording mode the path and its densities are kept for
-    /// `deliver` and the return is 1 (the raw estimate is delivered); otherwise it is the
-    /// weight.
-    pub(super) fn hold(&mut self, c: &[Vertex<'a>], lp: &[Vertex<'a>], own: usize) -> f64 {
+    /// Technique `own`'s density and the sum of every technique's (s = 0..=k for BDPT's
+    /// techniques, k + 1 + j for merging at y_j) for the path `c` followed by `lp` reversed,
+    /// whose inputs are in `self.terms`; `None` if the own density is 0 or either is not
+    /// finite.
+    fn densities_of(
+        &mut self,
+        c: &[Vertex<'a>],
+        lp: &[Vertex<'a>],
+        own: usize,
+    ) -> Option<(f64, f64)> {
         let k = self.terms.k;
         self.densities
             .resize(self.densities.len().max(2 * (k + 1)), 0.0);
@@ -52,42 +61,73 @@ impl<'a> Tracer<'a> {
         );
         let p_s = if own <= k { vc[own] } else { vm[own - k - 1] };
         let p_u: f64 = vc.iter().sum::<f64>() + vm_sum;
+        (p_s > 0.0 && p_s.is_finite() && p_u.is_finite()).then_some((p_s, p_u))
+    }
+
+    /// Explicit balance weights: the path `c` followed by `lp` reversed (camera first)
+    /// weighed as technique `own` among all of BDPT's techniques and, with merging
+    /// (`Tracer::shared`), merging at every mergeable vertex. In recording mode the densities
+    /// are kept for `deliver` and the return is 1 (the raw estimate is delivered); otherwise
+    /// it is the weight.
+    pub(super) fn hold(&mut self, c: &[Vertex<'a>], lp: &[Vertex<'a>], own: usize) -> f64 {
         self.pending = None;
-        if !(p_s > 0.0 && p_s.is_finite() && p_u.is_finite()) {
+        let Some((p_s, p_u)) = self.densities_of(c, lp, own) else {
             return 0.0;
-        }
+        };
         if !self.recording {
             return (p_s / p_u).min(1.0);
         }
-        self.joined.clear();
-        self.joined.extend(c.iter().chain(lp.iter().rev()));
-        self.pending = Some(Pending { p_s, p_u });
+        self.pending = Some(Pending::Explicit { p_s, p_u });
         1.0
     }
 
-    /// Hand the path held by the last weight function, whose raw estimate is `value`, to
-    /// `sink` (recording mode); `pixel` is where it lands (`None`: the traced pixel).
+    /// The recursive weight `w` of technique `own`: returned as it is, or in recording mode
+    /// kept for `deliver` (with `self.terms` filled) and 1 returned.
+    pub(super) fn hold_recursive(&mut self, w: f64, own: usize) -> f64 {
+        if !self.recording {
+            self.pending = None;
+            return w;
+        }
+        self.pending = (w > 0.0).then_some(Pending::Recursive { w, own });
+        if w > 0.0 { 1.0 } else { 0.0 }
+    }
+
+    /// Hand the path held by the last weight function, `c` followed by `lp` reversed, whose
+    /// raw estimate is `value`, to `sink` (recording mode); `pixel` is where it lands
+    /// (`None`: the traced pixel).
     pub(super) fn deliver(
         &mut self,
         value: Spectrum,
         pixel: Option<u32>,
         sink: &mut (dyn PathSink + '_),
+        c: &[Vertex<'a>],
+        lp: &[Vertex<'a>],
     ) {
-        let Some(p) = self.pending.take() else {
+        let Some(pending) = self.pending.take() else {
             return;
         };
         if value == Spectrum::ZERO {
             return;
         }
-        let f = value.as_dvec3() * p.p_s;
+        let (p_s, p_u) = match pending {
+            Pending::Explicit { p_s, p_u } => (p_s, p_u),
+            Pending::Recursive { w, own } => {
+                if !sink.needs_densities(c, lp) {
+                    let pixel_of_x1 = pixel.unwrap_or(self.pixel);
+                    sink.record_weighted(pixel_of_x1, value.as_dvec3() * w, pixel.is_some());
+                    return;
+                }
+                match self.densities_of(c, lp, own) {
+                    Some(d) => d,
+                    None => return,
+                }
+            }
+        };
+        let f = value.as_dvec3() * p_s;
         let pixel_of_x1 = pixel.unwrap_or(self.pixel);
+        self.joined.clear();
+        self.joined.extend(c.iter().chain(lp.iter().rev()));
         to_path_into(&self.joined, f.as_vec3(), pixel_of_x1, &mut self.path_buf);
-        sink.record(
-            &self.path_buf,
-            Some(&self.joined),
-            f,
-            p.p_u,
-            pixel.is_some(),
-        );
+        sink.record(&self.path_buf, Some(&self.joined), f, p_u, pixel.is_some());
     }
 }

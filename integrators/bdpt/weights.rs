@@ -42,8 +42,13 @@ impl<'a> Tracer<'a> {
         let Kind::Light { light } = lp[0].kind else {
             return 0.0;
         };
-        if self.recursive_mis() {
-            return weight_recursive(cc, lc, bridge, nee_k, self.settings.heuristic);
+        let recursive = self
+            .recursive_mis()
+            .then(|| weight_recursive(cc, lc, bridge, nee_k, self.settings.heuristic));
+        if let Some(w) = recursive
+            && !self.recording
+        {
+            return w;
         }
         // Roulette when leaving a vertex of local probability q after `segments` segments.
         let rr = |q: f32, segments: usize| roulette(q, segments, rr_depth) as f64;
@@ -92,6 +97,9 @@ impl<'a> Tracer<'a> {
             s,
             terms,
         );
+        if let Some(w) = recursive {
+            return self.hold_recursive(w, s);
+        }
         if self.recording || self.shared.is_some() {
             return self.hold(c, lp, s);
         }
@@ -124,8 +132,13 @@ impl<'a> Tracer<'a> {
         let rr_depth = self.settings.rr_depth;
         let rr = |q: f32, segments: usize| roulette(q, segments, rr_depth) as f64;
         let k = c.len() - 1;
-        if self.recursive_mis() {
-            return self.weight_emitter_hit_recursive(c, cc, emitter, light);
+        let recursive = self
+            .recursive_mis()
+            .then(|| self.weight_emitter_hit_recursive(c, cc, emitter, light));
+        if let Some(w) = recursive
+            && !self.recording
+        {
+            return w;
         }
         let direct_by_camera =
             k == 1 && emitter.edge.first.is_none() && self.left_to_camera(light, emitter.p);
@@ -161,6 +174,9 @@ impl<'a> Tracer<'a> {
             0,
             terms,
         );
+        if let Some(w) = recursive {
+            return self.hold_recursive(w, 0);
+        }
         if self.recording || self.shared.is_some() {
             return self.hold(&c[..k], std::slice::from_ref(emitter), 0);
         }
@@ -180,7 +196,7 @@ fn emitter_back(scene: &Scene, c: &[Vertex], emitter: &Vertex) -> f64 {
 
 /// The weight `1 / sum` of a technique whose relative sum is `sum` (>= 1); 0 when the sum
 /// overflowed or is NaN (a zero own density).
-fn inverse_or_zero(sum: f64) -> f64 {
+pub(super) fn inverse_or_zero(sum: f64) -> f64 {
     if sum.is_finite() { 1.0 / sum } else { 0.0 }
 }
 
@@ -207,11 +223,11 @@ fn weight_recursive(
         let inner = if s >= 2 {
             let pc_t1 = bridge.light_back as f64 * lc[s - 1].q as f64;
             let before = if s >= 3 { lc[s - 3].mis_sum } else { 0.0 };
-            r(pc_t1, lc[s - 2].fwd) * (lc[s - 2].mis_valid + before)
+            r(pc_t1, lc[s - 2].fwd) * (lc[s - 2].mis_valid + lc[s - 2].mis_merge + before)
         } else {
             0.0
         };
-        r(pc_t, lc[s - 1].fwd) * (lc[s - 1].mis_valid + inner)
+        r(pc_t, lc[s - 1].fwd) * (lc[s - 1].mis_valid + lc[s - 1].mis_merge + inner)
     };
     // Camera side: the techniques with more light vertices. `pl[t - 1]`, then `pl[t - 2]`,
     // replace the camera vertices' forward densities.
@@ -219,11 +235,12 @@ fn weight_recursive(
         let pl_t1 = bridge.light_next as f64 * if s >= 2 { lc[s - 1].q as f64 } else { 1.0 };
         let inner = if t >= 3 {
             let pl_t2 = bridge.cam_back as f64 * cc[t - 1].q as f64;
-            r(pl_t2, cc[t - 2].fwd) * (cc[t - 2].mis_valid + cc[t - 3].mis_sum)
+            r(pl_t2, cc[t - 2].fwd)
+                * (cc[t - 2].mis_valid + cc[t - 2].mis_merge + cc[t - 3].mis_sum)
         } else {
             0.0
         };
-        let sum = r(pl_t1, cc[t - 1].fwd) * (cc[t - 1].mis_valid + inner);
+        let sum = r(pl_t1, cc[t - 1].fwd) * (cc[t - 1].mis_valid + cc[t - 1].mis_merge + inner);
         // Next-event estimation's own density has `p_nee` where the others have `p_origin`.
         if nee { sum * r(lc[0].fwd, nee_k) } else { sum }
     } else {
@@ -263,7 +280,8 @@ impl<'a> Tracer<'a> {
                 0.0
             };
             let pl_k1 = emitter_back(scene, c, emitter);
-            let before = r(pl_k1, cc[k - 1].fwd) * (cc[k - 1].mis_valid + cc[k - 2].mis_sum);
+            let before = r(pl_k1, cc[k - 1].fwd)
+                * (cc[k - 1].mis_valid + cc[k - 1].mis_merge + cc[k - 2].mis_sum);
             nee + r(pl_k, cc[k].fwd) * before
         };
         inverse_or_zero(1.0 + others)

@@ -6,11 +6,11 @@
 use super::cache::Record;
 use super::estimator::{Coverage, Estimator, PG_ZERO_VERTICES, RowOutput};
 use super::seeder::{Candidate, Source};
-use super::{coverage, share};
+use super::{coverage, kernel, share};
 use crate::integrators::bdpt::Vertex;
 use crate::integrators::unguided::{PathSink, Unguided};
 use crate::math::{luminance, luminance64};
-use crate::path::Path;
+use crate::path::{MAX_VERTICES, Path};
 use glam::DVec3;
 
 /// Weighs U's paths for the mixture (a [`PathSink`]).
@@ -51,58 +51,24 @@ impl<U: Unguided> PathSink for Collector<'_, '_, U> {
             out.stats.invalid += 1;
             return;
         }
-        let lum = luminance64(value);
         if coverage == Coverage::Covered && out.candidates.collect_terms {
             let terms = std::mem::take(&mut out.candidates.terms);
             self.est
                 .credit(value, p_u, p_g, &terms, &mut out.responsibility);
             out.candidates.terms = terms;
         }
-        out.stats.coverage_paths[coverage as usize] += 1;
-        out.stats.coverage_m2[coverage as usize] += lum * lum;
         if coverage == Coverage::Zero {
+            let lum = luminance64(value);
             let bucket = d.vanished_at.clamp(1, PG_ZERO_VERTICES) - 1;
             out.stats.pg_zero_m2_by_vertex[bucket] += lum * lum;
         }
-        if coverage != Coverage::Covered {
-            out.uncovered += lum;
-        }
-
-        if splat {
-            out.splats.push((path.pixel, value));
-            if self.classes {
-                out.class_splats.push((path.pixel, coverage as u8, lum));
-            }
-        } else {
-            self.sum += value;
-            if self.classes {
-                self.class_sum[coverage as usize] += lum;
-            }
-        }
-        if self.measuring {
-            let v = share::values(luminance64(f), p_u, p_g);
-            if splat {
-                out.grid_splats.push((path.pixel, v));
-            } else {
-                for (a, b) in self.grid.iter_mut().zip(v) {
-                    *a += b;
-                }
-            }
-        }
-        if self.own_image {
-            // U's own estimator from the same paths: an unbiased image without the guided
-            // samples, kept when the share turns guiding off (`driver.rs`).
-            let own = f / p_u;
-            if own.is_finite() {
-                if splat {
-                    out.u_splats.push((path.pixel, own));
-                } else {
-                    self.u_sum += own;
-                }
-            }
-        }
+        let ratios = self
+            .measuring
+            .then(|| share::values(luminance64(f), p_u, p_g));
+        self.add(path.pixel, splat, value, coverage, ratios, f / p_u);
         if self.learning && path.segments() >= 2 {
             let lum = luminance(value.as_vec3()) as f64;
+            let out = &mut *self.out;
             out.learn.samples.push((path.pixel, lum as f32));
             let (est, source) = (self.est, self.source);
             out.learn.offer(lum, || {
@@ -120,6 +86,92 @@ impl<U: Unguided> PathSink for Collector<'_, '_, U> {
                     source,
                 }
             });
+        }
+    }
+
+    /// Outside learning only the paths the guided technique could also make need their
+    /// densities (to add `r p_g` to the denominator): those whose structure the cache holds.
+    /// Every other path's value is U's own `f / p_u`, which U's own weights give. While
+    /// learning every path may become a guide path, which records its densities.
+    fn needs_densities(&mut self, head: &[Vertex], tail: &[Vertex]) -> bool {
+        if self.learning {
+            return true;
+        }
+        if self.est.n_g == 0.0 {
+            return false;
+        }
+        kernel::signature_of_split(self.est.scene, head, tail, MAX_VERTICES)
+            .is_some_and(|sig| self.est.cache.holds(sig))
+    }
+
+    fn record_weighted(&mut self, pixel: u32, value: DVec3, splat: bool) {
+        debug_assert!(
+            !self.learning,
+            "learning records every path with its densities"
+        );
+        if value == DVec3::ZERO {
+            return;
+        }
+        if !(value.is_finite() && value.min_element() >= 0.0) {
+            self.out.stats.invalid += 1;
+            return;
+        }
+        // p_g = 0: the same value under every ratio.
+        let ratios = self.measuring.then(|| [luminance64(value); share::N]);
+        self.add(pixel, splat, value, Coverage::NotHeld, ratios, value);
+    }
+}
+
+impl<U: Unguided> Collector<'_, '_, U> {
+    /// Book a valid path's `value` (under the mixture) for `pixel`: the image, its coverage
+    /// class, the share's measurements (`ratios`: its luminance under each ratio, while
+    /// measuring) and U's own image (`own` = f / p_u, while learning).
+    fn add(
+        &mut self,
+        pixel: u32,
+        splat: bool,
+        value: DVec3,
+        coverage: Coverage,
+        ratios: Option<[f64; share::N]>,
+        own: DVec3,
+    ) {
+        let out = &mut *self.out;
+        let lum = luminance64(value);
+        out.stats.coverage_paths[coverage as usize] += 1;
+        out.stats.coverage_m2[coverage as usize] += lum * lum;
+        if coverage != Coverage::Covered {
+            out.uncovered += lum;
+        }
+        if splat {
+            out.splats.push((pixel, value));
+            if self.classes {
+                out.class_splats.push((pixel, coverage as u8, lum));
+            }
+        } else {
+            self.sum += value;
+            if self.classes {
+                self.class_sum[coverage as usize] += lum;
+            }
+        }
+        if let Some(v) = ratios {
+            if splat {
+                out.grid_splats.push((pixel, v));
+            } else {
+                for (a, b) in self.grid.iter_mut().zip(v) {
+                    *a += b;
+                }
+            }
+        }
+        if self.own_image {
+            // U's own estimator from the same paths: an unbiased image without the guided
+            // samples, kept when the share turns guiding off (`driver.rs`).
+            if own.is_finite() {
+                if splat {
+                    out.u_splats.push((pixel, own));
+                } else {
+                    self.u_sum += own;
+                }
+            }
         }
     }
 }

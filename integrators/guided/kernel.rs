@@ -60,7 +60,31 @@ pub fn structure(scene: &Scene, path: &Path, max_len: usize) -> Option<(u64, Vec
 /// The structure hash of a path alone, without allocating: what decides whether a cache can
 /// hold the path at all ([`GuideCache::holds`](super::cache::GuideCache::holds)).
 pub fn signature(scene: &Scene, path: &Path, max_len: usize) -> Option<u64> {
-    let mut nodes = nodes_of(scene, path, max_len)?;
+    let vs = path.vertices();
+    signature_with(scene, vs.len(), max_len, |i| vs[i])
+}
+
+/// [`signature`] of the path `head` followed by `tail` reversed (camera first), as BDPT
+/// vertices, without joining them: the same hash as of the joined path.
+pub fn signature_of_split(
+    scene: &Scene,
+    head: &[Vertex],
+    tail: &[Vertex],
+    max_len: usize,
+) -> Option<u64> {
+    let (t, l) = (head.len(), head.len() + tail.len());
+    signature_with(scene, l, max_len, |i| {
+        crate::integrators::paths::path_vertex(if i < t { &head[i] } else { &tail[l - 1 - i] })
+    })
+}
+
+fn signature_with(
+    scene: &Scene,
+    l: usize,
+    max_len: usize,
+    at: impl Fn(usize) -> PathVertex,
+) -> Option<u64> {
+    let mut nodes = nodes_with(scene, l, max_len, at)?;
     let mut failed = false;
     let h = hash_nodes(nodes.by_ref().map_while(|n| {
         failed |= n.is_none();
@@ -76,18 +100,27 @@ fn nodes_of<'a>(
     max_len: usize,
 ) -> Option<impl Iterator<Item = Option<Node>> + 'a> {
     let vs = path.vertices();
-    let l = vs.len();
+    nodes_with(scene, vs.len(), max_len, move |i| vs[i])
+}
+
+/// [`nodes_of`] the path of `l` vertices whose vertex i is `at(i)`.
+fn nodes_with<'a>(
+    scene: &'a Scene,
+    l: usize,
+    max_len: usize,
+    at: impl Fn(usize) -> PathVertex + 'a,
+) -> Option<impl Iterator<Item = Option<Node>> + 'a> {
     if l < 3 || l > max_len {
         return None;
     }
     Some((1..l).map(move |v| {
-        let x = &vs[v];
+        let x = at(v);
         Some(match x.kind {
             VertexKind::Surface { delta, .. } => {
                 if v + 1 >= l {
                     return None;
                 }
-                let (a, b) = (vs[v - 1].p - x.p, vs[v + 1].p - x.p);
+                let (a, b) = (at(v - 1).p - x.p, at(v + 1).p - x.p);
                 let transmit = (a.dot(x.n) > 0.0) != (b.dot(x.n) > 0.0);
                 Node::Surface { delta, transmit }
             }

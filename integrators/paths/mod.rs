@@ -256,39 +256,44 @@ pub fn to_path(vertices: &[Vertex], f: Spectrum, pixel: u32) -> Path {
 pub fn to_path_into(vertices: &[Vertex], f: Spectrum, pixel: u32, path: &mut Path) {
     path.clear();
     for v in vertices {
-        let (kind, ns) = match v.kind {
-            Kind::Camera => (VertexKind::Camera, Vec3::ZERO),
-            Kind::Surface {
-                bsdf,
-                frame,
-                info,
-                material,
-            } => (
-                VertexKind::Surface {
-                    material,
-                    shape: info.index,
-                    delta: bsdf.is_delta(),
-                },
-                frame.frame.n,
-            ),
-            Kind::Medium { medium } => (VertexKind::Medium { medium }, Vec3::ZERO),
-            Kind::Light { light } => (
-                VertexKind::Emitter {
-                    light: light as u32,
-                    delta: v.delta,
-                },
-                Vec3::ZERO,
-            ),
-        };
-        path.push(crate::path::Vertex {
-            p: v.p,
-            n: v.n,
-            ns,
-            kind,
-        });
+        path.push(path_vertex(v));
     }
     path.f = f;
     path.pixel = pixel;
+}
+
+/// One vertex of a [`Path`] from a BDPT vertex.
+pub fn path_vertex(v: &Vertex) -> crate::path::Vertex {
+    let (kind, ns) = match v.kind {
+        Kind::Camera => (VertexKind::Camera, Vec3::ZERO),
+        Kind::Surface {
+            bsdf,
+            frame,
+            info,
+            material,
+        } => (
+            VertexKind::Surface {
+                material,
+                shape: info.index,
+                delta: bsdf.is_delta(),
+            },
+            frame.frame.n,
+        ),
+        Kind::Medium { medium } => (VertexKind::Medium { medium }, Vec3::ZERO),
+        Kind::Light { light } => (
+            VertexKind::Emitter {
+                light: light as u32,
+                delta: v.delta,
+            },
+            Vec3::ZERO,
+        ),
+    };
+    crate::path::Vertex {
+        p: v.p,
+        n: v.n,
+        ns,
+        kind,
+    }
 }
 
 /// Emitted radiance (area lights; intensity for point and spot lights) towards `w`.

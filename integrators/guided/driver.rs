@@ -18,7 +18,10 @@
 //! continue U's streams, so the image is U's own image of as many passes. When after three
 //! learning iterations every ratio with guided samples loses to U alone by more than 25 %,
 //! learning stops there (unless a cache is to be saved): a scene with nothing to guide costs
-//! a few passes, not the learning budget. A loaded cache renders with the share its learning
+//! a few passes, not the learning budget. When at the end of the budget the share is
+//! undecided (guiding pays by the learning passes as a whole but not by one of their
+//! halves), learning goes on until it is decided or has taken `share::EXTENSION` times its
+//! budget. A loaded cache renders with the share its learning
 //! run chose (saved with it); `share = fixed` uses `alpha`.
 
 use super::cache::{self, GuideCache, RebuildParams, WeightRule};
@@ -367,10 +370,20 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
                     if let Some(snap) = ctx.snapshots {
                         snap.emit_due(k, k, || film.to_image(k as f64, 1.0 / k as f64));
                     }
-                    let done = match lb {
-                        Budget::Spp(n) => k >= n,
-                        Budget::Seconds(s) => start.elapsed().as_secs_f64() >= s,
+                    let (spent, extended) = match lb {
+                        Budget::Spp(n) => (k >= n, k as f64 >= share::EXTENSION * n as f64),
+                        Budget::Seconds(s) => {
+                            let t = start.elapsed().as_secs_f64();
+                            (t >= s, t >= share::EXTENSION * s)
+                        }
                     };
+                    // An undecided share (`share::Decision::undecided`) learns on, up to
+                    // `share::EXTENSION` times the learning budget.
+                    let undecided = spent
+                        && !extended
+                        && st.share == Share::Auto
+                        && meter.decide().is_some_and(|d| d.undecided);
+                    let done = spent && !undecided;
                     // Nothing to guide: once three measured passes agree that no ratio pays
                     // (by a margin), stop learning and render with U (not when a cache is to
                     // be saved: that asks for the whole learning phase).

@@ -244,7 +244,8 @@ impl Unguided for BdptUnguided {
 }
 
 /// VCM as an unguided estimator: BDPT's techniques and vertex merging, all weighed by the
-/// balance heuristic from explicit densities (`bdpt/merging.rs`). Consistent: merging's
+/// balance heuristic, from explicit densities where the sink needs them, else by the
+/// recursive weights (`bdpt/merging.rs`). Consistent: merging's
 /// radius shrinks with the pass, r_i = r_0 (i + 1)^((alpha - 1) / 2).
 pub struct VcmUnguided {
     pub settings: BdptSettings,

@@ -11,10 +11,10 @@
 //! weights (`weights.rs`) include Russian roulette (a local continuation probability, so the
 //! densities exist in both directions) and free-flight probabilities. With roulette from the
 //! first bounce (the default) they are recursive, O(1) per connection (one running sum per
-//! subpath vertex, kept in `cache.rs`); otherwise (`-O rr_depth` > 1, `lt`, `--check`,
-//! guided-bdpt's recording, which adds the guided density) each connection assembles every
-//! technique's density explicitly (`PathTerms`, `integrators/paths/terms.rs`); a test checks
-//! the two agree. What every
+//! subpath vertex, kept in `cache.rs`); otherwise (`-O rr_depth` > 1, `lt`, `--check`, and in
+//! the guider's recording the paths whose densities it needs, to add the guided density)
+//! each connection assembles every technique's density explicitly (`PathTerms`,
+//! `integrators/paths/terms.rs`); tests check the two agree. What every
 //! connection through a vertex reuses is cached once per subpath (`cache.rs`), and each
 //! connection end costs one BSDF evaluation (`f` and the densities in both directions).
 //!

@@ -77,6 +77,19 @@ pub trait Unguided: Sync + Send {
         stream: u64,
         ordinal: u64,
     ) -> Self::Pass<'s>;
+    /// [`Unguided::begin_pass`] in the memory of an earlier pass's state, `spent` (if any):
+    /// the same state as a fresh one (vcm refills its light subpaths and grid in place).
+    fn renew_pass<'s>(
+        &'s self,
+        scene: &'s Scene,
+        seed: u64,
+        stream: u64,
+        ordinal: u64,
+        spent: Option<Self::Pass<'s>>,
+    ) -> Self::Pass<'s> {
+        drop(spent);
+        self.begin_pass(scene, seed, stream, ordinal)
+    }
     fn tracer<'s, 'p: 's>(&'s self, scene: &'s Scene, pass: &'s Self::Pass<'p>)
     -> Self::Tracer<'s>;
     /// One sample through raster position `raster`; every path it forms goes to `sink`.
@@ -281,8 +294,21 @@ impl Unguided for VcmUnguided {
         stream: u64,
         ordinal: u64,
     ) -> SharedLights<'s> {
+        self.renew_pass(scene, seed, stream, ordinal, None)
+    }
+
+    fn renew_pass<'s>(
+        &'s self,
+        scene: &'s Scene,
+        seed: u64,
+        stream: u64,
+        ordinal: u64,
+        spent: Option<SharedLights<'s>>,
+    ) -> SharedLights<'s> {
         let r = self.radius_at(scene, ordinal);
-        SharedLights::trace(scene, &self.settings, seed, stream, r)
+        let mut pass = spent.unwrap_or_default();
+        pass.retrace(scene, &self.settings, seed, stream, r);
+        pass
     }
 
     fn pass_rays(&self, pass: &SharedLights<'_>) -> u64 {

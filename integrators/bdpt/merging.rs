@@ -57,21 +57,34 @@ pub struct Photon {
 }
 
 /// The light subpaths of one pass, shared by every pixel's tracer, and the merging grid
-/// over their vertices.
+/// over their vertices. Stored by image row, as traced (no copy into one array), and
+/// refilled in place pass after pass ([`SharedLights::retrace`]): fresh allocations of this
+/// size would cost page faults every pass.
 #[derive(Default)]
 pub struct SharedLights<'a> {
-    vertices: Vec<Vertex<'a>>,
-    caches: Vec<Cached>,
-    /// Light subpath i has vertices `starts[i] .. starts[i + 1]`.
-    starts: Vec<u32>,
-    /// Next-event density of each subpath's origin from its second vertex.
-    nee: Vec<f64>,
+    rows: Vec<LightRow<'a>>,
+    /// Light subpaths per row (subpath k is number k % per_row of row k / per_row).
+    per_row: usize,
+    /// The grid's input (kept for its memory).
+    points: Vec<(glam::Vec3, Photon)>,
     pub(super) grid: HashGrid<Photon>,
     /// eta = pi r^2 N, and 1 / eta (the merge's normalisation).
     pub eta: f64,
     pub radius: f32,
     /// Rays the light subpaths took (the guider counts them as the pass's cost).
     pub rays: u64,
+}
+
+/// The light subpaths of one image row.
+#[derive(Default)]
+struct LightRow<'a> {
+    vertices: Vec<Vertex<'a>>,
+    caches: Vec<Cached>,
+    /// Subpath j of the row has vertices `starts[j] .. starts[j + 1]`.
+    starts: Vec<u32>,
+    /// Next-event density of each subpath's origin from its second vertex.
+    nee: Vec<f64>,
+    rays: u64,
 }
 
 /// Whether a vertex can be merged at: a non-delta, non-black surface (not in media).
@@ -89,80 +102,90 @@ impl<'a> SharedLights<'a> {
         stream: u64,
         radius: f32,
     ) -> SharedLights<'a> {
+        let mut s = SharedLights::default();
+        s.retrace(scene, settings, seed, stream, radius);
+        s
+    }
+
+    /// [`SharedLights::trace`] in this pass's memory: the same subpaths and grid as a fresh
+    /// trace.
+    pub fn retrace(
+        &mut self,
+        scene: &'a Scene,
+        settings: &BdptSettings,
+        seed: u64,
+        stream: u64,
+        radius: f32,
+    ) {
         let n = scene.camera.pixel_count();
         let rows = scene.camera.resolution.y.max(1) as usize;
         let per_row = n.div_ceil(rows);
         let max_vertices = settings.max_depth as usize + 1;
         let eta = PI as f64 * radius as f64 * radius as f64 * n as f64;
-        #[allow(clippy::type_complexity)]
-        let parts: Vec<(Vec<Vertex<'a>>, Vec<Cached>, Vec<u32>, Vec<f64>, u64)> = (0..rows)
-            .into_par_iter()
-            .map(|r| {
-                let (mut vs, mut cs, mut lens, mut nee) =
-                    (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-                let (mut path, mut cache) = (Vec::new(), Vec::new());
-                let rays = rays_traced();
-                for k in (r * per_row)..((r + 1) * per_row).min(n) {
-                    let mut sampler =
-                        IndependentSampler::new(seed, stream, LIGHT_STREAMS + k as u64);
-                    light_subpath(
-                        scene,
-                        max_vertices,
-                        settings.rr_depth,
-                        &mut sampler,
-                        &mut path,
-                    );
-                    cache_subpath(scene, &path, settings.rr_depth, &mut cache);
-                    let nee_k = light_nee(scene, &path);
-                    // The sums of the recursive weights (used where they apply).
-                    let h = settings.heuristic;
-                    mis_sums(scene, &path, &mut cache, Some(nee_k), h, eta);
-                    nee.push(nee_k);
-                    lens.push(path.len() as u32);
-                    vs.extend_from_slice(&path);
-                    cs.extend_from_slice(&cache);
-                }
-                (vs, cs, lens, nee, rays_traced() - rays)
-            })
-            .collect();
-        let mut s = SharedLights {
-            radius,
-            eta,
-            ..SharedLights::default()
-        };
-        s.starts.push(0);
-        let mut path_of: Vec<u32> = Vec::new();
-        for (vs, cs, lens, nee, rays) in parts {
-            s.rays += rays;
-            for len in lens {
-                let i = s.starts.len() as u32 - 1;
-                path_of.extend(std::iter::repeat_n(i, len as usize));
-                s.starts.push(s.starts.last().unwrap() + len);
+        self.rows.resize_with(rows, LightRow::default);
+        self.rows.par_iter_mut().enumerate().for_each(|(r, row)| {
+            row.vertices.clear();
+            row.caches.clear();
+            row.nee.clear();
+            row.starts.clear();
+            row.starts.push(0);
+            let (mut path, mut cache) = (Vec::new(), Vec::new());
+            let rays = rays_traced();
+            for k in (r * per_row)..((r + 1) * per_row).min(n) {
+                let mut sampler = IndependentSampler::new(seed, stream, LIGHT_STREAMS + k as u64);
+                light_subpath(
+                    scene,
+                    max_vertices,
+                    settings.rr_depth,
+                    &mut sampler,
+                    &mut path,
+                );
+                cache_subpath(scene, &path, settings.rr_depth, &mut cache);
+                let nee_k = light_nee(scene, &path);
+                // The sums of the recursive weights (used where they apply).
+                mis_sums(
+                    scene,
+                    &path,
+                    &mut cache,
+                    Some(nee_k),
+                    settings.heuristic,
+                    eta,
+                );
+                row.nee.push(nee_k);
+                row.vertices.extend_from_slice(&path);
+                row.caches.extend_from_slice(&cache);
+                row.starts.push(row.vertices.len() as u32);
             }
-            s.vertices.extend(vs);
-            s.caches.extend(cs);
-            s.nee.extend(nee);
+            row.rays = rays_traced() - rays;
+        });
+        self.per_row = per_row;
+        self.radius = radius;
+        self.eta = eta;
+        self.rays = self.rows.iter().map(|r| r.rays).sum();
+        let mut points = std::mem::take(&mut self.points);
+        points.clear();
+        for (r, row) in self.rows.iter().enumerate() {
+            for (j, w) in row.starts.windows(2).enumerate() {
+                let path = (r * per_row + j) as u32;
+                for g in w[0] as usize + 1..w[1] as usize {
+                    let v = &row.vertices[g];
+                    if mergeable(scene, v) {
+                        let depth = (g - w[0] as usize) as u32;
+                        let wo = row.caches[g].wo;
+                        points.push((v.p, Photon { wo, path, depth }));
+                    }
+                }
+            }
         }
-        let points: Vec<(glam::Vec3, Photon)> = (s.vertices.iter().enumerate())
-            .filter_map(|(g, v)| {
-                let path = path_of[g];
-                let depth = g as u32 - s.starts[path as usize];
-                let photon = Photon {
-                    wo: s.caches[g].wo,
-                    path,
-                    depth,
-                };
-                (depth > 0 && mergeable(scene, v)).then_some((v.p, photon))
-            })
-            .collect();
-        s.grid = HashGrid::new(&points, radius);
-        s
+        self.grid.rebuild(&points, radius);
+        self.points = points;
     }
 
     /// Light subpath `k`: its vertices, their caches and its origin's next-event density.
     pub fn path(&self, k: usize) -> (&[Vertex<'a>], &[Cached], f64) {
-        let (a, b) = (self.starts[k] as usize, self.starts[k + 1] as usize);
-        (&self.vertices[a..b], &self.caches[a..b], self.nee[k])
+        let (row, j) = (&self.rows[k / self.per_row], k % self.per_row);
+        let (a, b) = (row.starts[j] as usize, row.starts[j + 1] as usize);
+        (&row.vertices[a..b], &row.caches[a..b], row.nee[j])
     }
 }
 

@@ -484,21 +484,24 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
             own_image = Some(image);
             (r.passes, r.seconds)
         } else {
+            // The spent pass state, refilled by the next pass (`Unguided::renew_pass`).
+            let mut spare = None;
             run_passes_with_snapshots(
                 ctx,
                 render_budget,
                 &mut film,
                 |film, p| {
                     let stream = first_stream + p;
+                    let (ordinal, spent) = (learn_passes + p, spare.take());
                     let shared =
-                        self.unguided
-                            .begin_pass(scene, ctx.seed, stream, learn_passes + p);
+                        (self.unguided).renew_pass(scene, ctx.seed, stream, ordinal, spent);
                     let est = Estimator::new(scene, &self.unguided, shared, &cache, alpha);
                     let (rows, _) = self.pass(ctx, &est, film, None, &mut cascade, stream, false);
                     for r in &rows {
                         render_stats.borrow_mut().add(&r.stats);
                     }
                     class_variance.borrow_mut().add_pass(&rows, w as usize);
+                    spare = Some(est.pass);
                 },
                 |film, passes| {
                     let n = (kept + passes).max(1) as f64;

@@ -88,7 +88,18 @@ pub fn std_trunc_density(d: usize, z2: f64) -> f64 {
     if z2 > R * R {
         return 0.0;
     }
-    (-0.5 * z2 - 0.5 * d as f64 * LN_2PI).exp() / trunc_mass(d, R)
+    (-0.5 * z2 - log_normaliser(d)).exp()
+}
+
+/// `ln` of the normaliser of [`std_trunc_density`] in `d` = 1, 2, 3 dimensions,
+/// `d/2 ln 2π + ln trunc_mass(d, R)`, computed once (p_g evaluates it per vertex and
+/// candidate, and `erf` is a long series).
+fn log_normaliser(d: usize) -> f64 {
+    static LOG_NORM: std::sync::LazyLock<[f64; 3]> = std::sync::LazyLock::new(|| {
+        [1, 2, 3].map(|d| 0.5 * d as f64 * LN_2PI + trunc_mass(d, R).ln())
+    });
+    assert!((1..=3).contains(&d), "truncated Gaussians are 1D to 3D");
+    LOG_NORM[d - 1]
 }
 
 /// Two independent standard normals from two uniforms (Box–Muller).

@@ -507,21 +507,35 @@ pub fn gaussian_branch_density(
     g_infinite: bool,
     k: &Kernel,
 ) -> f64 {
-    let (x, next) = (&y[v - 1], &y[v]);
     let f = segment_frame(g_prev, g, g_infinite);
+    gaussian_branch_density_in(scene, y, v, &f, g_prev, g, k)
+}
+
+/// [`gaussian_branch_density`] with the segment's frame `f` ([`segment_frame`]) given (the
+/// cache keeps each guide segment's frame).
+pub fn gaussian_branch_density_in(
+    scene: &Scene,
+    y: &[Vertex],
+    v: usize,
+    f: &Frame,
+    g_prev: &PathVertex,
+    g: &PathVertex,
+    k: &Kernel,
+) -> f64 {
+    let (x, next) = (&y[v - 1], &y[v]);
     let dc = if x.is_medium() { 3 } else { 2 };
-    let m = k.mean(coords(&f, x.p, g_prev.p, dc), dc);
+    let m = k.mean(coords(f, x.p, g_prev.p, dc), dc);
     if next.is_infinite_light(scene) {
-        let Some(c) = direction_coords(&f, next.n) else {
+        let Some(c) = direction_coords(f, next.n) else {
             return 0.0;
         };
         let cos = dvec(next.n).normalize().dot(dvec(f.n));
         return k.density(c, m, 2) / (cos * cos * cos);
     }
     if next.is_medium() {
-        return k.density(coords(&f, next.p, g.p, 3), m, 3);
+        return k.density(coords(f, next.p, g.p, 3), m, 3);
     }
-    let pdf_w = plane_direction_density(&f, g.p, x.p, next.p - x.p, |c| k.density(c, m, 2));
+    let pdf_w = plane_direction_density(f, g.p, x.p, next.p - x.p, |c| k.density(c, m, 2));
     if pdf_w == 0.0 {
         return 0.0;
     }

@@ -13,7 +13,7 @@ use super::cache::GuideCache;
 use super::gaussian::{sample_std_trunc, std_trunc_density};
 use super::kernel::{
     MIN_PLANE_COS, Node, Reach, bsdf_branch_probability, coords, distance_density, dvec,
-    is_infinite_vertex, segment_frame,
+    is_infinite_vertex,
 };
 use crate::bsdf::TransportMode;
 use crate::geometry::Ray;
@@ -273,7 +273,7 @@ pub fn sample_path(
         let p_b = bsdf_branch_probability(scene, &x);
         let kernel = cache.kernel(l, v);
         let g_inf = is_infinite_vertex(scene, &g);
-        let seg_frame = segment_frame(&g_prev, &g, g_inf);
+        let seg_frame = *cache.frame(l, v);
         let ell = (dvec(g.p) - dvec(g_prev.p)).length();
         let medium_target = matches!(node, Node::Medium { .. });
         let use_bsdf = p_b > 0.0 && (p_b >= 1.0 || (sampler.next_1d() as f64) < p_b);
@@ -450,8 +450,8 @@ pub fn sample_path(
             ];
             if use_bsdf {
                 if p_b < 1.0 {
-                    super::kernel::gaussian_branch_density(
-                        scene, &y_now, 2, &g_prev, &g, g_inf, kernel,
+                    super::kernel::gaussian_branch_density_in(
+                        scene, &y_now, 2, &seg_frame, &g_prev, &g, kernel,
                     )
                 } else {
                     0.0

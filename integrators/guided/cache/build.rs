@@ -156,6 +156,7 @@ impl GuideCache {
         self.vertices.clear();
         self.nodes.clear();
         self.kernels.clear();
+        self.frames.clear();
         self.iteration = iteration;
         let k = iteration.max(1) as f32;
         let pixel_angle = scene.camera.pixel_angle();
@@ -221,6 +222,11 @@ impl GuideCache {
             self.guides[l].neighbours = nb;
             self.guides[l].kernels = self.kernels.len() as u32;
             self.kernels.extend(kernels);
+            for v in 2..self.guides[l].len as usize {
+                let (g_prev, g) = (self.vertex(scene, l, v - 1), self.vertex(scene, l, v));
+                let frame = segment_frame(&g_prev, &g, is_infinite_vertex(scene, &g));
+                self.frames.push(frame);
+            }
             // ---- Adaptive first-vertex width (module doc): at most the spacing of the
             // first vertices around g_1, never below one pixel footprint ----
             if let Some(d) = spacing {

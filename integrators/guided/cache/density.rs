@@ -10,7 +10,7 @@ use super::GuideCache;
 use crate::integrators::bdpt::Vertex;
 use crate::integrators::guided::kernel::{
     FirstTest, FirstVertexQuery, Node, Reach, bsdf_branch_density, bsdf_branch_probability, dvec,
-    first_vertex_density, gaussian_branch_density, is_infinite_vertex,
+    first_vertex_density, gaussian_branch_density_in,
 };
 use crate::scene::Scene;
 use glam::{Vec3, Vec3A};
@@ -97,8 +97,8 @@ impl GuideCache {
             fb_surface
         };
         let fg = if p_b < 1.0 {
-            let inf = is_infinite_vertex(scene, &g);
-            gaussian_branch_density(scene, y, v, &g_prev, &g, inf, k)
+            let f = self.frame(l, v);
+            gaussian_branch_density_in(scene, y, v, f, &g_prev, &g, k)
         } else {
             0.0
         };

@@ -63,8 +63,11 @@ mod density;
 pub use build::{KERNEL_REFERENCE_HEIGHT, regression_kernel};
 pub use density::Terms;
 
+#[cfg(doc)]
+use super::kernel::segment_frame;
 use super::kernel::{FirstKernel, Kernel, Node};
 use crate::math::AliasTable;
+use crate::math::Frame;
 use crate::path::{Vertex as PathVertex, VertexKind};
 use crate::scene::Scene;
 use glam::Vec3;
@@ -195,6 +198,8 @@ pub struct GuideCache {
     pub vertices: Vec<PathVertex>,
     pub nodes: Vec<Node>,
     pub kernels: Vec<Kernel>,
+    /// The frame of each segment's kernel ([`segment_frame`]), beside `kernels`.
+    frames: Vec<Frame>,
     alias: AliasTable,
     /// One pruning BVH per structure held, by signature (a path is only ever evaluated
     /// against guides of its own structure; a structure not held is rejected by the lookup).
@@ -264,13 +269,19 @@ impl GuideCache {
         &self.kernels[self.guides[l].kernels as usize + v - 2]
     }
 
+    /// The frame of the kernel of segment g_{v-1} -> g_v of guide `l` (v >= 2), which
+    /// [`segment_frame`] gives from the two vertices.
+    pub fn frame(&self, l: usize, v: usize) -> &Frame {
+        &self.frames[self.guides[l].kernels as usize + v - 2]
+    }
+
     /// Bytes a guide path of `len` vertices (camera included) occupies: header, vertices and
     /// nodes of g_1 .. g_{L-1}, kernels of the L - 2 later segments, its first-vertex kernel
     /// in the BVH and its alias entry (the BVH nodes not counted).
     pub fn bytes_for_length(len: usize) -> usize {
         std::mem::size_of::<Guide>()
             + (len - 1) * (std::mem::size_of::<PathVertex>() + std::mem::size_of::<Node>())
-            + (len - 2) * std::mem::size_of::<Kernel>()
+            + (len - 2) * (std::mem::size_of::<Kernel>() + std::mem::size_of::<Frame>())
             + std::mem::size_of::<FirstKernel>()
             + 20
     }
@@ -300,7 +311,7 @@ impl GuideCache {
         let bytes = self.guides.len() * std::mem::size_of::<Guide>()
             + self.vertices.len() * std::mem::size_of::<PathVertex>()
             + self.nodes.len() * std::mem::size_of::<Node>()
-            + self.kernels.len() * std::mem::size_of::<Kernel>()
+            + self.kernels.len() * (std::mem::size_of::<Kernel>() + std::mem::size_of::<Frame>())
             + self.guides.len() * std::mem::size_of::<FirstKernel>()
             + self.alias.len() * 20;
         bytes as f64 / self.guides.len() as f64

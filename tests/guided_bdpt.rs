@@ -232,6 +232,19 @@ fn coverage_classes_follow_the_cache_and_p_g() {
             }
             let held = kernel::signature(scene, path, MAX_VERTICES)
                 .is_some_and(|sig| self.cache.holds(sig));
+            // The collector's first test (vertex count and emitter) never rules out a held
+            // structure.
+            let vs = path.vertices();
+            if held
+                && !matches!(vs.last().map(|v| v.kind), Some(lodestar::path::VertexKind::Emitter { light, .. })
+                    if self.cache.may_hold(vs.len(), light))
+                && self.bad.len() < 6
+            {
+                self.bad.push(format!(
+                    "a held path of {} vertices fails may_hold",
+                    vs.len()
+                ));
+            }
             let p_g_all = match (held, kernel::structure(scene, path, MAX_VERTICES), y) {
                 (true, Some((sig, nodes)), Some(y)) => {
                     self.cache.terms_brute_force(scene, y, sig, &nodes).sum

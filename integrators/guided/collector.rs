@@ -7,7 +7,7 @@ use super::cache::Record;
 use super::estimator::{Coverage, Estimator, PG_ZERO_VERTICES, RowOutput};
 use super::seeder::{Candidate, Source};
 use super::{coverage, kernel, share};
-use crate::integrators::bdpt::Vertex;
+use crate::integrators::bdpt::{Kind, Vertex};
 use crate::integrators::unguided::{PathSink, Unguided};
 use crate::math::{luminance, luminance64};
 use crate::path::{MAX_VERTICES, Path};
@@ -98,6 +98,22 @@ impl<U: Unguided> PathSink for Collector<'_, '_, U> {
             return true;
         }
         if self.est.n_g == 0.0 {
+            return false;
+        }
+        // A held structure ends on an emitter, with as many vertices as some guide path.
+        let last = tail.first().or(head.last());
+        let Some(&Vertex {
+            kind: Kind::Light { light },
+            ..
+        }) = last
+        else {
+            return false;
+        };
+        if !self
+            .est
+            .cache
+            .may_hold(head.len() + tail.len(), light as u32)
+        {
             return false;
         }
         kernel::signature_of_split(self.est.scene, head, tail, MAX_VERTICES)

@@ -157,6 +157,7 @@ impl GuideCache {
         self.nodes.clear();
         self.kernels.clear();
         self.frames.clear();
+        self.ends.clear();
         self.iteration = iteration;
         let k = iteration.max(1) as f32;
         let pixel_angle = scene.camera.pixel_angle();
@@ -195,9 +196,14 @@ impl GuideCache {
                 p_u,
                 weight,
             });
+            if let Some(&Node::Emitter { light, .. }) = nodes.last() {
+                self.ends.push((vertices.len(), light));
+            }
             self.vertices.extend_from_slice(&vertices[1..]);
             self.nodes.extend_from_slice(&nodes);
         }
+        self.ends.sort_unstable();
+        self.ends.dedup();
         self.build_bvh(scene);
         // ---- Neighbours and kernels (candidates under the spec's first-vertex widths) ----
         let per_guide: Vec<(u8, Vec<Kernel>, Option<f32>)> = (0..self.guides.len())

@@ -200,6 +200,9 @@ pub struct GuideCache {
     pub kernels: Vec<Kernel>,
     /// The frame of each segment's kernel ([`segment_frame`]), beside `kernels`.
     frames: Vec<Frame>,
+    /// Every (vertex count, emitter) that a held structure has, sorted: what
+    /// [`GuideCache::may_hold`] tests before a structure is hashed.
+    ends: Vec<(usize, u32)>,
     alias: AliasTable,
     /// One pruning BVH per structure held, by signature (a path is only ever evaluated
     /// against guides of its own structure; a structure not held is rejected by the lookup).
@@ -236,6 +239,12 @@ impl GuideCache {
     /// Whether some guide path has this structure (else p_g is 0 without any work).
     pub fn holds(&self, sig: u64) -> bool {
         self.index.contains_key(&sig)
+    }
+
+    /// Whether some guide path has `len` vertices (camera included) and ends on emitter
+    /// `light`: false rules out every structure of such paths without hashing one.
+    pub fn may_hold(&self, len: usize, light: u32) -> bool {
+        self.ends.contains(&(len, light))
     }
 
     /// Number of distinct structures among the guide paths.

@@ -85,6 +85,9 @@ struct LightRow<'a> {
     /// Next-event density of each subpath's origin from its second vertex.
     nee: Vec<f64>,
     rays: u64,
+    /// The subpath being traced and its caches (scratch, kept for its memory).
+    path: Vec<Vertex<'a>>,
+    cache: Vec<Cached>,
 }
 
 /// Whether a vertex can be merged at: a non-delta, non-black surface (not in media).
@@ -129,7 +132,10 @@ impl<'a> SharedLights<'a> {
             row.nee.clear();
             row.starts.clear();
             row.starts.push(0);
-            let (mut path, mut cache) = (Vec::new(), Vec::new());
+            let (mut path, mut cache) = (
+                std::mem::take(&mut row.path),
+                std::mem::take(&mut row.cache),
+            );
             let rays = rays_traced();
             for k in (r * per_row)..((r + 1) * per_row).min(n) {
                 let mut sampler = IndependentSampler::new(seed, stream, LIGHT_STREAMS + k as u64);
@@ -157,6 +163,7 @@ impl<'a> SharedLights<'a> {
                 row.starts.push(row.vertices.len() as u32);
             }
             row.rays = rays_traced() - rays;
+            (row.path, row.cache) = (path, cache);
         });
         self.per_row = per_row;
         self.radius = radius;

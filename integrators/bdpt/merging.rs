@@ -43,7 +43,7 @@ const MERGE_RAYS_PER_PHOTON: f64 = 1.0;
 
 /// Stream index offset of the shared light subpaths (pixels use 0 .. N, guided samples
 /// N ..; the offset keeps the light subpaths apart from both).
-const LIGHT_STREAMS: u64 = 1 << 48;
+pub const LIGHT_STREAMS: u64 = 1 << 48;
 
 /// What a merge needs of a stored light vertex before touching its subpath, kept in the grid
 /// beside its position (one run of memory per query).

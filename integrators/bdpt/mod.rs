@@ -63,7 +63,7 @@ use crate::render::{Budget, Integrator, RenderContext, RenderResult, RowTracer, 
 use crate::scene::{Endpoint, Scene};
 use cache::{Cached, cache_subpath, mis_sums};
 use glam::{Vec2, Vec3};
-pub use merging::{SharedLights, mergeable};
+pub use merging::{LIGHT_STREAMS, SharedLights, mergeable};
 use settings::settings;
 pub use settings::{BdptSettings, RR_DEPTH, TechniqueFilter};
 pub use technique::TECHNIQUE_STREAMS;

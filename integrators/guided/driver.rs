@@ -35,7 +35,7 @@ use crate::dbor::Cascade;
 use crate::error::Result;
 use crate::film::Film;
 use crate::geometry::bvh::rays_traced;
-use crate::integrators::unguided::Unguided;
+use crate::integrators::unguided::{HeldPaths, Unguided};
 use crate::math::{IndependentSampler, Sampler, luminance, luminance64};
 use crate::render::{
     Budget, Integrator, RenderContext, RenderResult, cascade_rows, run_passes_with_snapshots,
@@ -43,6 +43,7 @@ use crate::render::{
 use crate::scene::Scene;
 use glam::{DVec3, UVec2, Vec2};
 use rayon::prelude::*;
+use std::sync::Arc;
 use std::time::Instant;
 
 /// Render passes draw from streams (seed, RENDER_STREAMS + pass, ...), learning passes from
@@ -486,6 +487,9 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
         } else {
             // The spent pass state, refilled by the next pass (`Unguided::renew_pass`).
             let mut spare = None;
+            // Render passes need the densities of the paths whose structure the cache holds
+            // only (`Collector::needs_densities`): U may trace them with a faster tracer.
+            let held = (n_g > 0.0).then(|| Arc::new(cache.held()) as Arc<dyn HeldPaths>);
             run_passes_with_snapshots(
                 ctx,
                 render_budget,
@@ -493,8 +497,14 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
                 |film, p| {
                     let stream = first_stream + p;
                     let (ordinal, spent) = (learn_passes + p, spare.take());
-                    let shared =
-                        (self.unguided).renew_pass(scene, ctx.seed, stream, ordinal, spent);
+                    let shared = (self.unguided).renew_render_pass(
+                        scene,
+                        ctx.seed,
+                        stream,
+                        ordinal,
+                        spent,
+                        held.as_ref(),
+                    );
                     let est = Estimator::new(scene, &self.unguided, shared, &cache, alpha);
                     let (rows, _) = self.pass(ctx, &est, film, None, &mut cascade, stream, false);
                     for r in &rows {

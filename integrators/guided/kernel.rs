@@ -78,6 +78,20 @@ pub fn signature_of_split(
     })
 }
 
+/// [`signature`] of the path `head` followed by `tail` reversed (camera first), as path
+/// vertices, without joining them.
+pub fn signature_of_vertices(
+    scene: &Scene,
+    head: &[PathVertex],
+    tail: &[PathVertex],
+    max_len: usize,
+) -> Option<u64> {
+    let (t, l) = (head.len(), head.len() + tail.len());
+    signature_with(scene, l, max_len, |i| {
+        if i < t { head[i] } else { tail[l - 1 - i] }
+    })
+}
+
 fn signature_with(
     scene: &Scene,
     l: usize,

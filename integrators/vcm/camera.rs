@@ -4,6 +4,9 @@
 //! paths within the pass's radius. Each contribution is weighed by the balance heuristic
 //! over all techniques, from the O(1) quantities of the two vertices it joins (VCM tech.
 //! report §5; the equation numbers below are that report's).
+//!
+//! With a [`HeldPaths`] test (guided-vcm's render passes), a contribution whose path it holds
+//! is kept, unweighted, as a [`Claimed`] path instead of added (the caller weighs it).
 
 use super::hash_grid::HashGrid;
 use super::light::{LightPaths, Photon};
@@ -11,13 +14,15 @@ use super::vertex::{
     Edge, Mis, Scatter, Vertex, connectible_light, emission_densities, hittable, nee_density,
 };
 use super::walk::{Step, Walk};
-use super::{Inspector, PassConstants, Record, Technique, VcmSettings};
+use super::{Claimed, Inspector, PassConstants, Record, Technique, VcmSettings, joined};
 use crate::bsdf::TransportMode;
 use crate::geometry::gamma;
+use crate::integrators::unguided::HeldPaths;
 use crate::math::{Sampler, Spectrum};
-use crate::path::{Path, Vertex as PathVertex, VertexKind};
+use crate::path::{Vertex as PathVertex, VertexKind};
 use crate::scene::{Endpoint, Scene};
 use glam::{Vec2, Vec3};
+use std::cell::RefCell;
 
 pub struct CameraTracer<'a, 'p> {
     pub scene: &'a Scene,
@@ -26,8 +31,13 @@ pub struct CameraTracer<'a, 'p> {
     pub lights: &'p LightPaths<'a>,
     pub grid: Option<&'p HashGrid<Photon>>,
     pub inspector: Option<&'p Inspector<'p>>,
-    /// The camera subpath's vertices (inspection only).
+    /// Contributions whose path this holds are kept in `claimed` instead of added.
+    pub claims: Option<&'p dyn HeldPaths>,
+    claimed: RefCell<Vec<Claimed>>,
+    /// The camera subpath's vertices (inspection and claims only).
     path: Vec<PathVertex>,
+    /// The pixel being traced.
+    pixel: u32,
 }
 
 impl<'a, 'p> CameraTracer<'a, 'p> {
@@ -38,6 +48,7 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
         lights: &'p LightPaths<'a>,
         grid: Option<&'p HashGrid<Photon>>,
         inspector: Option<&'p Inspector<'p>>,
+        claims: Option<&'p dyn HeldPaths>,
     ) -> Self {
         CameraTracer {
             scene,
@@ -46,8 +57,21 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
             lights,
             grid,
             inspector,
+            claims,
+            claimed: RefCell::default(),
             path: Vec::new(),
+            pixel: 0,
         }
+    }
+
+    /// The paths claimed since they were last cleared (`claims`), in the order formed.
+    pub fn claimed(&mut self) -> &mut Vec<Claimed> {
+        self.claimed.get_mut()
+    }
+
+    /// Whether the camera subpath's vertices are recorded.
+    fn records(&self) -> bool {
+        self.inspector.is_some() || self.claims.is_some()
     }
 
     /// The value of camera path `k` through raster position `raster`.
@@ -60,7 +84,8 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
         if pdf_we <= 0.0 {
             return Spectrum::ZERO;
         }
-        if self.inspector.is_some() {
+        self.pixel = k as u32;
+        if self.records() {
             self.path.clear();
             self.path.push(PathVertex {
                 p: cam.position,
@@ -91,7 +116,7 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
             if i >= max {
                 break;
             }
-            if self.inspector.is_some() {
+            if self.records() {
                 self.path.push(v.path_vertex());
             }
             // Merging's bucket, asked for now so that its cache misses overlap the
@@ -172,6 +197,10 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
         if self.inspector.is_some() {
             self.record_emitter(0, li, v.p, v.n, false, w);
         }
+        let y = emitter_vertex(li, v.p, v.n, false);
+        if self.claim(Technique::Connect { s: 0 }, &[y], v.beta * le, w) {
+            return Spectrum::ZERO;
+        }
         v.beta * le * w
     }
 
@@ -196,7 +225,10 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
             if self.inspector.is_some() {
                 self.record_emitter(0, li, prev_p + dir, dir, false, w);
             }
-            sum += walk.beta * le * w;
+            let y = emitter_vertex(li, prev_p + dir, dir, false);
+            if !self.claim(Technique::Connect { s: 0 }, &[y], walk.beta * le, w) {
+                sum += walk.beta * le * w;
+            }
         }
         sum
     }
@@ -267,6 +299,10 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
         if self.inspector.is_some() {
             self.record_emitter(1, li, y_p, y_n, l.is_delta(), w);
         }
+        let y = emitter_vertex(li, y_p, y_n, l.is_delta());
+        if self.claim(Technique::Connect { s: 1 }, &[y], c, w) {
+            return Spectrum::ZERO;
+        }
         c * w
     }
 
@@ -314,9 +350,15 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
                 + v.mis.d_vc * v.pdf_w(scene, dir, v.wo));
         let w = 1.0 / (w_light + 1.0 + w_cam);
         crate::check::weight(crate::check::Technique::named("vcm connection"), w as f64);
-        if let Some(insp) = self.inspector {
+        if self.records() {
             let light = &self.lights.full(k)[..=y.depth as usize];
-            self.record(insp, Technique::Connect { s: light.len() }, light, w);
+            let technique = Technique::Connect { s: light.len() };
+            if let Some(insp) = self.inspector {
+                self.record(insp, technique, light, w);
+            }
+            if self.claim(technique, light, c, w) {
+                return Spectrum::ZERO;
+            }
         }
         c * w
     }
@@ -348,21 +390,23 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
             let w_cam = w_cam_vertex + v.mis.d_vm * (e.pdf_rev * q);
             let w = 1.0 / (w_light + 1.0 + w_cam);
             crate::check::weight(crate::check::Technique::named("vcm merge"), w as f64);
-            sum += f * y.beta * w;
-            if let Some(insp) = self.inspector {
+            if self.records() {
                 let full = self
                     .lights
                     .full(self.lights.path_of_vertex(y.index as usize));
                 let light = &full[..y.depth as usize];
-                self.record(
-                    insp,
-                    Technique::Merge {
-                        t: self.path.len() - 1,
-                    },
-                    light,
-                    w,
-                );
+                let technique = Technique::Merge {
+                    t: self.path.len() - 1,
+                };
+                if let Some(insp) = self.inspector {
+                    self.record(insp, technique, light, w);
+                }
+                let c = v.beta * f * y.beta * self.pc.vm_normalization;
+                if self.claim(technique, light, c, w) {
+                    return;
+                }
             }
+            sum += f * y.beta * w;
         });
         v.beta * sum * self.pc.vm_normalization
     }
@@ -370,31 +414,51 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
     /// Record a technique ending on light `li` (at `p`, normal `n`): s = 0 (hit) or 1 (NEE).
     fn record_emitter(&self, s: usize, li: usize, p: Vec3, n: Vec3, delta: bool, w: f32) {
         let Some(insp) = self.inspector else { return };
-        let y = PathVertex {
-            p,
-            n,
-            ns: Vec3::ZERO,
-            kind: VertexKind::Emitter {
-                light: li as u32,
-                delta,
-            },
-        };
+        let y = emitter_vertex(li, p, n, delta);
         self.record(insp, Technique::Connect { s }, &[y], w);
     }
 
     /// Hand the camera path so far, then `light` reversed, to the inspector.
     fn record(&self, insp: &Inspector, technique: Technique, light: &[PathVertex], w: f32) {
-        let mut path = Path::default();
-        for v in &self.path {
-            path.push(*v);
-        }
-        for v in light.iter().rev() {
-            path.push(*v);
-        }
         (insp.borrow_mut())(&Record {
             technique,
-            path,
+            path: joined(&self.path, light),
             weight: w as f64,
         });
+    }
+
+    /// If `claims` holds the camera path so far followed by `light` reversed, keep it with
+    /// its unweighted value `c` (vcm's weight `w` beside it) and return true.
+    fn claim(&self, technique: Technique, light: &[PathVertex], c: Spectrum, w: f32) -> bool {
+        let Some(claims) = self.claims else {
+            return false;
+        };
+        if !claims.holds(self.scene, &self.path, light) {
+            return false;
+        }
+        let mut path = joined(&self.path, light);
+        path.pixel = self.pixel;
+        self.claimed.borrow_mut().push(Claimed {
+            technique,
+            path,
+            value: c,
+            weight: w,
+            splat: false,
+        });
+        true
+    }
+}
+
+/// The vertex of a path on light `li` at `p` (normal `n`; for lights at infinity the
+/// direction towards them).
+fn emitter_vertex(li: usize, p: Vec3, n: Vec3, delta: bool) -> PathVertex {
+    PathVertex {
+        p,
+        n,
+        ns: Vec3::ZERO,
+        kind: VertexKind::Emitter {
+            light: li as u32,
+            delta,
+        },
     }
 }

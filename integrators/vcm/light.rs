@@ -1,15 +1,21 @@
 //! The light subpaths of a pass: traced from a light chosen by power, their connectible
 //! vertices stored for connections and merging, and each vertex connected to the pinhole
-//! (light tracing, t = 1, splatted). Light path k uses the stream (seed, pass, N + k).
+//! (light tracing, t = 1, splatted). Light path k uses the stream (seed, pass, N + k) in
+//! `vcm` (the stream base is a parameter: guided-vcm's passes use their own).
+//!
+//! With a [`HeldPaths`] test (guided-vcm's render passes), every light-tracing path it holds is
+//! kept unweighted as a [`Claimed`] path instead of splatted, and every path's vertices are
+//! recorded (`full`), as they are for inspection.
 
 use super::vertex::{Edge, Vertex, connectible_light, emission, emission_densities, hittable};
 use super::walk::{Step, Walk};
-use super::{Inspector, PassConstants, Record, Technique, VcmSettings};
+use super::{Claimed, Inspector, PassConstants, Record, Technique, VcmSettings, joined};
 use crate::bsdf::TransportMode;
 use crate::geometry::{Ray, gamma, offset_origin};
 use crate::integrators::paths::direct_to_camera;
+use crate::integrators::unguided::HeldPaths;
 use crate::math::{IndependentSampler, Sampler, Spectrum};
-use crate::path::{Path, Vertex as PathVertex, VertexKind};
+use crate::path::{Vertex as PathVertex, VertexKind};
 use crate::scene::{Endpoint, Scene};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -20,10 +26,20 @@ pub struct LightRow<'a> {
     pub vertices: Vec<Vertex<'a>>,
     /// The row's i-th path has vertices `starts[i] .. starts[i + 1]`.
     pub starts: Vec<u32>,
-    /// Light-tracing contributions (pixel, value), in path order.
+    /// Light-tracing contributions (pixel, value), in path order; the i-th path's are
+    /// `splat_starts[i] .. splat_starts[i + 1]`.
     pub splats: Vec<(u32, Spectrum)>,
-    /// Every vertex of every path, light first (inspection only).
-    pub full: Vec<Vec<PathVertex>>,
+    splat_starts: Vec<u32>,
+    /// Every vertex of every path, light first, when recorded (inspection, claims); the i-th
+    /// path's are `full_starts[i] .. full_starts[i + 1]`.
+    full: Vec<PathVertex>,
+    full_starts: Vec<u32>,
+    /// Light-tracing paths claimed by the pass's [`HeldPaths`]; the i-th path's are
+    /// `claimed_starts[i] .. claimed_starts[i + 1]`.
+    claimed: Vec<Claimed>,
+    claimed_starts: Vec<u32>,
+    /// Rays the row's paths took.
+    rays: u64,
 }
 
 impl LightRow<'_> {
@@ -32,7 +48,22 @@ impl LightRow<'_> {
         self.starts.clear();
         self.starts.push(0);
         self.splats.clear();
+        self.splat_starts.clear();
+        self.splat_starts.push(0);
         self.full.clear();
+        self.full_starts.clear();
+        self.full_starts.push(0);
+        self.claimed.clear();
+        self.claimed_starts.clear();
+        self.claimed_starts.push(0);
+    }
+
+    /// Close the path just traced.
+    fn end_path(&mut self) {
+        self.starts.push(self.vertices.len() as u32);
+        self.splat_starts.push(self.splats.len() as u32);
+        self.full_starts.push(self.full.len() as u32);
+        self.claimed_starts.push(self.claimed.len() as u32);
     }
 }
 
@@ -74,19 +105,24 @@ pub struct LightPaths<'a> {
     row_len: usize,
     /// Global index of each row's first vertex, and the total at the end.
     offsets: Vec<u32>,
+    /// The light path of each stored vertex, by global index (when `full` is recorded).
+    path_of: Vec<u32>,
 }
 
 impl<'a> LightPaths<'a> {
     /// Trace `rows` rows of `row_len` paths each (row y holds paths `y row_len ..`) of pass
-    /// `pass`, a row per task, into these buffers.
+    /// `pass`, path k from stream `(seed, pass, streams + k)`, a row per task, into these
+    /// buffers; light-tracing paths that `claims` holds are kept as [`Claimed`] paths.
+    #[allow(clippy::too_many_arguments)]
     pub fn trace(
         &mut self,
         scene: &'a Scene,
         settings: &VcmSettings,
         pc: &PassConstants,
-        (seed, pass): (u64, u64),
+        (seed, pass, streams): (u64, u64, u64),
         rows: usize,
         row_len: usize,
+        claims: Option<&dyn HeldPaths>,
     ) {
         self.rows.resize_with(rows, LightRow::default);
         self.row_len = row_len;
@@ -96,10 +132,23 @@ impl<'a> LightPaths<'a> {
                 settings,
                 pc,
                 inspector: None,
+                claims,
             };
-            lt.row_into(seed, pass, (y * row_len) as u64, row_len as u64, row)
+            let rays = crate::geometry::bvh::rays_traced();
+            lt.row_into(
+                (seed, pass, streams),
+                (y * row_len) as u64,
+                row_len as u64,
+                row,
+            );
+            row.rays = crate::geometry::bvh::rays_traced() - rays;
         });
         self.index();
+    }
+
+    /// Rays the last [`Self::trace`] took.
+    pub fn rays(&self) -> u64 {
+        self.rows.iter().map(|r| r.rays).sum()
     }
 
     /// All `n` paths of pass `pass` as one row, on this thread, by `tracer` (inspection).
@@ -111,16 +160,25 @@ impl<'a> LightPaths<'a> {
     ) {
         self.rows.resize_with(1, LightRow::default);
         self.row_len = n;
-        tracer.row_into(seed, pass, 0, n as u64, &mut self.rows[0]);
+        let streams = tracer.pc.light_paths as u64;
+        tracer.row_into((seed, pass, streams), 0, n as u64, &mut self.rows[0]);
         self.index();
     }
 
     fn index(&mut self) {
         self.offsets.clear();
+        self.path_of.clear();
         let mut total = 0u32;
-        for row in &self.rows {
+        for (r, row) in self.rows.iter().enumerate() {
             self.offsets.push(total);
             total += row.vertices.len() as u32;
+            if row.full.is_empty() {
+                continue;
+            }
+            for (i, w) in row.starts.windows(2).enumerate() {
+                let k = (r * self.row_len + i) as u32;
+                self.path_of.extend((w[0]..w[1]).map(|_| k));
+            }
         }
         self.offsets.push(total);
     }
@@ -147,17 +205,27 @@ impl<'a> LightPaths<'a> {
         self.rows.iter().map(|row| row.splats.as_slice())
     }
 
-    /// Inspection only: every vertex of light path `k`, light first.
-    pub fn full(&self, k: usize) -> &[PathVertex] {
-        &self.rows[k / self.row_len].full[k % self.row_len]
+    /// The light-tracing splats of light path `k`.
+    pub fn splats_of(&self, k: usize) -> &[(u32, Spectrum)] {
+        let (row, i) = (&self.rows[k / self.row_len], k % self.row_len);
+        &row.splats[row.splat_starts[i] as usize..row.splat_starts[i + 1] as usize]
     }
 
-    /// Inspection only: the light path of the stored vertex of global index `index`.
+    /// The claimed light-tracing paths of light path `k`.
+    pub fn claimed_of(&self, k: usize) -> &[Claimed] {
+        let (row, i) = (&self.rows[k / self.row_len], k % self.row_len);
+        &row.claimed[row.claimed_starts[i] as usize..row.claimed_starts[i + 1] as usize]
+    }
+
+    /// Every vertex of light path `k`, light first (recorded for inspection and claims only).
+    pub fn full(&self, k: usize) -> &[PathVertex] {
+        let (row, i) = (&self.rows[k / self.row_len], k % self.row_len);
+        &row.full[row.full_starts[i] as usize..row.full_starts[i + 1] as usize]
+    }
+
+    /// The light path of the stored vertex of global index `index` (recorded with `full`).
     pub fn path_of_vertex(&self, index: usize) -> usize {
-        let r = self.offsets.partition_point(|&o| o as usize <= index) - 1;
-        let local = (index - self.offsets[r] as usize) as u32;
-        let i = self.rows[r].starts.partition_point(|&s| s <= local) - 1;
-        r * self.row_len + i
+        self.path_of[index] as usize
     }
 }
 
@@ -167,35 +235,38 @@ pub struct LightTracer<'a, 'p> {
     pub settings: &'p VcmSettings,
     pub pc: &'p PassConstants,
     pub inspector: Option<&'p Inspector<'p>>,
+    /// Light-tracing paths this holds are kept unweighted (`LightRow::claimed`).
+    pub claims: Option<&'p dyn HeldPaths>,
 }
 
 impl<'a> LightTracer<'a, '_> {
-    /// Light paths `first .. first + count` of pass `pass`, into `row` (cleared first).
-    pub fn row_into(&self, seed: u64, pass: u64, first: u64, count: u64, row: &mut LightRow<'a>) {
+    /// Light paths `first .. first + count` of pass `pass`, path k from stream
+    /// `(seed, pass, streams + k)`, into `row` (cleared first).
+    pub fn row_into(
+        &self,
+        (seed, pass, streams): (u64, u64, u64),
+        first: u64,
+        count: u64,
+        row: &mut LightRow<'a>,
+    ) {
         row.clear();
-        let n = self.pc.light_paths as u64;
         for k in first..first + count {
-            let mut sampler = IndependentSampler::new(seed, pass, n + k);
-            let mut full = Vec::new();
-            let full_ref = self.inspector.is_some().then_some(&mut full);
-            self.trace(&mut sampler, &mut row.vertices, &mut row.splats, full_ref);
-            row.starts.push(row.vertices.len() as u32);
-            if self.inspector.is_some() {
-                row.full.push(full);
-            }
+            let mut sampler = IndependentSampler::new(seed, pass, streams + k);
+            self.trace(&mut sampler, row);
+            row.end_path();
         }
     }
 
-    /// One light subpath: stores its connectible vertices in `out`, pushes its light-tracing
-    /// contributions to `splats`, and (inspection) all its vertices to `full`.
-    pub fn trace(
-        &self,
-        sampler: &mut impl Sampler,
-        out: &mut Vec<Vertex<'a>>,
-        splats: &mut Vec<(u32, Spectrum)>,
-        mut full: Option<&mut Vec<PathVertex>>,
-    ) {
+    /// Whether every vertex of the paths is recorded (`LightRow::full`).
+    fn records(&self) -> bool {
+        self.inspector.is_some() || self.claims.is_some()
+    }
+
+    /// One light subpath into `row`: its connectible vertices, its light-tracing
+    /// contributions (splats, or claimed paths), and (when recorded) all its vertices.
+    pub fn trace(&self, sampler: &mut impl Sampler, row: &mut LightRow<'a>) {
         let (scene, st) = (self.scene, self.settings);
+        let full_start = row.full.len();
         let max = st.max_depth;
         let Some((li, pick, e)) = scene.sample_emission(sampler) else {
             return;
@@ -219,12 +290,12 @@ impl<'a> LightTracer<'a, '_> {
                 delta: l.is_delta(),
             },
         };
-        if let Some(f) = full.as_deref_mut() {
-            f.push(origin);
+        if self.records() {
+            row.full.push(origin);
         }
         let err = gamma(8) * e.p.abs();
         if st.connect && max >= 1 && connectible_light(l) {
-            self.connect_origin(li, &e, densities.0, err, splats, &origin);
+            self.connect_origin(li, &e, densities.0, err, row, &origin);
         }
         let beta = e.le * cos0 / (pick * e.pdf_pos * e.pdf_dir);
         let start = if e.n == Vec3::ZERO || infinite {
@@ -247,16 +318,16 @@ impl<'a> LightTracer<'a, '_> {
         walk.medium = scene.light_medium(li, n0, e.dir);
         walk.q_cap = super::walk::deep_continuation(st.max_depth);
         while let Step::Vertex { v, .. } = walk.trace(scene, sampler) {
-            if let Some(f) = full.as_deref_mut() {
-                f.push(v.path_vertex());
+            if self.records() {
+                row.full.push(v.path_vertex());
             }
             let j = v.depth;
             if v.connectible() {
                 if st.connect && j < max {
-                    self.connect_camera(&v, splats, full.as_deref());
+                    self.connect_camera(&v, row, full_start);
                 }
                 if j < max && (st.connect || v.mergeable()) {
-                    out.push(v);
+                    row.vertices.push(v);
                 }
             }
             if j + 2 > max || !walk.scatter(scene, &v, self.pc.factors, sampler) {
@@ -273,7 +344,7 @@ impl<'a> LightTracer<'a, '_> {
         e: &crate::light::EmissionSample,
         p_origin: f32,
         err: Vec3,
-        splats: &mut Vec<(u32, Spectrum)>,
+        row: &mut LightRow,
         origin: &PathVertex,
     ) {
         let scene = self.scene;
@@ -325,17 +396,15 @@ impl<'a> LightTracer<'a, '_> {
         let w = 1.0 / (1.0 + w_cam);
         crate::check::weight(crate::check::Technique::named("vcm light origin"), w as f64);
         let pixel = cam.pixel_index(cs.raster) as u32;
-        splats.push((pixel, c * w));
-        self.record(Technique::Connect { s: 1 }, &[*origin], w);
+        let technique = Technique::Connect { s: 1 };
+        if !self.claim(technique, std::slice::from_ref(origin), pixel, c, w, row) {
+            row.splats.push((pixel, c * w));
+        }
+        self.record(technique, std::slice::from_ref(origin), w);
     }
 
     /// t = 1, s >= 2: light vertex `v` seen by the pinhole.
-    fn connect_camera(
-        &self,
-        v: &Vertex<'a>,
-        splats: &mut Vec<(u32, Spectrum)>,
-        full: Option<&Vec<PathVertex>>,
-    ) {
+    fn connect_camera(&self, v: &Vertex<'a>, row: &mut LightRow, full_start: usize) {
         let scene = self.scene;
         let cam = &scene.camera;
         let Some(cs) = cam.sample_wi(v.p) else {
@@ -372,28 +441,67 @@ impl<'a> LightTracer<'a, '_> {
             crate::check::Technique::named("vcm light tracing"),
             w as f64,
         );
-        splats.push((cam.pixel_index(cs.raster) as u32, c * w));
-        if let Some(full) = full {
-            self.record(Technique::Connect { s: full.len() }, full, w);
+        let pixel = cam.pixel_index(cs.raster) as u32;
+        if self.records() {
+            let full = std::mem::take(&mut row.full);
+            let light = &full[full_start..];
+            let technique = Technique::Connect { s: light.len() };
+            if !self.claim(technique, light, pixel, c, w, row) {
+                row.splats.push((pixel, c * w));
+            }
+            self.record(technique, light, w);
+            row.full = full;
+        } else {
+            row.splats.push((pixel, c * w));
         }
+    }
+
+    /// The pinhole as a path vertex.
+    fn pinhole(&self) -> PathVertex {
+        PathVertex {
+            p: self.scene.camera.position,
+            n: Vec3::ZERO,
+            ns: Vec3::ZERO,
+            kind: VertexKind::Camera,
+        }
+    }
+
+    /// If `claims` holds the path (pinhole, then `light` reversed), keep it in `row` with its
+    /// unweighted value `c`, landing in `pixel`, and return true.
+    fn claim(
+        &self,
+        technique: Technique,
+        light: &[PathVertex],
+        pixel: u32,
+        c: Spectrum,
+        w: f32,
+        row: &mut LightRow,
+    ) -> bool {
+        let Some(claims) = self.claims else {
+            return false;
+        };
+        let head = [self.pinhole()];
+        if !claims.holds(self.scene, &head, light) {
+            return false;
+        }
+        let mut path = joined(&head, light);
+        path.pixel = pixel;
+        row.claimed.push(Claimed {
+            technique,
+            path,
+            value: c,
+            weight: w,
+            splat: true,
+        });
+        true
     }
 
     /// Hand a technique's path (pinhole, then `light` reversed) and weight to the inspector.
     fn record(&self, technique: Technique, light: &[PathVertex], weight: f32) {
         let Some(insp) = self.inspector else { return };
-        let mut path = Path::default();
-        path.push(PathVertex {
-            p: self.scene.camera.position,
-            n: Vec3::ZERO,
-            ns: Vec3::ZERO,
-            kind: VertexKind::Camera,
-        });
-        for v in light.iter().rev() {
-            path.push(*v);
-        }
         (insp.borrow_mut())(&Record {
             technique,
-            path,
+            path: joined(&[self.pinhole()], light),
             weight: weight as f64,
         });
     }

@@ -49,7 +49,9 @@ mod light;
 mod vertex;
 mod walk;
 
+pub use camera::CameraTracer;
 pub use hash_grid::HashGrid;
+pub use light::{LightPaths, Photon};
 
 use super::IntegratorParams;
 use crate::error::{Error, Result};
@@ -58,9 +60,8 @@ use crate::math::{IndependentSampler, PI, Sampler, Spectrum, is_finite3};
 use crate::path::Path;
 use crate::render::{Budget, Integrator, RenderContext, RenderResult, run_passes_with_snapshots};
 use crate::scene::Scene;
-use camera::CameraTracer;
 use glam::{UVec2, Vec2, Vec3};
-use light::{LightPaths, LightTracer, Photon};
+use light::LightTracer;
 use rayon::prelude::*;
 use std::cell::RefCell;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -181,6 +182,30 @@ pub struct Record {
 /// Receives every weighted contribution of [`inspect_pass`].
 pub type Inspector<'p> = RefCell<dyn FnMut(&Record) + 'p>;
 
+/// A contribution whose path a pass's [`HeldPaths`](crate::integrators::unguided::HeldPaths)
+/// holds (guided-vcm's render passes, `unguided.rs`): kept out of vcm's own sum, unweighted,
+/// for the caller to weigh.
+pub struct Claimed {
+    pub technique: Technique,
+    /// Camera first, ending on the emitter; `pixel` is where it lands.
+    pub path: Path,
+    /// The technique's unweighted estimate f(X) / p_technique(X).
+    pub value: Spectrum,
+    /// vcm's own MIS weight of the path.
+    pub weight: f32,
+    /// A light-tracing path (splatted to `path.pixel`).
+    pub splat: bool,
+}
+
+/// The path `head` followed by `tail` reversed.
+pub(crate) fn joined(head: &[crate::path::Vertex], tail: &[crate::path::Vertex]) -> Path {
+    let mut path = Path::default();
+    for v in head.iter().chain(tail.iter().rev()) {
+        path.push(*v);
+    }
+    path
+}
+
 /// Constants of one pass.
 pub struct PassConstants {
     pub radius: f32,
@@ -235,7 +260,8 @@ impl Integrator for Vcm {
         let pass = |film: &mut Film, pass: u64| {
             let pc = PassConstants::new(st, scene, pass);
             // 1. Light subpaths, a row of path indices per task.
-            lights.trace(scene, st, &pc, (ctx.seed, pass), h as usize, w as usize);
+            let streams = (ctx.seed, pass, pc.light_paths as u64);
+            lights.trace(scene, st, &pc, streams, h as usize, w as usize, None);
             let lights = &lights;
             // 2. The hash grid over the merging vertices.
             let grid = st.merge.then(|| {
@@ -246,7 +272,7 @@ impl Integrator for Vcm {
             merges.fetch_add(grid.map_or(0, |g| g.len() as u64), Ordering::Relaxed);
             // 3. Camera subpaths, one per pixel, a row per task.
             film.par_rows_mut().enumerate().for_each(|(y, row)| {
-                let mut ct = CameraTracer::new(scene, st, &pc, lights, grid, None);
+                let mut ct = CameraTracer::new(scene, st, &pc, lights, grid, None, None);
                 for (x, acc) in row.iter_mut().enumerate() {
                     let k = y * w as usize + x;
                     let l = camera_sample(&mut ct, ctx.seed, pass, k, x, y);
@@ -291,7 +317,7 @@ impl Integrator for Vcm {
 }
 
 /// One camera sample of pixel `k` = (x, y): its stream, the jittered raster position, the path.
-fn camera_sample(
+pub fn camera_sample(
     ct: &mut CameraTracer,
     seed: u64,
     pass: u64,
@@ -311,7 +337,7 @@ fn build_grid(lights: &LightPaths, radius: f32) -> HashGrid<Photon> {
 }
 
 /// The light vertices merging can use (position, index), into `points`.
-fn mergeable_points(lights: &LightPaths, points: &mut Vec<(Vec3, Photon)>) {
+pub fn mergeable_points(lights: &LightPaths, points: &mut Vec<(Vec3, Photon)>) {
     points.clear();
     points.extend(
         (lights.vertices())
@@ -338,11 +364,20 @@ pub fn inspect_pass(
         settings,
         pc: &pc,
         inspector: Some(cell),
+        claims: None,
     };
     let mut lights = LightPaths::default();
     lights.trace_one_row(&lt, (seed, pass), (w * h) as usize);
     let grid = settings.merge.then(|| build_grid(&lights, pc.radius));
-    let mut ct = CameraTracer::new(scene, settings, &pc, &lights, grid.as_ref(), Some(cell));
+    let mut ct = CameraTracer::new(
+        scene,
+        settings,
+        &pc,
+        &lights,
+        grid.as_ref(),
+        Some(cell),
+        None,
+    );
     for y in 0..h as usize {
         for x in 0..w as usize {
             camera_sample(&mut ct, seed, pass, y * w as usize + x, x, y);

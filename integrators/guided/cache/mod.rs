@@ -68,7 +68,7 @@ use super::kernel::segment_frame;
 use super::kernel::{FirstKernel, Kernel, Node};
 use crate::math::AliasTable;
 use crate::math::Frame;
-use crate::path::{Vertex as PathVertex, VertexKind};
+use crate::path::{MAX_VERTICES, Vertex as PathVertex, VertexKind};
 use crate::scene::Scene;
 use glam::Vec3;
 use obvhs::cwbvh::CwBvh;
@@ -247,6 +247,14 @@ impl GuideCache {
         self.ends.contains(&(len, light))
     }
 
+    /// The structures held, as a test of paths for U's render passes (`HeldPaths`).
+    pub fn held(&self) -> HeldStructures {
+        HeldStructures {
+            ends: self.ends.clone(),
+            sigs: self.index.keys().copied().collect(),
+        }
+    }
+
     /// Number of distinct structures among the guide paths.
     pub fn structures(&self) -> usize {
         self.index.len()
@@ -331,5 +339,30 @@ impl GuideCache {
         (0..self.guides[l].len as usize)
             .map(|v| self.vertex(scene, l, v))
             .collect()
+    }
+}
+
+/// The structures a cache holds (a copy, for U's tracers): a path is held when some guide
+/// path has its vertex count and emitter (`GuideCache::may_hold`) and its structure hash is
+/// among the cache's (`GuideCache::holds`), the test the collector makes of bdpt's paths.
+pub struct HeldStructures {
+    ends: Vec<(usize, u32)>,
+    sigs: std::collections::HashSet<u64>,
+}
+
+impl crate::integrators::unguided::HeldPaths for HeldStructures {
+    fn holds(&self, scene: &Scene, head: &[PathVertex], tail: &[PathVertex]) -> bool {
+        let Some(PathVertex {
+            kind: VertexKind::Emitter { light, .. },
+            ..
+        }) = tail.first().or(head.last())
+        else {
+            return false;
+        };
+        if !self.ends.contains(&(head.len() + tail.len(), *light)) {
+            return false;
+        }
+        super::kernel::signature_of_vertices(scene, head, tail, MAX_VERTICES)
+            .is_some_and(|sig| self.sigs.contains(&sig))
     }
 }

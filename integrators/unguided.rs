@@ -411,10 +411,10 @@ impl VcmUnguided {
     }
 }
 
-/// The pixel (row-major index) of raster position `raster`.
+/// The pixel (row-major index) of raster position `raster` (the guider's rasters are
+/// `Camera::jittered`, so this is the pixel it traces).
 fn pixel_of(scene: &Scene, raster: Vec2) -> usize {
-    let w = scene.camera.resolution.x as usize;
-    raster.y as usize * w + raster.x as usize
+    scene.camera.pixel_index(raster)
 }
 
 impl Unguided for VcmUnguided {

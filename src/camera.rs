@@ -126,6 +126,14 @@ impl Camera {
     }
 
     /// Pixel index of a raster position.
+    /// Raster position of pixel (x, y) jittered by `u` in [0, 1)²: always inside the pixel
+    /// (`pixel_index` gives (x, y) back), also where the f32 sum x + u would round up to the
+    /// next pixel's edge (from x = 4 on, u within half an ulp of 1).
+    pub fn jittered(x: u32, y: u32, u: Vec2) -> Vec2 {
+        let below = |i: u32| f32::from_bits((i as f32 + 1.0).to_bits() - 1);
+        (Vec2::new(x as f32, y as f32) + u).min(Vec2::new(below(x), below(y)))
+    }
+
     pub fn pixel_index(&self, raster: Vec2) -> usize {
         let x = (raster.x as u32).min(self.resolution.x - 1);
         let y = (raster.y as u32).min(self.resolution.y - 1);
@@ -198,6 +206,29 @@ mod tests {
             assert!((c.world_to_raster(p).unwrap() - raster).length() < 1e-3);
         }
         assert!(c.world_to_raster(Vec3::new(0.0, 0.0, 10.0)).is_none());
+    }
+
+    /// A jittered raster position stays in its pixel where the plain f32 sum x + u rounds to
+    /// the next pixel's edge (u = 1 - 2^-24 from x = 4 on), and moves nothing elsewhere.
+    #[test]
+    fn jittered_positions_stay_in_their_pixel() {
+        let c = cam();
+        let u = Vec2::splat(1.0 - f32::EPSILON / 2.0);
+        assert_eq!(
+            (239.0f32 + u.y) as u32,
+            240,
+            "the case the jitter guards against"
+        );
+        for (x, y) in [(0, 0), (5, 7), (200, 100), (319, 239)] {
+            let r = Camera::jittered(x, y, u);
+            assert_eq!(
+                c.pixel_index(r),
+                (y * 320 + x) as usize,
+                "({x}, {y}) -> {r}"
+            );
+            let v = Vec2::new(0.25, 0.75);
+            assert_eq!(Camera::jittered(x, y, v), Vec2::new(x as f32, y as f32) + v);
+        }
     }
 
     /// The image-wide pdf integrates to one over the directions through the image.

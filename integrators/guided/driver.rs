@@ -31,6 +31,7 @@ use super::io;
 use super::report::{self, stat};
 use super::seeder::{Candidate, Explore, LearnPass, LearnRow, Seeder, Source};
 use super::{GuidedSettings, Share, share};
+use crate::camera::Camera;
 use crate::dbor::Cascade;
 use crate::error::Result;
 use crate::film::Film;
@@ -41,7 +42,7 @@ use crate::render::{
     Budget, Integrator, RenderContext, RenderResult, cascade_rows, run_passes_with_snapshots,
 };
 use crate::scene::Scene;
-use glam::{DVec3, UVec2, Vec2};
+use glam::{DVec3, UVec2};
 use rayon::prelude::*;
 use std::sync::Arc;
 use std::time::Instant;
@@ -106,7 +107,7 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
                 for (x, acc) in row.iter_mut().enumerate() {
                     let index = y as u64 * w as u64 + x as u64;
                     let mut sampler = IndependentSampler::new(ctx.seed, pass, index);
-                    let raster = Vec2::new(x as f32, y as f32) + sampler.next_2d();
+                    let raster = Camera::jittered(x as u32, y as u32, sampler.next_2d());
                     let rays = rays_traced();
                     let (sum, grid) = if plain {
                         // Nothing of the guider to evaluate: U's own estimator, as fast as U.

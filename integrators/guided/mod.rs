@@ -54,10 +54,12 @@
 //! ```
 //!
 //! guided-vcm is consistent, not unbiased (merging's radius shrinks with the passes, as in
-//! `vcm`); its weights are explicit, so with guiding off it is slower per pass than `vcm`,
-//! whose recursive weights are O(1) per connection. It takes only the `outliers` seeder:
-//! a Markov chain replays one sample alone, and vcm's samples share their pass's light
-//! subpaths.
+//! `vcm`). Its learning passes run bdpt's tracer with merging (every path reported with its
+//! densities, for the seeder); its render passes run vcm's own tracer, which hands over the
+//! paths whose structure the cache holds unweighted, to be weighed from their vertices, and
+//! weighs every other path itself (`Unguided::renew_render_pass`); with guiding off `vcm`
+//! renders the remaining passes. It takes only the `outliers` seeder: a Markov chain
+//! replays one sample alone, and vcm's samples share their pass's light subpaths.
 //!
 //! A cache saved by guided-pt loads into guided-bdpt and back: guide paths are complete
 //! paths, whichever estimator found them.
@@ -79,6 +81,8 @@
 //! classes plus the guided samples (`coverage.rs`). The second moment counts each class's
 //! mean too; the variance is the error (on dining, direct light holds most of the unguided
 //! second moment and under 2 % of the variance).
+//! (guided-vcm's render passes hand the paths not held over summed per camera sample and per
+//! light-tracing splat, so there the first two count such a sum as one path.)
 
 // `!(x > 0.0)` deliberately rejects NaN with the invalid values; the small dense linear
 // algebra reads best with explicit indices.

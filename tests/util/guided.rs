@@ -122,9 +122,10 @@ pub fn trace_pt<R: PathRecorder>(
 pub fn sample_stream(scene: &Scene, seed: u64, i: u64) -> (glam::Vec2, IndependentSampler) {
     let res = scene.camera.resolution;
     let mut s = IndependentSampler::new(seed, 0, i);
-    let raster = glam::Vec2::new(
-        (i % res.x as u64) as f32,
-        ((i / res.x as u64) % res.y as u64) as f32,
-    ) + s.next_2d();
+    let raster = lodestar::camera::Camera::jittered(
+        (i % res.x as u64) as u32,
+        ((i / res.x as u64) % res.y as u64) as u32,
+        s.next_2d(),
+    );
     (raster, s)
 }

@@ -193,7 +193,8 @@ fn reported_densities_match_the_recomputation() {
 /// image: in total to 2e-3 (measured 7e-4 and 1e-4) and nine pixels in ten to 1 %; merged
 /// paths (the camera vertex standing in for the light vertex, see above) differ more on a
 /// few. A technique density off by one strategy (`vc[s + 1]`) or merges weighed by a
-/// connection's density fail it (tried).
+/// connection's density fail it (tried). U's own estimate of such a pass (`estimate`: the
+/// claimed paths at vcm's weights) is vcm's image, pixel by pixel to f32 rounding (1e-4).
 #[test]
 fn held_paths_of_vcms_tracer_carry_their_densities() {
     struct Held(bool);
@@ -243,6 +244,29 @@ fn held_paths_of_vcms_tracer_carry_their_densities() {
             img
         };
         let (held, own) = (image(true), image(false));
+        // U's own estimate from the same pass (what the guider renders with when it has no
+        // guided samples): the claimed paths at vcm's weights, so vcm's image again.
+        let mut estimated = vec![DVec3::ZERO; n];
+        let held_all: Arc<dyn HeldPaths> = Arc::new(Held(true));
+        for pass in 0..4u64 {
+            let state = u.renew_render_pass(&scene, 7, pass, pass, None, Some(&held_all));
+            let mut tracer = u.tracer(&scene, &state);
+            let mut splats = Vec::new();
+            for i in 0..n as u64 {
+                let (raster, mut s) = sample_stream(&scene, 5 + pass, i);
+                estimated[i as usize] +=
+                    u.estimate(&mut tracer, &scene, raster, &mut s, &mut splats);
+            }
+            for (p, v) in splats {
+                estimated[p as usize] += v;
+            }
+        }
+        for (p, (a, b)) in estimated.iter().zip(&own.pixels).enumerate() {
+            assert!(
+                ((*a - *b).abs() / b.max(DVec3::splat(1e-6))).max_element() < 1e-4,
+                "{name}: pixel {p}: estimate {a} vs vcm's weights {b}"
+            );
+        }
         assert_eq!(own.recorded, 0, "{name}: nothing held, nothing recorded");
         assert!(
             held.recorded > 10 * n,

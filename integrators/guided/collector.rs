@@ -116,7 +116,8 @@ impl<U: Unguided> PathSink for Collector<'_, '_, U> {
         {
             return false;
         }
-        kernel::signature_of_split(self.est.scene, head, tail, MAX_VERTICES)
+        let path_vertex = crate::integrators::paths::path_vertex;
+        kernel::signature_of_split(self.est.scene, head, tail, MAX_VERTICES, path_vertex)
             .is_some_and(|sig| self.est.cache.holds(sig))
     }
 

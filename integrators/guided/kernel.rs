@@ -64,31 +64,19 @@ pub fn signature(scene: &Scene, path: &Path, max_len: usize) -> Option<u64> {
     signature_with(scene, vs.len(), max_len, |i| vs[i])
 }
 
-/// [`signature`] of the path `head` followed by `tail` reversed (camera first), as BDPT
-/// vertices, without joining them: the same hash as of the joined path.
-pub fn signature_of_split(
+/// [`signature`] of the path `head` followed by `tail` reversed (camera first), without
+/// joining them: the same hash as of the joined path. `vertex` reads a vertex of either side
+/// as a path vertex (BDPT's vertices: `paths::path_vertex`).
+pub fn signature_of_split<V>(
     scene: &Scene,
-    head: &[Vertex],
-    tail: &[Vertex],
+    head: &[V],
+    tail: &[V],
     max_len: usize,
+    vertex: impl Fn(&V) -> PathVertex,
 ) -> Option<u64> {
     let (t, l) = (head.len(), head.len() + tail.len());
     signature_with(scene, l, max_len, |i| {
-        crate::integrators::paths::path_vertex(if i < t { &head[i] } else { &tail[l - 1 - i] })
-    })
-}
-
-/// [`signature`] of the path `head` followed by `tail` reversed (camera first), as path
-/// vertices, without joining them.
-pub fn signature_of_vertices(
-    scene: &Scene,
-    head: &[PathVertex],
-    tail: &[PathVertex],
-    max_len: usize,
-) -> Option<u64> {
-    let (t, l) = (head.len(), head.len() + tail.len());
-    signature_with(scene, l, max_len, |i| {
-        if i < t { head[i] } else { tail[l - 1 - i] }
+        vertex(if i < t { &head[i] } else { &tail[l - 1 - i] })
     })
 }
 

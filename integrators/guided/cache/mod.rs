@@ -362,7 +362,7 @@ impl crate::integrators::unguided::HeldPaths for HeldStructures {
         if !self.ends.contains(&(head.len() + tail.len(), *light)) {
             return false;
         }
-        super::kernel::signature_of_vertices(scene, head, tail, MAX_VERTICES)
+        super::kernel::signature_of_split(scene, head, tail, MAX_VERTICES, |v| *v)
             .is_some_and(|sig| self.sigs.contains(&sig))
     }
 }

@@ -65,6 +65,12 @@ pub trait PathSink {
         true
     }
 
+    /// [`PathSink::record`] of a path whose `p_u` U computed from `y` itself
+    /// (`pdf_unguided`), so the sink need not recompute it.
+    fn record_from_vertices(&mut self, path: &Path, y: &[Vertex], f: DVec3, p_u: f64, splat: bool) {
+        self.record(path, Some(y), f, p_u, splat);
+    }
+
     /// A path declined by [`PathSink::needs_densities`]: `value` is its contribution under
     /// the estimator's own weights, `f / p_u`, for `pixel` (`splat` as in `record`).
     fn record_weighted(&mut self, pixel: u32, value: DVec3, splat: bool) {

@@ -38,55 +38,11 @@ pub struct Collector<'e, 'a, U: Unguided> {
 
 impl<U: Unguided> PathSink for Collector<'_, '_, U> {
     fn record(&mut self, path: &Path, y: Option<&[Vertex]>, f: DVec3, p_u: f64, splat: bool) {
-        if f == DVec3::ZERO || !(p_u > 0.0) {
-            return;
-        }
-        let out = &mut *self.out;
-        let d = self
-            .est
-            .densities(path, y, p_u, &mut out.stats, &mut out.candidates);
-        let (p_u, p_g, coverage) = (d.p_u, d.p_g, d.coverage);
-        let value = f / self.est.mix(p_u, p_g);
-        if !(value.is_finite() && value.min_element() >= 0.0) {
-            out.stats.invalid += 1;
-            return;
-        }
-        if coverage == Coverage::Covered && out.candidates.collect_terms {
-            let terms = std::mem::take(&mut out.candidates.terms);
-            self.est
-                .credit(value, p_u, p_g, &terms, &mut out.responsibility);
-            out.candidates.terms = terms;
-        }
-        if coverage == Coverage::Zero {
-            let lum = luminance64(value);
-            let bucket = d.vanished_at.clamp(1, PG_ZERO_VERTICES) - 1;
-            out.stats.pg_zero_m2_by_vertex[bucket] += lum * lum;
-        }
-        let ratios = self
-            .measuring
-            .then(|| share::values(luminance64(f), p_u, p_g));
-        self.add(path.pixel, splat, value, coverage, ratios, f / p_u);
-        if self.learning && path.segments() >= 2 {
-            let lum = luminance(value.as_vec3()) as f64;
-            let out = &mut *self.out;
-            out.learn.samples.push((path.pixel, lum as f32));
-            let (est, source) = (self.est, self.source);
-            out.learn.offer(lum, || {
-                let f_lum = luminance64(f);
-                Candidate {
-                    record: Record {
-                        vertices: path.vertices().to_vec(),
-                        f: f_lum,
-                        p_u,
-                        c: est.c(f_lum, p_u, p_g),
-                    },
-                    pixel: path.pixel,
-                    value: lum,
-                    densify: false,
-                    source,
-                }
-            });
-        }
+        self.weigh(path, y, f, p_u, true, splat);
+    }
+
+    fn record_from_vertices(&mut self, path: &Path, y: &[Vertex], f: DVec3, p_u: f64, splat: bool) {
+        self.weigh(path, Some(y), f, p_u, false, splat);
     }
 
     /// Outside learning only the paths the guided technique could also make need their
@@ -140,6 +96,67 @@ impl<U: Unguided> PathSink for Collector<'_, '_, U> {
 }
 
 impl<U: Unguided> Collector<'_, '_, U> {
+    /// Weigh a path U reported (`recompute`: whether its `p_u` is to be recomputed from
+    /// its vertices, see `Estimator::densities`) and book it.
+    fn weigh(
+        &mut self,
+        path: &Path,
+        y: Option<&[Vertex]>,
+        f: DVec3,
+        p_u: f64,
+        recompute: bool,
+        splat: bool,
+    ) {
+        if f == DVec3::ZERO || !(p_u > 0.0) {
+            return;
+        }
+        let out = &mut *self.out;
+        let d =
+            (self.est).densities_with(path, y, p_u, recompute, &mut out.stats, &mut out.candidates);
+        let (p_u, p_g, coverage) = (d.p_u, d.p_g, d.coverage);
+        let value = f / self.est.mix(p_u, p_g);
+        if !(value.is_finite() && value.min_element() >= 0.0) {
+            out.stats.invalid += 1;
+            return;
+        }
+        if coverage == Coverage::Covered && out.candidates.collect_terms {
+            let terms = std::mem::take(&mut out.candidates.terms);
+            self.est
+                .credit(value, p_u, p_g, &terms, &mut out.responsibility);
+            out.candidates.terms = terms;
+        }
+        if coverage == Coverage::Zero {
+            let lum = luminance64(value);
+            let bucket = d.vanished_at.clamp(1, PG_ZERO_VERTICES) - 1;
+            out.stats.pg_zero_m2_by_vertex[bucket] += lum * lum;
+        }
+        let ratios = self
+            .measuring
+            .then(|| share::values(luminance64(f), p_u, p_g));
+        self.add(path.pixel, splat, value, coverage, ratios, f / p_u);
+        if self.learning && path.segments() >= 2 {
+            let lum = luminance(value.as_vec3()) as f64;
+            let out = &mut *self.out;
+            out.learn.samples.push((path.pixel, lum as f32));
+            let (est, source) = (self.est, self.source);
+            out.learn.offer(lum, || {
+                let f_lum = luminance64(f);
+                Candidate {
+                    record: Record {
+                        vertices: path.vertices().to_vec(),
+                        f: f_lum,
+                        p_u,
+                        c: est.c(f_lum, p_u, p_g),
+                    },
+                    pixel: path.pixel,
+                    value: lum,
+                    densify: false,
+                    source,
+                }
+            });
+        }
+    }
+
     /// Book a valid path's `value` (under the mixture) for `pixel`: the image, its coverage
     /// class, the share's measurements (`ratios`: its luminance under each ratio, while
     /// measuring) and U's own image (`own` = f / p_u, while learning).

@@ -27,6 +27,8 @@
 //! path (it has only the recomputation), so on that set the two weights do not sum to one:
 //! a bias confined to paths whose visibility f32 rounding decides (README: fog-dragon's bunny
 //! rim), and for guided-vcm to merges near corners, a region that shrinks with the radius.
+//! (guided-vcm's render passes weigh the held paths from their vertices in the first place,
+//! `PathSink::record_from_vertices`: their `p_u` is that function's, and is not recomputed.)
 
 use super::cache::{GuideCache, Record};
 pub use super::collector::Collector;
@@ -253,6 +255,20 @@ impl<'a, U: Unguided> Estimator<'a, U> {
         stats: &mut Stats,
         candidates: &mut X1Candidates,
     ) -> Densities {
+        self.densities_with(path, y, p_u, true, stats, candidates)
+    }
+
+    /// [`Self::densities`]; `recompute = false` when `p_u` is already `pdf_unguided` of `y`
+    /// (a path U weighed from its vertices, `PathSink::record_from_vertices`).
+    pub fn densities_with(
+        &self,
+        path: &Path,
+        y: Option<&[Vertex]>,
+        p_u: f64,
+        recompute: bool,
+        stats: &mut Stats,
+        candidates: &mut X1Candidates,
+    ) -> Densities {
         let not_held = Densities {
             p_u,
             p_g: 0.0,
@@ -298,7 +314,14 @@ impl<'a, U: Unguided> Estimator<'a, U> {
         stats.pg_candidates += list.len() as u64;
         candidates.terms = each;
         let (p_g, vanished_at) = (terms.sum, terms.reach);
-        if p_g > 0.0 {
+        if p_g > 0.0 && !recompute {
+            Densities {
+                p_u,
+                p_g,
+                coverage: Coverage::Covered,
+                vanished_at: 0,
+            }
+        } else if p_g > 0.0 {
             // One source for p_u: the same function guided samples use. It re-traces every
             // segment, and visibility is not exactly symmetric in f32 (a ray grazing a mesh's
             // open rim hits it one way and passes the other: fog-dragon's bunny), so it can

@@ -128,7 +128,7 @@ impl VcmUnguided {
             return weighted(sink);
         }
         let f = c.value.as_dvec3() * p_s;
-        sink.record(&c.path, Some(&y), f, p_u, c.splat);
+        sink.record_from_vertices(&c.path, &y, f, p_u, c.splat);
     }
 }
 

@@ -85,10 +85,69 @@ pub fn trunc_mass(d: usize, r: f64) -> f64 {
 
 /// Density of the standard d-dimensional normal truncated at [`R`], at squared norm `z2`.
 pub fn std_trunc_density(d: usize, z2: f64) -> f64 {
+    std_trunc_log_density(d, z2).value()
+}
+
+/// [`std_trunc_density`] as a [`LogDensity`] (no `exp` taken).
+pub fn std_trunc_log_density(d: usize, z2: f64) -> LogDensity {
     if z2 > R * R {
-        return 0.0;
+        return LogDensity::ZERO;
     }
-    (-0.5 * z2 - log_normaliser(d)).exp()
+    LogDensity {
+        scale: 1.0,
+        log: -0.5 * z2 - log_normaliser(d),
+    }
+}
+
+/// A density as `scale · e^log`. p(X | l), a product over the path's vertices of Gaussian
+/// densities and their measure factors, multiplies the scales and adds the exponents, so it
+/// takes one `exp` per candidate guide path instead of one per vertex.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LogDensity {
+    pub scale: f64,
+    pub log: f64,
+}
+
+impl LogDensity {
+    pub const ZERO: LogDensity = LogDensity {
+        scale: 0.0,
+        log: 0.0,
+    };
+    pub const ONE: LogDensity = LogDensity {
+        scale: 1.0,
+        log: 0.0,
+    };
+
+    /// A plain density (no exponent).
+    pub fn plain(p: f64) -> LogDensity {
+        LogDensity { scale: p, log: 0.0 }
+    }
+
+    pub fn value(self) -> f64 {
+        if self.scale == 0.0 {
+            0.0
+        } else {
+            self.scale * self.log.exp()
+        }
+    }
+
+    pub fn is_zero(self) -> bool {
+        self.scale == 0.0
+    }
+
+    pub fn scaled(self, k: f64) -> LogDensity {
+        LogDensity {
+            scale: self.scale * k,
+            log: self.log,
+        }
+    }
+
+    pub fn times(self, o: LogDensity) -> LogDensity {
+        LogDensity {
+            scale: self.scale * o.scale,
+            log: self.log + o.log,
+        }
+    }
 }
 
 /// `ln` of the normaliser of [`std_trunc_density`] in `d` = 1, 2, 3 dimensions,
@@ -269,6 +328,27 @@ pub fn direction_density_3d(x: [f64; 3], mu: [f64; 3], sigma: &Mat3, r: f64, w: 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// p(X | l) is assembled as one `exp` of summed exponents: it must equal the product of
+    /// the per-vertex densities (to rounding), and a zero factor anywhere must make it 0.
+    #[test]
+    fn log_density_products_equal_products_of_densities() {
+        let z2s = [(2, 0.3), (3, 4.1), (1, 8.9), (2, 0.0)];
+        let mut acc = LogDensity::ONE;
+        let mut direct = 1.0;
+        for (i, &(d, z2)) in z2s.iter().enumerate() {
+            let k = 0.5 + i as f64;
+            acc = acc.times(std_trunc_log_density(d, z2).scaled(k));
+            direct *= std_trunc_density(d, z2) * k;
+        }
+        assert!(
+            (acc.value() - direct).abs() <= 1e-14 * direct,
+            "{acc:?} vs {direct}"
+        );
+        let zero = acc.times(std_trunc_log_density(2, R * R * 1.0001));
+        assert!(zero.is_zero() && zero.value() == 0.0);
+        assert_eq!(LogDensity::plain(0.25).value(), 0.25);
+    }
 
     #[test]
     fn erf_matches_known_values() {

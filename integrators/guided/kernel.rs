@@ -12,7 +12,7 @@
 //! solid angle at infinity; delta events carry discrete probabilities) and are computed from
 //! vertex positions by the functions here, for sampling and evaluation alike.
 
-use super::gaussian::{R, std_trunc_density};
+use super::gaussian::{LogDensity, R, std_trunc_density, std_trunc_log_density};
 use crate::bsdf::TransportMode;
 use crate::integrators::bdpt::{Kind, Vertex, vertex::to_measure};
 use crate::integrators::paths::area_factor;
@@ -198,10 +198,21 @@ impl Kernel {
 
     /// Conditional mean of the target given conditioning coordinates `z` (dimension `dc`).
     pub fn mean(&self, z: [f64; 3], dc: usize) -> [f64; 3] {
+        match dc {
+            2 => self.mean_in::<2>(z),
+            3 => self.mean_in::<3>(z),
+            _ => panic!("kernels condition on 2 or 3 coordinates"),
+        }
+    }
+
+    /// [`Self::mean`] with the dimension known at compile time (p_g evaluates it per
+    /// candidate guide and vertex: the loops unroll).
+    #[inline]
+    fn mean_in<const DC: usize>(&self, z: [f64; 3]) -> [f64; 3] {
         let mut m = [0.0; 3];
         for (i, mi) in m.iter_mut().enumerate() {
             *mi = self.mu1[i] as f64;
-            for j in 0..dc {
+            for j in 0..DC {
                 *mi += self.k[i][j] as f64 * (z[j] - self.mu2[j] as f64);
             }
         }
@@ -210,11 +221,26 @@ impl Kernel {
 
     /// Truncated density of target coordinates `y` (dimension `dt`) around mean `m`.
     pub fn density(&self, y: [f64; 3], m: [f64; 3], dt: usize) -> f64 {
+        self.log_density(y, m, dt).value()
+    }
+
+    /// [`Self::density`] as a [`LogDensity`].
+    pub fn log_density(&self, y: [f64; 3], m: [f64; 3], dt: usize) -> LogDensity {
+        match dt {
+            1 => self.log_density_in::<1>(y, m),
+            2 => self.log_density_in::<2>(y, m),
+            3 => self.log_density_in::<3>(y, m),
+            _ => panic!("truncated Gaussians are 1D to 3D"),
+        }
+    }
+
+    #[inline]
+    fn log_density_in<const DT: usize>(&self, y: [f64; 3], m: [f64; 3]) -> LogDensity {
         let mut z2 = 0.0;
         let mut norm = 1.0;
-        for i in 0..dt {
+        for i in 0..DT {
             let mut c = 0.0;
-            for j in 0..dt {
+            for j in 0..DT {
                 c += self.e[j][i] as f64 * (y[j] - m[j]);
             }
             let s = self.s[i] as f64;
@@ -222,9 +248,9 @@ impl Kernel {
             norm *= s;
         }
         if z2 > R * R {
-            return 0.0;
+            return LogDensity::ZERO;
         }
-        std_trunc_density(dt, z2) / norm
+        std_trunc_log_density(DT, z2).scaled(1.0 / norm)
     }
 
     /// Map standard-normal coordinates `z` to target coordinates around mean `m`.
@@ -256,7 +282,11 @@ pub fn segment_frame(prev: &PathVertex, g: &PathVertex, g_infinite: bool) -> Fra
 
 /// Coordinates of point `x` relative to `origin` in frame `f`, 2D or 3D.
 pub fn coords(f: &Frame, x: Vec3, origin: Vec3, dims: usize) -> [f64; 3] {
-    let d = dvec(x) - dvec(origin);
+    coords_of(f, dvec(x) - dvec(origin), dims)
+}
+
+/// [`coords`] of the offset `d` (a point minus the origin).
+fn coords_of(f: &Frame, d: DVec3, dims: usize) -> [f64; 3] {
     [
         d.dot(dvec(f.s)),
         d.dot(dvec(f.t)),
@@ -289,18 +319,33 @@ pub fn plane_direction_density(
     w: Vec3,
     q2: impl Fn([f64; 3]) -> f64,
 ) -> f64 {
-    let (n, w, o) = (dvec(f.n), dvec(w).normalize(), dvec(o));
+    plane_direction_density_unit(f, dvec(g), dvec(o), dvec(w).normalize(), |c| {
+        LogDensity::plain(q2(c))
+    })
+    .value()
+}
+
+/// [`plane_direction_density`] with the points in f64, the direction `w` a unit vector and
+/// the plane's density `q2` a [`LogDensity`].
+fn plane_direction_density_unit(
+    f: &Frame,
+    g: DVec3,
+    o: DVec3,
+    w: DVec3,
+    q2: impl Fn([f64; 3]) -> LogDensity,
+) -> LogDensity {
+    let n = dvec(f.n);
     let cos = n.dot(w);
     if cos.abs() < MIN_PLANE_COS {
-        return 0.0;
+        return LogDensity::ZERO;
     }
-    let t_p = n.dot(dvec(g) - o) / cos;
+    let t_p = n.dot(g - o) / cos;
     if !(t_p > 0.0) {
-        return 0.0;
+        return LogDensity::ZERO;
     }
-    let p = o + w * t_p - dvec(g);
+    let p = o + w * t_p - g;
     let y = [p.dot(dvec(f.s)), p.dot(dvec(f.t)), 0.0];
-    q2(y) * t_p * t_p / cos.abs()
+    q2(y).scaled(t_p * t_p / cos.abs())
 }
 
 /// Probability of the BSDF branch at vertex `x` (0 at the camera): `clamp(1 − 1.5 roughness)`
@@ -476,12 +521,18 @@ impl FirstVertexQuery {
     /// The density of a kernel that [`Self::inside`] found x_1 in.
     #[inline]
     pub fn density_of(&self, t: &FirstTest) -> f64 {
+        self.log_density_of(t).value()
+    }
+
+    /// [`Self::density_of`] as a [`LogDensity`].
+    #[inline]
+    pub fn log_density_of(&self, t: &FirstTest) -> LogDensity {
         if self.medium {
-            return std_trunc_density(3, t.r2) / (t.s2 * t.s2.sqrt());
+            return std_trunc_log_density(3, t.r2).scaled(1.0 / (t.s2 * t.s2.sqrt()));
         }
-        let pdf_w = std_trunc_density(2, t.r2) / t.s2 * t.t_p * t.t_p / t.cos;
-        // Area measure at x1 (|cos| / d^2).
-        pdf_w * self.cos1 / (self.d1 * self.d1)
+        // Solid angle (t_p² / cos on the kernel's plane), then area measure at x1 (|cos| / d²).
+        std_trunc_log_density(2, t.r2)
+            .scaled(t.t_p * t.t_p / (t.s2 * t.cos) * self.cos1 / (self.d1 * self.d1))
     }
 }
 
@@ -524,24 +575,88 @@ pub fn gaussian_branch_density_in(
     g: &PathVertex,
     k: &Kernel,
 ) -> f64 {
-    let (x, next) = (&y[v - 1], &y[v]);
-    let dc = if x.is_medium() { 3 } else { 2 };
-    let m = k.mean(coords(f, x.p, g_prev.p, dc), dc);
-    if next.is_infinite_light(scene) {
-        let Some(c) = direction_coords(f, next.n) else {
-            return 0.0;
+    SegmentTarget::new(scene, y, v).gaussian_density(f, g_prev, g, k)
+}
+
+/// What the Gaussian branch density of the path segment `y[v-1] -> y[v]` needs of the path
+/// alone, not of the guide: computed once per path vertex and read by every candidate guide
+/// of p_g's sum ([`GuideCache::terms`](super::cache::GuideCache::terms)).
+#[derive(Debug, Clone, Copy)]
+pub struct SegmentTarget {
+    /// `y[v-1]` and whether it is a medium vertex (3D conditioning coordinates) .
+    x: DVec3,
+    x_medium: bool,
+    target: Target,
+}
+
+#[derive(Debug, Clone, Copy)]
+enum Target {
+    /// A light at infinity: the unit direction and its cosine with the segment's axis are
+    /// per guide; here the direction.
+    Infinite { dir: DVec3 },
+    /// A point in a medium.
+    Medium { p: DVec3 },
+    /// A surface point: the unit direction from `x` to it and the solid-angle-to-area factor.
+    Surface { w: DVec3, area: f64 },
+}
+
+impl SegmentTarget {
+    pub fn new(scene: &Scene, y: &[Vertex], v: usize) -> SegmentTarget {
+        let (x, next) = (&y[v - 1], &y[v]);
+        let target = if next.is_infinite_light(scene) {
+            Target::Infinite { dir: dvec(next.n) }
+        } else if next.is_medium() {
+            Target::Medium { p: dvec(next.p) }
+        } else {
+            Target::Surface {
+                w: dvec(next.p - x.p).normalize(),
+                area: area_factor(x.p, next.p, next.n),
+            }
         };
-        let cos = dvec(next.n).normalize().dot(dvec(f.n));
-        return k.density(c, m, 2) / (cos * cos * cos);
+        SegmentTarget {
+            x: dvec(x.p),
+            x_medium: x.is_medium(),
+            target,
+        }
     }
-    if next.is_medium() {
-        return k.density(coords(f, next.p, g.p, 3), m, 3);
+
+    /// The Gaussian branch density of guide segment (g_prev -> g) in frame `f` with kernel
+    /// `k`, in the target's measure (area, volume, or solid angle at infinity).
+    pub fn gaussian_density(
+        &self,
+        f: &Frame,
+        g_prev: &PathVertex,
+        g: &PathVertex,
+        k: &Kernel,
+    ) -> f64 {
+        self.log_gaussian_density(f, g_prev, g, k).value()
     }
-    let pdf_w = plane_direction_density(f, g.p, x.p, next.p - x.p, |c| k.density(c, m, 2));
-    if pdf_w == 0.0 {
-        return 0.0;
+
+    /// [`Self::gaussian_density`] as a [`LogDensity`].
+    pub fn log_gaussian_density(
+        &self,
+        f: &Frame,
+        g_prev: &PathVertex,
+        g: &PathVertex,
+        k: &Kernel,
+    ) -> LogDensity {
+        let dc = if self.x_medium { 3 } else { 2 };
+        let m = k.mean(coords_of(f, self.x - dvec(g_prev.p), dc), dc);
+        match self.target {
+            Target::Infinite { dir } => {
+                let Some(c) = direction_coords(f, dir.as_vec3()) else {
+                    return LogDensity::ZERO;
+                };
+                let cos = dir.normalize().dot(dvec(f.n));
+                k.log_density(c, m, 2).scaled(1.0 / (cos * cos * cos))
+            }
+            Target::Medium { p } => k.log_density(coords_of(f, p - dvec(g.p), 3), m, 3),
+            Target::Surface { w, area } => {
+                plane_direction_density_unit(f, dvec(g.p), self.x, w, |c| k.log_density(c, m, 2))
+                    .scaled(area)
+            }
+        }
     }
-    pdf_w * area_factor(x.p, next.p, next.n)
 }
 
 /// Whether `v` of a path is a light at infinity.

@@ -8,9 +8,10 @@
 
 use super::GuideCache;
 use crate::integrators::bdpt::Vertex;
+use crate::integrators::guided::gaussian::LogDensity;
 use crate::integrators::guided::kernel::{
-    FirstTest, FirstVertexQuery, Node, Reach, bsdf_branch_density, bsdf_branch_probability, dvec,
-    first_vertex_density, gaussian_branch_density_in,
+    FirstTest, FirstVertexQuery, Node, Reach, SegmentTarget, bsdf_branch_density,
+    bsdf_branch_probability, dvec, first_vertex_density,
 };
 use crate::scene::Scene;
 use glam::{Vec3, Vec3A};
@@ -23,7 +24,7 @@ impl GuideCache {
     /// equal): the first-vertex kernel times, per later vertex, the mixture of the BSDF and
     /// Gaussian branches (delta lights: the connection, factor 1).
     pub fn pdf_given(&self, scene: &Scene, l: usize, y: &[Vertex]) -> f64 {
-        let p1 = self.first_density(scene, l, y);
+        let p1 = LogDensity::plain(self.first_density(scene, l, y));
         self.pdf_given_with(scene, l, y, p1, &mut PathTerms::default())
             .0
     }
@@ -42,23 +43,25 @@ impl GuideCache {
         scene: &Scene,
         l: usize,
         y: &[Vertex],
-        p1: f64,
+        p1: LogDensity,
         terms: &mut PathTerms,
     ) -> (f64, usize) {
         let len = self.guides[l].len as usize;
         let mut p = p1;
         for v in 2..len {
-            if p == 0.0 {
+            if p.is_zero() {
                 return (0.0, v - 1);
             }
-            p *= self.vertex_density_with(scene, l, y, v, terms);
+            p = p.times(self.vertex_density_with(scene, l, y, v, terms));
         }
+        let p = p.value();
         (p, if p == 0.0 { len - 1 } else { len })
     }
 
     /// Density of vertex `v` of `y` given `y[..v]` when following guide `l`.
     pub fn vertex_density(&self, scene: &Scene, l: usize, y: &[Vertex], v: usize) -> f64 {
         self.vertex_density_with(scene, l, y, v, &mut PathTerms::default())
+            .value()
     }
 
     fn vertex_density_with(
@@ -68,7 +71,7 @@ impl GuideCache {
         y: &[Vertex],
         v: usize,
         terms: &mut PathTerms,
-    ) -> f64 {
+    ) -> LogDensity {
         let (g_prev, g) = (self.vertex(scene, l, v - 1), self.vertex(scene, l, v));
         let node = self.node(l, v);
         if let Node::Emitter {
@@ -76,33 +79,40 @@ impl GuideCache {
             ..
         } = node
         {
-            return 1.0;
+            return LogDensity::ONE;
         }
         let k = self.kernel(l, v);
-        let (p_b, fb_surface) = terms.get(v, || {
+        let t = terms.get(v, || {
             let p_b = bsdf_branch_probability(scene, &y[v - 1]);
             let fb = if p_b > 0.0 && !y[v].is_medium() {
                 bsdf_branch_density(scene, y, v, None)
             } else {
                 0.0
             };
-            (p_b, fb)
+            VertexTerms {
+                p_b,
+                fb_surface: fb,
+                target: (p_b < 1.0).then(|| SegmentTarget::new(scene, y, v)),
+            }
         });
-        let fb = if p_b == 0.0 {
-            0.0
-        } else if matches!(node, Node::Medium { .. }) {
+        let p_b = t.p_b;
+        let gaussian =
+            |target: &SegmentTarget| target.log_gaussian_density(self.frame(l, v), &g_prev, &g, k);
+        if p_b == 0.0 {
+            // The Gaussian branch alone: its exponent joins the product's.
+            return t.target.as_ref().map_or(LogDensity::ZERO, gaussian);
+        }
+        let fb = if matches!(node, Node::Medium { .. }) {
             let ell = (dvec(g.p) - dvec(g_prev.p)).length();
             bsdf_branch_density(scene, y, v, Some((ell, k.sigma_dist as f64)))
         } else {
-            fb_surface
+            t.fb_surface
         };
-        let fg = if p_b < 1.0 {
-            let f = self.frame(l, v);
-            gaussian_branch_density_in(scene, y, v, f, &g_prev, &g, k)
-        } else {
-            0.0
-        };
-        p_b * fb + (1.0 - p_b) * fg
+        let fg = t
+            .target
+            .as_ref()
+            .map_or(0.0, |target| gaussian(target).value());
+        LogDensity::plain(p_b * fb + (1.0 - p_b) * fg)
     }
 
     /// Ask the memory system for what [`Self::terms`] reads of guide `l` (its header, first
@@ -228,7 +238,7 @@ impl GuideCache {
                 if g.sig != sig || g.weight == 0.0 || self.nodes_of(l) != nodes {
                     continue;
                 }
-                let p1 = first.density_of(c);
+                let p1 = first.log_density_of(c);
                 let (term, vanished) = self.pdf_given_with(scene, l, y, p1, &mut terms);
                 reach = reach.max(vanished);
                 if own == Some(l) {
@@ -265,7 +275,7 @@ impl GuideCache {
             if g.sig != sig || self.nodes_of(l) != nodes {
                 continue;
             }
-            let p1 = self.first_density(scene, l, y);
+            let p1 = LogDensity::plain(self.first_density(scene, l, y));
             let (term, vanished) = self.pdf_given_with(scene, l, y, p1, &mut PathTerms::default());
             sum += g.weight * term;
             if g.weight != 0.0 {
@@ -281,25 +291,32 @@ impl GuideCache {
 }
 
 /// Terms of a path's guided density that do not depend on the guide path (the BSDF-branch
-/// probability and, for surface targets, the BSDF-branch density), computed once per path
-/// for its first [`PathTerms::CACHED`] vertices (on the stack; longer paths recompute the rest).
+/// probability, for surface targets the BSDF-branch density, and what the Gaussian branch
+/// needs of the path), computed once per path for its first [`PathTerms::CACHED`] vertices
+/// (on the stack; longer paths recompute the rest).
 #[derive(Default)]
 struct PathTerms {
-    known: u32,
-    values: [(f64, f64); PathTerms::CACHED],
+    values: [Option<VertexTerms>; PathTerms::CACHED],
+}
+
+#[derive(Clone, Copy)]
+struct VertexTerms {
+    p_b: f64,
+    fb_surface: f64,
+    /// None where the BSDF branch is taken always (p_b = 1).
+    target: Option<SegmentTarget>,
 }
 
 impl PathTerms {
     const CACHED: usize = 16;
 
-    fn get(&mut self, v: usize, compute: impl FnOnce() -> (f64, f64)) -> (f64, f64) {
-        if v < Self::CACHED && self.known & (1 << v) != 0 {
-            return self.values[v];
+    fn get(&mut self, v: usize, compute: impl FnOnce() -> VertexTerms) -> VertexTerms {
+        if let Some(t) = self.values.get(v).copied().flatten() {
+            return t;
         }
         let t = compute();
-        if v < Self::CACHED {
-            self.values[v] = t;
-            self.known |= 1 << v;
+        if let Some(slot) = self.values.get_mut(v) {
+            *slot = Some(t);
         }
         t
     }

@@ -442,7 +442,7 @@ pub fn gaussian_branch_density_in(
 /// of p_g's sum ([`GuideCache::terms`](super::cache::GuideCache::terms)).
 #[derive(Debug, Clone, Copy)]
 pub struct SegmentTarget {
-    /// `y[v-1]` and whether it is a medium vertex (3D conditioning coordinates) .
+    /// `y[v-1]` and whether it is a medium vertex (3D conditioning coordinates).
     x: DVec3,
     x_medium: bool,
     target: Target,

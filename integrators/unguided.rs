@@ -43,6 +43,15 @@ pub trait HeldPaths: Send + Sync {
     /// Whether the path `head` followed by `tail` reversed (camera first, ending on an
     /// emitter) is held.
     fn holds(&self, scene: &Scene, head: &[PathVertex], tail: &[PathVertex]) -> bool;
+
+    /// A necessary condition for [`Self::holds`], cheap enough to ask of every path: whether
+    /// some held structure's hash (`paths::structure`) agrees with `h` in its low
+    /// `HeldKey::BITS` bits (the only bits that count). A tracer that keeps the two sides'
+    /// partial hashes asks this first and [`Self::holds`] only when it passes.
+    fn may_hold_hash(&self, h: u64) -> bool {
+        let _ = h;
+        true
+    }
 }
 
 /// Receives the complete paths of one unguided sample.

@@ -17,7 +17,7 @@
 //! `driver.rs` (learning, the share, passes), `seeder.rs` (which paths become guides),
 //! `chains.rs` (the Markov-chain seeder), `coverage.rs` (where the variance sits),
 //! `cache/` (storage and weights in `mod.rs`, building in `build.rs`, p_g in `density.rs`),
-//! `structure.rs` (a path's nodes and their hash), `kernel.rs` (the per-vertex densities,
+//! `integrators/paths/structure.rs` (a path's nodes and their hash), `kernel.rs` (the per-vertex densities,
 //! Gaussians), `sampler.rs`
 //! (building a guided path), `integrators/paths/contribution.rs` (f(X) from vertices), `io.rs`
 //! (saved caches);
@@ -103,7 +103,6 @@ pub mod report;
 pub mod sampler;
 pub mod seeder;
 pub mod share;
-pub mod structure;
 
 pub use crate::integrators::paths::contribution;
 pub use chains::{ChainSettings, ChainTarget, Mcmc};

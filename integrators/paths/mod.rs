@@ -10,6 +10,7 @@
 //! with [`area_factor`] (`|cos θ_x| / d²`, or `1 / d²` in a medium).
 
 pub mod contribution;
+pub mod structure;
 pub mod terms;
 pub mod vertex;
 

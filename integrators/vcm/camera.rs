@@ -17,9 +17,10 @@ use super::walk::{Step, Walk};
 use super::{Claimed, Inspector, PassConstants, Record, Technique, VcmSettings, joined};
 use crate::bsdf::TransportMode;
 use crate::geometry::gamma;
+use crate::integrators::paths::structure::{CameraSideHash, HeldKey, emitter_hash};
 use crate::integrators::unguided::HeldPaths;
 use crate::math::{Sampler, Spectrum};
-use crate::path::{Vertex as PathVertex, VertexKind};
+use crate::path::{MAX_VERTICES, Vertex as PathVertex, VertexKind};
 use crate::scene::{Endpoint, Scene};
 use glam::{Vec2, Vec3};
 use std::cell::RefCell;
@@ -36,6 +37,8 @@ pub struct CameraTracer<'a, 'p> {
     claimed: RefCell<Vec<Claimed>>,
     /// The camera subpath's vertices (inspection and claims only).
     path: Vec<PathVertex>,
+    /// Their structure hash (claims only), which a claim tests first (`may_claim`).
+    side: CameraSideHash,
     /// The pixel being traced.
     pixel: u32,
 }
@@ -60,6 +63,7 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
             claims,
             claimed: RefCell::default(),
             path: Vec::new(),
+            side: CameraSideHash::default(),
             pixel: 0,
         }
     }
@@ -93,6 +97,10 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
                 ns: Vec3::ZERO,
                 kind: VertexKind::Camera,
             });
+            if self.claims.is_some() {
+                self.side = CameraSideHash::default();
+                self.side.push(scene, &self.path[0]);
+            }
         }
         let mut walk = Walk::camera(scene, ray, pdf_we);
         walk.q_cap = super::walk::deep_continuation(self.settings.max_depth);
@@ -117,7 +125,11 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
                 break;
             }
             if self.records() {
-                self.path.push(v.path_vertex());
+                let x = v.path_vertex();
+                self.path.push(x);
+                if self.claims.is_some() {
+                    self.side.push(scene, &x);
+                }
             }
             // Merging's bucket, asked for now so that its cache misses overlap the
             // connections below.
@@ -134,9 +146,11 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
                 if let Some((grid, b)) = bucket {
                     grid.prefetch_entries(b);
                 }
-                for y in self.lights.path(k) {
+                let keys = self.lights.connect_keys(k);
+                for (j, y) in self.lights.path(k).iter().enumerate() {
                     if y.depth + 1 + i <= max {
-                        l += self.connect(&v, y, k);
+                        let key = keys.get(j).map_or(HeldKey::NONE, |k| k[1]);
+                        l += self.connect(&v, y, k, key);
                     }
                 }
             }
@@ -198,7 +212,9 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
             self.record_emitter(0, li, v.p, v.n, false, w);
         }
         let y = emitter_vertex(li, v.p, v.n, false);
-        if self.claim(Technique::Connect { s: 0 }, &[y], v.beta * le, w) {
+        if self.may_claim_emitter(&y)
+            && self.claim(Technique::Connect { s: 0 }, &[y], v.beta * le, w)
+        {
             return Spectrum::ZERO;
         }
         v.beta * le * w
@@ -226,7 +242,9 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
                 self.record_emitter(0, li, prev_p + dir, dir, false, w);
             }
             let y = emitter_vertex(li, prev_p + dir, dir, false);
-            if !self.claim(Technique::Connect { s: 0 }, &[y], walk.beta * le, w) {
+            if !(self.may_claim_emitter(&y)
+                && self.claim(Technique::Connect { s: 0 }, &[y], walk.beta * le, w))
+            {
                 sum += walk.beta * le * w;
             }
         }
@@ -300,14 +318,14 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
             self.record_emitter(1, li, y_p, y_n, l.is_delta(), w);
         }
         let y = emitter_vertex(li, y_p, y_n, l.is_delta());
-        if self.claim(Technique::Connect { s: 1 }, &[y], c, w) {
+        if self.may_claim_emitter(&y) && self.claim(Technique::Connect { s: 1 }, &[y], c, w) {
             return Spectrum::ZERO;
         }
         c * w
     }
 
     /// s, t >= 2: connect camera vertex `v` with light vertex `y`.
-    fn connect(&self, v: &Vertex<'a>, y: &Vertex<'a>, k: usize) -> Spectrum {
+    fn connect(&self, v: &Vertex<'a>, y: &Vertex<'a>, k: usize, key: HeldKey) -> Spectrum {
         let scene = self.scene;
         let d = y.p - v.p;
         let d2 = d.length_squared();
@@ -356,7 +374,8 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
             if let Some(insp) = self.inspector {
                 self.record(insp, technique, light, w);
             }
-            if self.claim(technique, light, c, w) {
+            let (d, next) = (y.depth as usize + 1, Some(y.p));
+            if self.may_claim(key, d, next) && self.claim(technique, light, c, w) {
                 return Spectrum::ZERO;
             }
         }
@@ -376,7 +395,7 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
         let q = bsdf.continuation().min(v.q_cap);
         let w_cam_vertex = v.mis.d_vcm * vc;
         grid.query(v.p, |y| {
-            if y.depth + v.depth > max {
+            if y.depth as u32 + v.depth > max {
                 return;
             }
             // f, and the densities of y.wo from v.wo and back, in one evaluation.
@@ -391,19 +410,24 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
             let w = 1.0 / (w_light + 1.0 + w_cam);
             crate::check::weight(crate::check::Technique::named("vcm merge"), w as f64);
             if self.records() {
-                let full = self
-                    .lights
-                    .full(self.lights.path_of_vertex(y.index as usize));
-                let light = &full[..y.depth as usize];
-                let technique = Technique::Merge {
-                    t: self.path.len() - 1,
-                };
-                if let Some(insp) = self.inspector {
-                    self.record(insp, technique, light, w);
-                }
-                let c = v.beta * f * y.beta * self.pc.vm_normalization;
-                if self.claim(technique, light, c, w) {
-                    return;
+                // The subpath is read only for inspection, or where its structure hash's
+                // low bits say the cache may hold the path.
+                let may_claim = self.may_claim(y.held, y.depth as usize, None);
+                if may_claim || self.inspector.is_some() {
+                    let full = self
+                        .lights
+                        .full(self.lights.path_of_vertex(y.index as usize));
+                    let light = &full[..y.depth as usize];
+                    let technique = Technique::Merge {
+                        t: self.path.len() - 1,
+                    };
+                    if let Some(insp) = self.inspector {
+                        self.record(insp, technique, light, w);
+                    }
+                    let c = v.beta * f * y.beta * self.pc.vm_normalization;
+                    if may_claim && self.claim(technique, light, c, w) {
+                        return;
+                    }
                 }
             }
             sum += f * y.beta * w;
@@ -425,6 +449,38 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
             path: joined(&self.path, light),
             weight: w as f64,
         });
+    }
+
+    /// Whether `claims` may hold the camera path so far followed by a light side of `d`
+    /// vertices with structure hash `key` (`HeldKey`, low bits) whose vertex next to the
+    /// camera side is at `next` (`None`: a merge, where it is not read): the test of the
+    /// hashes' low bits, which [`Self::claim`]'s exact test follows only where it passes.
+    fn may_claim(&self, key: HeldKey, d: usize, next: Option<Vec3>) -> bool {
+        let Some(claims) = self.claims else {
+            return false;
+        };
+        if key.is_none() {
+            return false;
+        }
+        let (lights, n) = key.hashes(d - 1);
+        lights[..n].iter().any(|&light| {
+            let (hs, m) = self.side.joined(self.scene, next, light, d, MAX_VERTICES);
+            hs[..m].iter().any(|&h| claims.may_hold_hash(h))
+        })
+    }
+
+    /// [`Self::may_claim`] for a light side of one vertex, the emitter `y`.
+    fn may_claim_emitter(&self, y: &PathVertex) -> bool {
+        let Some(claims) = self.claims else {
+            return false;
+        };
+        let Some(light) = emitter_hash(self.scene, y) else {
+            return false;
+        };
+        let (hs, m) = self
+            .side
+            .joined(self.scene, Some(y.p), light, 1, MAX_VERTICES);
+        hs[..m].iter().any(|&h| claims.may_hold_hash(h))
     }
 
     /// If `claims` holds the camera path so far followed by `light` reversed, keep it with

@@ -13,9 +13,10 @@ use super::{Claimed, Inspector, PassConstants, Record, Technique, VcmSettings, j
 use crate::bsdf::TransportMode;
 use crate::geometry::{Ray, gamma, offset_origin};
 use crate::integrators::paths::direct_to_camera;
+use crate::integrators::paths::structure::{HeldKey, LightSideHash};
 use crate::integrators::unguided::HeldPaths;
 use crate::math::{IndependentSampler, Sampler, Spectrum};
-use crate::path::{Vertex as PathVertex, VertexKind};
+use crate::path::{MAX_VERTICES, Vertex as PathVertex, VertexKind};
 use crate::scene::{Endpoint, Scene};
 use glam::Vec3;
 use rayon::prelude::*;
@@ -34,6 +35,9 @@ pub struct LightRow<'a> {
     /// path's are `full_starts[i] .. full_starts[i + 1]`.
     full: Vec<PathVertex>,
     full_starts: Vec<u32>,
+    /// Beside `vertices` when claims are tested: each stored vertex's [`HeldKey`]s, of the
+    /// subpath before it (for merges at it) and up to it (for connections to it).
+    keys: Vec<[HeldKey; 2]>,
     /// Light-tracing paths claimed by the pass's [`HeldPaths`]; the i-th path's are
     /// `claimed_starts[i] .. claimed_starts[i + 1]`.
     claimed: Vec<Claimed>,
@@ -51,6 +55,7 @@ impl LightRow<'_> {
         self.splat_starts.clear();
         self.splat_starts.push(0);
         self.full.clear();
+        self.keys.clear();
         self.full_starts.clear();
         self.full_starts.push(0);
         self.claimed.clear();
@@ -76,18 +81,22 @@ pub struct Photon {
     pub beta: Spectrum,
     pub d_vcm: f32,
     pub d_vm: f32,
-    pub depth: u32,
+    pub depth: u16,
+    /// The structure hash's low bits of the subpath before this vertex, when claims are
+    /// tested (what a merge here tests first; `HeldKey`).
+    pub held: HeldKey,
     pub index: u32,
 }
 
 impl Photon {
-    pub fn of(v: &Vertex, index: usize) -> Photon {
+    pub fn of(v: &Vertex, index: usize, held: HeldKey) -> Photon {
         Photon {
             wo: v.wo,
             beta: v.beta,
             d_vcm: v.mis.d_vcm,
             d_vm: v.mis.d_vm,
-            depth: v.depth,
+            depth: v.depth as u16,
+            held,
             index: index as u32,
         }
     }
@@ -200,6 +209,28 @@ impl<'a> LightPaths<'a> {
         })
     }
 
+    /// Every stored vertex with its global index and the [`HeldKey`] of the subpath before
+    /// it (`HeldKey::NONE` when no claims were tested).
+    pub fn vertices_with_keys(&self) -> impl Iterator<Item = (usize, &Vertex<'a>, HeldKey)> {
+        self.rows.iter().zip(&self.offsets).flat_map(|(row, &o)| {
+            row.vertices.iter().enumerate().map(move |(i, v)| {
+                let key = row.keys.get(i).map_or(HeldKey::NONE, |k| k[0]);
+                (o as usize + i, v, key)
+            })
+        })
+    }
+
+    /// The [`HeldKey`]s of the subpaths up to each stored vertex of light path `k`, beside
+    /// [`Self::path`] (empty when no claims were tested).
+    #[inline]
+    pub fn connect_keys(&self, k: usize) -> &[[HeldKey; 2]] {
+        let (row, i) = (&self.rows[k / self.row_len], k % self.row_len);
+        if row.keys.is_empty() {
+            return &[];
+        }
+        &row.keys[row.starts[i] as usize..row.starts[i + 1] as usize]
+    }
+
     /// The light-tracing splats, in path order, row by row.
     pub fn splats(&self) -> impl Iterator<Item = &[(u32, Spectrum)]> {
         self.rows.iter().map(|row| row.splats.as_slice())
@@ -290,8 +321,13 @@ impl<'a> LightTracer<'a, '_> {
                 delta: l.is_delta(),
             },
         };
+        // The structure hash of the subpath so far, when claims are tested.
+        let mut side = LightSideHash::default();
         if self.records() {
             row.full.push(origin);
+        }
+        if self.claims.is_some() {
+            side.push(scene, &origin);
         }
         let err = gamma(8) * e.p.abs();
         if st.connect && max >= 1 && connectible_light(l) {
@@ -318,16 +354,26 @@ impl<'a> LightTracer<'a, '_> {
         walk.medium = scene.light_medium(li, n0, e.dir);
         walk.q_cap = super::walk::deep_continuation(st.max_depth);
         while let Step::Vertex { v, .. } = walk.trace(scene, sampler) {
+            let mut keys = [HeldKey::NONE; 2];
             if self.records() {
-                row.full.push(v.path_vertex());
+                let x = v.path_vertex();
+                row.full.push(x);
+                if self.claims.is_some() {
+                    keys[0] = side.key(scene);
+                    side.push(scene, &x);
+                    keys[1] = side.key(scene);
+                }
             }
             let j = v.depth;
             if v.connectible() {
                 if st.connect && j < max {
-                    self.connect_camera(&v, row, full_start);
+                    self.connect_camera(&v, row, full_start, &side);
                 }
                 if j < max && (st.connect || v.mergeable()) {
                     row.vertices.push(v);
+                    if self.claims.is_some() {
+                        row.keys.push(keys);
+                    }
                 }
             }
             if j + 2 > max || !walk.scatter(scene, &v, self.pc.factors, sampler) {
@@ -397,14 +443,19 @@ impl<'a> LightTracer<'a, '_> {
         crate::check::weight(crate::check::Technique::named("vcm light origin"), w as f64);
         let pixel = cam.pixel_index(cs.raster) as u32;
         let technique = Technique::Connect { s: 1 };
-        if !self.claim(technique, std::slice::from_ref(origin), pixel, c, w, row) {
-            row.splats.push((pixel, c * w));
-        }
+        // Two vertices: no structure (`paths::structure`), so never claimed.
+        row.splats.push((pixel, c * w));
         self.record(technique, std::slice::from_ref(origin), w);
     }
 
     /// t = 1, s >= 2: light vertex `v` seen by the pinhole.
-    fn connect_camera(&self, v: &Vertex<'a>, row: &mut LightRow, full_start: usize) {
+    fn connect_camera(
+        &self,
+        v: &Vertex<'a>,
+        row: &mut LightRow,
+        full_start: usize,
+        side: &LightSideHash,
+    ) {
         let scene = self.scene;
         let cam = &scene.camera;
         let Some(cs) = cam.sample_wi(v.p) else {
@@ -446,7 +497,15 @@ impl<'a> LightTracer<'a, '_> {
             let full = std::mem::take(&mut row.full);
             let light = &full[full_start..];
             let technique = Technique::Connect { s: light.len() };
-            if !self.claim(technique, light, pixel, c, w, row) {
+            // The pinhole has no node: the path's hash is the light side's.
+            let may_hold = (self.claims).is_some_and(|claims| {
+                let l = light.len() + 1;
+                (3..=MAX_VERTICES).contains(&l)
+                    && side
+                        .closed_by(scene, cam.position)
+                        .is_some_and(|h| claims.may_hold_hash(h))
+            });
+            if !(may_hold && self.claim(technique, light, pixel, c, w, row)) {
                 row.splats.push((pixel, c * w));
             }
             self.record(technique, light, w);

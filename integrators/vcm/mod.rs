@@ -340,9 +340,9 @@ fn build_grid(lights: &LightPaths, radius: f32) -> HashGrid<Photon> {
 pub fn mergeable_points(lights: &LightPaths, points: &mut Vec<(Vec3, Photon)>) {
     points.clear();
     points.extend(
-        (lights.vertices())
-            .filter(|(_, v)| v.mergeable())
-            .map(|(i, v)| (v.p, Photon::of(v, i))),
+        (lights.vertices_with_keys())
+            .filter(|(_, v, _)| v.mergeable())
+            .map(|(i, v, key)| (v.p, Photon::of(v, i, key))),
     );
 }
 

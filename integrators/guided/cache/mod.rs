@@ -66,6 +66,7 @@ pub use density::Terms;
 #[cfg(doc)]
 use super::kernel::segment_frame;
 use super::kernel::{FirstKernel, Kernel, Node};
+use crate::integrators::paths::structure::HeldKey;
 use crate::math::AliasTable;
 use crate::math::Frame;
 use crate::path::{MAX_VERTICES, Vertex as PathVertex, VertexKind};
@@ -249,9 +250,16 @@ impl GuideCache {
 
     /// The structures held, as a test of paths for U's render passes (`HeldPaths`).
     pub fn held(&self) -> HeldStructures {
+        let mut low = vec![0u64; 1 << (HeldKey::BITS - 6)];
+        for &sig in self.index.keys() {
+            let b = (sig & ((1 << HeldKey::BITS) - 1)) as usize;
+            low[b / 64] |= 1 << (b % 64);
+        }
         HeldStructures {
             ends: self.ends.clone(),
             sigs: self.index.keys().copied().collect(),
+            low,
+            filter: true,
         }
     }
 
@@ -348,6 +356,11 @@ impl GuideCache {
 pub struct HeldStructures {
     ends: Vec<(usize, u32)>,
     sigs: std::collections::HashSet<u64>,
+    /// One bit per value of a hash's low `HeldKey::BITS` bits: set where a held structure's
+    /// hash has them (`may_hold_hash`).
+    low: Vec<u64>,
+    /// Whether `may_hold_hash` tests `low` (else it passes every path; tests compare both).
+    pub filter: bool,
 }
 
 impl crate::integrators::unguided::HeldPaths for HeldStructures {
@@ -364,5 +377,11 @@ impl crate::integrators::unguided::HeldPaths for HeldStructures {
         }
         super::kernel::signature_of_split(scene, head, tail, MAX_VERTICES, |v| *v)
             .is_some_and(|sig| self.sigs.contains(&sig))
+    }
+
+    #[inline]
+    fn may_hold_hash(&self, h: u64) -> bool {
+        let b = (h & ((1 << HeldKey::BITS) - 1)) as usize;
+        !self.filter || self.low[b / 64] & (1 << (b % 64)) != 0
     }
 }

@@ -60,8 +60,9 @@ pub struct FastPass<'s> {
 pub enum VcmTracer<'s> {
     /// (Boxed: bdpt's tracer holds its subpath buffers inline.)
     Recording(Box<bdpt::Tracer<'s>>),
+    /// (Boxed: the camera tracer keeps its subpath and its structure hash inline.)
     Fast {
-        tracer: CameraTracer<'s, 's>,
+        tracer: Box<CameraTracer<'s, 's>>,
         eta: f64,
     },
 }
@@ -244,7 +245,7 @@ impl Unguided for VcmUnguided {
                 VcmTracer::Recording(Box::new(bdpt::Tracer::merging(scene, &self.settings, p)))
             }
             VcmPass::Fast(p) => VcmTracer::Fast {
-                tracer: CameraTracer::new(
+                tracer: Box::new(CameraTracer::new(
                     scene,
                     &p.settings,
                     &p.pc,
@@ -252,7 +253,7 @@ impl Unguided for VcmUnguided {
                     Some(&p.grid),
                     None,
                     Some(&*p.held),
-                ),
+                )),
                 eta: p.eta,
             },
         }

@@ -326,8 +326,12 @@ impl<'a> LightTracer<'a, '_> {
         if self.records() {
             row.full.push(origin);
         }
+        // The key of the subpath so far (`LightRow::keys`: a vertex's first key is the
+        // second of the one before it).
+        let mut key = HeldKey::NONE;
         if self.claims.is_some() {
             side.push(scene, &origin);
+            key = side.key(scene);
         }
         let err = gamma(8) * e.p.abs();
         if st.connect && max >= 1 && connectible_light(l) {
@@ -359,9 +363,9 @@ impl<'a> LightTracer<'a, '_> {
                 let x = v.path_vertex();
                 row.full.push(x);
                 if self.claims.is_some() {
-                    keys[0] = side.key(scene);
                     side.push(scene, &x);
-                    keys[1] = side.key(scene);
+                    keys = [key, side.key(scene)];
+                    key = keys[1];
                 }
             }
             let j = v.depth;

@@ -6,7 +6,12 @@
 //! report §5; the equation numbers below are that report's).
 //!
 //! With a [`HeldPaths`] test (guided-vcm's render passes), a contribution whose path it holds
-//! is kept, unweighted, as a [`Claimed`] path instead of added (the caller weighs it).
+//! is kept, unweighted, as a [`Claimed`] path instead of added (the caller weighs it). The
+//! exact test is made only where the low bits of the path's structure hash pass
+//! (`HeldPaths::may_hold_hash`): the hash is joined from the camera subpath's part, kept as
+//! the walk goes (`CameraSideHash`), and the light side's, an emitter's term or the
+//! [`HeldKey`] kept with each light vertex and photon (`paths::structure`), so a merge reads
+//! its photon's subpath only when the cache may hold the path.
 
 use super::hash_grid::HashGrid;
 use super::light::{LightPaths, Photon};

@@ -5,7 +5,9 @@
 //!
 //! With a [`HeldPaths`] test (guided-vcm's render passes), every light-tracing path it holds is
 //! kept unweighted as a [`Claimed`] path instead of splatted, and every path's vertices are
-//! recorded (`full`), as they are for inspection.
+//! recorded (`full`), as they are for inspection; the structure hash's part of each subpath
+//! is kept beside its stored vertices (`LightRow::keys`), which the camera tracer's claims
+//! test first.
 
 use super::vertex::{Edge, Vertex, connectible_light, emission, emission_densities, hittable};
 use super::walk::{Step, Walk};

@@ -288,17 +288,4 @@ fn bad_options_are_errors() {
             .unwrap_or_else(|| panic!("{name} {opt}: accepted"));
         assert!(err.to_string().contains(expect), "{name} {opt}: {err}");
     }
-    for name in ["vcm", "bpm"] {
-        let params = IntegratorParams {
-            max_depth: 70_000,
-            options: Options::default(),
-        };
-        let err = build(name, &params)
-            .err()
-            .unwrap_or_else(|| panic!("{name}: max_depth 70000 accepted"));
-        assert!(
-            err.to_string().contains("expected at most 65535"),
-            "{name}: {err}"
-        );
-    }
 }

@@ -126,13 +126,6 @@ pub fn radius_options(
 }
 
 fn settings(params: &IntegratorParams, connect: bool) -> Result<VcmSettings> {
-    if params.max_depth > u16::MAX as u32 {
-        return Err(Error::new(format!(
-            "max_depth {}: vcm keeps a light vertex's depth in 16 bits; expected at most {}",
-            params.max_depth,
-            u16::MAX
-        )));
-    }
     let o = &params.options;
     let (radius, alpha) = radius_options(o, "alpha")?;
     let merge = if connect {

@@ -83,6 +83,9 @@ pub struct Photon {
     pub beta: Spectrum,
     pub d_vcm: f32,
     pub d_vm: f32,
+    /// Segments from the light, saturated at 65535 (a subpath that deep needs `max_depth`
+    /// above it and has probability below 1e-280 under roulette capped at 0.99, so merging's
+    /// depth test, `depth + t > max_depth`, is exact in practice).
     pub depth: u16,
     /// The structure hash's low bits of the subpath before this vertex, when claims are
     /// tested (what a merge here tests first; `HeldKey`).
@@ -97,7 +100,7 @@ impl Photon {
             beta: v.beta,
             d_vcm: v.mis.d_vcm,
             d_vm: v.mis.d_vm,
-            depth: v.depth as u16,
+            depth: v.depth.min(u16::MAX as u32) as u16,
             held,
             index: index as u32,
         }

@@ -237,16 +237,7 @@ impl LightSideHash {
         }
     }
 
-    /// Vertices pushed.
-    pub fn len(&self) -> usize {
-        self.count + self.pending.is_some() as usize
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.pending.is_none()
-    }
-
-    /// The light side's hash (its `len()` terms) when a camera-side vertex at `next` follows
+    /// The light side's hash (one term per vertex pushed) when a camera-side vertex at `next` follows
     /// the pending vertex; `None` if no path through these vertices is handled.
     pub fn closed_by(&self, scene: &Scene, next: Vec3) -> Option<u64> {
         let (last, before) = self.pending?;
@@ -329,15 +320,6 @@ impl CameraSideHash {
         }
         self.last = Some(*x);
         self.len += 1;
-    }
-
-    /// Vertices pushed.
-    pub fn len(&self) -> usize {
-        self.len
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.len == 0
     }
 
     /// The hashes of the whole path: this side, then a light side of `light_len` vertices

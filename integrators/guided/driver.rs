@@ -15,10 +15,11 @@
 //! `--dbor` asked for the re-weighted image of the render passes or `keep_learning = false`
 //! (the choice was made from those samples, so keeping them is consistent but not unbiased;
 //! the bound is at the choice below); the render passes then
-//! continue U's streams, so the image is U's own image of as many passes. When after three
-//! learning iterations every ratio with guided samples loses to U alone by more than 25 %,
-//! learning stops there (unless a cache is to be saved): a scene with nothing to guide costs
-//! a few passes, not the learning budget. When at the end of the budget the share is
+//! continue U's streams, so the image is U's own image of as many passes. When in three
+//! learning iterations running every ratio with guided samples loses to U alone by more than
+//! 25 % and the cache has stopped growing (by more than 10 % an iteration), learning stops
+//! there (unless a cache is to be saved): a scene with nothing to guide costs a few passes,
+//! not the learning budget (`share::EarlyStop`). When at the end of the budget the share is
 //! undecided (guiding pays by the learning passes as a whole but not by one of their
 //! halves), learning goes on until it is decided or has taken `share::EXTENSION` times its
 //! budget. A loaded cache renders with the share its learning
@@ -54,10 +55,6 @@ use std::time::Instant;
 /// ...), so the image is U's own image of the same number of passes, sample for sample: the
 /// equal-time comparison with U then differs only in the passes the learning cost.
 const RENDER_STREAMS: u64 = 1 << 40;
-/// Learning iterations (two of them measured) after which learning may stop early, and
-/// the margin by which every ratio with guided samples must lose to U alone for it to stop.
-const EARLY_STOP_ITERATIONS: u64 = 3;
-const EARLY_STOP_MARGIN: f64 = 1.25;
 
 /// The guided integrator over unguided estimator `U` and seeder `S`.
 pub struct Guided<U: Unguided, S: Seeder> {
@@ -304,6 +301,7 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
         let mut learn_passes = 0u64;
         let mut rebuild_seconds = 0.0;
         let mut meter = share::ShareMeter::default();
+        let mut early_stop = share::EarlyStop::default();
         // U's own estimate from the learning passes' unguided samples (see `keep_learning`).
         let mut own_film = Film::new(w, h);
         // ---- Learning (skipped with a loaded cache) ----
@@ -386,16 +384,14 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
                         && st.share == Share::Auto
                         && meter.decide().is_some_and(|d| d.undecided);
                     let done = spent && !undecided;
-                    // Nothing to guide: once three measured passes agree that no ratio pays
-                    // (by a margin), stop learning and render with U (not when a cache is to
-                    // be saved: that asks for the whole learning phase).
-                    if !done && k >= EARLY_STOP_ITERATIONS && st.save_guides.is_none() {
-                        let hopeless = meter.decide().is_some_and(|d| {
-                            d.ratio == 0.0 && d.relative[1..].iter().all(|&c| c > EARLY_STOP_MARGIN)
-                        });
-                        if hopeless {
-                            break;
-                        }
+                    // Nothing to guide: once three measured iterations of a settled cache
+                    // agree that no ratio pays (by a margin), stop learning and render with U
+                    // (not when a cache is to be saved: that asks for the whole learning
+                    // phase). `share::EarlyStop` has the rule.
+                    let hopeless =
+                        measure && early_stop.observe(cache.len(), meter.decide().as_ref());
+                    if hopeless && !done && st.save_guides.is_none() {
+                        break;
                     }
                     let rebuild_start = Instant::now();
                     cache.rebuild(

@@ -24,7 +24,8 @@
 //! both from all of those passes and from each half of them. Where the
 //! whole and a half disagree the share is undecided, and the driver learns on (up to
 //! [`EXTENSION`] times the learning budget) before it decides. r = 0 turns guiding off: the estimator is U's own and nothing of the guider
-//! is evaluated. The choice is global, not per image region.
+//! is evaluated. The choice is global, not per image region. [`EarlyStop`] says when
+//! learning may end before its budget because no ratio pays.
 
 use super::estimator::Stats;
 
@@ -210,6 +211,50 @@ fn relative_scores(passes: &[Measured]) -> [f64; N] {
     score.map(|s| if base > 0.0 { s / base } else { 1.0 })
 }
 
+/// Every ratio with guided samples must lose to U alone by this factor, ...
+pub const EARLY_STOP_MARGIN: f64 = 1.25;
+/// ... in this many consecutive learning iterations, ...
+pub const EARLY_STOP_RUN: usize = 3;
+/// ... each with a cache at most this much larger than the iteration before's, for learning
+/// to stop early ([`EarlyStop`]).
+pub const EARLY_STOP_GROWTH: f64 = 0.1;
+
+/// When learning may stop before its budget because nothing is worth guiding: the share's
+/// decision has put every ratio with guided samples above [`EARLY_STOP_MARGIN`] times U's
+/// own `V · cost` in each of the last [`EARLY_STOP_RUN`] iterations, and over them the cache
+/// has settled (grown by at most [`EARLY_STOP_GROWTH`] per iteration). The verdict is about
+/// the cache that was measured; while the cache still grows, the next one may differ (on
+/// dining the first small caches can measure above the margin and a later one far below
+/// it: README, stop 53). Stopping saves little: the learning passes are kept when guiding
+/// stays off, so only their extra cost is lost.
+#[derive(Debug, Default)]
+pub struct EarlyStop {
+    /// Per measured iteration: the cache's size, and whether every guided ratio lost by
+    /// the margin.
+    history: Vec<(usize, bool)>,
+}
+
+impl EarlyStop {
+    /// Record an iteration's verdict on a cache of `guides` guide paths; true when learning
+    /// should stop.
+    pub fn observe(&mut self, guides: usize, decision: Option<&Decision>) -> bool {
+        let hopeless = decision.is_some_and(|d| {
+            d.ratio == 0.0 && d.relative[1..].iter().all(|&c| c > EARLY_STOP_MARGIN)
+        });
+        self.history.push((guides, hopeless));
+        let n = self.history.len();
+        if n < EARLY_STOP_RUN + 1 {
+            return false;
+        }
+        let recent = &self.history[n - EARLY_STOP_RUN - 1..];
+        recent[1..].iter().all(|&(_, h)| h)
+            && recent.windows(2).all(|w| {
+                let (before, now) = (w[0].0 as f64, w[1].0 as f64);
+                now <= before * (1.0 + EARLY_STOP_GROWTH)
+            })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -257,53 +302,6 @@ mod tests {
         assert!(split.undecided);
         assert!(!both.undecided);
         assert!(!decide([0.9, 0.9]).undecided);
-    }
-}
-
-/// Every ratio with guided samples must lose to U alone by this factor, ...
-pub const EARLY_STOP_MARGIN: f64 = 1.25;
-/// ... in this many consecutive learning iterations, ...
-pub const EARLY_STOP_RUN: usize = 3;
-/// ... each with a cache at most this much larger than the iteration before's, for learning
-/// to stop early ([`EarlyStop`]).
-pub const EARLY_STOP_GROWTH: f64 = 0.1;
-
-/// When learning may stop before its budget because nothing is worth guiding: the share's
-/// decision has put every ratio with guided samples above [`EARLY_STOP_MARGIN`] times U's
-/// own `V · cost` in each of the last [`EARLY_STOP_RUN`] iterations, and over them the cache
-/// has settled (grown by at most [`EARLY_STOP_GROWTH`] per iteration). The verdict is about
-/// the cache that was measured; while the cache still grows, the next one may differ. On
-/// dining (guided-vcm, seed 3) the first caches (8, 137, 162, 234 guide paths) measured
-/// 1.17-1.39 and the one of 296 guide paths 0.61, going on to 0.44 by iteration 30; a rule
-/// that stopped at iteration 3 on the verdict alone rendered that seed with U alone (5.3e-4
-/// at 240 s, where the seeds that guide sit at 2.9-3.9e-4). What stopping saves is small by
-/// comparison: the learning passes are kept when guiding stays off, so only their extra
-/// cost is lost (learning takes a tenth of the budget by default).
-#[derive(Debug, Default)]
-pub struct EarlyStop {
-    /// Per measured iteration: the cache's size, and whether every guided ratio lost by
-    /// the margin.
-    history: Vec<(usize, bool)>,
-}
-
-impl EarlyStop {
-    /// Record an iteration's verdict on a cache of `guides` guide paths; true when learning
-    /// should stop.
-    pub fn observe(&mut self, guides: usize, decision: Option<&Decision>) -> bool {
-        let hopeless = decision.is_some_and(|d| {
-            d.ratio == 0.0 && d.relative[1..].iter().all(|&c| c > EARLY_STOP_MARGIN)
-        });
-        self.history.push((guides, hopeless));
-        let n = self.history.len();
-        if n < EARLY_STOP_RUN + 1 {
-            return false;
-        }
-        let recent = &self.history[n - EARLY_STOP_RUN - 1..];
-        recent[1..].iter().all(|&(_, h)| h)
-            && recent.windows(2).all(|w| {
-                let (before, now) = (w[0].0 as f64, w[1].0 as f64);
-                now <= before * (1.0 + EARLY_STOP_GROWTH)
-            })
     }
 }
 

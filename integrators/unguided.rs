@@ -80,6 +80,17 @@ pub trait PathSink {
         self.record(path, Some(y), f, p_u, splat);
     }
 
+    /// A path accepted by [`PathSink::needs_densities`], before the estimator assembles its
+    /// densities: when the sink can tell from `path` alone that the path needs no more than
+    /// the estimator's own weights (vcm: the guided density is 0 because no guide path's
+    /// first-vertex kernel reaches x_1), it books `value`, the path's contribution under those
+    /// weights (`splat` as in `record`), and returns true; otherwise the estimator goes on to
+    /// [`PathSink::record_from_vertices`]. The default books nothing.
+    fn record_if_own_weight(&mut self, path: &Path, value: DVec3, splat: bool) -> bool {
+        let _ = (path, value, splat);
+        false
+    }
+
     /// A path declined by [`PathSink::needs_densities`]: `value` is its contribution under
     /// the estimator's own weights, `f / p_u`, for `pixel` (`splat` as in `record`).
     fn record_weighted(&mut self, pixel: u32, value: DVec3, splat: bool) {

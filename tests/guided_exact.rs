@@ -390,11 +390,12 @@ fn every_failed_guided_sample_has_a_reason() {
         let est = Estimator::new(&scene, &u, (), &cache, 0.5);
         let mut stats = Stats::default();
         let mut candidates = X1Candidates::default();
+        let mut path = lodestar::path::Path::default();
         let mut ok = 0;
         for i in 0..3000u64 {
             let mut s = IndependentSampler::new(4, 0, i);
             ok += est
-                .guided(&mut s, false, &mut stats, &mut candidates)
+                .guided(&mut s, false, &mut stats, &mut candidates, &mut path)
                 .is_some() as u64;
         }
         let reasons: u64 = stats.reasons.iter().sum();

@@ -10,7 +10,7 @@ use super::{coverage, kernel, share};
 use crate::integrators::bdpt::{Kind, Vertex};
 use crate::integrators::unguided::{PathSink, Unguided};
 use crate::math::{luminance, luminance64};
-use crate::path::{MAX_VERTICES, Path};
+use crate::path::{MAX_VERTICES, Path, VertexKind};
 use glam::DVec3;
 
 /// Weighs U's paths for the mixture (a [`PathSink`]).
@@ -75,6 +75,43 @@ impl<U: Unguided> PathSink for Collector<'_, '_, U> {
         let path_vertex = crate::integrators::paths::path_vertex;
         kernel::signature_of_split(self.est.scene, head, tail, MAX_VERTICES, path_vertex)
             .is_some_and(|sig| self.est.cache.holds(sig))
+    }
+
+    /// Outside learning, a held path whose x_1 lies outside every first-vertex kernel of its
+    /// structure has p_g = 0 (the candidates' query, kept for the path's densities should it
+    /// find any): its value is U's own, and U's explicit densities are not needed.
+    fn record_if_own_weight(&mut self, path: &Path, value: DVec3, splat: bool) -> bool {
+        let est = self.est;
+        if self.learning || est.n_g == 0.0 {
+            return false;
+        }
+        let Some(x1) = path.vertices().get(1) else {
+            return false;
+        };
+        let Some(sig) = kernel::signature(est.scene, path, MAX_VERTICES) else {
+            return false;
+        };
+        let out = &mut *self.out;
+        let medium = matches!(x1.kind, VertexKind::Medium { .. });
+        let first = (x1.p, x1.n, medium);
+        if !(out.candidates)
+            .at(est.cache, est.scene, sig, first, &mut out.stats)
+            .is_empty()
+        {
+            return false;
+        }
+        if value == DVec3::ZERO {
+            return true;
+        }
+        if !(value.is_finite() && value.min_element() >= 0.0) {
+            out.stats.invalid += 1;
+            return true;
+        }
+        let lum = luminance64(value);
+        out.stats.pg_evaluations += 1;
+        out.stats.pg_zero_m2_by_vertex[0] += lum * lum;
+        self.add(path.pixel, splat, value, Coverage::Zero, None, value);
+        true
     }
 
     fn record_weighted(&mut self, pixel: u32, value: DVec3, splat: bool) {

@@ -154,7 +154,13 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
                     let mut j = index;
                     while j < n_g {
                         let mut gs = IndependentSampler::new(ctx.seed, pass, n_pix + j);
-                        let g = est.guided(&mut gs, learning, &mut out.stats, &mut out.candidates);
+                        let g = est.guided(
+                            &mut gs,
+                            learning,
+                            &mut out.stats,
+                            &mut out.candidates,
+                            &mut out.path,
+                        );
                         if let Some(g) = g {
                             if out.candidates.collect_terms {
                                 let terms = &out.candidates.terms;

@@ -178,9 +178,21 @@ impl X1Candidates {
         x1: &Vertex,
         stats: &mut Stats,
     ) -> &[FirstTest] {
-        let key = (x1.p, x1.n, x1.is_medium(), sig);
+        self.at(cache, scene, sig, (x1.p, x1.n, x1.is_medium()), stats)
+    }
+
+    /// [`Self::of`] a first vertex given by position, normal and medium flag.
+    pub fn at(
+        &mut self,
+        cache: &GuideCache,
+        scene: &Scene,
+        sig: u64,
+        (p, n, medium): (Vec3, Vec3, bool),
+        stats: &mut Stats,
+    ) -> &[FirstTest] {
+        let key = (p, n, medium, sig);
         if self.no_reuse || self.x1 != Some(key) {
-            cache.candidates_of(scene, sig, x1, &mut self.list);
+            cache.candidates_at(scene, sig, p, n, medium, &mut self.list);
             self.x1 = Some(key);
             stats.bvh_queries += 1;
         }
@@ -407,16 +419,18 @@ impl<'a, U: Unguided> Estimator<'a, U> {
         want_record: bool,
         stats: &mut Stats,
         candidates: &mut X1Candidates,
+        path: &mut Path,
     ) -> Option<GuidedValue> {
         stats.guided += 1;
-        let g = match sampler::sample_path(self.scene, self.cache, sampler) {
+        let g = match sampler::sample_path_into(self.scene, self.cache, sampler, path) {
             Ok(g) => g,
             Err(e) => {
                 stats.fail(e as usize);
                 return None;
             }
         };
-        let Some(y) = bdpt::from_path(self.scene, &g.path) else {
+        let path = &*path;
+        let Some(y) = bdpt::from_path(self.scene, path) else {
             stats.fail(sampler::Failure::Structure as usize);
             return None;
         };
@@ -440,7 +454,7 @@ impl<'a, U: Unguided> Estimator<'a, U> {
         // path's own term is 0 (likewise when x_1 rounds out of its guide's candidate box):
         // such a sample is a failure (value 0), so that what is kept is exactly where the
         // evaluated density holds the own guide's term.
-        let Some((sig, nodes)) = kernel::structure(self.scene, &g.path, MAX_VERTICES) else {
+        let Some((sig, nodes)) = kernel::structure(self.scene, path, MAX_VERTICES) else {
             stats.fail(sampler::Failure::Structure as usize);
             return None;
         };
@@ -476,13 +490,13 @@ impl<'a, U: Unguided> Estimator<'a, U> {
         }
         let f_lum = luminance64(f);
         let record = want_record.then(|| Record {
-            vertices: g.path.vertices().to_vec(),
+            vertices: path.vertices().to_vec(),
             f: f_lum,
             p_u,
             c: self.c(f_lum, p_u, p_g),
         });
         Some(GuidedValue {
-            pixel: g.path.pixel,
+            pixel: path.pixel,
             value,
             guide: g.guide,
             record,
@@ -501,6 +515,8 @@ pub struct RowOutput {
     pub stats: Stats,
     /// BVH candidates of the last x_1 (reused).
     pub candidates: X1Candidates,
+    /// The guided samples' path buffer (reused).
+    pub path: Path,
     /// While measuring the share (`share.rs`): per pixel of the row what U's sample adds to
     /// it under each ratio, U's splats likewise, and Σ g(r)² of the row's guided samples.
     pub grid: Vec<[f64; share::N]>,

@@ -320,19 +320,24 @@ pub struct FirstVertexQuery {
 
 impl FirstVertexQuery {
     pub fn new(scene: &Scene, x1: &Vertex) -> FirstVertexQuery {
+        FirstVertexQuery::at(scene, x1.p, x1.n, x1.is_medium())
+    }
+
+    /// [`Self::new`] for a first vertex at `p` with normal `n` (zero in a medium).
+    pub fn at(scene: &Scene, p: Vec3, n: Vec3, medium: bool) -> FirstVertexQuery {
         let x0 = dvec(scene.camera.position);
-        let to_x1 = dvec(x1.p) - x0;
+        let to_x1 = dvec(p) - x0;
         let d1 = to_x1.length();
         let w = to_x1 / d1;
-        let cos1 = if x1.n == Vec3::ZERO {
+        let cos1 = if n == Vec3::ZERO {
             1.0
         } else {
-            dvec(x1.n).dot(w).abs()
+            dvec(n).dot(w).abs()
         };
         FirstVertexQuery {
             x0,
-            x1: dvec(x1.p),
-            medium: x1.is_medium(),
+            x1: dvec(p),
+            medium,
             w,
             d1,
             cos1,

@@ -164,17 +164,47 @@ fn to_world(f: &Frame, origin: Vec3, c: [f64; 3]) -> Vec3 {
     (dvec(origin) + dvec(f.s) * c[0] + dvec(f.t) * c[1] + dvec(f.n) * c[2]).as_vec3()
 }
 
+/// Where a guided path was drawn from; its vertices are in the caller's buffer
+/// ([`sample_path_into`]).
+pub struct GuidedDraw {
+    pub raster: Vec2,
+    /// Guide path followed.
+    pub guide: usize,
+    /// p(X | guide) as drawn.
+    pub density: f64,
+}
+
 /// Draw one guided path from `cache` (which must not be empty).
 pub fn sample_path(
     scene: &Scene,
     cache: &GuideCache,
     sampler: &mut impl Sampler,
 ) -> Result<GuidedSample, Failure> {
+    let mut path = Path::default();
+    let d = sample_path_into(scene, cache, sampler, &mut path)?;
+    Ok(GuidedSample {
+        path,
+        raster: d.raster,
+        guide: d.guide,
+        density: d.density,
+    })
+}
+
+/// [`sample_path`] into `path` (cleared first), a buffer the caller keeps across samples
+/// (a `Path` stores its vertices inline: building and moving one per sample costs more than
+/// a failed sample's rays).
+pub fn sample_path_into(
+    scene: &Scene,
+    cache: &GuideCache,
+    sampler: &mut impl Sampler,
+    path: &mut Path,
+) -> Result<GuidedDraw, Failure> {
     let (l, _) = cache.select(sampler.next_f64(), sampler.next_f64());
     let guide = cache.guides[l];
     let len = guide.len as usize;
     let x0 = scene.camera.position;
-    let mut path = Path::default();
+    path.clear();
+    path.pixel = 0;
     path.push(cache.vertex(scene, l, 0));
 
     // ---- Vertex 1: the isotropic first-vertex kernel ----
@@ -471,8 +501,7 @@ pub fn sample_path(
         prev = at.pv;
         at = next;
     }
-    Ok(GuidedSample {
-        path,
+    Ok(GuidedDraw {
         raster,
         guide: l,
         density,

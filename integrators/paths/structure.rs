@@ -149,6 +149,32 @@ pub fn reach(light: &Light) -> Reach {
     }
 }
 
+/// Hashes a structure hash to itself: those are well mixed already (sums of splitmix64
+/// terms), so the maps keyed by them ([`SigMap`], [`SigSet`]) skip SipHash on every lookup.
+#[derive(Default, Clone, Copy)]
+pub struct SigHasher(u64);
+
+impl std::hash::Hasher for SigHasher {
+    fn finish(&self) -> u64 {
+        self.0
+    }
+
+    fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 = self.0.rotate_left(8) ^ b as u64;
+        }
+    }
+
+    fn write_u64(&mut self, n: u64) {
+        self.0 = n;
+    }
+}
+
+/// A map keyed by structure hash.
+pub type SigMap<V> = std::collections::HashMap<u64, V, std::hash::BuildHasherDefault<SigHasher>>;
+/// A set of structure hashes.
+pub type SigSet = std::collections::HashSet<u64, std::hash::BuildHasherDefault<SigHasher>>;
+
 /// The base B of the structure hash (odd, so that its powers never vanish mod 2^64).
 pub const HASH_BASE: u64 = 0x9e37_79b9_7f4a_7c15;
 

@@ -111,9 +111,12 @@ impl VcmUnguided {
     /// explicit densities not take the path (a vertex count past max_depth, a density of 0
     /// where vcm's differs in f32), it goes with vcm's own weight.
     fn deliver(&self, scene: &Scene, eta: f64, c: &Claimed, sink: &mut dyn PathSink) {
-        let weighted = |sink: &mut dyn PathSink| {
-            sink.record_weighted(c.path.pixel, (c.value * c.weight).as_dvec3(), c.splat)
-        };
+        let own = (c.value * c.weight).as_dvec3();
+        let weighted = |sink: &mut dyn PathSink| sink.record_weighted(c.path.pixel, own, c.splat);
+        // Most held paths have p_g = 0 at x_1 already: vcm's weight is then theirs.
+        if sink.record_if_own_weight(&c.path, own, c.splat) {
+            return;
+        }
         let Some(y) = bdpt::from_path(scene, &c.path) else {
             return weighted(sink);
         };
@@ -288,11 +291,9 @@ impl Unguided for VcmUnguided {
                 }
                 let l = ct.sample(k, raster, sampler);
                 sink.record_weighted(k as u32, l.as_dvec3(), false);
-                let claimed = std::mem::take(ct.claimed());
-                for c in &claimed {
+                for c in ct.claimed().as_slice() {
                     self.deliver(scene, *eta, c, sink);
                 }
-                *ct.claimed() = claimed;
                 ct.claimed().clear();
             }
         }
@@ -322,9 +323,10 @@ impl Unguided for VcmUnguided {
                     }
                 }
                 let mut l = ct.sample(k, raster, sampler).as_dvec3();
-                for c in ct.claimed().drain(..) {
+                for c in ct.claimed().as_slice() {
                     l += (c.value * c.weight).as_dvec3();
                 }
+                ct.claimed().clear();
                 finite(l)
             }
         }

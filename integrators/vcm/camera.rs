@@ -19,7 +19,7 @@ use super::vertex::{
     Edge, Mis, Scatter, Vertex, connectible_light, emission_densities, hittable, nee_density,
 };
 use super::walk::{Step, Walk};
-use super::{Claimed, Inspector, PassConstants, Record, Technique, VcmSettings, joined};
+use super::{Claims, Inspector, PassConstants, Record, Technique, VcmSettings, joined};
 use crate::bsdf::TransportMode;
 use crate::geometry::gamma;
 use crate::integrators::paths::structure::{CameraSideHash, HeldKey, emitter_hash};
@@ -39,7 +39,7 @@ pub struct CameraTracer<'a, 'p> {
     pub inspector: Option<&'p Inspector<'p>>,
     /// Contributions whose path this holds are kept in `claimed` instead of added.
     pub claims: Option<&'p dyn HeldPaths>,
-    claimed: RefCell<Vec<Claimed>>,
+    claimed: RefCell<Claims>,
     /// The camera subpath's vertices (inspection and claims only).
     path: Vec<PathVertex>,
     /// Their structure hash (claims only), which a claim tests first (`may_claim`).
@@ -74,7 +74,7 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
     }
 
     /// The paths claimed since they were last cleared (`claims`), in the order formed.
-    pub fn claimed(&mut self) -> &mut Vec<Claimed> {
+    pub fn claimed(&mut self) -> &mut Claims {
         self.claimed.get_mut()
     }
 
@@ -497,15 +497,7 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
         if !claims.holds(self.scene, &self.path, light) {
             return false;
         }
-        let mut path = joined(&self.path, light);
-        path.pixel = self.pixel;
-        self.claimed.borrow_mut().push(Claimed {
-            technique,
-            path,
-            value: c,
-            weight: w,
-            splat: false,
-        });
+        (self.claimed.borrow_mut()).push(technique, &self.path, light, self.pixel, c, w, false);
         true
     }
 }

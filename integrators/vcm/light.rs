@@ -11,7 +11,7 @@
 
 use super::vertex::{Edge, Vertex, connectible_light, emission, emission_densities, hittable};
 use super::walk::{Step, Walk};
-use super::{Claimed, Inspector, PassConstants, Record, Technique, VcmSettings, joined};
+use super::{Claimed, Claims, Inspector, PassConstants, Record, Technique, VcmSettings, joined};
 use crate::bsdf::TransportMode;
 use crate::geometry::{Ray, gamma, offset_origin};
 use crate::integrators::paths::direct_to_camera;
@@ -42,7 +42,7 @@ pub struct LightRow<'a> {
     keys: Vec<[HeldKey; 2]>,
     /// Light-tracing paths claimed by the pass's [`HeldPaths`]; the i-th path's are
     /// `claimed_starts[i] .. claimed_starts[i + 1]`.
-    claimed: Vec<Claimed>,
+    claimed: Claims,
     claimed_starts: Vec<u32>,
     /// Rays the row's paths took.
     rays: u64,
@@ -250,7 +250,7 @@ impl<'a> LightPaths<'a> {
     /// The claimed light-tracing paths of light path `k`.
     pub fn claimed_of(&self, k: usize) -> &[Claimed] {
         let (row, i) = (&self.rows[k / self.row_len], k % self.row_len);
-        &row.claimed[row.claimed_starts[i] as usize..row.claimed_starts[i + 1] as usize]
+        &row.claimed.as_slice()[row.claimed_starts[i] as usize..row.claimed_starts[i + 1] as usize]
     }
 
     /// Every vertex of light path `k`, light first (recorded for inspection and claims only).
@@ -552,15 +552,7 @@ impl<'a> LightTracer<'a, '_> {
         if !claims.holds(self.scene, &head, light) {
             return false;
         }
-        let mut path = joined(&head, light);
-        path.pixel = pixel;
-        row.claimed.push(Claimed {
-            technique,
-            path,
-            value: c,
-            weight: w,
-            splat: true,
-        });
+        row.claimed.push(technique, &head, light, pixel, c, w, true);
         true
     }
 

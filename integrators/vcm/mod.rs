@@ -197,6 +197,64 @@ pub struct Claimed {
     pub splat: bool,
 }
 
+/// Claimed paths in slots that are reused: [`Claims::clear`] keeps every slot's path, so a
+/// claim writes its few vertices into a slot already there instead of building a `Path`
+/// (inline storage for `MAX_VERTICES` vertices, zeroed) and moving it into a vector.
+#[derive(Default)]
+pub struct Claims {
+    slots: Vec<Claimed>,
+    len: usize,
+}
+
+impl Claims {
+    pub fn clear(&mut self) {
+        self.len = 0;
+    }
+
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    pub fn as_slice(&self) -> &[Claimed] {
+        &self.slots[..self.len]
+    }
+
+    /// Keep the path `head` followed by `tail` reversed, landing in `pixel`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn push(
+        &mut self,
+        technique: Technique,
+        head: &[crate::path::Vertex],
+        tail: &[crate::path::Vertex],
+        pixel: u32,
+        value: Spectrum,
+        weight: f32,
+        splat: bool,
+    ) {
+        if self.len == self.slots.len() {
+            self.slots.push(Claimed {
+                technique,
+                path: Path::default(),
+                value,
+                weight,
+                splat,
+            });
+        }
+        let c = &mut self.slots[self.len];
+        c.path.clear();
+        for v in head.iter().chain(tail.iter().rev()) {
+            c.path.push(*v);
+        }
+        c.path.pixel = pixel;
+        (c.technique, c.value, c.weight, c.splat) = (technique, value, weight, splat);
+        self.len += 1;
+    }
+}
+
 /// The path `head` followed by `tail` reversed.
 pub(crate) fn joined(head: &[crate::path::Vertex], tail: &[crate::path::Vertex]) -> Path {
     let mut path = Path::default();

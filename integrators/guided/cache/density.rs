@@ -143,14 +143,27 @@ impl GuideCache {
     /// ([`Self::candidates`]) tested exactly. A guide left out has `p(X | l) = 0` for every
     /// path of this structure through `x1`.
     pub fn candidates_of(&self, scene: &Scene, sig: u64, x1: &Vertex, out: &mut Vec<FirstTest>) {
+        self.candidates_at(scene, sig, x1.p, x1.n, x1.is_medium(), out);
+    }
+
+    /// [`Self::candidates_of`] a first vertex at `p` with normal `n` (zero in a medium).
+    pub fn candidates_at(
+        &self,
+        scene: &Scene,
+        sig: u64,
+        p: Vec3,
+        n: Vec3,
+        medium: bool,
+        out: &mut Vec<FirstTest>,
+    ) {
         out.clear();
         let Some(index) = self.index.get(&sig) else {
             return;
         };
-        let q = FirstVertexQuery::new(scene, x1);
+        let q = FirstVertexQuery::at(scene, p, n, medium);
         index
             .bvh
-            .ray_traverse_anyhit(self.camera_ray(scene, x1.p), |_, i| {
+            .ray_traverse_anyhit(self.camera_ray(scene, p), |_, i| {
                 if let Some(t) = q.inside(&index.kernels[i]) {
                     out.push(t);
                 }

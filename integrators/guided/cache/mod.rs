@@ -66,14 +66,13 @@ pub use density::Terms;
 #[cfg(doc)]
 use super::kernel::segment_frame;
 use super::kernel::{FirstKernel, Kernel, Node};
-use crate::integrators::paths::structure::HeldKey;
+use crate::integrators::paths::structure::{HeldKey, SigMap, SigSet};
 use crate::math::AliasTable;
 use crate::math::Frame;
 use crate::path::{MAX_VERTICES, Vertex as PathVertex, VertexKind};
 use crate::scene::Scene;
 use glam::Vec3;
 use obvhs::cwbvh::CwBvh;
-use std::collections::HashMap;
 
 /// Neighbours per guide path (the path itself included).
 pub const NEIGHBOURS: usize = 10;
@@ -207,7 +206,7 @@ pub struct GuideCache {
     alias: AliasTable,
     /// One pruning BVH per structure held, by signature (a path is only ever evaluated
     /// against guides of its own structure; a structure not held is rejected by the lookup).
-    index: HashMap<u64, StructureIndex>,
+    index: SigMap<StructureIndex>,
     /// The BVHs' coordinates are world coordinates times this power of two.
     bvh_scale: f32,
     /// Learning iterations the cache has seen.
@@ -355,7 +354,7 @@ impl GuideCache {
 /// among the cache's (`GuideCache::holds`), the test the collector makes of bdpt's paths.
 pub struct HeldStructures {
     ends: Vec<(usize, u32)>,
-    sigs: std::collections::HashSet<u64>,
+    sigs: SigSet,
     /// One bit per value of a hash's low `HeldKey::BITS` bits: set where a held structure's
     /// hash has them (`may_hold_hash`).
     low: Vec<u64>,

@@ -322,7 +322,16 @@ impl GuideCache {
                     FirstKernel::new(scene, &g1, self.guides[l as usize].sigma1, l)
                 })
                 .collect();
-            self.index.insert(sig, StructureIndex { bvh, kernels });
+            let first = guides[0];
+            let uniform = (guides.iter())
+                .all(|&l| self.nodes_of(l as usize) == self.nodes_of(first as usize));
+            let index = StructureIndex {
+                bvh,
+                kernels,
+                first,
+                uniform,
+            };
+            self.index.insert(sig, index);
         }
     }
 

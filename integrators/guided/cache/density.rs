@@ -82,7 +82,8 @@ impl GuideCache {
             return LogDensity::ONE;
         }
         let k = self.kernel(l, v);
-        let t = terms.get(v, || {
+        let mut spill = None;
+        let t = terms.get(v, &mut spill, || {
             let p_b = bsdf_branch_probability(scene, &y[v - 1]);
             let fb = if p_b > 0.0 && !y[v].is_medium() {
                 bsdf_branch_density(scene, y, v, None)
@@ -240,7 +241,18 @@ impl GuideCache {
         let mut terms = PathTerms::default();
         let mut own_term = None;
         let (mut sum, mut reach) = (0.0, 1);
-        if !self.is_empty() && self.holds(sig) {
+        if let Some(index) = self.index.get(&sig).filter(|_| !self.is_empty()) {
+            // Where every guide path of the structure has the same nodes, the path's are
+            // compared with them once (a path with other nodes gets no term at all).
+            let same = self.nodes_of(index.first as usize) == nodes;
+            if index.uniform && !same {
+                return Terms {
+                    sum: 0.0,
+                    own: 0.0,
+                    reach: 1,
+                };
+            }
+            let check_nodes = !index.uniform;
             let first = FirstVertexQuery::new(scene, &y[1]);
             for (i, c) in candidates.iter().enumerate() {
                 if let Some(ahead) = candidates.get(i + PREFETCH_AHEAD) {
@@ -248,7 +260,7 @@ impl GuideCache {
                 }
                 let l = c.guide as usize;
                 let g = &self.guides[l];
-                if g.sig != sig || g.weight == 0.0 || self.nodes_of(l) != nodes {
+                if g.sig != sig || g.weight == 0.0 || (check_nodes && self.nodes_of(l) != nodes) {
                     continue;
                 }
                 let p1 = first.log_density_of(c);
@@ -323,15 +335,18 @@ struct VertexTerms {
 impl PathTerms {
     const CACHED: usize = 16;
 
-    fn get(&mut self, v: usize, compute: impl FnOnce() -> VertexTerms) -> VertexTerms {
-        if let Some(t) = self.values.get(v).copied().flatten() {
-            return t;
+    /// Vertex `v`'s terms, computed on first use (past [`Self::CACHED`] vertices every time,
+    /// into `spill`).
+    fn get<'t>(
+        &'t mut self,
+        v: usize,
+        spill: &'t mut Option<VertexTerms>,
+        compute: impl FnOnce() -> VertexTerms,
+    ) -> &'t VertexTerms {
+        match self.values.get_mut(v) {
+            Some(slot) => slot.get_or_insert_with(compute),
+            None => spill.insert(compute()),
         }
-        let t = compute();
-        if let Some(slot) = self.values.get_mut(v) {
-            *slot = Some(t);
-        }
-        t
     }
 }
 

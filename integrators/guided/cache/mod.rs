@@ -188,6 +188,10 @@ struct StructureIndex {
     /// The first-vertex kernel of each BVH primitive, in BVH order (with its guide's index),
     /// so a query reads its candidates from one compact array.
     kernels: Vec<FirstKernel>,
+    /// A guide path of the structure, and whether every one of them has its nodes (equal
+    /// hashes with other nodes would differ): `terms` then compares a path's nodes once.
+    first: u32,
+    uniform: bool,
 }
 
 #[derive(Default)]

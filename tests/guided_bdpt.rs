@@ -523,7 +523,7 @@ fn guided_renders_do_not_depend_on_the_thread_count() {
 #[test]
 fn learning_passes_keep_bdpts_own_estimate() {
     use lodestar::integrators::guided::estimator::{Collector, RowOutput};
-    use lodestar::integrators::guided::{seeder::Source, share};
+    use lodestar::integrators::guided::seeder::Source;
     let scene = box_scene("cornell-box.toml", 16);
     let cache = cache_of_bdpt_paths(&scene, 3000);
     let u = BdptUnguided {
@@ -542,19 +542,9 @@ fn learning_passes_keep_bdpts_own_estimate() {
         let own = u.estimate(&mut tracer, &scene, raster, &mut s, &mut splats);
         let (raster, mut s) = sample_stream(&scene, 7, i);
         let mut out = RowOutput::default();
-        let mut col = Collector {
-            est: &est,
-            sum: DVec3::ZERO,
-            grid: [0.0; share::N],
-            u_sum: DVec3::ZERO,
-            class_sum: Default::default(),
-            classes: true,
-            own_image: true,
-            learning: true,
-            measuring: false,
-            source: Source::Unguided { pass: 0, index: i },
-            out: &mut out,
-        };
+        let source = Source::Unguided { pass: 0, index: i };
+        let mut col = Collector::new(&est, &mut out, source, true, false);
+        col.classes = true;
         u.trace(&mut tracer, &scene, raster, &mut s, &mut col);
         let (u_sum, mixed, classes) = (col.u_sum, col.sum, col.class_sum);
         // The variance account (`coverage.rs`): the pixel's class sums add up to its mixed

@@ -729,7 +729,6 @@ fn held_paths_no_guide_reaches_keep_vcms_weight() {
     use lodestar::integrators::guided::estimator::{Estimator, RowOutput};
     use lodestar::integrators::guided::kernel;
     use lodestar::integrators::guided::seeder::Source;
-    use lodestar::integrators::guided::share;
     use lodestar::path::MAX_VERTICES;
     #[derive(Default)]
     struct Counts {
@@ -789,20 +788,9 @@ fn held_paths_no_guide_reaches_keep_vcms_weight() {
         let mut out = RowOutput::default();
         for i in 0..scene.camera.pixel_count() as u64 {
             let (raster, mut s) = sample_stream(&scene, 5 + pass, i);
+            let source = Source::Unguided { pass, index: i };
             let mut sink = Checked {
-                inner: Collector {
-                    est: &est,
-                    sum: DVec3::ZERO,
-                    grid: [0.0; share::N],
-                    u_sum: DVec3::ZERO,
-                    class_sum: Default::default(),
-                    classes: true,
-                    own_image: false,
-                    learning: false,
-                    measuring: false,
-                    source: Source::Unguided { pass, index: i },
-                    out: &mut out,
-                },
+                inner: Collector::new(&est, &mut out, source, false, false),
                 scene: &scene,
                 cache: &cache,
                 counts: &mut counts,

@@ -36,6 +36,32 @@ pub struct Collector<'e, 'a, U: Unguided> {
     pub out: &'e mut RowOutput,
 }
 
+impl<'e, 'a, U: Unguided> Collector<'e, 'a, U> {
+    /// A collector for one sample of a pass: while `learning`, U's own image and the outlier
+    /// candidates are kept (coverage classes otherwise); while `measuring`, the share's grid.
+    pub fn new(
+        est: &'e Estimator<'a, U>,
+        out: &'e mut RowOutput,
+        source: Source,
+        learning: bool,
+        measuring: bool,
+    ) -> Self {
+        Collector {
+            est,
+            sum: DVec3::ZERO,
+            grid: [0.0; share::N],
+            u_sum: DVec3::ZERO,
+            class_sum: Default::default(),
+            classes: !learning,
+            own_image: learning,
+            learning,
+            measuring,
+            source,
+            out,
+        }
+    }
+}
+
 impl<U: Unguided> PathSink for Collector<'_, '_, U> {
     fn record(&mut self, path: &Path, y: Option<&[Vertex]>, f: DVec3, p_u: f64, splat: bool) {
         self.weigh(path, y, f, p_u, true, splat);

@@ -43,7 +43,7 @@ use crate::render::{
     Budget, Integrator, RenderContext, RenderResult, cascade_rows, run_passes_with_snapshots,
 };
 use crate::scene::Scene;
-use glam::{DVec3, UVec2};
+use glam::UVec2;
 use rayon::prelude::*;
 use std::sync::Arc;
 use std::time::Instant;
@@ -117,19 +117,8 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
                         );
                         (v, [0.0; share::N])
                     } else {
-                        let mut col = Collector {
-                            est,
-                            sum: DVec3::ZERO,
-                            grid: [0.0; share::N],
-                            u_sum: DVec3::ZERO,
-                            class_sum: Default::default(),
-                            classes: !learning,
-                            own_image: learning,
-                            learning,
-                            measuring: measure,
-                            source: Source::Unguided { pass, index },
-                            out: &mut out,
-                        };
+                        let source = Source::Unguided { pass, index };
+                        let mut col = Collector::new(est, &mut out, source, learning, measure);
                         self.unguided
                             .trace(&mut tracer, scene, raster, &mut sampler, &mut col);
                         let (sum, grid, own) = (col.sum, col.grid, col.u_sum);

@@ -245,10 +245,7 @@ impl Claims {
             });
         }
         let c = &mut self.slots[self.len];
-        c.path.clear();
-        for v in head.iter().chain(tail.iter().rev()) {
-            c.path.push(*v);
-        }
+        join_into(&mut c.path, head, tail);
         c.path.pixel = pixel;
         (c.technique, c.value, c.weight, c.splat) = (technique, value, weight, splat);
         self.len += 1;
@@ -258,10 +255,16 @@ impl Claims {
 /// The path `head` followed by `tail` reversed.
 pub(crate) fn joined(head: &[crate::path::Vertex], tail: &[crate::path::Vertex]) -> Path {
     let mut path = Path::default();
+    join_into(&mut path, head, tail);
+    path
+}
+
+/// Make `path` (its vertices and f) `head` followed by `tail` reversed.
+fn join_into(path: &mut Path, head: &[crate::path::Vertex], tail: &[crate::path::Vertex]) {
+    path.clear();
     for v in head.iter().chain(tail.iter().rev()) {
         path.push(*v);
     }
-    path
 }
 
 /// Constants of one pass.

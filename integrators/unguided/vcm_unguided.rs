@@ -107,9 +107,10 @@ impl VcmUnguided {
     }
 
     /// Hand a path vcm's tracer claimed to `sink` with f(X) and `p_u` from its vertices (the
-    /// claimed value is the technique's unweighted estimate f / p_technique). Should the
-    /// explicit densities not take the path (a vertex count past max_depth, a density of 0
-    /// where vcm's differs in f32), it goes with vcm's own weight.
+    /// claimed value is the technique's unweighted estimate f / p_technique). The sink is
+    /// asked first whether vcm's own weight will do (`PathSink::record_if_own_weight`: the
+    /// guided density is 0); so is it when the explicit densities do not take the path (a
+    /// vertex count past max_depth, a density of 0 where vcm's differs in f32).
     fn deliver(&self, scene: &Scene, eta: f64, c: &Claimed, sink: &mut dyn PathSink) {
         let own = (c.value * c.weight).as_dvec3();
         let weighted = |sink: &mut dyn PathSink| sink.record_weighted(c.path.pixel, own, c.splat);

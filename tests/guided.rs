@@ -327,7 +327,8 @@ fn temp_dir(tag: &str) -> std::path::PathBuf {
 }
 
 /// A cache saved after learning and loaded again renders the same image, bit for bit, as the
-/// render phase of the run that learned it; damaged files are clear errors.
+/// render phase of the run that learned it (that run with `keep_learning=false`, so that its
+/// image is its render phase's alone); damaged files are clear errors.
 #[test]
 fn saved_caches_render_identically_and_bad_files_are_errors() {
     let scene = util::scene(CAUSTIC);
@@ -349,6 +350,7 @@ fn saved_caches_render_identically_and_bad_files_are_errors() {
     let widths = || vec!["kernel_width=1.5".to_string(), "first_width=1".to_string()];
     let mut save = widths();
     save.push(opt("save_guides", &file));
+    save.push("keep_learning=false".to_string());
     let learned = run(&params(save), 8, &scene).unwrap();
     let loaded = run(&params(vec![opt("load_guides", &file)]), 4, &scene).unwrap();
     assert_eq!(learned.result.passes, 4);

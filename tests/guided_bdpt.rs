@@ -691,3 +691,56 @@ fn with_guiding_off_the_image_is_the_unguided_image_of_as_many_passes() {
         g.passes
     );
 }
+
+/// With guiding on, the learning passes stay in the image beside the render passes, each an
+/// unbiased estimate weighed by pass count. guided-pt on the 64 x 64 Cornell box, 24 passes,
+/// half of them learning, `share=fixed` (guiding on whatever learning measures, so keeping
+/// the passes is exactly unbiased here): with `keep_learning=false` the image is the 12
+/// render passes alone, on the same streams as with the default, so the learning passes'
+/// sum is `S_L = 24 I_keep − 12 I_render`. Their mean `S_L / 12` must estimate the same image
+/// as the render passes (`util::z_same_mean`, |z| < 5 per channel: false-failure rate about
+/// 2e-6 for the three; guided-pt's pixels are independent estimates, the guided samples
+/// included). A learning film dropped (the old behaviour), counted twice, or divided by the
+/// render passes alone moves that mean by 12 passes' worth and fails it, as the control
+/// checks.
+#[test]
+fn with_guiding_on_the_learning_passes_stay_in_the_image() {
+    let stat = |r: &lodestar::render::RenderResult, k: &str| util::stat(r, k).unwrap().to_string();
+    let scene = util::cornell(64);
+    let opts = ["learn_fraction=0.5", "share=fixed", "alpha=0.5"];
+    let keep = util::render(&scene, "guided-pt", MAX_DEPTH, &opts, 24, 3, 2);
+    let no_keep = [&opts[..], &["keep_learning=false"]].concat();
+    let render_only = util::render(&scene, "guided-pt", MAX_DEPTH, &no_keep, 24, 3, 2);
+    let learned: u64 = stat(&keep, "learning_iterations").parse().unwrap();
+    assert_eq!(learned, 12);
+    assert!(stat(&keep, "guide_paths").parse::<u64>().unwrap() > 0);
+    assert_eq!(stat(&keep, "unguided_share"), "0.500");
+    assert_eq!(stat(&keep, "learning_passes_kept"), "12");
+    assert_eq!((keep.passes, render_only.passes), (24, 12));
+    assert_eq!(stat(&render_only, "learning_passes_kept"), "0");
+    // The learning passes' mean image, from the two renders.
+    let learning_mean = |weight: f64| {
+        let mut img = render_only.image.clone();
+        for ((p, k), r) in img
+            .pixels
+            .iter_mut()
+            .zip(&keep.image.pixels)
+            .zip(&render_only.image.pixels)
+        {
+            let s_l = 24.0 * k.as_dvec3() - 12.0 * r.as_dvec3();
+            *p = (s_l * weight / 12.0).as_vec3();
+        }
+        img
+    };
+    let z = util::z_same_mean(&learning_mean(1.0), &render_only.image);
+    assert!(
+        z.abs().max_element() < 5.0,
+        "learning against render passes: z = {z}"
+    );
+    // Control: learning passes weighed as half as many (a film divided by the render passes
+    // only) or none at all.
+    for w in [2.0, 0.0] {
+        let z = util::z_same_mean(&learning_mean(w), &render_only.image);
+        assert!(z.abs().max_element() > 5.0, "control {w}: z = {z}");
+    }
+}

@@ -8,13 +8,14 @@
 //!
 //! **The guided share.** With `share = auto` (the default) the render's ratio of guided to
 //! unguided samples is chosen at the end of learning from what the learning passes measured
-//! (`share.rs`); when it is 0 (guiding does not pay, or the cache is empty) the learning
-//! passes' unguided samples are kept in the image under U's own estimator (each path
-//! weighted `f / p_u`, the guided samples left out: U's image from the same samples, which a
-//! learning pass accumulates beside its mixed one) instead of being discarded, unless
-//! `--dbor` asked for the re-weighted image of the render passes or `keep_learning = false`
-//! (the choice was made from those samples, so keeping them is consistent but not unbiased;
-//! the bound is at the choice below); the render passes then
+//! (`share.rs`). The learning passes stay in the image, averaged with the render passes by
+//! pass count (unless `--dbor` asked for the re-weighted image of the render passes or
+//! `keep_learning = false`; the choice below says why that is consistent, not unbiased, and
+//! bounds it): when guiding is on, each pass's mixed estimate (its unguided and guided
+//! samples weighed with the cache it ran with); when the share is 0 (guiding does not pay, or
+//! the cache is empty), U's own estimate of its unguided samples (each path weighted
+//! `f / p_u`, the guided samples left out: U's image from the same samples, which a learning
+//! pass accumulates beside its mixed one), and the render passes then
 //! continue U's streams, so the image is U's own image of as many passes. When in three
 //! learning iterations running every ratio with guided samples loses to U alone by more than
 //! 25 % and the cache has stopped growing (by more than 10 % an iteration), learning stops
@@ -50,8 +51,8 @@ use std::time::Instant;
 
 /// Render passes draw from streams (seed, RENDER_STREAMS + pass, ...), learning passes from
 /// (seed, iteration, ...): a render with a loaded cache repeats the render phase of a run
-/// that saved it with guiding on. When the learning passes are kept (guiding off), the render
-/// passes go on from the last learning pass's streams instead, (seed, learning passes + pass,
+/// that saved it with guiding on. When guiding is off and the learning passes are kept, the
+/// render passes go on from the last learning pass's streams instead, (seed, learning passes + pass,
 /// ...), so the image is U's own image of the same number of passes, sample for sample: the
 /// equal-time comparison with U then differs only in the passes the learning cost.
 const RENDER_STREAMS: u64 = 1 << 40;
@@ -422,28 +423,31 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
         };
         let alpha = ratio.map_or(st.alpha, |r| 1.0 / (1.0 + r));
         let (alpha, _, n_g) = Estimator::split(scene, &self.unguided, &cache, alpha);
-        // Guiding off (the share chose U alone, or the cache is empty): keep the learning
-        // passes' unguided samples under U's own estimator (the guided samples, which cost
-        // more than they bring, are left out) unless the DBOR image of the render passes was
-        // asked for or `keep_learning = false`. Each pass alone is an unbiased estimate with
-        // U's variance, but the decision to keep them was made from the same samples (their
-        // outliers seed the cache, their variance enters the share's choice), so the kept
-        // image is consistent, not unbiased: with L learning passes of N and the choice a
-        // coin flip with P(on) = q, a pixel's mean moves by at most
-        // (L / N) sd(mean of the L passes) sqrt(q / (1 − q)), and by nothing where the choice
-        // is certain. `keep_learning = false` renders every image pixel from the render
-        // passes alone, independent of the choice (unbiased, at the price of those passes).
-        let keep_learning = st.keep_learning && n_g == 0.0 && !ctx.dbor && learn_passes > 0;
-        let (kept, first_stream) = if keep_learning {
-            (learn_passes, learn_passes)
-        } else {
-            (0, RENDER_STREAMS)
+        // The learning passes stay in the image (averaged with the render passes by pass
+        // count) unless the DBOR image of the render passes was asked for or
+        // `keep_learning = false`. Each is an unbiased estimate on its own: U's own estimate
+        // of its unguided samples when guiding is off (the guided samples, which cost more
+        // than they bring, are left out; the render passes then continue U's streams), the
+        // mixture's (unguided and guided samples weighed with the cache the pass ran with)
+        // when it is on (the render passes keep their own streams, so a run from a saved
+        // cache repeats them). Which of the two a pass contributes was chosen from the same
+        // samples (their outliers seed the cache, their variance enters the share's choice),
+        // so the kept image is consistent, not unbiased: with L learning passes of N and the
+        // choice a coin flip with P(on) = q, a pixel's mean moves by at most
+        // (L / N) sd(difference of the two L-pass means) sqrt(q (1 − q)), and by nothing where
+        // the choice is certain (or fixed: `share = fixed`). `keep_learning = false` renders
+        // every pixel from the render passes alone, independent of the choice (unbiased, at
+        // the price of those passes).
+        let keep_learning = st.keep_learning && !ctx.dbor && learn_passes > 0;
+        let (kept, first_stream) = match (keep_learning, n_g == 0.0) {
+            (true, true) => (learn_passes, learn_passes),
+            (true, false) => (learn_passes, RENDER_STREAMS),
+            (false, _) => (0, RENDER_STREAMS),
         };
-        if keep_learning {
-            film = own_film;
-        } else {
+        if !keep_learning {
             film.clear();
-            drop(own_film);
+        } else if n_g == 0.0 {
+            film = own_film;
         }
         // ---- Rendering with the frozen cache ----
         let render_stats = std::cell::RefCell::new(Stats::default());
@@ -457,7 +461,7 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
         // against the explicit ones guided-vcm's estimator needs), renders the passes that
         // remain, on the streams this driver's passes would use; its image is averaged with
         // the kept learning passes by pass count. (Snapshots meanwhile show its passes alone.)
-        let own = (n_g == 0.0 && keep_learning && !ctx.dbor)
+        let own = (n_g == 0.0 && keep_learning)
             .then(|| self.unguided.own_integrator())
             .flatten();
         let mut own_image = None;

@@ -44,7 +44,7 @@
 //! | chain_share     | number > 0    | 0.25    | `mcmc`: chain steps per learning iteration, per pixel |
 //! | chain_large_step | [0, 1]       | 0.1     | `mcmc`: large-step probability of the chains |
 //! | chain_target    | `mixture` / `uncovered` | `mixture` | `mcmc`: a chain state's importance: all its sample adds under the current mixture, or only its paths with p_g = 0 (`chains.rs`) |
-//! | keep_learning   | `true` / `false` | `true` | with guiding off, keep the learning passes' unguided samples in the image (`false`: strictly unbiased, see `driver.rs`) |
+//! | keep_learning   | `true` / `false` | `true` | keep the learning passes in the image: their mixed estimate with guiding on, U's own with it off (`false`: strictly unbiased, see `driver.rs`) |
 //! | save_guides     | path          | —       | write the learned cache (`--save-guides`) |
 //! | load_guides     | path          | —       | start from a saved cache and skip learning (`--load-guides`) |
 //!

@@ -45,8 +45,9 @@ pub const PG_CANDIDATE_RAYS: f64 = 0.05;
 pub const GUIDED_SAMPLE_RAYS: f64 = 3.5;
 
 /// Guiding is turned on only for a predicted `V · cost` below this share of U's alone: the
-/// learning passes, kept when guiding stays off, are lost when it is turned on, and the
-/// prediction is optimistic where guiding gains little. Measured on ajar, 60 s, one thread:
+/// prediction is optimistic where guiding gains little (about 20 % on dining, stop 54 in
+/// README), and the margin was set when the learning passes were lost with guiding on (they
+/// are kept since stop 55, as U's estimate with it off and the mixture's with it on). Measured on ajar, 60 s, one thread:
 /// guided-pt with a predicted 0.81 rendered at 0.89x pt's efficiency (so 0.85 let it on);
 /// with the spec's weight rule earlier, a predicted gain of a few per cent became a 0.83x
 /// loss. Where guiding pays the prediction sits far lower (30 s: dining 0.25 for guided-pt,

@@ -2,10 +2,10 @@
 
 mod util;
 
-use util::guided::{CAUSTIC, cache_of_pt_paths, installs_of, twin_caustic_cache};
+use util::guided::{CAUSTIC, installs_of, trace_pt, twin_caustic_cache};
 
 use lodestar::integrators::bdpt;
-use lodestar::integrators::guided::cache::{self, GuideCache};
+use lodestar::integrators::guided::cache::{self, GuideCache, Install};
 use lodestar::integrators::guided::{GuidedPt, GuidedSettings, contribution, kernel, sampler};
 use lodestar::integrators::pt::PtSettings;
 use lodestar::integrators::pt::{PathRecorder, PathTracer};
@@ -52,6 +52,28 @@ fn learn(scene: &Scene, max_depth: u32, spp: u64, seed: u64) -> GuideCache {
 
 /// A cache holding every path of two or more segments that pt forms from `n` camera paths
 /// (equal weights), installed as after many learning iterations (first-vertex kernels a few pixels wide).
+fn cache_of_pt_paths(scene: &Scene, max_depth: u32, n: u64) -> GuideCache {
+    struct Keep(Vec<Install>);
+    impl PathRecorder for Keep {
+        fn record(&mut self, path: &Path, _: glam::DVec3, _: usize, density: f64, other: f64) {
+            if path.segments() >= 2 && path.f != glam::Vec3::ZERO {
+                let f = lodestar::math::luminance(path.f) as f64;
+                self.0
+                    .push((path.vertices().to_vec(), f, density + other, 1.0, 0));
+            }
+        }
+    }
+    let mut keep = Keep(Vec::new());
+    trace_pt(scene, max_depth, 5, n, &mut keep, |_| false);
+    let n = keep.0.len() as f64;
+    for e in &mut keep.0 {
+        e.3 = 1.0 / n;
+    }
+    let mut cache = GuideCache::default();
+    cache.install(scene, keep.0, 10_000);
+    cache
+}
+
 /// Draw guided samples from a frozen cache and check, for each, that the density it was drawn
 /// with along its guide path equals the cache's evaluation of that term from the finished
 /// path, and that the pruned p_g equals the sum over every guide path.
@@ -192,58 +214,6 @@ fn guided_pt_is_unbiased_on_the_glass_cornell_box() {
     let scene = scene("cornell-box.toml", 64, |t| t);
     let z = guided_vs_pt_z(&scene, 64, learn(&scene, 6, 12, 2));
     assert!(z.abs().max_element() < 4.5, "z {z:?}");
-}
-
-/// With a tile mask (every other 16 x 16 tile off: `tiles=checker`) guided-pt still converges
-/// to pt's image: the sampler fails where x_1 lands in an off tile and p_g is 0 there, one
-/// function of x_1 for both. Per-channel z of the mean pixel difference, |z| < 4.5 (false-
-/// failure rate about 2e-5). Control: p_g that ignores the mask (the sampler still keeps
-/// it) weighs pt's paths in the off tiles by a technique that never samples them, and must
-/// fail the same test.
-#[test]
-fn guided_pt_with_a_tile_mask_is_unbiased_and_a_mask_missing_from_pg_is_caught() {
-    use lodestar::integrators::guided::tiles::TilePolicy;
-    let scene = scene("cornell-box.toml", 64, |t| t);
-    // Guide paths all over the image (pt's paths), so that p_g matters in every tile.
-    let cache = cache_of_pt_paths(&scene, 6, 2000);
-    let run = |ignore: bool| {
-        let mut c = GuideCache::default();
-        c.install(&scene, installs_of(&scene, &cache), cache.iteration);
-        c.pdf_ignores_mask = ignore;
-        let settings = GuidedSettings {
-            alpha: 0.1,
-            tiles: TilePolicy::Checker,
-            ..settings(0.0)
-        };
-        let mut g = guided_pt(6, settings, Some(c));
-        let ctx = RenderContext::new(&scene, 9, false);
-        g.render(&ctx, Budget::Spp(128))
-    };
-    let pt = util::render(&scene, "pt", 6, &[], 128, 1, 2);
-    let masked = run(false);
-    assert_eq!(util::stat(&masked, "tiles_off"), Some("0.500"));
-    let key = "failures_offimage_miss_structure_scatter_occluded_masked_zero_edge_nonfinite";
-    let failures = util::stat(&masked, key).expect("failure counts");
-    let masked_failures: u64 = failures
-        .trim_matches(['[', ']'])
-        .split(", ")
-        .nth(5)
-        .unwrap()
-        .parse()
-        .unwrap();
-    assert!(
-        masked_failures > 1000,
-        "guided samples rejected by the mask: {failures}"
-    );
-    let z = util::z_same_mean(&masked.image, &pt.image);
-    eprintln!("masked: z {z:?}");
-    assert!(z.abs().max_element() < 4.5, "z {z:?}");
-    let broken = util::z_same_mean(&run(true).image, &pt.image);
-    eprintln!("p_g ignoring the mask: z {broken:?}");
-    assert!(
-        broken.abs().max_element() > 4.5,
-        "a p_g that ignores the mask went unnoticed: z {broken:?}"
-    );
 }
 
 /// Welch's t of "guided-pt (frozen `cache`, split `alpha`) and bdpt have the same image mean",

@@ -410,14 +410,6 @@ fn guided_bdpt_with_the_specs_weights_agrees_with_bdpt() {
     );
 }
 
-/// With every other 16 x 16 tile masked off (`tiles.rs`) and a cache that covers the image,
-/// guided-bdpt converges to bdpt's image.
-#[test]
-fn guided_bdpt_with_a_tile_mask_agrees_with_bdpt() {
-    let scene = box_scene("cornell-box.toml", 32);
-    util::guided::masked_render_agrees_with_bdpt(&scene, "guided-bdpt", &[]);
-}
-
 fn agrees_with_bdpt_on_the_cornell_box(extra: &[&str]) -> lodestar::film::Image {
     let scene = box_scene("cornell-box.toml", 32);
     let mut options = vec!["learn_fraction=0.5", "share=fixed"];

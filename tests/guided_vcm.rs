@@ -563,23 +563,8 @@ fn the_low_bit_test_keeps_every_held_path() {
 /// these renders, as for vcm in `tests/vcm.rs`).
 #[test]
 fn guided_vcm_agrees_with_bdpt_on_the_cornell_box() {
-    agrees_with_bdpt_on_the_cornell_box(&[]);
-}
-
-/// The same with every other 16 x 16 tile masked off (`tiles.rs`) and a cache that covers the
-/// image: vcm's render passes hand over held paths only where x_1 lies in an on tile (a path
-/// declined where the guided technique reaches it would be counted twice: a held-path test
-/// that declines the on tiles instead fails with z = +13.8, tried).
-#[test]
-fn guided_vcm_with_a_tile_mask_agrees_with_bdpt_on_the_cornell_box() {
     let scene = box_scene("cornell-box.toml", 32);
-    util::guided::masked_render_agrees_with_bdpt(&scene, "guided-vcm", &["radius=0.02"]);
-}
-
-fn agrees_with_bdpt_on_the_cornell_box(extra: &[&str]) {
-    let scene = box_scene("cornell-box.toml", 32);
-    let mut options = vec!["learn_fraction=0.5", "share=fixed", "radius=0.02"];
-    options.extend(extra);
+    let options = ["learn_fraction=0.5", "share=fixed", "radius=0.02"];
     let guided = util::render(&scene, "guided-vcm", MAX_DEPTH, &options, 32, 3, 2);
     let reference = util::render(&scene, "bdpt", MAX_DEPTH, &[], 64, 4, 2);
     let guided_samples: u64 = util::stat(&guided, "guided_samples")

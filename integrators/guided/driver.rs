@@ -32,7 +32,6 @@ use super::estimator::{Collector, Estimator, RowOutput, Stats};
 use super::io;
 use super::report::{self, stat};
 use super::seeder::{Candidate, Explore, LearnPass, LearnRow, Seeder, Source};
-use super::tiles::{self, TileMask, TilePolicy};
 use super::{GuidedSettings, Share, share};
 use crate::camera::Camera;
 use crate::dbor::Cascade;
@@ -69,8 +68,8 @@ pub struct Guided<U: Unguided, S: Seeder> {
 }
 
 /// What a measured pass returns: per pixel, U's luminance under each ratio of `share.rs`;
-/// and the value g(r) of each guided sample with its pixel.
-type PassGrid = (Vec<[f64; share::N]>, Vec<(u32, [f64; share::N])>);
+/// and Σ g(r)² of its guided samples.
+type PassGrid = (Vec<[f64; share::N]>, [f64; share::N]);
 
 impl<U: Unguided, S: Seeder> Guided<U, S> {
     /// One pass: U per pixel plus the guided samples; returns per-row outputs in row order
@@ -165,7 +164,9 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
                             }
                             if measure {
                                 let v = share::values(g.f_lum, g.p_u, g.p_g);
-                                out.guided_values.push((g.pixel, v));
+                                for (m, x) in out.guided_m2.iter_mut().zip(v) {
+                                    *m += x * x;
+                                }
                             }
                             if learning {
                                 let lum = luminance(g.value.as_vec3()) as f64;
@@ -194,7 +195,7 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
         drop(crows);
         let measured = measure.then(|| {
             let mut image = vec![[0.0f64; share::N]; n_pix as usize];
-            let mut guided = Vec::new();
+            let mut guided_m2 = [0.0; share::N];
             for (y, r) in rows.iter().enumerate() {
                 let row = y * w as usize;
                 for (x, v) in r.grid.iter().enumerate() {
@@ -205,9 +206,11 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
                         *a += b;
                     }
                 }
-                guided.extend_from_slice(&r.guided_values);
+                for (a, b) in guided_m2.iter_mut().zip(r.guided_m2) {
+                    *a += b;
+                }
             }
-            (image, guided)
+            (image, guided_m2)
         });
         if let Some(own) = own_film {
             own.par_rows_mut()
@@ -294,7 +297,6 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
         let mut learn_passes = 0u64;
         let mut rebuild_seconds = 0.0;
         let mut meter = share::ShareMeter::default();
-        let tiling = TileMask::uniform(w, h, true);
         let mut early_stop = share::EarlyStop::default();
         // U's own estimate from the learning passes' unguided samples (see `keep_learning`).
         let mut own_film = Film::new(w, h);
@@ -331,8 +333,8 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
                     }
                     pass_stats.rays_u += est.unguided.pass_rays(&est.pass);
                     stats.add(&pass_stats);
-                    if let Some((image, guided)) = measured {
-                        meter.add(image, &guided, &tiling, est.n_u, &pass_stats);
+                    if let Some((image, guided_m2)) = measured {
+                        meter.add(image, guided_m2, est.n_u, &pass_stats);
                     }
                     let alpha = est.alpha;
                     // Each guide's credit, summed in row order (deterministic).
@@ -415,49 +417,10 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
             cache.learned_ratio = Some(d.ratio);
         }
         // A loaded cache renders with the share its learning run chose.
-        let mut ratio = match st.share {
+        let ratio = match st.share {
             Share::Auto => decision.as_ref().map(|d| d.ratio).or(cache.learned_ratio),
             Share::Fixed => None,
         };
-        // ---- The tiles the guided technique covers (`tiles.rs`) ----
-        let mut tiles_off = 0.0;
-        let mut tile_scores = Vec::new();
-        match st.tiles {
-            TilePolicy::Checker => {
-                let mask = TileMask::checker(w, h);
-                tiles_off = 1.0 - mask.fraction_on();
-                cache.restrict(scene, mask);
-            }
-            TilePolicy::Auto if !loaded => {
-                let mut weight_by_tile = vec![0.0; tiling.tiles()];
-                for l in 0..cache.len() {
-                    if let Some(t) = tiling.tile_of_point(scene, cache.vertex(scene, l, 1).p) {
-                        weight_by_tile[t] += cache.guides[l].weight;
-                    }
-                }
-                // With guiding on, every ratio with guided samples gets its own mask; the pair
-                // of least predicted V · cost is rendered.
-                let best = (1..share::N)
-                    .filter(|_| ratio.is_some_and(|r| r > 0.0))
-                    .filter_map(|i| {
-                        let e = meter.tile_evidence(i)?;
-                        let on = tiles::choose(&e, &weight_by_tile);
-                        let score = tiles::relative_score(&e, &weight_by_tile, &on);
-                        tile_scores.push(format!("{:.3}:{score:.3}", share::RATIOS[i]));
-                        Some((score, i, on))
-                    })
-                    .min_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
-                if let Some((_, i, on)) = best.filter(|b| b.2.iter().any(|&on| !on)) {
-                    let mask = TileMask::from_parts(w, h, on).expect("the image's tiling");
-                    tiles_off = 1.0 - mask.fraction_on();
-                    // Each remaining guide path keeps the sample rate it was measured at.
-                    let kept = cache.restrict(scene, mask);
-                    ratio = Some(share::RATIOS[i] * kept);
-                    cache.learned_ratio = ratio;
-                }
-            }
-            _ => {}
-        }
         let alpha = ratio.map_or(st.alpha, |r| 1.0 / (1.0 + r));
         let (alpha, _, n_g) = Estimator::split(scene, &self.unguided, &cache, alpha);
         // The learning passes stay in the image (averaged with the render passes by pass
@@ -568,9 +531,7 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
             render: &rs,
             kept,
             class_var,
-            tiles_off,
         });
-        out_stats.push(stat("tiles_relative_cost", tile_scores.join("/")));
         out_stats.push(stat("seeder", self.seeder.name()));
         out_stats.extend(self.seeder.stats());
         self.cache = Some(cache);

@@ -44,12 +44,11 @@ use crate::scene::Scene;
 use glam::{DVec3, Vec3};
 
 /// Names of [`Stats::reasons`], in order.
-pub const FAILURE_REASONS: &str =
-    "offimage_miss_structure_scatter_occluded_masked_zero_edge_nonfinite";
+pub const FAILURE_REASONS: &str = "offimage_miss_structure_scatter_occluded_zero_edge_nonfinite";
 /// Index of the reasons that are not [`sampler::Failure`]s.
-const ZERO: usize = 6;
-const EDGE: usize = 7;
-const NON_FINITE: usize = 8;
+const ZERO: usize = 5;
+const EDGE: usize = 6;
+const NON_FINITE: usize = 7;
 
 /// Counters of one or more passes.
 #[derive(Debug, Clone, Copy, Default)]
@@ -57,10 +56,9 @@ pub struct Stats {
     pub guided: u64,
     pub failed: u64,
     /// Failures by reason ([`FAILURE_REASONS`]): off the image, missed / wrong vertex,
-    /// structure (mode), scatter, occluded medium target, x_1 in a tile the mask has off
-    /// (`tiles.rs`), zero contribution, own guide's term
+    /// structure (mode), scatter, occluded medium target, zero contribution, own guide's term
     /// zero on re-evaluation (a truncation edge), non-finite value.
-    pub reasons: [u64; 9],
+    pub reasons: [u64; 8],
     pub pg_evaluations: u64,
     pub pg_candidates: u64,
     /// Of `pg_evaluations` and `pg_candidates`, those of guided samples.
@@ -520,11 +518,10 @@ pub struct RowOutput {
     /// The guided samples' path buffer (reused).
     pub path: Path,
     /// While measuring the share (`share.rs`): per pixel of the row what U's sample adds to
-    /// it under each ratio, U's splats likewise, and the value g(r) of each of the row's
-    /// guided samples with the pixel it landed in.
+    /// it under each ratio, U's splats likewise, and Σ g(r)² of the row's guided samples.
     pub grid: Vec<[f64; share::N]>,
     pub grid_splats: Vec<(u32, [f64; share::N])>,
-    pub guided_values: Vec<(u32, [f64; share::N])>,
+    pub guided_m2: [f64; share::N],
     /// While learning: per pixel of the row U's own estimate from its sample (every path
     /// weighted `f / p_u`, the guided technique left out), and U's splats likewise; the image
     /// the learning passes leave when the share turns guiding off.

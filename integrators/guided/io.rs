@@ -5,9 +5,7 @@
 //! iteration (u32), the kernel widths (f64: regression, first vertex, since version 2; first
 //! vertex where g_1 is specular, since version 5),
 //! the guided share the learning run chose (f64 ratio n_g / n_u, -1 for none; since version
-//! 3), the tile mask (u32 tile count, 0 for none, then one byte per tile, 1 = on, row-major
-//! over the image's `tiles::TILE`-pixel tiles; since version 6), the number of guide paths
-//! (u32), then per guide path: vertex count (u8),
+//! 3), the number of guide paths (u32), then per guide path: vertex count (u8),
 //! age (u16), f (f64 since version 4, f32 before), p_u (f64), weight (f64) and its vertices (position, normal, shading
 //! normal as 9 f32, kind tag u8, two u32 ids, delta flag u8). Kernels, neighbours and the
 //! pruning BVH are rebuilt on load, deterministically, so a loaded cache renders exactly like
@@ -15,7 +13,6 @@
 //! another scene, or ids out of range are errors naming the file.
 
 use super::cache::{GuideCache, KernelWidths};
-use super::tiles::TileMask;
 use crate::error::{Error, Result};
 use crate::path::{Vertex as PathVertex, VertexKind};
 use crate::scene::Scene;
@@ -23,7 +20,7 @@ use glam::Vec3;
 use std::path::Path;
 
 const MAGIC: &[u8; 8] = b"LSGUIDES";
-pub const VERSION: u32 = 6;
+pub const VERSION: u32 = 5;
 
 /// A hash of what a cache depends on in the scene.
 pub fn scene_fingerprint(scene: &Scene) -> u64 {
@@ -62,9 +59,6 @@ pub fn save(scene: &Scene, cache: &GuideCache, file: &Path) -> Result<()> {
     b.extend_from_slice(&cache.widths.first_vertex.to_le_bytes());
     b.extend_from_slice(&cache.widths.first_vertex_specular.to_le_bytes());
     b.extend_from_slice(&cache.learned_ratio.unwrap_or(-1.0).to_le_bytes());
-    let mask = cache.mask.as_ref().map_or(&[][..], |m| &m.on[..]);
-    b.extend_from_slice(&(mask.len() as u32).to_le_bytes());
-    b.extend(mask.iter().map(|&on| on as u8));
     b.extend_from_slice(&(cache.guides.len() as u32).to_le_bytes());
     for (l, g) in cache.guides.iter().enumerate() {
         b.push(g.len);
@@ -190,19 +184,6 @@ pub fn load(scene: &Scene, file: &Path) -> Result<GuideCache> {
     } else {
         return Err(bad(format!("invalid guided share ratio {ratio}")));
     };
-    let tiles = r.u32()? as usize;
-    let mask = if tiles == 0 {
-        None
-    } else {
-        let res = scene.camera.resolution;
-        let on: Vec<bool> = r.take(tiles)?.iter().map(|&b| b != 0).collect();
-        Some(TileMask::from_parts(res.x, res.y, on).ok_or_else(|| {
-            bad(format!(
-                "tile mask of {tiles} tiles does not fit the {} x {} image",
-                res.x, res.y
-            ))
-        })?)
-    };
     let count = r.u32()? as usize;
     let mut entries = Vec::with_capacity(count.min(1 << 20));
     for i in 0..count {
@@ -254,6 +235,5 @@ pub fn load(scene: &Scene, file: &Path) -> Result<GuideCache> {
     let mut cache = GuideCache::with_widths(widths);
     cache.install(scene, entries, iteration);
     cache.learned_ratio = learned_ratio;
-    cache.mask = mask;
     Ok(cache)
 }

@@ -45,7 +45,6 @@
 //! | chain_large_step | [0, 1]       | 0.1     | `mcmc`: large-step probability of the chains |
 //! | chain_target    | `mixture` / `uncovered` | `mixture` | `mcmc`: a chain state's importance: all its sample adds under the current mixture, or only its paths with p_g = 0 (`chains.rs`) |
 //! | keep_learning   | `true` / `false` | `true` | keep the learning passes in the image: their mixed estimate with guiding on, U's own with it off (`false`: strictly unbiased, see `driver.rs`) |
-//! | tiles           | `auto` / `all` / `checker` | `auto` | image tiles the guided technique covers: `auto` turns it off in the 16 x 16-pixel tiles where learning measured that it does not pay (with `share = auto`), `all` keeps every tile, `checker` every other tile (for tests; `tiles.rs`) |
 //! | save_guides     | path          | —       | write the learned cache (`--save-guides`) |
 //! | load_guides     | path          | —       | start from a saved cache and skip learning (`--load-guides`) |
 //!
@@ -104,7 +103,6 @@ pub mod report;
 pub mod sampler;
 pub mod seeder;
 pub mod share;
-pub mod tiles;
 
 pub use crate::integrators::paths::contribution;
 pub use chains::{ChainSettings, ChainTarget, Mcmc};
@@ -120,7 +118,6 @@ use crate::error::{Error, Result};
 use crate::render::Integrator;
 use cache::{GuideCache, KernelWidths, WeightRule};
 use std::path::PathBuf;
-use tiles::TilePolicy;
 
 /// guided-pt: the guider over pt, fed by outliers.
 pub type GuidedPt = Guided<PathTracer, Outliers>;
@@ -156,8 +153,6 @@ pub struct GuidedSettings {
     /// With guiding off, keep the learning passes' unguided samples in the image
     /// (`driver.rs` says what that trades).
     pub keep_learning: bool,
-    /// Which image tiles the guided technique covers (`tiles.rs`).
-    pub tiles: TilePolicy,
 }
 
 impl Default for GuidedSettings {
@@ -175,7 +170,6 @@ impl Default for GuidedSettings {
             load_guides: None,
             chains: None,
             keep_learning: true,
-            tiles: TilePolicy::Auto,
         }
     }
 }
@@ -277,11 +271,6 @@ fn options(params: &IntegratorParams, default_rr: u32) -> Result<(GuidedSettings
         _ => ChainTarget::Mixture,
     };
     let keep_learning = o.get("keep_learning", true, "true or false")?;
-    let tiles = match o.choice("tiles", "auto", &["auto", "all", "checker"])? {
-        "all" => TilePolicy::All,
-        "checker" => TilePolicy::Checker,
-        _ => TilePolicy::Auto,
-    };
     let weights = match o.choice("weights", "second_moment", &["second_moment", "c"])? {
         "c" => WeightRule::C,
         _ => WeightRule::SecondMoment,
@@ -367,7 +356,6 @@ fn options(params: &IntegratorParams, default_rr: u32) -> Result<(GuidedSettings
             target: chain_target,
         }),
         keep_learning,
-        tiles,
         ..GuidedSettings::default()
     };
     Ok((settings, rr_depth))

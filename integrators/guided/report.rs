@@ -23,8 +23,6 @@ pub struct Facts<'a> {
     /// Learning passes kept in the image.
     pub kept: u64,
     pub class_var: Option<[f64; coverage::CLASSES + 1]>,
-    /// Share of the image's tiles where the mask turned guiding off (`tiles.rs`).
-    pub tiles_off: f64,
 }
 
 pub fn stat(k: &str, v: impl ToString) -> (String, String) {
@@ -49,7 +47,6 @@ pub fn stats(f: &Facts) -> Vec<(String, String)> {
         stat("cache_rebuild_seconds", format!("{rebuild_seconds:.3}")),
         stat("render_seconds", format!("{render_seconds:.3}")),
         stat("unguided_share", format!("{alpha:.3}")),
-        stat("tiles_off", format!("{:.3}", f.tiles_off)),
         stat(
             "share_relative_cost",
             decision.as_ref().map_or("-".to_string(), |d| {

@@ -37,8 +37,6 @@ pub enum Failure {
     Scatter,
     /// A medium target is not visible or not in the guide's medium.
     Occluded,
-    /// x_1 projects into a tile the cache's mask has off (`tiles.rs`).
-    Masked,
 }
 
 pub struct GuidedSample {
@@ -235,9 +233,6 @@ pub fn sample_path_into(
             if tr.end_medium != Some(medium) {
                 return Err(Failure::Occluded);
             }
-            if !cache.allows(scene, p) {
-                return Err(Failure::Masked);
-            }
             density = std_trunc_density(3, z[0] * z[0] + z[1] * z[1] + z[2] * z[2]) / (s * s * s);
             at = At::medium(p, medium);
             path.push(at.pv);
@@ -256,9 +251,6 @@ pub fn sample_path_into(
             let sp = sp.ok_or(Failure::Miss)?;
             if sp.bsdf.is_black() || sp.bsdf.is_delta() != delta {
                 return Err(Failure::Miss);
-            }
-            if !cache.allows(scene, sp.hit.p) {
-                return Err(Failure::Masked);
             }
             let t_p = dvec(f0.n).dot(dvec(g1.p) - dvec(x0)) / dvec(f0.n).dot(dvec(w0));
             density = std_trunc_density(2, z[0] * z[0] + z[1] * z[1]) / (s * s) * t_p * t_p

@@ -28,7 +28,6 @@
 //! learning may end before its budget because no ratio pays.
 
 use super::estimator::Stats;
-use super::tiles::{TileEvidence, TileMask};
 
 /// Ratios n_g / n_u the render may use (unguided share α = 1 / (1 + r): 1, 0.9, 0.8, 2/3,
 /// 0.5, 1/3, 0.25).
@@ -81,25 +80,6 @@ struct Measured {
     rays_g: f64,
     eval_g: f64,
     cand_g: f64,
-    /// Per image tile (`tiles.rs`): Σ_p U_p(r)², Σ_p U_p(r) U'_p(r) with the previous pass,
-    /// and Σ g(r)² / n_g over the guided samples that landed in the tile.
-    tiles_m2: Vec<[f64; N]>,
-    tiles_cross: Option<Vec<[f64; N]>>,
-    tiles_g2: Vec<[f64; N]>,
-}
-
-impl Measured {
-    /// U's cost per pass with no guiding; U's p_g work and the guided samples' cost per pass
-    /// at ratio `r` (`PG_*` and `GUIDED_SAMPLE_RAYS`).
-    fn costs(&self, r: f64) -> (f64, f64, f64) {
-        let guided = self.n_u
-            * (self.rays_g
-                + GUIDED_SAMPLE_RAYS
-                + PG_EVALUATION_RAYS * self.eval_g
-                + PG_CANDIDATE_RAYS * self.cand_g);
-        let on_u = PG_EVALUATION_RAYS * self.eval_u + PG_CANDIDATE_RAYS * self.cand_u;
-        (self.rays_u, on_u, r * guided)
-    }
 }
 
 /// The share decision's evidence.
@@ -129,49 +109,25 @@ pub struct Decision {
 pub const EXTENSION: f64 = 2.0;
 
 impl ShareMeter {
-    /// Add one learning pass: per-pixel `U_p(r)` (`image`), the guided samples' g(r)² with
-    /// the pixel each landed in, and the pass's counters; `tiling` maps pixels to tiles.
-    pub fn add(
-        &mut self,
-        image: Vec<[f64; N]>,
-        guided: &[(u32, [f64; N])],
-        tiling: &TileMask,
-        n_u: f64,
-        stats: &Stats,
-    ) {
-        let add_to = |acc: &mut [f64; N], a: &[f64; N], b: &[f64; N]| {
-            for i in 0..N {
-                acc[i] += a[i] * b[i];
-            }
-        };
-        let tiles = tiling.tiles();
+    /// Add one learning pass: per-pixel `U_p(r)` (`image`), the guided samples' Σ g(r)²,
+    /// and the pass's counters.
+    pub fn add(&mut self, image: Vec<[f64; N]>, guided_m2: [f64; N], n_u: f64, stats: &Stats) {
         let mut m2 = [0.0; N];
-        let mut tiles_m2 = vec![[0.0; N]; tiles];
-        for (p, v) in image.iter().enumerate() {
-            add_to(&mut m2, v, v);
-            add_to(&mut tiles_m2[tiling.tile_of_pixel(p as u32)], v, v);
-        }
-        let (cross, tiles_cross) = if self.previous.len() == image.len() {
-            let mut c = [0.0; N];
-            let mut ct = vec![[0.0; N]; tiles];
-            for (p, (a, b)) in image.iter().zip(&self.previous).enumerate() {
-                add_to(&mut c, a, b);
-                add_to(&mut ct[tiling.tile_of_pixel(p as u32)], a, b);
+        for v in &image {
+            for i in 0..N {
+                m2[i] += v[i] * v[i];
             }
-            (Some(c), Some(ct))
-        } else {
-            (None, None)
-        };
+        }
+        let cross = (self.previous.len() == image.len()).then(|| {
+            let mut c = [0.0; N];
+            for (a, b) in image.iter().zip(&self.previous) {
+                for i in 0..N {
+                    c[i] += a[i] * b[i];
+                }
+            }
+            c
+        });
         let n_g = stats.guided.max(1) as f64;
-        let mut guided_m2 = [0.0; N];
-        let mut tiles_g2 = vec![[0.0; N]; tiles];
-        for (p, v) in guided {
-            add_to(&mut guided_m2, v, v);
-            add_to(&mut tiles_g2[tiling.tile_of_pixel(*p)], v, v);
-        }
-        for t in &mut tiles_g2 {
-            *t = t.map(|x| x / n_g);
-        }
         self.passes.push(Measured {
             m2,
             cross,
@@ -183,9 +139,6 @@ impl ShareMeter {
             rays_g: stats.rays_g as f64 / n_g,
             eval_g: stats.pg_evaluations_guided as f64 / n_g,
             cand_g: stats.pg_candidates_guided as f64 / n_g,
-            tiles_m2,
-            tiles_cross,
-            tiles_g2,
         });
         self.previous = image;
     }
@@ -223,43 +176,6 @@ impl ShareMeter {
     }
 }
 
-impl ShareMeter {
-    /// Per-tile variances of U alone and with ratio `RATIOS[i]`, and the costs, from the
-    /// passes [`Self::decide`] estimates from (`tiles.rs` chooses the mask from them).
-    pub fn tile_evidence(&self, i: usize) -> Option<TileEvidence> {
-        let n = self.passes.len();
-        let late = &self.passes[n / 2..];
-        let tiles = late.first()?.tiles_m2.len();
-        let k = late.len() as f64;
-        let r = RATIOS[i];
-        let avg = |f: &dyn Fn(&Measured) -> f64| late.iter().map(f).sum::<f64>() / k;
-        let with_cross: Vec<&Measured> = late.iter().filter(|m| m.tiles_cross.is_some()).collect();
-        let variance = |t: usize, j: usize| {
-            let mean2 = if with_cross.is_empty() {
-                0.0
-            } else {
-                with_cross
-                    .iter()
-                    .map(|m| m.tiles_cross.as_ref().expect("filtered")[t][j])
-                    .sum::<f64>()
-                    / with_cross.len() as f64
-            };
-            avg(&|m| m.tiles_m2[t][j]) - mean2
-        };
-        let v_off = (0..tiles).map(|t| variance(t, 0)).collect();
-        let v_on = (0..tiles)
-            .map(|t| variance(t, i) + r * avg(&|m| m.n_u * m.tiles_g2[t][i]))
-            .collect();
-        Some(TileEvidence {
-            v_off,
-            v_on,
-            cost_u: avg(&|m| m.costs(r).0),
-            cost_pg_u: avg(&|m| m.costs(r).1),
-            cost_guided: avg(&|m| m.costs(r).2),
-        })
-    }
-}
-
 /// `V(r) · cost(r)` of every ratio relative to U's alone (1 for r = 0), estimated from
 /// `passes` (module doc).
 fn relative_scores(passes: &[Measured]) -> [f64; N] {
@@ -281,10 +197,15 @@ fn relative_scores(passes: &[Measured]) -> [f64; N] {
                 / with_cross.len() as f64
         };
         let v = (avg(&|m| m.m2[i]) - mean2).max(0.0) + r * avg(&|m| m.n_u * m.g2[i]);
-        let cost = avg(&|m| {
-            let (u, on_u, guided) = m.costs(r);
-            u + if r > 0.0 { on_u + guided } else { 0.0 }
+        let guided = avg(&|m| {
+            m.n_u
+                * (m.rays_g
+                    + GUIDED_SAMPLE_RAYS
+                    + PG_EVALUATION_RAYS * m.eval_g
+                    + PG_CANDIDATE_RAYS * m.cand_g)
         });
+        let on_u = avg(&|m| PG_EVALUATION_RAYS * m.eval_u + PG_CANDIDATE_RAYS * m.cand_u);
+        let cost = avg(&|m| m.rays_u) + if r > 0.0 { on_u + r * guided } else { 0.0 };
         score[i] = v * cost;
     }
     let base = score[0];
@@ -356,9 +277,6 @@ mod tests {
             rays_g: 0.0,
             eval_g: 0.0,
             cand_g: 0.0,
-            tiles_m2: Vec::new(),
-            tiles_cross: None,
-            tiles_g2: Vec::new(),
         }
     }
 

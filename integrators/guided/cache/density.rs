@@ -161,10 +161,6 @@ impl GuideCache {
         let Some(index) = self.index.get(&sig) else {
             return;
         };
-        // Outside the mask's tiles every term is 0 (`tiles.rs`).
-        if !self.pdf_ignores_mask && !self.allows(scene, p) {
-            return;
-        }
         let q = FirstVertexQuery::at(scene, p, n, medium);
         index
             .bvh
@@ -300,13 +296,6 @@ impl GuideCache {
         nodes: &[Node],
     ) -> Terms {
         let (mut sum, mut reach) = (0.0, 1);
-        if !self.allows(scene, y[1].p) {
-            return Terms {
-                sum,
-                own: 0.0,
-                reach,
-            };
-        }
         for (l, g) in self.guides.iter().enumerate() {
             if g.sig != sig || self.nodes_of(l) != nodes {
                 continue;

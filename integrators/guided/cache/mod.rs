@@ -66,7 +66,6 @@ pub use density::Terms;
 #[cfg(doc)]
 use super::kernel::segment_frame;
 use super::kernel::{FirstKernel, Kernel, Node};
-use super::tiles::TileMask;
 use crate::integrators::paths::structure::{HeldKey, SigMap, SigSet};
 use crate::math::AliasTable;
 use crate::math::Frame;
@@ -219,14 +218,9 @@ pub struct GuideCache {
     /// Testing hook: leave this guide path out of `pdf` (a deliberately wrong p_g, which the
     /// unbiasedness test must detect). Never set by the renderer.
     pub skip_in_pdf: Option<usize>,
-    /// Testing hook: p_g ignores the tile mask while the sampler keeps it (a deliberately
-    /// wrong p_g in the off tiles, which the masked-estimator test must detect).
-    pub pdf_ignores_mask: bool,
     /// The ratio n_g / n_u the learning run chose for rendering (`share.rs`); a loaded cache
     /// renders with it, so it repeats the render phase of the run that saved it.
     pub learned_ratio: Option<f64>,
-    /// The tiles of the image the guided technique covers (`tiles.rs`; None: all of them).
-    pub mask: Option<TileMask>,
 }
 
 impl GuideCache {
@@ -244,40 +238,6 @@ impl GuideCache {
 
     pub fn len(&self) -> usize {
         self.guides.len()
-    }
-
-    /// Whether the guided technique covers a path whose x_1 is at `p` ([`TileMask::allows`]).
-    #[inline]
-    pub fn allows(&self, scene: &Scene, p: Vec3) -> bool {
-        self.mask.as_ref().is_none_or(|m| m.allows(scene, p))
-    }
-
-    /// Restrict the guided technique to the tiles `mask` has on: the guide paths whose g_1
-    /// lies in an off tile get weight 0 (the others' pmf is renormalised). Returns the
-    /// selection weight the remaining guide paths held (0: nothing is left to guide).
-    pub fn restrict(&mut self, scene: &Scene, mask: TileMask) -> f64 {
-        let mut kept = 0.0;
-        let mut w: Vec<f64> = Vec::with_capacity(self.guides.len());
-        for l in 0..self.guides.len() {
-            let g1 = self.vertex(scene, l, 1).p;
-            let x = if mask.allows(scene, g1) {
-                self.guides[l].weight
-            } else {
-                0.0
-            };
-            kept += x;
-            w.push(x);
-        }
-        self.mask = Some(mask);
-        self.alias = AliasTable::new(&w);
-        for (l, g) in self.guides.iter_mut().enumerate() {
-            g.weight = if self.alias.is_empty() {
-                0.0
-            } else {
-                self.alias.pmf(l)
-            };
-        }
-        kept
     }
 
     /// Whether some guide path has this structure (else p_g is 0 without any work).
@@ -303,7 +263,6 @@ impl GuideCache {
             sigs: self.index.keys().copied().collect(),
             low,
             filter: true,
-            mask: self.mask.clone(),
         }
     }
 
@@ -405,8 +364,6 @@ pub struct HeldStructures {
     low: Vec<u64>,
     /// Whether `may_hold_hash` tests `low` (else it passes every path; tests compare both).
     pub filter: bool,
-    /// The cache's tile mask: a path whose x_1 lies in an off tile has p_g = 0 and is U's.
-    mask: Option<TileMask>,
 }
 
 impl crate::integrators::unguided::HeldPaths for HeldStructures {
@@ -420,13 +377,6 @@ impl crate::integrators::unguided::HeldPaths for HeldStructures {
         };
         if !self.ends.contains(&(head.len() + tail.len(), *light)) {
             return false;
-        }
-        if let Some(mask) = &self.mask {
-            // x_1: the vertex after the camera (the tail runs emitter first).
-            let x1 = head.get(1).or(tail.last());
-            if x1.is_some_and(|x1| !mask.allows(scene, x1.p)) {
-                return false;
-            }
         }
         super::kernel::signature_of_split(scene, head, tail, MAX_VERTICES, |v| *v)
             .is_some_and(|sig| self.sigs.contains(&sig))

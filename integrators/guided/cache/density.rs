@@ -72,7 +72,6 @@ impl GuideCache {
         v: usize,
         terms: &mut PathTerms,
     ) -> LogDensity {
-        let (g_prev, g) = (self.vertex(scene, l, v - 1), self.vertex(scene, l, v));
         let node = self.node(l, v);
         if let Node::Emitter {
             reach: Reach::Delta,
@@ -81,6 +80,8 @@ impl GuideCache {
         {
             return LogDensity::ONE;
         }
+        // v >= 2: both vertices are stored (by reference: p_g visits them per candidate).
+        let (g_prev, g) = (self.stored_vertex(l, v - 1), self.stored_vertex(l, v));
         let k = self.kernel(l, v);
         let mut spill = None;
         let t = terms.get(v, &mut spill, || {
@@ -98,7 +99,7 @@ impl GuideCache {
         });
         let p_b = t.p_b;
         let gaussian =
-            |target: &SegmentTarget| target.log_gaussian_density(self.frame(l, v), &g_prev, &g, k);
+            |target: &SegmentTarget| target.log_gaussian_density(self.frame(l, v), g_prev, g, k);
         if p_b == 0.0 {
             // The Gaussian branch alone: its exponent joins the product's.
             return t.target.as_ref().map_or(LogDensity::ZERO, gaussian);

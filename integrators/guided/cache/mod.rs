@@ -284,6 +284,12 @@ impl GuideCache {
         self.vertices[self.guides[l].start as usize + v - 1]
     }
 
+    /// Vertex `v >= 1` of guide `l` as stored (the camera, v = 0, is the scene's).
+    #[inline]
+    pub fn stored_vertex(&self, l: usize, v: usize) -> &PathVertex {
+        &self.vertices[self.guides[l].start as usize + v - 1]
+    }
+
     pub fn node(&self, l: usize, v: usize) -> Node {
         self.nodes[self.guides[l].start as usize + v - 1]
     }

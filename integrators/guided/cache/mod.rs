@@ -281,7 +281,7 @@ impl GuideCache {
                 kind: VertexKind::Camera,
             };
         }
-        self.vertices[self.guides[l].start as usize + v - 1]
+        *self.stored_vertex(l, v)
     }
 
     /// Vertex `v >= 1` of guide `l` as stored (the camera, v = 0, is the scene's).

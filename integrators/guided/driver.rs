@@ -52,9 +52,10 @@ use std::time::Instant;
 /// Render passes draw from streams (seed, RENDER_STREAMS + pass, ...), learning passes from
 /// (seed, iteration, ...): a render with a loaded cache repeats the render phase of a run
 /// that saved it with guiding on. When guiding is off and the learning passes are kept, the
-/// render passes go on from the last learning pass's streams instead, (seed, learning passes + pass,
-/// ...), so the image is U's own image of the same number of passes, sample for sample: the
-/// equal-time comparison with U then differs only in the passes the learning cost.
+/// render passes go on from the last learning pass's streams instead, (seed, learning
+/// passes + pass, ...), so the image is U's own image of the same number of passes, sample
+/// for sample: the equal-time comparison with U then differs only in the passes the
+/// learning cost.
 const RENDER_STREAMS: u64 = 1 << 40;
 
 /// The guided integrator over unguided estimator `U` and seeder `S`.

@@ -47,12 +47,12 @@ pub const GUIDED_SAMPLE_RAYS: f64 = 3.5;
 /// Guiding is turned on only for a predicted `V · cost` below this share of U's alone: the
 /// prediction is optimistic where guiding gains little (about 20 % on dining, stop 54 in
 /// README), and the margin was set when the learning passes were lost with guiding on (they
-/// are kept since stop 55, as U's estimate with it off and the mixture's with it on). Measured on ajar, 60 s, one thread:
-/// guided-pt with a predicted 0.81 rendered at 0.89x pt's efficiency (so 0.85 let it on);
-/// with the spec's weight rule earlier, a predicted gain of a few per cent became a 0.83x
-/// loss. Where guiding pays the prediction sits far lower (30 s: dining 0.25 for guided-pt,
-/// 0.49 for guided-bdpt, pool lower still; cornell-box guided-bdpt 0.59, which renders at
-/// 1.0x bdpt).
+/// are kept since stop 55, as U's estimate with it off and the mixture's with it on).
+/// Measured on ajar, 60 s, one thread: guided-pt with a predicted 0.81 rendered at 0.89x
+/// pt's efficiency (so 0.85 let it on); with the spec's weight rule earlier, a predicted
+/// gain of a few per cent became a 0.83x loss. Where guiding pays the prediction sits far
+/// lower (30 s: dining 0.25 for guided-pt, 0.49 for guided-bdpt, pool lower still;
+/// cornell-box guided-bdpt 0.59, which renders at 1.0x bdpt).
 pub const MARGIN: f64 = 0.75;
 
 /// The luminance an unguided path or guided sample adds to its pixel under each ratio.

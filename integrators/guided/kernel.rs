@@ -484,6 +484,29 @@ impl SegmentTarget {
         }
     }
 
+    /// The segment from surface point `x` to surface point `next` with normal `next_n`.
+    pub fn surface_pair(x: Vec3, next: Vec3, next_n: Vec3) -> SegmentTarget {
+        SegmentTarget {
+            x: dvec(x),
+            x_medium: false,
+            target: Target::Surface {
+                w: dvec(next - x).normalize(),
+                area: area_factor(x, next, next_n),
+            },
+        }
+    }
+
+    /// For a segment from a surface vertex to a surface target: the vertex, the unit
+    /// direction to the target and the solid-angle-to-area factor, what a
+    /// [`PlaneKernel`](super::plane::PlaneKernel) evaluates the density from.
+    #[inline]
+    pub fn surface_to_surface(&self) -> Option<(DVec3, DVec3, f64)> {
+        match self.target {
+            Target::Surface { w, area } if !self.x_medium => Some((self.x, w, area)),
+            _ => None,
+        }
+    }
+
     /// The Gaussian branch density of guide segment (g_prev -> g) in frame `f` with kernel
     /// `k`, in the target's measure (area, volume, or solid angle at infinity).
     pub fn gaussian_density(

@@ -99,6 +99,7 @@ pub mod gaussian;
 pub mod io;
 pub mod kernel;
 pub mod learn;
+pub mod plane;
 pub mod report;
 pub mod sampler;
 pub mod seeder;

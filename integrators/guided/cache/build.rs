@@ -13,6 +13,7 @@ use crate::integrators::guided::kernel;
 use crate::integrators::guided::kernel::{
     FirstKernel, Kernel, Node, coords, direction_coords, dvec, is_infinite_vertex, segment_frame,
 };
+use crate::integrators::guided::plane::PlaneKernel;
 use crate::math::AliasTable;
 use crate::path::{Vertex as PathVertex, VertexKind};
 use crate::scene::Scene;
@@ -157,6 +158,7 @@ impl GuideCache {
         self.nodes.clear();
         self.kernels.clear();
         self.frames.clear();
+        self.planes.clear();
         self.ends.clear();
         self.iteration = iteration;
         let k = iteration.max(1) as f32;
@@ -231,6 +233,8 @@ impl GuideCache {
             for v in 2..self.guides[l].len as usize {
                 let (g_prev, g) = (self.vertex(scene, l, v - 1), self.vertex(scene, l, v));
                 let frame = segment_frame(&g_prev, &g, is_infinite_vertex(scene, &g));
+                let k = &self.kernels[self.guides[l].kernels as usize + v - 2];
+                self.planes.push(PlaneKernel::new(&frame, g_prev.p, g.p, k));
                 self.frames.push(frame);
             }
             // ---- Adaptive first-vertex width (module doc): at most the spacing of the

@@ -98,8 +98,10 @@ impl GuideCache {
             }
         });
         let p_b = t.p_b;
-        let gaussian =
-            |target: &SegmentTarget| target.log_gaussian_density(self.frame(l, v), g_prev, g, k);
+        let gaussian = |target: &SegmentTarget| match target.surface_to_surface() {
+            Some((x, w, area)) => self.plane(l, v).log_density(x, w).scaled(area),
+            None => target.log_gaussian_density(self.frame(l, v), g_prev, g, k),
+        };
         if p_b == 0.0 {
             // The Gaussian branch alone: its exponent joins the product's.
             return t.target.as_ref().map_or(LogDensity::ZERO, gaussian);
@@ -118,7 +120,7 @@ impl GuideCache {
     }
 
     /// Ask the memory system for what [`Self::terms`] reads of guide `l` (its header, first
-    /// vertices and nodes, first kernel) a few candidates before it is evaluated.
+    /// vertices and nodes, first plane kernel) a few candidates before it is evaluated.
     #[inline]
     fn prefetch_guide(&self, l: usize) {
         let Some(g) = self.guides.get(l) else {
@@ -135,8 +137,8 @@ impl GuideCache {
         if let Some(n) = self.nodes.get(start) {
             crate::prefetch::line(n);
         }
-        if let Some(kernels) = self.kernels.get(k..(k + 1).min(self.kernels.len())) {
-            crate::prefetch::slice(kernels, 2);
+        if let Some(planes) = self.planes.get(k..(k + 1).min(self.planes.len())) {
+            crate::prefetch::slice(planes, 3);
         }
     }
 

@@ -66,6 +66,7 @@ pub use density::Terms;
 #[cfg(doc)]
 use super::kernel::segment_frame;
 use super::kernel::{FirstKernel, Kernel, Node};
+use super::plane::PlaneKernel;
 use crate::integrators::paths::structure::{HeldKey, SigMap, SigSet};
 use crate::math::AliasTable;
 use crate::math::Frame;
@@ -78,8 +79,10 @@ use obvhs::cwbvh::CwBvh;
 pub const NEIGHBOURS: usize = 10;
 
 /// The first-vertex kernel's std is at most the distance to the `SPACING_RANK`-th nearest
-/// other first vertex of the same structure (module doc, "Adaptive first-vertex width").
-pub const SPACING_RANK: usize = 10;
+/// other first vertex of the same structure (module doc, "Adaptive first-vertex width"); 4
+/// rather than 10 since stop 57 (the same variance on dining and pool, fewer p_g candidates;
+/// README).
+pub const SPACING_RANK: usize = 4;
 
 /// A guide path to install: vertices (camera first), luminance of f, p_u, weight, age.
 pub type Install = (Vec<PathVertex>, f64, f64, f64, u16);
@@ -204,6 +207,9 @@ pub struct GuideCache {
     pub kernels: Vec<Kernel>,
     /// The frame of each segment's kernel ([`segment_frame`]), beside `kernels`.
     frames: Vec<Frame>,
+    /// Each segment's kernel precomputed for surface-to-surface paths (`plane.rs`), beside
+    /// `kernels`.
+    planes: Vec<PlaneKernel>,
     /// Every (vertex count, emitter) that a held structure has, sorted: what
     /// [`GuideCache::may_hold`] tests before a structure is hashed.
     ends: Vec<(usize, u32)>,
@@ -309,13 +315,22 @@ impl GuideCache {
         &self.frames[self.guides[l].kernels as usize + v - 2]
     }
 
+    /// [`Self::kernel`] of guide `l`'s segment g_{v-1} -> g_v precomputed for paths whose
+    /// vertices there are both on surfaces.
+    pub fn plane(&self, l: usize, v: usize) -> &PlaneKernel {
+        &self.planes[self.guides[l].kernels as usize + v - 2]
+    }
+
     /// Bytes a guide path of `len` vertices (camera included) occupies: header, vertices and
     /// nodes of g_1 .. g_{L-1}, kernels of the L - 2 later segments, its first-vertex kernel
     /// in the BVH and its alias entry (the BVH nodes not counted).
     pub fn bytes_for_length(len: usize) -> usize {
         std::mem::size_of::<Guide>()
             + (len - 1) * (std::mem::size_of::<PathVertex>() + std::mem::size_of::<Node>())
-            + (len - 2) * (std::mem::size_of::<Kernel>() + std::mem::size_of::<Frame>())
+            + (len - 2)
+                * (std::mem::size_of::<Kernel>()
+                    + std::mem::size_of::<Frame>()
+                    + std::mem::size_of::<PlaneKernel>())
             + std::mem::size_of::<FirstKernel>()
             + 20
     }
@@ -345,7 +360,10 @@ impl GuideCache {
         let bytes = self.guides.len() * std::mem::size_of::<Guide>()
             + self.vertices.len() * std::mem::size_of::<PathVertex>()
             + self.nodes.len() * std::mem::size_of::<Node>()
-            + self.kernels.len() * (std::mem::size_of::<Kernel>() + std::mem::size_of::<Frame>())
+            + self.kernels.len()
+                * (std::mem::size_of::<Kernel>()
+                    + std::mem::size_of::<Frame>()
+                    + std::mem::size_of::<PlaneKernel>())
             + self.guides.len() * std::mem::size_of::<FirstKernel>()
             + self.alias.len() * 20;
         bytes as f64 / self.guides.len() as f64

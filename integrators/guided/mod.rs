@@ -16,7 +16,8 @@
 //! Where to read: `estimator.rs` (the mixture, one pass's densities and a guided sample),
 //! `driver.rs` (learning, the share, passes), `seeder.rs` (which paths become guides),
 //! `chains.rs` (the Markov-chain seeder), `coverage.rs` (where the variance sits),
-//! `cache/` (storage and weights in `mod.rs`, building in `build.rs`, p_g in `density.rs`),
+//! `cache/` (storage and weights in `mod.rs`, building in `build.rs`, p_g in `density.rs`;
+//! its surface-to-surface Gaussians precomputed in `plane.rs`),
 //! `integrators/paths/structure.rs` (a path's nodes and their hash), `kernel.rs` (the per-vertex densities,
 //! Gaussians), `sampler.rs`
 //! (building a guided path), `integrators/paths/contribution.rs` (f(X) from vertices), `io.rs`

@@ -11,7 +11,9 @@
 //!
 //! Storage is flat: one header per guide path ([`Guide`]), its vertices g_1 .. g_{L-1} in
 //! `vertices` (the camera g_0 is the scene's), and one [`Kernel`] per segment g_{v-1} -> g_v
-//! for v >= 2 in `kernels`. [`GuideCache::bytes_per_path`] reports the footprint.
+//! for v >= 2 in `kernels`, beside its frame and its [`PlaneKernel`] (the same Gaussian
+//! precomputed for p_g's surface-to-surface terms). [`GuideCache::bytes_per_path`] reports the
+//! footprint.
 //!
 //! Rebuild (between learning iterations, spec §2.4, §3): weights `w_j = t C_j / ΣC + (1 − t)
 //! w_j_old` with `C = f / (α p_u + (1 − α) p_g)` evaluated under the state that drew the

@@ -464,6 +464,16 @@ enum Target {
     Surface { w: DVec3, area: f64 },
 }
 
+impl Target {
+    /// The surface point `next` (normal `next_n`) as seen from `x`.
+    fn surface(x: Vec3, next: Vec3, next_n: Vec3) -> Target {
+        Target::Surface {
+            w: dvec(next - x).normalize(),
+            area: area_factor(x, next, next_n),
+        }
+    }
+}
+
 impl SegmentTarget {
     pub fn new(scene: &Scene, y: &[Vertex], v: usize) -> SegmentTarget {
         let (x, next) = (&y[v - 1], &y[v]);
@@ -472,10 +482,7 @@ impl SegmentTarget {
         } else if next.is_medium() {
             Target::Medium { p: dvec(next.p) }
         } else {
-            Target::Surface {
-                w: dvec(next.p - x.p).normalize(),
-                area: area_factor(x.p, next.p, next.n),
-            }
+            Target::surface(x.p, next.p, next.n)
         };
         SegmentTarget {
             x: dvec(x.p),
@@ -489,10 +496,7 @@ impl SegmentTarget {
         SegmentTarget {
             x: dvec(x),
             x_medium: false,
-            target: Target::Surface {
-                w: dvec(next - x).normalize(),
-                area: area_factor(x, next, next_n),
-            },
+            target: Target::surface(x, next, next_n),
         }
     }
 

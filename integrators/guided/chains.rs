@@ -30,7 +30,13 @@
 //! counts only the state's paths that the cache does not cover (structure not held, or
 //! p_g = 0), so that chains drift towards what the guided technique cannot yet propose; a
 //! chain whose state has no such paths (importance 0) moves to the first proposal that has
-//! some (proposals of importance 0 are never accepted).
+//! some (proposals of importance 0 are never accepted). `unguided` is U's own estimate of the
+//! state's sample, its paths weighted by the balance heuristic over U's techniques alone
+//! (f / p_u: bdpt's own weights; pt's own are the power heuristic's), i.e. pssmlt over pt and
+//! PSSMLT over bdpt as issue 14 words it. A step then costs one U sample and no p_g; only the
+//! [`KEPT_STATES`] brightest states a chain visits (accepted states) are evaluated under the
+//! mixture afterwards, replayed from their primary samples, and offered like the other
+//! targets' states.
 //!
 //! For guided-bdpt the chains run over BDPT's whole sample (Kelemen's original PSSMLT over
 //! BDPT), not over `mmlt`'s single techniques: an outlier found by a BDPT sample is replayed
@@ -44,10 +50,13 @@ use super::cache::Record;
 use super::estimator::{Collector, RowOutput};
 use super::seeder::{Explore, LearnPass, LearnRow, Outliers, Seeder, Source};
 use super::share;
+use crate::integrators::bdpt::Vertex;
 use crate::integrators::mcmc::driver::pick_by_importance;
+use crate::integrators::mcmc::primary::ReplaySampler;
 use crate::integrators::mcmc::{PrimarySampler, SmallStep};
-use crate::integrators::unguided::Unguided;
-use crate::math::{IndependentSampler, Sampler, luminance, stream_seed};
+use crate::integrators::unguided::{PathSink, Unguided};
+use crate::math::{IndependentSampler, Sampler, luminance, luminance64, stream_seed};
+use crate::path::Path;
 use glam::{DVec3, Vec2};
 use rand::RngExt;
 use rayon::prelude::*;
@@ -69,6 +78,57 @@ pub enum ChainTarget {
     Mixture,
     /// Only what its paths that the cache does not cover (structure not held, or p_g = 0) add.
     Uncovered,
+    /// U's own estimate of the sample (no p_g); the brightest states visited are evaluated
+    /// under the mixture afterwards.
+    Unguided,
+}
+
+/// States of a chain with `ChainTarget::Unguided` evaluated under the mixture after it ran.
+pub const KEPT_STATES: usize = 48;
+
+/// U's own estimate of one sample (its paths weighted by U's techniques alone), as
+/// luminance: the importance of [`ChainTarget::Unguided`]. Declines every path's densities.
+#[derive(Default)]
+struct OwnEstimate {
+    sum: f64,
+}
+
+impl OwnEstimate {
+    fn add(&mut self, v: DVec3) {
+        if v.is_finite() && v.min_element() >= 0.0 {
+            self.sum += luminance64(v);
+        }
+    }
+}
+
+impl PathSink for OwnEstimate {
+    fn record(&mut self, _: &Path, _: Option<&[Vertex]>, f: DVec3, p_u: f64, _: bool) {
+        if p_u > 0.0 {
+            self.add(f / p_u);
+        }
+    }
+
+    fn needs_densities(&mut self, _: &[Vertex], _: &[Vertex]) -> bool {
+        false
+    }
+
+    fn record_weighted(&mut self, _: u32, value: DVec3, _: bool) {
+        self.add(value);
+    }
+}
+
+/// U's own estimate of the sample `sampler` holds, read from its first dimension on (the
+/// importance of [`ChainTarget::Unguided`]).
+pub fn own_estimate<U: Unguided>(
+    unguided: &U,
+    tracer: &mut U::Tracer<'_>,
+    scene: &crate::scene::Scene,
+    sampler: &mut impl Sampler,
+) -> f64 {
+    let raster = sampler.next_2d() * scene.camera.resolution.as_vec2();
+    let mut sink = OwnEstimate::default();
+    unguided.trace(tracer, scene, raster, sampler, &mut sink);
+    if sink.sum.is_finite() { sink.sum } else { 0.0 }
 }
 
 /// Settings of the chain seeder.
@@ -125,11 +185,10 @@ fn evaluate<U: Unguided>(
     target: ChainTarget,
     tracer: &mut U::Tracer<'_>,
     out: &mut RowOutput,
-    sampler: &mut PrimarySampler,
+    sampler: &mut impl Sampler,
 ) -> f64 {
     let est = explore.est;
     let scene = est.scene;
-    sampler.restart();
     out.uncovered = 0.0;
     let raster = sampler.next_2d() * scene.camera.resolution.as_vec2();
     let mut col = Collector {
@@ -153,7 +212,7 @@ fn evaluate<U: Unguided>(
     // Chain states are not uniform samples: they stay out of the cascade's statistics.
     out.learn.samples.clear();
     let importance = match target {
-        ChainTarget::Mixture => value,
+        ChainTarget::Mixture | ChainTarget::Unguided => value,
         ChainTarget::Uncovered => out.uncovered,
     };
     // A non-finite importance would freeze the chain (every ratio against it is 0 or NaN).
@@ -161,6 +220,27 @@ fn evaluate<U: Unguided>(
         importance
     } else {
         0.0
+    }
+}
+
+/// Keep the state `sampler` holds among the [`KEPT_STATES`] of largest importance (its values
+/// are copied only when it makes the list).
+fn keep_state(kept: &mut Vec<(f64, Vec<f32>)>, importance: f64, sampler: &PrimarySampler) {
+    if !(importance > 0.0) {
+        return;
+    }
+    if kept.len() < KEPT_STATES {
+        kept.push((importance, sampler.values()));
+        return;
+    }
+    let (i, smallest) = kept
+        .iter()
+        .enumerate()
+        .min_by(|a, b| a.1.0.total_cmp(&b.1.0))
+        .map(|(i, k)| (i, k.0))
+        .expect("the list is full");
+    if importance > smallest {
+        kept[i] = (importance, sampler.values());
     }
 }
 
@@ -207,28 +287,50 @@ impl Seeder for Mcmc {
                     SmallStep::default(),
                     st.large_step,
                 );
-                let mut tracer = explore.est.unguided.tracer(scene, &explore.est.pass);
+                let unguided = explore.est.unguided;
+                let mut tracer = unguided.tracer(scene, &explore.est.pass);
                 let mut out = RowOutput::default();
-                let mut current =
-                    evaluate(&explore, st.target, &mut tracer, &mut out, &mut sampler);
+                let own = st.target == ChainTarget::Unguided;
+                // ChainTarget::Unguided: the brightest states visited, (importance, values).
+                let mut kept: Vec<(f64, Vec<f32>)> = Vec::new();
+                let importance = |sampler: &mut PrimarySampler,
+                                  tracer: &mut U::Tracer<'_>,
+                                  out: &mut RowOutput| {
+                    sampler.restart();
+                    if own {
+                        own_estimate(unguided, tracer, scene, sampler)
+                    } else {
+                        evaluate(&explore, st.target, tracer, out, sampler)
+                    }
+                };
+                let mut current = importance(&mut sampler, &mut tracer, &mut out);
                 sampler.accept();
                 let mut accepted = 0;
-                for _ in 0..steps {
-                    sampler.start_iteration();
-                    let proposal =
-                        evaluate(&explore, st.target, &mut tracer, &mut out, &mut sampler);
-                    let a = if current > 0.0 {
-                        (proposal / current).min(1.0)
-                    } else {
-                        1.0
-                    };
-                    if proposal > 0.0 && (a >= 1.0 || sampler.uniform() < a) {
-                        sampler.accept();
-                        current = proposal;
-                        accepted += 1;
-                    } else {
-                        sampler.reject();
+                for step in 0..=steps {
+                    if step > 0 {
+                        sampler.start_iteration();
+                        let proposal = importance(&mut sampler, &mut tracer, &mut out);
+                        let a = if current > 0.0 {
+                            (proposal / current).min(1.0)
+                        } else {
+                            1.0
+                        };
+                        if proposal > 0.0 && (a >= 1.0 || sampler.uniform() < a) {
+                            sampler.accept();
+                            current = proposal;
+                            accepted += 1;
+                        } else {
+                            sampler.reject();
+                            continue;
+                        }
                     }
+                    if own {
+                        keep_state(&mut kept, current, &sampler);
+                    }
+                }
+                for (_, values) in &kept {
+                    let mut replay = ReplaySampler::new(values, sampler.streams());
+                    evaluate(&explore, st.target, &mut tracer, &mut out, &mut replay);
                 }
                 out.learn.cut();
                 // A chain's states sample one neighbourhood: together they weigh what one

@@ -268,8 +268,10 @@ fn options(params: &IntegratorParams, default_rr: u32) -> Result<(GuidedSettings
         defaults.large_step,
         "a number in [0, 1]",
     )?;
-    let chain_target = match o.choice("chain_target", "mixture", &["mixture", "uncovered"])? {
+    let targets = ["mixture", "uncovered", "unguided"];
+    let chain_target = match o.choice("chain_target", "mixture", &targets)? {
         "uncovered" => ChainTarget::Uncovered,
+        "unguided" => ChainTarget::Unguided,
         _ => ChainTarget::Mixture,
     };
     let keep_learning = o.get("keep_learning", true, "true or false")?;

@@ -223,24 +223,24 @@ fn evaluate<U: Unguided>(
     }
 }
 
-/// Keep the state `sampler` holds among the [`KEPT_STATES`] of largest importance (its values
-/// are copied only when it makes the list).
+/// Keep the state `sampler` holds among the [`KEPT_STATES`] of largest importance (copied
+/// only when it makes the list, into the buffer of the state it replaces).
 fn keep_state(kept: &mut Vec<(f64, Vec<f32>)>, importance: f64, sampler: &PrimarySampler) {
     if !(importance > 0.0) {
         return;
     }
     if kept.len() < KEPT_STATES {
-        kept.push((importance, sampler.values()));
+        let mut values = Vec::new();
+        sampler.values_into(&mut values);
+        kept.push((importance, values));
         return;
     }
-    let (i, smallest) = kept
-        .iter()
-        .enumerate()
-        .min_by(|a, b| a.1.0.total_cmp(&b.1.0))
-        .map(|(i, k)| (i, k.0))
+    let smallest = (0..kept.len())
+        .min_by(|&a, &b| kept[a].0.total_cmp(&kept[b].0))
         .expect("the list is full");
-    if importance > smallest {
-        kept[i] = (importance, sampler.values());
+    if importance > kept[smallest].0 {
+        kept[smallest].0 = importance;
+        sampler.values_into(&mut kept[smallest].1);
     }
 }
 
@@ -305,27 +305,27 @@ impl Seeder for Mcmc {
                 };
                 let mut current = importance(&mut sampler, &mut tracer, &mut out);
                 sampler.accept();
+                if own {
+                    keep_state(&mut kept, current, &sampler);
+                }
                 let mut accepted = 0;
-                for step in 0..=steps {
-                    if step > 0 {
-                        sampler.start_iteration();
-                        let proposal = importance(&mut sampler, &mut tracer, &mut out);
-                        let a = if current > 0.0 {
-                            (proposal / current).min(1.0)
-                        } else {
-                            1.0
-                        };
-                        if proposal > 0.0 && (a >= 1.0 || sampler.uniform() < a) {
-                            sampler.accept();
-                            current = proposal;
-                            accepted += 1;
-                        } else {
-                            sampler.reject();
-                            continue;
+                for _ in 0..steps {
+                    sampler.start_iteration();
+                    let proposal = importance(&mut sampler, &mut tracer, &mut out);
+                    let a = if current > 0.0 {
+                        (proposal / current).min(1.0)
+                    } else {
+                        1.0
+                    };
+                    if proposal > 0.0 && (a >= 1.0 || sampler.uniform() < a) {
+                        sampler.accept();
+                        current = proposal;
+                        accepted += 1;
+                        if own {
+                            keep_state(&mut kept, current, &sampler);
                         }
-                    }
-                    if own {
-                        keep_state(&mut kept, current, &sampler);
+                    } else {
+                        sampler.reject();
                     }
                 }
                 for (_, values) in &kept {

@@ -189,7 +189,15 @@ impl PrimarySampler {
     /// The values of the first `n` dimensions as the integrator reads them (the state after
     /// `accept`; dimensions never read are 0).
     pub fn values(&self) -> Vec<f32> {
-        self.dims.iter().map(|d| to_f32(d.value)).collect()
+        let mut v = Vec::new();
+        self.values_into(&mut v);
+        v
+    }
+
+    /// [`Self::values`] into `out` (its buffer reused).
+    pub fn values_into(&self, out: &mut Vec<f32>) {
+        out.clear();
+        out.extend(self.dims.iter().map(|d| to_f32(d.value)));
     }
 
     pub fn streams(&self) -> u32 {

@@ -10,7 +10,9 @@
 
 use crate::dbor::Cascade;
 use crate::film::{Film, Image};
-use crate::math::{IndependentSampler, Spectrum, is_finite3};
+use crate::math::{
+    IndependentSampler, PixelSampler, Sampler, SamplerKind, SobolSampler, Spectrum, is_finite3,
+};
 use crate::scene::Scene;
 use crate::snapshot::Snapshots;
 use glam::{UVec2, Vec2};
@@ -95,16 +97,16 @@ pub trait Integrator: Send {
 /// Estimates the measurement of one pixel from one sample stream (a camera path).
 pub trait PixelEstimator: Sync {
     /// One sample of pixel `pixel`'s value; `raster` is the jittered raster position.
-    fn estimate(&self, scene: &Scene, raster: Vec2, sampler: &mut IndependentSampler) -> Spectrum;
+    fn estimate<S: Sampler>(&self, scene: &Scene, raster: Vec2, sampler: &mut S) -> Spectrum;
 
     /// [`Self::estimate`] for each raster position of a row with its sampler, into `out`
     /// (by default one after the other; an estimator may trace them together, as long as
     /// each value is the one `estimate` gives).
-    fn estimate_row(
+    fn estimate_row<S: Sampler>(
         &self,
         scene: &Scene,
         rasters: &[Vec2],
-        samplers: &mut [IndependentSampler],
+        samplers: &mut [S],
         out: &mut [Spectrum],
     ) {
         for ((&r, sampler), o) in rasters.iter().zip(samplers).zip(out) {
@@ -228,13 +230,13 @@ fn progress_bar(progress: bool, budget: Budget) -> ProgressBar {
 /// One row's work for [`render_rows`]: a value for each pixel sample, plus splats (pixel
 /// index, value) to any pixel (light tracing, BDPT's t = 1), merged after the pass in row order.
 pub trait RowTracer {
-    fn sample(&mut self, raster: Vec2, sampler: &mut IndependentSampler) -> Spectrum;
+    fn sample<S: Sampler>(&mut self, raster: Vec2, sampler: &mut S) -> Spectrum;
     /// [`Self::sample`] for every pixel of a row, in order, into `out` (by default one after
     /// the other; a tracer may trace them together if each value and splat stays the same).
-    fn sample_row(
+    fn sample_row<S: Sampler>(
         &mut self,
         rasters: &[Vec2],
-        samplers: &mut [IndependentSampler],
+        samplers: &mut [S],
         out: &mut [Spectrum],
     ) {
         for ((&r, sampler), o) in rasters.iter().zip(samplers).zip(out) {
@@ -248,11 +250,26 @@ pub trait RowTracer {
 }
 
 /// The pass driver of sample-per-pixel integrators: each pass gives every pixel one jittered
-/// sample from its own stream (seed, pass, pixel), one task per row with a tracer from
-/// `new_tracer`; splats are added in row order and scaled by 1 / passes (one light path per
-/// pixel and pass), so the image does not depend on the number of threads. Snapshots of
-/// `ctx.snapshots` are handed out after the passes that reach their times.
+/// sample from its own stream (seed, pass, pixel) of the sampler `kind` names, one task per
+/// row with a tracer from `new_tracer`; splats are added in row order and scaled by
+/// 1 / passes (one light path per pixel and pass), so the image does not depend on the number
+/// of threads. Snapshots of `ctx.snapshots` are handed out after the passes that reach their
+/// times.
 pub fn render_rows<T: RowTracer>(
+    ctx: &RenderContext,
+    budget: Budget,
+    kind: SamplerKind,
+    new_tracer: impl Fn() -> T + Sync,
+) -> RenderResult {
+    match kind {
+        SamplerKind::Independent => {
+            render_rows_with::<IndependentSampler, T>(ctx, budget, new_tracer)
+        }
+        SamplerKind::Sobol => render_rows_with::<SobolSampler, T>(ctx, budget, new_tracer),
+    }
+}
+
+fn render_rows_with<S: PixelSampler, T: RowTracer>(
     ctx: &RenderContext,
     budget: Budget,
     new_tracer: impl Fn() -> T + Sync,
@@ -273,8 +290,8 @@ pub fn render_rows<T: RowTracer>(
                 let mut rasters = Vec::with_capacity(row.len());
                 for x in 0..row.len() {
                     let index = y as u64 * w as u64 + x as u64;
-                    let mut sampler = IndependentSampler::new(ctx.seed, pass, index);
-                    let jitter = crate::math::Sampler::next_2d(&mut sampler);
+                    let mut sampler = S::for_pixel(ctx.seed, pass, index);
+                    let jitter = sampler.next_2d();
                     rasters.push(Vec2::new(x as f32, y as f32) + jitter);
                     samplers.push(sampler);
                 }
@@ -320,27 +337,28 @@ pub fn render_rows<T: RowTracer>(
     }
 }
 
-/// Render with a per-pixel estimator (no splats).
+/// Render with a per-pixel estimator (no splats), drawing from the sampler `kind` names.
 pub fn render_pixel_estimator<E: PixelEstimator>(
     ctx: &RenderContext,
     budget: Budget,
+    kind: SamplerKind,
     estimator: &E,
 ) -> RenderResult {
     struct Rows<'a, E>(&'a E, &'a Scene);
     impl<E: PixelEstimator> RowTracer for Rows<'_, E> {
-        fn sample(&mut self, raster: Vec2, sampler: &mut IndependentSampler) -> Spectrum {
+        fn sample<S: Sampler>(&mut self, raster: Vec2, sampler: &mut S) -> Spectrum {
             self.0.estimate(self.1, raster, sampler)
         }
-        fn sample_row(
+        fn sample_row<S: Sampler>(
             &mut self,
             rasters: &[Vec2],
-            samplers: &mut [IndependentSampler],
+            samplers: &mut [S],
             out: &mut [Spectrum],
         ) {
             self.0.estimate_row(self.1, rasters, samplers, out);
         }
     }
-    render_rows(ctx, budget, || Rows(estimator, ctx.scene))
+    render_rows(ctx, budget, kind, || Rows(estimator, ctx.scene))
 }
 
 /// Per-row cells of an optional cascade (empty rows without one), to zip with film rows.
@@ -388,8 +406,7 @@ mod tests {
     /// A tracer whose value depends on the sample stream, with a splat per pixel.
     struct Noise(Vec<(u32, Spectrum)>, u32);
     impl RowTracer for Noise {
-        fn sample(&mut self, raster: Vec2, sampler: &mut IndependentSampler) -> Spectrum {
-            use crate::math::Sampler;
+        fn sample<S: Sampler>(&mut self, raster: Vec2, sampler: &mut S) -> Spectrum {
             let v = sampler.next_1d();
             self.0
                 .push((self.1 - 1 - raster.x as u32, Spectrum::splat(v)));
@@ -412,8 +429,11 @@ mod tests {
     fn render_rows_snapshots_are_the_images_of_shorter_renders() {
         let scene = small_scene();
         let w = scene.camera.resolution.x;
-        let render =
-            |ctx: &RenderContext, spp| render_rows(ctx, Budget::Spp(spp), || Noise(Vec::new(), w));
+        let render = |ctx: &RenderContext, spp| {
+            render_rows(ctx, Budget::Spp(spp), SamplerKind::Independent, || {
+                Noise(Vec::new(), w)
+            })
+        };
         let plain = render(&RenderContext::new(&scene, 3, false), 40);
         let taken = std::sync::Mutex::new(Vec::new());
         let sink = |s: &crate::snapshot::Snapshot| {

@@ -57,7 +57,7 @@ use super::unguided::PathSink;
 use crate::bsdf::TransportMode;
 use crate::error::Result;
 use crate::geometry::gamma;
-use crate::math::{IndependentSampler, Sampler, Spectrum};
+use crate::math::{Sampler, SamplerKind, Spectrum};
 use crate::path::{MAX_VERTICES, Path};
 use crate::render::{Budget, Integrator, RenderContext, RenderResult, RowTracer, render_rows};
 use crate::scene::{Endpoint, Scene};
@@ -101,7 +101,9 @@ impl Integrator for Bdpt {
     }
 
     fn render(&mut self, ctx: &RenderContext, budget: Budget) -> RenderResult {
-        render_rows(ctx, budget, || Tracer::new(ctx.scene, &self.settings))
+        render_rows(ctx, budget, SamplerKind::Independent, || {
+            Tracer::new(ctx.scene, &self.settings)
+        })
     }
 }
 
@@ -123,7 +125,7 @@ fn light_nee(scene: &Scene, light: &[Vertex]) -> f64 {
 }
 
 impl<'a> RowTracer for Tracer<'a> {
-    fn sample(&mut self, raster: Vec2, sampler: &mut IndependentSampler) -> Spectrum {
+    fn sample<S: Sampler>(&mut self, raster: Vec2, sampler: &mut S) -> Spectrum {
         Tracer::sample(self, raster, sampler)
     }
 

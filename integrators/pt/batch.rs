@@ -22,7 +22,7 @@
 use super::{Deferred, Extras, PathState, PathTracer};
 use crate::error::Result;
 use crate::integrators::IntegratorParams;
-use crate::math::{IndependentSampler, Spectrum};
+use crate::math::{Sampler, SamplerKind, Spectrum};
 use crate::render::{
     Budget, Integrator, PixelEstimator, RenderContext, RenderResult, render_pixel_estimator,
 };
@@ -67,6 +67,7 @@ impl BatchMode {
 pub struct Pt {
     pub pt: PathTracer,
     pub batch: BatchMode,
+    pub sampler: SamplerKind,
 }
 
 impl Integrator for Pt {
@@ -75,14 +76,17 @@ impl Integrator for Pt {
     }
 
     fn settings(&self) -> String {
-        format!("{:?}, batch: {:?}", self.pt.settings, self.batch)
+        format!(
+            "{:?}, batch: {:?}, sampler: {:?}",
+            self.pt.settings, self.batch, self.sampler
+        )
     }
 
     fn render(&mut self, ctx: &RenderContext, budget: Budget) -> RenderResult {
         if self.batch.applies(ctx.scene) {
-            render_pixel_estimator(ctx, budget, &Batched(&self.pt))
+            render_pixel_estimator(ctx, budget, self.sampler, &Batched(&self.pt))
         } else {
-            render_pixel_estimator(ctx, budget, &self.pt)
+            render_pixel_estimator(ctx, budget, self.sampler, &self.pt)
         }
     }
 }
@@ -91,15 +95,15 @@ impl Integrator for Pt {
 pub struct Batched<'a>(pub &'a PathTracer);
 
 impl PixelEstimator for Batched<'_> {
-    fn estimate(&self, scene: &Scene, raster: Vec2, sampler: &mut IndependentSampler) -> Spectrum {
+    fn estimate<S: Sampler>(&self, scene: &Scene, raster: Vec2, sampler: &mut S) -> Spectrum {
         self.0.li(scene, raster, sampler)
     }
 
-    fn estimate_row(
+    fn estimate_row<S: Sampler>(
         &self,
         scene: &Scene,
         rasters: &[Vec2],
-        samplers: &mut [IndependentSampler],
+        samplers: &mut [S],
         out: &mut [Spectrum],
     ) {
         self.0.li_row(scene, rasters, samplers, out);
@@ -123,11 +127,11 @@ impl PathTracer {
     /// [`Self::li`] for the rasters of a row, each with its own sampler, into `out`: the same
     /// values bit for bit, traced in rounds of one segment per path (module doc). The scene
     /// must have no media.
-    pub fn li_row(
+    pub fn li_row<S: Sampler>(
         &self,
         scene: &Scene,
         rasters: &[Vec2],
-        samplers: &mut [IndependentSampler],
+        samplers: &mut [S],
         out: &mut [Spectrum],
     ) {
         assert!(

@@ -33,7 +33,7 @@ use super::sdtree::{DTree, INV_FOUR_PI, SdTree, from_square, to_square};
 use crate::bsdf::{BsdfSample, TransportMode};
 use crate::error::{Error, Result};
 use crate::integrators::IntegratorParams;
-use crate::math::{IndependentSampler, Sampler, Spectrum, luminance};
+use crate::math::{IndependentSampler, Sampler, SamplerKind, Spectrum, luminance};
 use crate::render::{
     Budget, Integrator, PixelEstimator, RenderContext, RenderResult, render_pixel_estimator,
 };
@@ -194,6 +194,8 @@ impl Trail {
 pub struct GuidedPathTracer {
     pub pt: PathTracer,
     pub guiding: GuidingSettings,
+    /// The sampler of the render after learning (learning draws independent numbers).
+    pub sampler: SamplerKind,
 }
 
 impl Integrator for GuidedPathTracer {
@@ -206,7 +208,7 @@ impl Integrator for GuidedPathTracer {
     }
 
     fn render(&mut self, ctx: &RenderContext, budget: Budget) -> RenderResult {
-        render(&self.pt, &self.guiding, ctx, budget)
+        render(&self.pt, &self.guiding, self.sampler, ctx, budget)
     }
 }
 
@@ -217,7 +219,7 @@ struct Frozen<'a> {
 }
 
 impl PixelEstimator for Frozen<'_> {
-    fn estimate(&self, scene: &Scene, raster: Vec2, sampler: &mut IndependentSampler) -> Spectrum {
+    fn estimate<S: Sampler>(&self, scene: &Scene, raster: Vec2, sampler: &mut S) -> Spectrum {
         self.pt.li_guided(scene, raster, sampler, &self.guide, None)
     }
 }
@@ -226,6 +228,7 @@ impl PixelEstimator for Frozen<'_> {
 pub fn render(
     pt: &PathTracer,
     g: &GuidingSettings,
+    sampler: SamplerKind,
     ctx: &RenderContext,
     budget: Budget,
 ) -> RenderResult {
@@ -284,7 +287,7 @@ pub fn render(
             fraction: g.guide_fraction,
         },
     };
-    let mut result = render_pixel_estimator(ctx, rest, &frozen);
+    let mut result = render_pixel_estimator(ctx, rest, sampler, &frozen);
     result.seconds += learning_seconds;
     let (leaves, nodes) = tree.size();
     result.stats.extend([

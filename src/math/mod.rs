@@ -5,12 +5,14 @@ pub mod alias;
 pub mod distribution;
 pub mod frame;
 pub mod rng;
+pub mod sobol;
 pub mod warp;
 
 pub use alias::AliasTable;
 pub use distribution::Distribution1D;
 pub use frame::Frame;
-pub use rng::{IndependentSampler, Sampler, stream_seed};
+pub use rng::{IndependentSampler, PixelSampler, Sampler, SamplerKind, stream_seed};
+pub use sobol::SobolSampler;
 
 use glam::Vec3;
 

@@ -29,9 +29,25 @@ pub trait Sampler {
     fn start_stream(&mut self, _index: u32) {}
 }
 
+/// A sampler the pass driver builds for sample `pass` of pixel `pixel` (the pixel's own
+/// stream, so images do not depend on which thread drew which sample).
+pub trait PixelSampler: Sampler + Send {
+    fn for_pixel(seed: u64, pass: u64, pixel: u64) -> Self;
+}
+
+/// Which [`PixelSampler`] a sample-per-pixel integrator draws from (pt's `sampler` option).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SamplerKind {
+    /// Independent uniform numbers ([`IndependentSampler`]).
+    #[default]
+    Independent,
+    /// Padded Owen-scrambled Sobol points ([`super::sobol::SobolSampler`]).
+    Sobol,
+}
+
 /// SplitMix64 finaliser: a bijective 64-bit mix.
 #[inline]
-fn mix64(mut z: u64) -> u64 {
+pub(crate) fn mix64(mut z: u64) -> u64 {
     z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
     z ^ (z >> 31)
@@ -60,6 +76,12 @@ impl IndependentSampler {
         IndependentSampler {
             rng: Pcg32::seed_from_u64(seed),
         }
+    }
+}
+
+impl PixelSampler for IndependentSampler {
+    fn for_pixel(seed: u64, pass: u64, pixel: u64) -> Self {
+        IndependentSampler::new(seed, pass, pixel)
     }
 }
 

@@ -4,7 +4,7 @@
 What it measures
     Mitsuba 3 (`scalar_rgb` variant by default, or `llvm_ad_rgb` with
     --variant; `path` integrator, max_depth 8, rr_depth 5, `independent`
-    sampler, box reconstruction filter, 256x256 rgb hdrfilm) rendering
+    sampler unless --sampler names another, box reconstruction filter, 256x256 rgb hdrfilm) rendering
     lodestar's reference Cornell box, built in Python with mi.load_dict (no
     scene files).  For each thread count and spp it prints
 
@@ -90,7 +90,7 @@ REPO = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
 RES = 256
 
 
-def cornell_scene(max_depth=8, ply=None):
+def cornell_scene(max_depth=8, ply=None, sampler="independent"):
     T = mi.ScalarTransform4f
 
     def diffuse(rgb, twosided=True):
@@ -107,7 +107,7 @@ def cornell_scene(max_depth=8, ply=None):
             "fov": 39.3077,
             "fov_axis": "y",
             "to_world": T().look_at(origin=[0, 0, 3.9], target=[0, 0, 0], up=[0, 1, 0]),
-            "sampler": {"type": "independent", "sample_count": 64},
+            "sampler": {"type": sampler, "sample_count": 64},
             "film": {
                 "type": "hdrfilm",
                 "width": RES,
@@ -266,6 +266,11 @@ def main():
                     help="renders per (threads, spp), seeds seed..seed+runs-1; with more than "
                          "one a median line follows")
     ap.add_argument("--max-depth", type=int, default=8)
+    ap.add_argument("--sampler", default="independent",
+                    choices=["independent", "stratified", "multijitter", "orthogonal",
+                             "ldsampler"],
+                    help="Mitsuba sampler plugin (default independent; ldsampler is its "
+                         "scrambled (0,2)-sequence, the peer of lodestar's pt -O sampler=sobol)")
     ap.add_argument("--seed", type=int, default=0, help="sampler seed (mi.render seed)")
     ap.add_argument("--mse-against", metavar="REF_EXR",
                     help="reference EXR (256x256 RGB, e.g. a converged lodestar render): "
@@ -304,7 +309,7 @@ def main():
         print(f"reference {args.mse_against} mean_rgb=({m[0]:.5f},{m[1]:.5f},{m[2]:.5f})",
               flush=True)
     t0 = time.perf_counter()
-    scene = mi.load_dict(cornell_scene(args.max_depth, args.ply))
+    scene = mi.load_dict(cornell_scene(args.max_depth, args.ply, args.sampler))
     print(f"scene load {time.perf_counter() - t0:.3f} s", flush=True)
 
     img = None

@@ -25,6 +25,7 @@
 //! | mis       | `balance` / `power`  | `balance` | MIS heuristic (`bdpt` only) |
 //! | only      | `s,t`                | none      | render technique (s, t) alone, MIS-weighted (`bdpt` only): the images of every technique sum to the bdpt image |
 //! | skip      | `s,t`                | none      | leave technique (s, t) out (`bdpt` only; biased: a control for tests) |
+//! | sampler   | `independent` / `sobol` | `independent` | whose numbers each pixel sample draws, as `pt`'s option: `sobol` stratifies every pair of numbers of the camera and light subpaths over the pixel's samples |
 //! | direct_splats | `true` / `false` | `false`   | directly seen emitters also by technique (1, 1), MIS-weighted (`bdpt` only; the weights before stop 42) |
 //!
 //! Light subpaths start in the medium around the light (`Scene::light_medium`); lights at
@@ -65,7 +66,7 @@ use cache::{Cached, cache_subpath, mis_sums};
 use glam::{Vec2, Vec3};
 pub use merging::{LIGHT_STREAMS, SharedLights, mergeable};
 use settings::settings;
-pub use settings::{BdptSettings, RR_DEPTH, TechniqueFilter};
+pub use settings::{BdptSettings, RR_DEPTH, TechniqueFilter, sampler_kind};
 pub use technique::TECHNIQUE_STREAMS;
 use vertex::{ConnectionEnd, Edge, connection_end, measure_factor, pdf, scaled, to_measure_factor};
 use walk::roulette;
@@ -74,17 +75,21 @@ use weights::Bridge;
 pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     Ok(Box::new(Bdpt {
         settings: settings(params, false)?,
+        sampler: sampler_kind(params)?,
     }))
 }
 
 pub fn build_lt(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     Ok(Box::new(Bdpt {
         settings: settings(params, true)?,
+        sampler: sampler_kind(params)?,
     }))
 }
 
 pub struct Bdpt {
     pub settings: BdptSettings,
+    /// Whose numbers each pixel's camera and light subpaths draw (option `sampler`).
+    pub sampler: SamplerKind,
 }
 
 impl Integrator for Bdpt {
@@ -97,11 +102,11 @@ impl Integrator for Bdpt {
     }
 
     fn settings(&self) -> String {
-        format!("{:?}", self.settings)
+        format!("{:?}, sampler: {:?}", self.settings, self.sampler)
     }
 
     fn render(&mut self, ctx: &RenderContext, budget: Budget) -> RenderResult {
-        render_rows(ctx, budget, SamplerKind::Independent, || {
+        render_rows(ctx, budget, self.sampler, || {
             Tracer::new(ctx.scene, &self.settings)
         })
     }

@@ -42,20 +42,23 @@ fn mse(a: &Image, b: &Image) -> f64 {
 /// different seeds are independent (each seed scrambles every dimension anew), which is what
 /// the test takes as its samples. Control: the mirrored Sobol renders must be rejected.
 #[test]
-fn sobol_pt_renders_pt_s_expected_image() {
-    for (name, spp) in [
-        ("cornell-box", 16),
-        ("cornell-glossy", 16),
-        ("cornell-fog", 8),
+fn sobol_renders_the_expected_image() {
+    for (integrator, name, spp) in [
+        ("pt", "cornell-box", 16),
+        ("pt", "cornell-glossy", 16),
+        ("pt", "cornell-fog", 8),
+        ("bdpt", "cornell-box", 8),
+        ("bdpt", "cornell-fog", 4),
     ] {
+        let what = format!("{integrator} on {name}");
         let scene = shipped(name, 24, 24);
-        let sobol = seeded_renders(&scene, "pt", 8, &["sampler=sobol"], spp, 8, 100);
-        let indep = seeded_renders(&scene, "pt", 8, &[], spp, 8, 200);
-        assert_same_image(&sobol, &indep, 4, name);
+        let sobol = seeded_renders(&scene, integrator, 8, &["sampler=sobol"], spp, 8, 100);
+        let indep = seeded_renders(&scene, integrator, 8, &[], spp, 8, 200);
+        assert_same_image(&sobol, &indep, 4, &what);
         let flipped: Vec<Image> = sobol.iter().map(mirrored).collect();
         assert!(
             differs(&flipped, &indep, 4),
-            "{name}: the mirrored control passed"
+            "{what}: the mirrored control passed"
         );
     }
 }
@@ -87,14 +90,22 @@ fn sobol_lowers_the_error_at_equal_samples() {
 }
 
 #[test]
-fn sobol_pt_is_bit_identical_across_threads_and_batching() {
-    for name in ["cornell-box", "cornell-fog"] {
+fn sobol_is_bit_identical_across_threads_and_batching() {
+    for (integrator, name) in [
+        ("pt", "cornell-box"),
+        ("pt", "cornell-fog"),
+        ("bdpt", "cornell-box"),
+        ("lt", "cornell-box"),
+    ] {
         let scene = shipped(name, 20, 16);
-        let two = render(&scene, "pt", 8, &["sampler=sobol"], 5, 4, 2).image;
-        let one = render(&scene, "pt", 8, &["sampler=sobol"], 5, 4, 1).image;
-        assert!(two == one, "{name}: thread count matters");
-        let indep = render(&scene, "pt", 8, &[], 5, 4, 2).image;
-        assert!(two != indep, "{name}: the option changed nothing");
+        let two = render(&scene, integrator, 8, &["sampler=sobol"], 5, 4, 2).image;
+        let one = render(&scene, integrator, 8, &["sampler=sobol"], 5, 4, 1).image;
+        assert!(two == one, "{integrator} on {name}: thread count matters");
+        let indep = render(&scene, integrator, 8, &[], 5, 4, 2).image;
+        assert!(
+            two != indep,
+            "{integrator} on {name}: the option changed nothing"
+        );
     }
     let scene = shipped("cornell-box", 20, 16);
     let off = render(&scene, "pt", 8, &["sampler=sobol", "batch=off"], 5, 4, 2).image;

@@ -27,7 +27,7 @@
 
 use super::bdpt::{self, BdptSettings, Vertex};
 use super::pt::{PathRecorder, PathTracer, PtSettings};
-use crate::math::Sampler;
+use crate::math::{IndependentSampler, Sampler};
 use crate::path::{MAX_VERTICES, Path, Vertex as PathVertex};
 use crate::scene::Scene;
 use glam::{DVec3, Vec2};
@@ -172,7 +172,7 @@ pub trait Unguided: Sync + Send {
         tracer: &mut Self::Tracer<'_>,
         scene: &Scene,
         raster: Vec2,
-        sampler: &mut impl Sampler,
+        sampler: &mut IndependentSampler,
         splats: &mut Vec<(u32, DVec3)>,
     ) -> DVec3;
     /// Sum over the estimator's techniques of their densities for path `y` (camera first,
@@ -252,7 +252,7 @@ impl Unguided for PathTracer {
         _: &mut (),
         scene: &Scene,
         raster: Vec2,
-        sampler: &mut impl Sampler,
+        sampler: &mut IndependentSampler,
         _: &mut Vec<(u32, DVec3)>,
     ) -> DVec3 {
         finite(self.li(scene, raster, sampler).as_dvec3())
@@ -306,7 +306,7 @@ impl Unguided for BdptUnguided {
         tracer: &mut bdpt::Tracer<'_>,
         _: &Scene,
         raster: Vec2,
-        sampler: &mut impl Sampler,
+        sampler: &mut IndependentSampler,
         splats: &mut Vec<(u32, DVec3)>,
     ) -> DVec3 {
         bdpt_estimate(tracer, raster, sampler, splats)
@@ -333,7 +333,7 @@ fn finite(v: DVec3) -> DVec3 {
 fn bdpt_estimate(
     tracer: &mut bdpt::Tracer<'_>,
     raster: Vec2,
-    sampler: &mut impl Sampler,
+    sampler: &mut IndependentSampler,
     splats: &mut Vec<(u32, DVec3)>,
 ) -> DVec3 {
     let v = tracer.sample(raster, sampler);

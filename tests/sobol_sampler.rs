@@ -49,8 +49,6 @@ fn sobol_renders_the_expected_image() {
         ("pt", "cornell-fog", 8),
         ("bdpt", "cornell-box", 8),
         ("bdpt", "cornell-fog", 4),
-        ("guided-pt", "cornell-glossy", 16),
-        ("guided-bdpt", "cornell-box", 8),
     ] {
         let what = format!("{integrator} on {name}");
         let scene = shipped(name, 24, 24);
@@ -98,7 +96,6 @@ fn sobol_is_bit_identical_across_threads_and_batching() {
         ("pt", "cornell-fog"),
         ("bdpt", "cornell-box"),
         ("lt", "cornell-box"),
-        ("guided-bdpt", "cornell-box"),
     ] {
         let scene = shipped(name, 20, 16);
         let two = render(&scene, integrator, 8, &["sampler=sobol"], 5, 4, 2).image;

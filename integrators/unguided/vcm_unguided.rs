@@ -6,7 +6,7 @@ use crate::integrators::bdpt::{self, BdptSettings, SharedLights, Vertex};
 use crate::integrators::vcm::{
     self, CameraTracer, Claimed, HashGrid, LightPaths, Photon, Technique,
 };
-use crate::math::{PI, Sampler};
+use crate::math::{IndependentSampler, PI, Sampler};
 use crate::path::MAX_VERTICES;
 use crate::scene::Scene;
 use glam::{DVec3, Vec2, Vec3};
@@ -305,7 +305,7 @@ impl Unguided for VcmUnguided {
         tracer: &mut VcmTracer<'_>,
         scene: &Scene,
         raster: Vec2,
-        sampler: &mut impl Sampler,
+        sampler: &mut IndependentSampler,
         splats: &mut Vec<(u32, DVec3)>,
     ) -> DVec3 {
         match tracer {

@@ -7,25 +7,12 @@
 mod util;
 
 use lodestar::integrators::pt::batch::BatchMode;
-use lodestar::scene::{Scene, loader};
-use std::path::Path;
+use lodestar::scene::Scene;
 use util::render;
 
 /// A shipped scene at 40 x 30 pixels.
 fn shipped(name: &str) -> Scene {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
-    let text = std::fs::read_to_string(dir.join(format!("{name}.toml"))).unwrap();
-    let small: Vec<String> = text
-        .lines()
-        .map(|l| {
-            if l.trim_start().starts_with("resolution =") {
-                "resolution = [40, 30]".to_string()
-            } else {
-                l.to_string()
-            }
-        })
-        .collect();
-    loader::load_str(&small.join("\n"), name, Some(&dir)).unwrap_or_else(|e| panic!("{e}"))
+    util::shipped_at(name, 40, 30)
 }
 
 #[test]

@@ -6,26 +6,7 @@
 mod util;
 
 use lodestar::film::Image;
-use lodestar::scene::{Scene, loader};
-use std::path::Path;
-use util::{assert_same_image, differs, mirrored, render, seeded_renders};
-
-/// A shipped scene at `w` x `h` pixels.
-fn shipped(name: &str, w: u32, h: u32) -> Scene {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
-    let text = std::fs::read_to_string(dir.join(format!("{name}.toml"))).unwrap();
-    let small: Vec<String> = text
-        .lines()
-        .map(|l| {
-            if l.trim_start().starts_with("resolution =") {
-                format!("resolution = [{w}, {h}]")
-            } else {
-                l.to_string()
-            }
-        })
-        .collect();
-    loader::load_str(&small.join("\n"), name, Some(&dir)).unwrap_or_else(|e| panic!("{e}"))
-}
+use util::{assert_same_image, differs, mirrored, render, seeded_renders, shipped_at as shipped};
 
 fn mse(a: &Image, b: &Image) -> f64 {
     let n = a.pixels.len() as f64 * 3.0;
@@ -116,28 +97,28 @@ fn sobol_is_bit_identical_across_threads_and_batching() {
 #[test]
 fn an_unknown_sampler_is_an_error_naming_the_option() {
     use lodestar::integrators::{IntegratorParams, Options, build};
-    let options = Options::parse(&["sampler=halton".to_string()]).unwrap();
-    let params = IntegratorParams {
-        max_depth: 8,
-        options,
+    let error = |name: &str, option: &str| {
+        let params = IntegratorParams {
+            max_depth: 8,
+            options: Options::parse(&[option.to_string()]).unwrap(),
+        };
+        match build(name, &params) {
+            Ok(_) => panic!("{name} -O {option} is accepted"),
+            Err(e) => e.to_string(),
+        }
     };
-    let err = build("pt", &params)
-        .err()
-        .expect("sampler=halton is rejected");
-    let msg = err.to_string();
-    assert!(
-        msg.contains("sampler") && msg.contains("halton") && msg.contains("sobol"),
-        "{msg}"
-    );
-    // pssmlt mutates its own primary samples: it has no sampler option.
-    let options = Options::parse(&["sampler=sobol".to_string()]).unwrap();
-    let params = IntegratorParams {
-        max_depth: 8,
-        options,
-    };
-    let msg = build("pssmlt", &params)
-        .err()
-        .expect("rejected")
-        .to_string();
-    assert!(msg.contains("sampler"), "{msg}");
+    for name in ["pt", "bdpt", "lt"] {
+        let msg = error(name, "sampler=halton");
+        assert!(
+            msg.contains("'sampler'") && msg.contains("halton") && msg.contains("sobol"),
+            "{name}: {msg}"
+        );
+    }
+    // pssmlt mutates its own primary samples, vcm draws its light paths apart from the
+    // pixels, and the guided integrators replay their learning samples from independent
+    // streams: none has the option.
+    for name in ["pssmlt", "vcm", "guided-pt", "guided-bdpt"] {
+        let msg = error(name, "sampler=sobol");
+        assert!(msg.contains("sampler"), "{name}: {msg}");
+    }
 }

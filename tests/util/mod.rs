@@ -15,6 +15,23 @@ pub fn scene(toml: &str) -> Scene {
     loader::load_str(toml, "test.toml", None).unwrap_or_else(|e| panic!("test scene: {e}"))
 }
 
+/// A shipped scene (`scenes/NAME.toml`) at `w` x `h` pixels.
+pub fn shipped_at(name: &str, w: u32, h: u32) -> Scene {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes");
+    let text = std::fs::read_to_string(dir.join(format!("{name}.toml"))).unwrap();
+    let small: Vec<String> = text
+        .lines()
+        .map(|l| {
+            if l.trim_start().starts_with("resolution =") {
+                format!("resolution = [{w}, {h}]")
+            } else {
+                l.to_string()
+            }
+        })
+        .collect();
+    loader::load_str(&small.join("\n"), name, Some(&dir)).unwrap_or_else(|e| panic!("{e}"))
+}
+
 /// The Cornell box at a reduced resolution.
 pub fn cornell(resolution: u32) -> Scene {
     let text = lodestar::scene::CORNELL_BOX_TOML.replace(

@@ -11,6 +11,7 @@ pub mod unguided;
 pub mod vcm;
 
 use crate::error::{Error, Result};
+use crate::math::SamplerKind;
 use crate::render::Integrator;
 use std::cell::Cell;
 
@@ -20,6 +21,21 @@ pub struct IntegratorParams {
     /// Maximum number of path segments.
     pub max_depth: u32,
     pub options: Options,
+}
+
+impl IntegratorParams {
+    /// Option `sampler` of pt, bdpt and lt: `independent` (default) or `sobol`
+    /// ([`crate::math::sobol`]).
+    pub fn sampler(&self) -> Result<SamplerKind> {
+        let kind = self
+            .options
+            .choice("sampler", "independent", &["independent", "sobol"])?;
+        Ok(if kind == "sobol" {
+            SamplerKind::Sobol
+        } else {
+            SamplerKind::Independent
+        })
+    }
 }
 
 pub struct Entry {

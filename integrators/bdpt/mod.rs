@@ -66,7 +66,7 @@ use cache::{Cached, cache_subpath, mis_sums};
 use glam::{Vec2, Vec3};
 pub use merging::{LIGHT_STREAMS, SharedLights, mergeable};
 use settings::settings;
-pub use settings::{BdptSettings, RR_DEPTH, TechniqueFilter, sampler_kind};
+pub use settings::{BdptSettings, RR_DEPTH, TechniqueFilter};
 pub use technique::TECHNIQUE_STREAMS;
 use vertex::{ConnectionEnd, Edge, connection_end, measure_factor, pdf, scaled, to_measure_factor};
 use walk::roulette;
@@ -75,14 +75,14 @@ use weights::Bridge;
 pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     Ok(Box::new(Bdpt {
         settings: settings(params, false)?,
-        sampler: sampler_kind(params)?,
+        sampler: params.sampler()?,
     }))
 }
 
 pub fn build_lt(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     Ok(Box::new(Bdpt {
         settings: settings(params, true)?,
-        sampler: sampler_kind(params)?,
+        sampler: params.sampler()?,
     }))
 }
 

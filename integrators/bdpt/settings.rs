@@ -4,7 +4,6 @@
 use super::Heuristic;
 use crate::error::{Error, Result};
 use crate::integrators::IntegratorParams;
-use crate::math::SamplerKind;
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct BdptSettings {
@@ -57,20 +56,6 @@ fn technique(key: &str, v: &str) -> Result<(usize, usize)> {
             "option '{key}': expected a technique 's,t' (s >= 0 light vertices, t >= 1 camera vertices), got '{v}'"
         ))
     })
-}
-
-/// Option `sampler` of pt, bdpt and lt: `independent` (default) or `sobol`
-/// ([`crate::math::sobol`]).
-pub fn sampler_kind(params: &IntegratorParams) -> Result<SamplerKind> {
-    Ok(
-        match params
-            .options
-            .choice("sampler", "independent", &["independent", "sobol"])?
-        {
-            "sobol" => SamplerKind::Sobol,
-            _ => SamplerKind::Independent,
-        },
-    )
 }
 
 /// Default roulette start of `bdpt`, `lt` and `guided-bdpt`: from the first bounce, as

@@ -92,14 +92,7 @@ pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
         settings: settings(params)?,
     };
     let batch = BatchMode::parse(params)?;
-    let sampler =
-        match params
-            .options
-            .choice("sampler", "independent", &["independent", "sobol"])?
-        {
-            "sobol" => SamplerKind::Sobol,
-            _ => SamplerKind::Independent,
-        };
+    let sampler = params.sampler()?;
     Ok(match guiding::settings(params)? {
         None => Box::new(batch::Pt { pt, batch, sampler }),
         Some(_) if batch == BatchMode::On => {

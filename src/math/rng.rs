@@ -35,7 +35,8 @@ pub trait PixelSampler: Sampler + Send {
     fn for_pixel(seed: u64, pass: u64, pixel: u64) -> Self;
 }
 
-/// Which [`PixelSampler`] a sample-per-pixel integrator draws from (pt's `sampler` option).
+/// Which [`PixelSampler`] a sample-per-pixel integrator draws from (option `sampler` of pt,
+/// bdpt and lt).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum SamplerKind {
     /// Independent uniform numbers ([`IndependentSampler`]).

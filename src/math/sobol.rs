@@ -152,13 +152,21 @@ impl SobolSampler {
         d
     }
 
-    /// Dimension `d`'s pair: the index shuffled, then each Sobol coordinate scrambled (32 bits).
+    /// Dimension `d`'s shuffled Sobol index and the scramble seeds of its two coordinates.
+    #[inline]
+    fn index_and_seeds(&self, d: u32) -> (u32, u32, u32) {
+        let [shuffle, sx, sy] = dim_seeds(self.key, d);
+        // `owen_scramble(index, shuffle)` with the index's reversal done once in `new`.
+        let i = laine_karras(self.rindex, shuffle).reverse_bits();
+        (i, sx, sy)
+    }
+
+    /// Dimension `d`'s pair, each Sobol coordinate scrambled (32 bits).
     /// (`owen_scramble(sobol_dim0(i), s)` is `laine_karras(i, s)` reversed: the reversals
     /// cancel.)
     #[inline]
     fn pair(&self, d: u32) -> (u32, u32) {
-        let [shuffle, sx, sy] = dim_seeds(self.key, d);
-        let i = laine_karras(self.rindex, shuffle).reverse_bits();
+        let (i, sx, sy) = self.index_and_seeds(d);
         (
             laine_karras(i, sx).reverse_bits(),
             owen_scramble(sobol_dim1(i), sy),
@@ -168,8 +176,7 @@ impl SobolSampler {
     /// Dimension `d`'s first coordinate alone (32 bits).
     #[inline]
     fn single(&self, d: u32) -> u32 {
-        let [shuffle, sx, _] = dim_seeds(self.key, d);
-        let i = laine_karras(self.rindex, shuffle).reverse_bits();
+        let (i, sx, _) = self.index_and_seeds(d);
         laine_karras(i, sx).reverse_bits()
     }
 }

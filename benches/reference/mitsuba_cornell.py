@@ -71,6 +71,18 @@ How to run
     The last render at the highest spp is also written to target/mitsuba-cornell.exr
     (--exr PATH to change, --exr '' to skip).
 
+Kernel width (llvm only)
+    --llvm-target CPU:FEATURES:WIDTH sets the CPU, the LLVM feature string and the
+    vector width Dr.Jit compiles its kernels for (Dr.Jit's C function
+    jit_llvm_set_target, called through ctypes from libdrjit-core.so after the
+    variant is set; Python has no binding for it), e.g.
+      --llvm-target znver4::16          what Dr.Jit picks itself on an AVX-512 Zen 4
+      --llvm-target znver4::8           AVX-512 instructions on 8-lane (256-bit) vectors
+      --llvm-target znver3:+avx2,+fma:8 AVX2 only, 8 lanes
+      --llvm-target znver3:+avx2,+fma:4 AVX2 only, 4 lanes
+    The line printed after the variant's says what Dr.Jit then reports. Width 1 is
+    refused by Dr.Jit (its packet gathers need at least 2 lanes).
+
 Packages: mitsuba (and its dependency drjit), numpy; Debian libllvm19 for llvm.
 """
 
@@ -254,6 +266,24 @@ def median_of(runs):
     return med
 
 
+def set_llvm_target(spec):
+    """Dr.Jit's jit_llvm_set_target(cpu, features, width) from 'CPU:FEATURES:WIDTH'."""
+    import ctypes
+    try:
+        cpu, features, width = spec.split(":")
+        width = int(width)
+    except ValueError:
+        sys.exit(f"--llvm-target {spec!r}: expected CPU:FEATURES:WIDTH, e.g. znver3:+avx2,+fma:8")
+    core = ctypes.CDLL(os.path.join(os.path.dirname(dr.__file__), "libdrjit-core.so"))
+    set_target = core._Z19jit_llvm_set_targetPKcS0_j  # jit_llvm_set_target (C++ linkage)
+    set_target.argtypes = [ctypes.c_char_p, ctypes.c_char_p, ctypes.c_uint32]
+    set_target(cpu.encode(), features.encode(), width)
+    vector_width = core._Z21jit_llvm_vector_widthv  # jit_llvm_vector_width()
+    vector_width.restype = ctypes.c_uint32
+    print(f"llvm target cpu={cpu} features={features or '(the CPU default)'} "
+          f"vector width now {vector_width()}", flush=True)
+
+
 def main():
     global dr, mi, RES
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0],
@@ -272,6 +302,9 @@ def main():
                     help="Mitsuba sampler plugin (default independent; ldsampler is its "
                          "scrambled (0,2)-sequence, the peer of lodestar's pt -O sampler=sobol)")
     ap.add_argument("--seed", type=int, default=0, help="sampler seed (mi.render seed)")
+    ap.add_argument("--llvm-target", metavar="CPU:FEATURES:WIDTH",
+                    help="llvm variants: the CPU, feature string and vector width of Dr.Jit's "
+                         "kernels (see 'Kernel width' above)")
     ap.add_argument("--mse-against", metavar="REF_EXR",
                     help="reference EXR (256x256 RGB, e.g. a converged lodestar render): "
                          "print mse, rel_mse and efficiency = 1/(mse*wall_s)")
@@ -283,6 +316,8 @@ def main():
                          "bench --bench pt_batch` does (e.g. target/bench-data/pt-batch/"
                          "noisy-sphere-289.ply), rendered at 128x128")
     args = ap.parse_args()
+    if args.llvm_target and not args.variant.startswith("llvm"):
+        ap.error("--llvm-target needs an llvm variant (--variant llvm_ad_rgb)")
     if args.ply:
         RES = 128
 
@@ -296,6 +331,8 @@ def main():
     import mitsuba
     dr, mi = drjit, mitsuba
     mi.set_variant(args.variant)
+    if args.llvm_target:
+        set_llvm_target(args.llvm_target)
 
     mi.set_log_level(mi.LogLevel.Warn)
     default_threads = dr.thread_count()

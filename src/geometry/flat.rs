@@ -33,7 +33,10 @@ type Lanes = [f32; LANES];
 
 /// Eight triangles, one per lane: vertex `a`, edges `b` and `c` (as in [`Prim`]), per axis.
 /// Unused lanes hold zero edges, whose determinant is zero: they never report a hit.
+/// Aligned to 32 bytes, so each row of eight (32 bytes) is one aligned AVX load: unaligned,
+/// the x86-64-v2 build splits every 32-byte load in two.
 #[derive(Debug, Clone, Copy)]
+#[repr(C, align(32))]
 struct Group {
     a: [Lanes; 3],
     b: [Lanes; 3],
@@ -200,9 +203,13 @@ impl Flat {
             if hits.mask == 0 {
                 continue;
             }
-            for lane in 0..LANES {
+            // The hit lanes in increasing order (usually one or two of the eight).
+            let mut mask = hits.mask;
+            while mask != 0 {
+                let lane = mask.trailing_zeros() as usize;
+                mask &= mask - 1;
                 // Strictly closer only, as the scalar test's `t < t_max`.
-                if hits.mask & (1 << lane) != 0 && hits.t[lane] < t_best {
+                if hits.t[lane] < t_best {
                     t_best = hits.t[lane];
                     let uv = Vec2::new(hits.u[lane], hits.v[lane]);
                     best = Some((self.lanes[LANES * gi + lane] as usize, t_best, uv));
@@ -346,8 +353,10 @@ mod avx {
     #[inline]
     #[target_feature(enable = "avx")]
     fn load(x: &Lanes) -> __m256 {
-        // SAFETY: `x` is eight readable f32s; the load has no alignment requirement.
-        unsafe { _mm256_loadu_ps(x.as_ptr()) }
+        debug_assert_eq!(x.as_ptr() as usize % 32, 0);
+        // SAFETY: `x` is eight readable f32s, a row of a `Group`: 32-byte aligned, as the
+        // aligned load requires (a `Group` is `align(32)` and its rows are 32 bytes each).
+        unsafe { _mm256_load_ps(x.as_ptr()) }
     }
 
     #[inline]

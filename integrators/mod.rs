@@ -24,7 +24,7 @@ pub struct IntegratorParams {
 }
 
 impl IntegratorParams {
-    /// Option `sampler` of pt, bdpt and lt: `independent` (default) or `sobol`
+    /// Option `sampler` of pt, bdpt, lt, vcm and bpm: `independent` (default) or `sobol`
     /// ([`crate::math::sobol`]).
     pub fn sampler(&self) -> Result<SamplerKind> {
         let kind = self

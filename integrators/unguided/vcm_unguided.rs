@@ -267,8 +267,12 @@ impl Unguided for VcmUnguided {
     /// estimator with recursive (O(1)) weights; only with roulette from the first bounce,
     /// which is what vcm plays.
     fn own_integrator(&self) -> Option<Box<dyn crate::render::Integrator>> {
-        self.vcm_settings()
-            .map(|settings| Box::new(vcm::Vcm { settings }) as Box<dyn crate::render::Integrator>)
+        self.vcm_settings().map(|settings| {
+            Box::new(vcm::Vcm {
+                settings,
+                sampler: crate::math::SamplerKind::Independent,
+            }) as Box<dyn crate::render::Integrator>
+        })
     }
 
     /// With vcm's tracer, pixel k also hands over light subpath k's light-tracing paths.

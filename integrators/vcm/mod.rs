@@ -35,6 +35,7 @@
 //! | alpha  | number in (0, 1]  | 0.75                                   | radius schedule exponent (1: fixed radius) |
 //! | merge  | `true` / `false`  | `true`                                 | merging on (`vcm` only; `false` gives BDPT's techniques) |
 //! | direct_splats | `true` / `false` | `false`                         | directly seen emitters also by the light origin's splat, MIS-weighted (`vcm` only; otherwise left to the camera ray through vacuum in the pixels they fill, as bdpt) |
+//! | sampler | `independent` / `sobol` | `independent`                     | whose numbers each pixel's camera subpath draws, as `pt`'s option: `sobol` stratifies every pair of them over the pixel's samples (the passes); light subpaths stay independent (the one of index k is drawn per pass apart from pixel k's camera samples) |
 //!
 //! Light subpaths start in the medium around the light, as in `bdpt`. Limits: no merging in
 //! media.
@@ -56,7 +57,9 @@ pub use light::{LightPaths, Photon};
 use super::IntegratorParams;
 use crate::error::{Error, Result};
 use crate::film::Film;
-use crate::math::{IndependentSampler, PI, Sampler, Spectrum, is_finite3};
+use crate::math::{
+    IndependentSampler, PI, PixelSampler, SamplerKind, SobolSampler, Spectrum, is_finite3,
+};
 use crate::path::Path;
 use crate::render::{Budget, Integrator, RenderContext, RenderResult, run_passes_with_snapshots};
 use crate::scene::Scene;
@@ -147,17 +150,21 @@ fn settings(params: &IntegratorParams, connect: bool) -> Result<VcmSettings> {
 pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     Ok(Box::new(Vcm {
         settings: settings(params, true)?,
+        sampler: params.sampler()?,
     }))
 }
 
 pub fn build_bpm(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     Ok(Box::new(Vcm {
         settings: settings(params, false)?,
+        sampler: params.sampler()?,
     }))
 }
 
 pub struct Vcm {
     pub settings: VcmSettings,
+    /// Whose numbers each pixel's camera subpath draws (option `sampler`).
+    pub sampler: SamplerKind,
 }
 
 /// Which technique produced a path (for inspection).
@@ -305,12 +312,13 @@ impl Integrator for Vcm {
     }
 
     fn settings(&self) -> String {
-        format!("{:?}", self.settings)
+        format!("{:?}, sampler: {:?}", self.settings, self.sampler)
     }
 
     fn render(&mut self, ctx: &RenderContext, budget: Budget) -> RenderResult {
         let scene = ctx.scene;
         let st = &self.settings;
+        let sampler = self.sampler;
         let UVec2 { x: w, y: h } = scene.camera.resolution;
         let mut film = Film::new(w, h);
         let invalid = AtomicU64::new(0);
@@ -336,7 +344,14 @@ impl Integrator for Vcm {
                 let mut ct = CameraTracer::new(scene, st, &pc, lights, grid, None, None);
                 for (x, acc) in row.iter_mut().enumerate() {
                     let k = y * w as usize + x;
-                    let l = camera_sample(&mut ct, ctx.seed, pass, k, x, y);
+                    let l = match sampler {
+                        SamplerKind::Independent => {
+                            camera_sample::<IndependentSampler>(&mut ct, ctx.seed, pass, k, x, y)
+                        }
+                        SamplerKind::Sobol => {
+                            camera_sample::<SobolSampler>(&mut ct, ctx.seed, pass, k, x, y)
+                        }
+                    };
                     crate::check::value(crate::check::Technique::named("pixel sample"), l);
                     if is_finite3(l) && l.min_element() >= 0.0 {
                         *acc += l.as_dvec3();
@@ -377,8 +392,9 @@ impl Integrator for Vcm {
     }
 }
 
-/// One camera sample of pixel `k` = (x, y): its stream, the jittered raster position, the path.
-pub fn camera_sample(
+/// One camera sample of pixel `k` = (x, y): its stream (sample `pass` of the pixel, from `S`),
+/// the jittered raster position, the path.
+pub fn camera_sample<S: PixelSampler>(
     ct: &mut CameraTracer,
     seed: u64,
     pass: u64,
@@ -386,7 +402,7 @@ pub fn camera_sample(
     x: usize,
     y: usize,
 ) -> Spectrum {
-    let mut sampler = IndependentSampler::new(seed, pass, k as u64);
+    let mut sampler = S::for_pixel(seed, pass, k as u64);
     let jitter = sampler.next_2d();
     ct.sample(k, Vec2::new(x as f32, y as f32) + jitter, &mut sampler)
 }
@@ -441,7 +457,7 @@ pub fn inspect_pass(
     );
     for y in 0..h as usize {
         for x in 0..w as usize {
-            camera_sample(&mut ct, seed, pass, y * w as usize + x, x, y);
+            camera_sample::<IndependentSampler>(&mut ct, seed, pass, y * w as usize + x, x, y);
         }
     }
 }

@@ -36,7 +36,7 @@ pub trait PixelSampler: Sampler + Send {
 }
 
 /// Which [`PixelSampler`] a sample-per-pixel integrator draws from (option `sampler` of pt,
-/// bdpt and lt).
+/// bdpt and lt, and of vcm's and bpm's camera subpaths).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum SamplerKind {
     /// Independent uniform numbers ([`IndependentSampler`]).

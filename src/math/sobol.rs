@@ -1,5 +1,5 @@
 //! Owen-scrambled Sobol points, padded: the low-discrepancy sampler of `-O sampler=sobol`
-//! (pt, bdpt, lt).
+//! (pt, bdpt, lt; the camera subpaths of vcm and bpm).
 //!
 //! A pixel's n-th sample (n = the pass) takes its d-th pair of numbers from the first two
 //! dimensions of the Sobol sequence at a shuffled index, each dimension Owen-scrambled with its

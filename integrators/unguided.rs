@@ -27,7 +27,7 @@
 
 use super::bdpt::{self, BdptSettings, Vertex};
 use super::pt::{PathRecorder, PathTracer, PtSettings};
-use crate::math::{IndependentSampler, Sampler};
+use crate::math::Sampler;
 use crate::path::{MAX_VERTICES, Path, Vertex as PathVertex};
 use crate::scene::Scene;
 use glam::{DVec3, Vec2};
@@ -172,7 +172,7 @@ pub trait Unguided: Sync + Send {
         tracer: &mut Self::Tracer<'_>,
         scene: &Scene,
         raster: Vec2,
-        sampler: &mut IndependentSampler,
+        sampler: &mut impl Sampler,
         splats: &mut Vec<(u32, DVec3)>,
     ) -> DVec3;
     /// Sum over the estimator's techniques of their densities for path `y` (camera first,
@@ -182,9 +182,13 @@ pub trait Unguided: Sync + Send {
     fn pass_rays(&self, _pass: &Self::Pass<'_>) -> u64 {
         0
     }
-    /// U's own integrator with the same settings, to render with when guiding is off, where
-    /// it is faster than the guider's passes of U alone (`None`: those passes).
-    fn own_integrator(&self) -> Option<Box<dyn crate::render::Integrator>> {
+    /// U's own integrator with the same settings and `sampler` for its pixel samples, to
+    /// render with when guiding is off, where it is faster than the guider's passes of U
+    /// alone (`None`: those passes).
+    fn own_integrator(
+        &self,
+        _sampler: crate::math::SamplerKind,
+    ) -> Option<Box<dyn crate::render::Integrator>> {
         None
     }
     /// Samples of each technique per pass (n_u): one per pixel.
@@ -252,7 +256,7 @@ impl Unguided for PathTracer {
         _: &mut (),
         scene: &Scene,
         raster: Vec2,
-        sampler: &mut IndependentSampler,
+        sampler: &mut impl Sampler,
         _: &mut Vec<(u32, DVec3)>,
     ) -> DVec3 {
         finite(self.li(scene, raster, sampler).as_dvec3())
@@ -306,7 +310,7 @@ impl Unguided for BdptUnguided {
         tracer: &mut bdpt::Tracer<'_>,
         _: &Scene,
         raster: Vec2,
-        sampler: &mut IndependentSampler,
+        sampler: &mut impl Sampler,
         splats: &mut Vec<(u32, DVec3)>,
     ) -> DVec3 {
         bdpt_estimate(tracer, raster, sampler, splats)
@@ -333,7 +337,7 @@ fn finite(v: DVec3) -> DVec3 {
 fn bdpt_estimate(
     tracer: &mut bdpt::Tracer<'_>,
     raster: Vec2,
-    sampler: &mut IndependentSampler,
+    sampler: &mut impl Sampler,
     splats: &mut Vec<(u32, DVec3)>,
 ) -> DVec3 {
     let v = tracer.sample(raster, sampler);

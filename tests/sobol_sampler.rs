@@ -1,5 +1,6 @@
-//! `sampler=sobol` (padded Owen-scrambled Sobol points, `src/math/sobol.rs`) in pt, bdpt, lt and
-//! the camera subpaths of vcm and bpm: the same expected image as with independent numbers, in
+//! `sampler=sobol` (padded Owen-scrambled Sobol points, `src/math/sobol.rs`) in pt, bdpt, lt, the
+//! camera subpaths of vcm and bpm, and U's samples in the render passes of the guided
+//! integrators: the same expected image as with independent numbers, in
 //! surfaces, glossy lobes and media; a lower error at equal samples (what the sampler is for);
 //! bit-identical images across thread counts and with batched tracing; a clear error for an
 //! unknown sampler.
@@ -36,6 +37,9 @@ fn sobol_renders_the_expected_image() {
         ("vcm", "cornell-box", 8, &[]),
         ("vcm", "cornell-fog", 4, &[]),
         ("bpm", "cornell-box", 8, &["radius=0.05"]),
+        ("guided-pt", "cornell-glossy", 16, &[]),
+        ("guided-bdpt", "cornell-box", 8, &[]),
+        ("guided-vcm", "cornell-box", 8, &[]),
     ] {
         let what = format!("{integrator} on {name}");
         let scene = shipped(name, 24, 24);
@@ -92,12 +96,21 @@ fn sobol_is_bit_identical_across_threads_and_batching() {
         ("lt", "cornell-box"),
         ("vcm", "cornell-box"),
         ("bpm", "cornell-box"),
+        ("guided-bdpt", "cornell-box"),
+        ("guided-vcm", "cornell-box"),
     ] {
+        // The guided integrators' first passes learn (with independent numbers): 16 samples
+        // leave them render passes.
+        let spp = if integrator.starts_with("guided") {
+            16
+        } else {
+            5
+        };
         let scene = shipped(name, 20, 16);
-        let two = render(&scene, integrator, 8, &["sampler=sobol"], 5, 4, 2).image;
-        let one = render(&scene, integrator, 8, &["sampler=sobol"], 5, 4, 1).image;
+        let two = render(&scene, integrator, 8, &["sampler=sobol"], spp, 4, 2).image;
+        let one = render(&scene, integrator, 8, &["sampler=sobol"], spp, 4, 1).image;
         assert!(two == one, "{integrator} on {name}: thread count matters");
-        let indep = render(&scene, integrator, 8, &[], 5, 4, 2).image;
+        let indep = render(&scene, integrator, 8, &[], spp, 4, 2).image;
         assert!(
             two != indep,
             "{integrator} on {name}: the option changed nothing"
@@ -122,16 +135,24 @@ fn an_unknown_sampler_is_an_error_naming_the_option() {
             Err(e) => e.to_string(),
         }
     };
-    for name in ["pt", "bdpt", "lt", "vcm", "bpm"] {
+    for name in [
+        "pt",
+        "bdpt",
+        "lt",
+        "vcm",
+        "bpm",
+        "guided-pt",
+        "guided-bdpt",
+        "guided-vcm",
+    ] {
         let msg = error(name, "sampler=halton");
         assert!(
             msg.contains("'sampler'") && msg.contains("halton") && msg.contains("sobol"),
             "{name}: {msg}"
         );
     }
-    // pssmlt and mmlt mutate their own primary samples, and the guided integrators replay
-    // their learning samples from independent streams: none has the option.
-    for name in ["pssmlt", "mmlt", "guided-pt", "guided-bdpt", "guided-vcm"] {
+    // pssmlt and mmlt mutate their own primary samples: neither has the option.
+    for name in ["pssmlt", "mmlt"] {
         let msg = error(name, "sampler=sobol");
         assert!(msg.contains("sampler"), "{name}: {msg}");
     }

@@ -39,7 +39,7 @@ use crate::error::Result;
 use crate::film::Film;
 use crate::geometry::bvh::rays_traced;
 use crate::integrators::unguided::{HeldPaths, Unguided};
-use crate::math::{IndependentSampler, Sampler, luminance, luminance64};
+use crate::math::{AnySampler, IndependentSampler, Sampler, SamplerKind, luminance, luminance64};
 use crate::render::{
     Budget, Integrator, RenderContext, RenderResult, cascade_rows, run_passes_with_snapshots,
 };
@@ -105,7 +105,14 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
                 let mut tracer = est.unguided.tracer(est.scene, &est.pass);
                 for (x, acc) in row.iter_mut().enumerate() {
                     let index = y as u64 * w as u64 + x as u64;
-                    let mut sampler = IndependentSampler::new(ctx.seed, pass, index);
+                    // Learning passes draw independent numbers: their outliers and chain
+                    // states are replayed from the stream (seed, pass, index).
+                    let kind = if learning {
+                        SamplerKind::Independent
+                    } else {
+                        self.settings.sampler
+                    };
+                    let mut sampler = AnySampler::new(kind, ctx.seed, pass, index);
                     let raster = Camera::jittered(x as u32, y as u32, sampler.next_2d());
                     let rays = rays_traced();
                     let (sum, grid) = if plain {
@@ -463,7 +470,7 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
         // remain, on the streams this driver's passes would use; its image is averaged with
         // the kept learning passes by pass count. (Snapshots meanwhile show its passes alone.)
         let own = (n_g == 0.0 && keep_learning)
-            .then(|| self.unguided.own_integrator())
+            .then(|| self.unguided.own_integrator(self.settings.sampler))
             .flatten();
         let mut own_image = None;
         let (passes, render_seconds) = if let Some(mut own) = own {

@@ -45,6 +45,7 @@
 //! | chain_share     | number > 0    | 0.25    | `mcmc`: chain steps per learning iteration, per pixel |
 //! | chain_large_step | [0, 1]       | 0.1     | `mcmc`: large-step probability of the chains |
 //! | chain_target    | `mixture` / `uncovered` | `mixture` | `mcmc`: a chain state's importance: all its sample adds under the current mixture, or only its paths with p_g = 0 (`chains.rs`) |
+//! | sampler         | `independent` / `sobol` | `independent` | U's numbers in the render passes (for guided-vcm: its camera subpaths'), as `pt -O sampler` (learning passes, guided samples and chains stay independent: outliers and chain states are replayed from their independent streams) |
 //! | keep_learning   | `true` / `false` | `true` | keep the learning passes in the image: their mixed estimate with guiding on, U's own with it off (`false`: strictly unbiased, see `driver.rs`) |
 //! | save_guides     | path          | —       | write the learned cache (`--save-guides`) |
 //! | load_guides     | path          | —       | start from a saved cache and skip learning (`--load-guides`) |
@@ -117,6 +118,7 @@ use super::bdpt::{BdptSettings, Heuristic};
 use super::pt::{PathTracer, PtSettings};
 use super::unguided::{BdptUnguided, VcmUnguided};
 use crate::error::{Error, Result};
+use crate::math::SamplerKind;
 use crate::render::Integrator;
 use cache::{GuideCache, KernelWidths, WeightRule};
 use std::path::PathBuf;
@@ -155,6 +157,8 @@ pub struct GuidedSettings {
     /// With guiding off, keep the learning passes' unguided samples in the image
     /// (`driver.rs` says what that trades).
     pub keep_learning: bool,
+    /// U's sampler in the render passes (option `sampler`).
+    pub sampler: SamplerKind,
 }
 
 impl Default for GuidedSettings {
@@ -172,6 +176,7 @@ impl Default for GuidedSettings {
             load_guides: None,
             chains: None,
             keep_learning: true,
+            sampler: SamplerKind::Independent,
         }
     }
 }
@@ -366,7 +371,8 @@ fn options(params: &IntegratorParams, default_rr: u32) -> Result<(GuidedSettings
 }
 
 pub fn build_pt(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
-    let (settings, rr_depth) = options(params, PtSettings::default().rr_depth)?;
+    let (mut settings, rr_depth) = options(params, PtSettings::default().rr_depth)?;
+    settings.sampler = params.sampler()?;
     let pt = PtSettings {
         max_depth: params.max_depth,
         rr_depth,
@@ -407,7 +413,8 @@ fn bdpt_settings(params: &IntegratorParams, name: &str, rr_depth: u32) -> Result
 }
 
 pub fn build_bdpt(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
-    let (settings, rr_depth) = options(params, crate::integrators::bdpt::RR_DEPTH)?;
+    let (mut settings, rr_depth) = options(params, crate::integrators::bdpt::RR_DEPTH)?;
+    settings.sampler = params.sampler()?;
     let bdpt = bdpt_settings(params, "guided-bdpt", rr_depth)?;
     Ok(match settings.chains {
         Some(chains) => {
@@ -419,7 +426,8 @@ pub fn build_bdpt(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
 }
 
 pub fn build_vcm(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
-    let (settings, rr_depth) = options(params, crate::integrators::bdpt::RR_DEPTH)?;
+    let (mut settings, rr_depth) = options(params, crate::integrators::bdpt::RR_DEPTH)?;
+    settings.sampler = params.sampler()?;
     let bdpt = bdpt_settings(params, "guided-vcm", rr_depth)?;
     if settings.chains.is_some() {
         return Err(Error::new(

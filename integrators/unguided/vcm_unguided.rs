@@ -6,7 +6,7 @@ use crate::integrators::bdpt::{self, BdptSettings, SharedLights, Vertex};
 use crate::integrators::vcm::{
     self, CameraTracer, Claimed, HashGrid, LightPaths, Photon, Technique,
 };
-use crate::math::{IndependentSampler, PI, Sampler};
+use crate::math::{PI, Sampler};
 use crate::path::MAX_VERTICES;
 use crate::scene::Scene;
 use glam::{DVec3, Vec2, Vec3};
@@ -266,12 +266,12 @@ impl Unguided for VcmUnguided {
     /// `vcm` with the same radius schedule, depth and directly-seen-emitter rule: the same
     /// estimator with recursive (O(1)) weights; only with roulette from the first bounce,
     /// which is what vcm plays.
-    fn own_integrator(&self) -> Option<Box<dyn crate::render::Integrator>> {
+    fn own_integrator(
+        &self,
+        sampler: crate::math::SamplerKind,
+    ) -> Option<Box<dyn crate::render::Integrator>> {
         self.vcm_settings().map(|settings| {
-            Box::new(vcm::Vcm {
-                settings,
-                sampler: crate::math::SamplerKind::Independent,
-            }) as Box<dyn crate::render::Integrator>
+            Box::new(vcm::Vcm { settings, sampler }) as Box<dyn crate::render::Integrator>
         })
     }
 
@@ -309,7 +309,7 @@ impl Unguided for VcmUnguided {
         tracer: &mut VcmTracer<'_>,
         scene: &Scene,
         raster: Vec2,
-        sampler: &mut IndependentSampler,
+        sampler: &mut impl Sampler,
         splats: &mut Vec<(u32, DVec3)>,
     ) -> DVec3 {
         match tracer {

@@ -11,7 +11,7 @@ pub mod warp;
 pub use alias::AliasTable;
 pub use distribution::Distribution1D;
 pub use frame::Frame;
-pub use rng::{IndependentSampler, PixelSampler, Sampler, SamplerKind, stream_seed};
+pub use rng::{AnySampler, IndependentSampler, PixelSampler, Sampler, SamplerKind, stream_seed};
 pub use sobol::SobolSampler;
 
 use glam::Vec3;

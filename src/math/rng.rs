@@ -46,6 +46,56 @@ pub enum SamplerKind {
     Sobol,
 }
 
+/// The sampler [`SamplerKind`] names, chosen at run time (the guided driver's render passes,
+/// whose loop is not generic over the sampler): one predictable branch per draw.
+pub enum AnySampler {
+    Independent(IndependentSampler),
+    Sobol(super::sobol::SobolSampler),
+}
+
+impl AnySampler {
+    pub fn new(kind: SamplerKind, seed: u64, pass: u64, pixel: u64) -> Self {
+        match kind {
+            SamplerKind::Independent => {
+                AnySampler::Independent(IndependentSampler::new(seed, pass, pixel))
+            }
+            SamplerKind::Sobol => {
+                AnySampler::Sobol(super::sobol::SobolSampler::new(seed, pass, pixel))
+            }
+        }
+    }
+}
+
+impl Sampler for AnySampler {
+    #[inline]
+    fn next_1d(&mut self) -> f32 {
+        match self {
+            AnySampler::Independent(s) => s.next_1d(),
+            AnySampler::Sobol(s) => s.next_1d(),
+        }
+    }
+    #[inline]
+    fn next_2d(&mut self) -> Vec2 {
+        match self {
+            AnySampler::Independent(s) => s.next_2d(),
+            AnySampler::Sobol(s) => s.next_2d(),
+        }
+    }
+    #[inline]
+    fn next_f64(&mut self) -> f64 {
+        match self {
+            AnySampler::Independent(s) => s.next_f64(),
+            AnySampler::Sobol(s) => s.next_f64(),
+        }
+    }
+    fn start_stream(&mut self, index: u32) {
+        match self {
+            AnySampler::Independent(s) => s.start_stream(index),
+            AnySampler::Sobol(s) => s.start_stream(index),
+        }
+    }
+}
+
 /// SplitMix64 finaliser: a bijective 64-bit mix.
 #[inline]
 pub(crate) fn mix64(mut z: u64) -> u64 {

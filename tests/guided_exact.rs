@@ -314,7 +314,7 @@ impl Unguided for Disagreeing {
         t: &mut (),
         scene: &Scene,
         raster: glam::Vec2,
-        sampler: &mut IndependentSampler,
+        sampler: &mut impl Sampler,
         splats: &mut Vec<(u32, DVec3)>,
     ) -> DVec3 {
         self.0.estimate(t, scene, raster, sampler, splats)

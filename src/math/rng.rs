@@ -36,7 +36,8 @@ pub trait PixelSampler: Sampler + Send {
 }
 
 /// Which [`PixelSampler`] a sample-per-pixel integrator draws from (option `sampler` of pt,
-/// bdpt and lt, and of vcm's and bpm's camera subpaths).
+/// bdpt and lt, of vcm's and bpm's camera subpaths, and of U's samples in the guided
+/// integrators' render passes).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum SamplerKind {
     /// Independent uniform numbers ([`IndependentSampler`]).

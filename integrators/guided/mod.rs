@@ -365,14 +365,14 @@ fn options(params: &IntegratorParams, default_rr: u32) -> Result<(GuidedSettings
             target: chain_target,
         }),
         keep_learning,
+        sampler: params.sampler()?,
         ..GuidedSettings::default()
     };
     Ok((settings, rr_depth))
 }
 
 pub fn build_pt(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
-    let (mut settings, rr_depth) = options(params, PtSettings::default().rr_depth)?;
-    settings.sampler = params.sampler()?;
+    let (settings, rr_depth) = options(params, PtSettings::default().rr_depth)?;
     let pt = PtSettings {
         max_depth: params.max_depth,
         rr_depth,
@@ -413,8 +413,7 @@ fn bdpt_settings(params: &IntegratorParams, name: &str, rr_depth: u32) -> Result
 }
 
 pub fn build_bdpt(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
-    let (mut settings, rr_depth) = options(params, crate::integrators::bdpt::RR_DEPTH)?;
-    settings.sampler = params.sampler()?;
+    let (settings, rr_depth) = options(params, crate::integrators::bdpt::RR_DEPTH)?;
     let bdpt = bdpt_settings(params, "guided-bdpt", rr_depth)?;
     Ok(match settings.chains {
         Some(chains) => {
@@ -426,8 +425,7 @@ pub fn build_bdpt(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
 }
 
 pub fn build_vcm(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
-    let (mut settings, rr_depth) = options(params, crate::integrators::bdpt::RR_DEPTH)?;
-    settings.sampler = params.sampler()?;
+    let (settings, rr_depth) = options(params, crate::integrators::bdpt::RR_DEPTH)?;
     let bdpt = bdpt_settings(params, "guided-vcm", rr_depth)?;
     if settings.chains.is_some() {
         return Err(Error::new(

@@ -181,10 +181,13 @@ impl Scatterer<'_, '_> {
     pub(super) fn eval(&self, wi: Vec3) -> (Spectrum, f32) {
         match self {
             Scatterer::Surface { sp, wo, mix } => {
-                let f = sp.bsdf.eval(&sp.frame, *wo, wi, TransportMode::Radiance)
-                    * wi.dot(sp.hit.ns).abs();
-                let pdf = sp.bsdf.pdf(&sp.frame, *wo, wi, TransportMode::Radiance);
-                (f, mix.map_or(pdf, |m| m.pdf(pdf, wi)))
+                let (f, pdf) = sp
+                    .bsdf
+                    .eval_pdf(&sp.frame, *wo, wi, TransportMode::Radiance);
+                (
+                    f * wi.dot(sp.hit.ns).abs(),
+                    mix.map_or(pdf, |m| m.pdf(pdf, wi)),
+                )
             }
             Scatterer::Medium { phase, wo } => {
                 let p = phase.eval(*wo, wi);

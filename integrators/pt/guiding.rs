@@ -138,11 +138,11 @@ impl Mixture<'_> {
         }
         let (p, _) = self.directions.sample(|| sampler.next_1d());
         let wi = from_square(p);
-        let f = sp.bsdf.eval(&sp.frame, wo, wi, mode);
+        let (f, pdf_bsdf) = sp.bsdf.eval_pdf(&sp.frame, wo, wi, mode);
         if f == Spectrum::ZERO {
             return None;
         }
-        let pdf = self.pdf(sp.bsdf.pdf(&sp.frame, wo, wi, mode), wi);
+        let pdf = self.pdf(pdf_bsdf, wi);
         let weight = f * wi.dot(sp.hit.ns).abs() / pdf;
         if !(pdf > 0.0 && weight.is_finite()) || weight == Spectrum::ZERO {
             return None;

@@ -270,7 +270,7 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
         if ls.pdf <= 0.0 {
             return Spectrum::ZERO;
         }
-        let f = v.f(scene, ls.wi, TransportMode::Radiance);
+        let (f, pdf_to_light, pdf_back) = v.f_pdfs(scene, ls.wi, TransportMode::Radiance);
         if f == Spectrum::ZERO {
             return Spectrum::ZERO;
         }
@@ -301,7 +301,7 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
         let edge = Edge::along(&tr);
         // (44): the BSDF sampling the light point (s = 0).
         let w_light = if hittable(l) {
-            v.pdf_w(scene, v.wo, ls.wi) * cos_y / d2 * edge.pass / p_nee
+            pdf_to_light * cos_y / d2 * edge.pass / p_nee
         } else {
             0.0
         };
@@ -315,8 +315,7 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
             0.0
         };
         let m = &v.mis;
-        let w_cam =
-            p_origin * p_rev_v / p_nee * (merge + m.d_vcm + m.d_vc * v.pdf_w(scene, ls.wi, v.wo));
+        let w_cam = p_origin * p_rev_v / p_nee * (merge + m.d_vcm + m.d_vc * pdf_back);
         let w = 1.0 / (w_light + 1.0 + w_cam);
         crate::check::weight(crate::check::Technique::named("vcm next-event"), w as f64);
         if self.inspector.is_some() {
@@ -338,11 +337,12 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
             return Spectrum::ZERO;
         }
         let dir = d / d2.sqrt();
-        let fv = v.f(scene, dir, TransportMode::Radiance);
+        // f at each end, and each end's densities towards the other and back.
+        let (fv, pdf_v_to_y, pdf_v_back) = v.f_pdfs(scene, dir, TransportMode::Radiance);
         if fv == Spectrum::ZERO {
             return Spectrum::ZERO;
         }
-        let fy = y.f(scene, -dir, TransportMode::Importance);
+        let (fy, pdf_y_to_v, pdf_y_back) = y.f_pdfs(scene, -dir, TransportMode::Importance);
         if fy == Spectrum::ZERO {
             return Spectrum::ZERO;
         }
@@ -358,19 +358,13 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
         let edge = Edge::along(&tr);
         let vm = self.pc.factors.vm;
         // (40): the camera side sampling y, then the light side's techniques.
-        let p_y =
-            v.pdf_w(scene, v.wo, dir) * y.cos(dir) / d2 * edge.factor(scene, y.is_medium(), true);
-        let w_light = p_y
-            * (if y.mergeable() { vm } else { 0.0 }
-                + y.mis.d_vcm
-                + y.mis.d_vc * y.pdf_w(scene, -dir, y.wo));
+        let p_y = pdf_v_to_y * y.cos(dir) / d2 * edge.factor(scene, y.is_medium(), true);
+        let w_light =
+            p_y * (if y.mergeable() { vm } else { 0.0 } + y.mis.d_vcm + y.mis.d_vc * pdf_y_back);
         // (41): the light side sampling v, then the camera side's techniques.
-        let p_v =
-            y.pdf_w(scene, y.wo, -dir) * v.cos(dir) / d2 * edge.factor(scene, v.is_medium(), false);
-        let w_cam = p_v
-            * (if v.mergeable() { vm } else { 0.0 }
-                + v.mis.d_vcm
-                + v.mis.d_vc * v.pdf_w(scene, dir, v.wo));
+        let p_v = pdf_y_to_v * v.cos(dir) / d2 * edge.factor(scene, v.is_medium(), false);
+        let w_cam =
+            p_v * (if v.mergeable() { vm } else { 0.0 } + v.mis.d_vcm + v.mis.d_vc * pdf_v_back);
         let w = 1.0 / (w_light + 1.0 + w_cam);
         crate::check::weight(crate::check::Technique::named("vcm connection"), w as f64);
         if self.records() {

@@ -470,7 +470,7 @@ impl<'a> LightTracer<'a, '_> {
         let Some(cs) = cam.sample_wi(v.p) else {
             return;
         };
-        let f = v.f(scene, cs.wi, TransportMode::Importance);
+        let (f, _, pdf_rev) = v.f_pdfs(scene, cs.wi, TransportMode::Importance);
         if f == Spectrum::ZERO {
             return;
         }
@@ -489,7 +489,6 @@ impl<'a> LightTracer<'a, '_> {
         // side's quantities.
         let p_cam =
             cs.pdf_we * v.cos(cs.wi) / d2 * Edge::along(&tr).factor(scene, v.is_medium(), false);
-        let pdf_rev = v.pdf_w(scene, cs.wi, v.wo);
         let merge = if v.mergeable() {
             self.pc.factors.vm
         } else {

@@ -124,6 +124,29 @@ impl<'a> Vertex<'a> {
         }
     }
 
+    /// `(self.f(wi), self.pdf_w(wo, wi), self.pdf_w(wi, wo))` with `wo` this vertex's own,
+    /// bit for bit, in one BSDF evaluation on non-delta surfaces (what a connection or
+    /// next-event estimation needs at each end).
+    #[inline]
+    pub fn f_pdfs(&self, scene: &Scene, wi: Vec3, mode: TransportMode) -> (Spectrum, f32, f32) {
+        match self.scatter {
+            Scatter::Surface { bsdf, frame, .. } if !bsdf.is_delta() => {
+                let e = bsdf.eval_pdfs(&frame, self.wo, wi, mode);
+                let q = bsdf.continuation().min(self.q_cap);
+                (
+                    e.f * wi.dot(frame.frame.n).abs(),
+                    e.pdf_fwd * q,
+                    e.pdf_rev * q,
+                )
+            }
+            _ => (
+                self.f(scene, wi, mode),
+                self.pdf_w(scene, self.wo, wi),
+                self.pdf_w(scene, wi, self.wo),
+            ),
+        }
+    }
+
     /// Solid-angle density of scattering from `wo` into `wi` (radiance-mode BSDF density, or
     /// the delta lobe's probability), times the continuation probability: the direction
     /// density every technique uses for this vertex.

@@ -328,6 +328,33 @@ impl Bsdf {
         wi: Vec3,
         mode: TransportMode,
     ) -> EvalPdfs {
+        self.eval_with_pdfs(sf, wo, wi, mode, true)
+    }
+
+    /// `eval(wo, wi)` and `pdf(wo -> wi)` in one call (next-event estimation's pair), sharing
+    /// the frame transforms, side checks and, for the microfacet models, the evaluation
+    /// itself; bit-identical to the two separate calls.
+    pub fn eval_pdf(
+        &self,
+        sf: &ShadingFrame,
+        wo: Vec3,
+        wi: Vec3,
+        mode: TransportMode,
+    ) -> (Spectrum, f32) {
+        let e = self.eval_with_pdfs(sf, wo, wi, mode, false);
+        (e.f, e.pdf_fwd)
+    }
+
+    /// [`Bsdf::eval_pdfs`], with `pdf_rev` left 0 unless `reverse`.
+    #[inline(always)]
+    fn eval_with_pdfs(
+        &self,
+        sf: &ShadingFrame,
+        wo: Vec3,
+        wi: Vec3,
+        mode: TransportMode,
+        reverse: bool,
+    ) -> EvalPdfs {
         let (wo_l, wi_l) = (sf.frame.to_local(wo), sf.frame.to_local(wi));
         let transmission = wo_l.z * wi_l.z < 0.0;
         if !geometry_agrees(sf, wo, wi, transmission) {
@@ -337,17 +364,28 @@ impl Bsdf {
             Bsdf::Diffuse { albedo } => (
                 diffuse::eval(*albedo, wo_l, wi_l),
                 diffuse::pdf(wo_l, wi_l),
-                diffuse::pdf(wi_l, wo_l),
+                if reverse {
+                    diffuse::pdf(wi_l, wo_l)
+                } else {
+                    0.0
+                },
             ),
             Bsdf::RoughConductor { alpha, fresnel } => {
                 let (f, pdf_fwd) = rough_conductor::eval_pdf(*alpha, Some(fresnel), wo_l, wi_l);
-                let pdf_rev = rough_conductor::eval_pdf(*alpha, None, wi_l, wo_l).1;
+                let pdf_rev = if reverse {
+                    rough_conductor::eval_pdf(*alpha, None, wi_l, wo_l).1
+                } else {
+                    0.0
+                };
                 (f, pdf_fwd, pdf_rev)
             }
             Bsdf::RoughDielectric { eta, alpha } => {
                 let (f, pdf_fwd) = rough_dielectric::eval_pdf(*eta, *alpha, wo_l, wi_l, mode);
-                let pdf_rev =
-                    rough_dielectric::eval_pdf(*eta, *alpha, wi_l, wo_l, TransportMode::Radiance).1;
+                let pdf_rev = if reverse {
+                    rough_dielectric::eval_pdf(*eta, *alpha, wi_l, wo_l, TransportMode::Radiance).1
+                } else {
+                    0.0
+                };
                 (Spectrum::splat(f), pdf_fwd, pdf_rev)
             }
             Bsdf::Black | Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => {
@@ -399,10 +437,10 @@ mod tests {
     use super::*;
     use crate::math::{IndependentSampler, Sampler, warp};
 
-    /// `eval_pdfs` is the three separate calls, bit for bit, for every model, both modes, a
+    /// `eval_pdfs` is the three separate calls, and `eval_pdf` the first two, bit for bit, for every model, both modes, a
     /// tilted shading normal and random direction pairs (reflection and transmission).
     #[test]
-    fn eval_pdfs_matches_eval_and_both_pdfs() {
+    fn eval_pdfs_and_eval_pdf_match_the_separate_calls() {
         let bsdfs = [
             Bsdf::Black,
             Bsdf::Diffuse {
@@ -443,6 +481,8 @@ mod tests {
                             pdf_rev: bsdf.pdf(sf, wi, wo, TransportMode::Radiance),
                         };
                         assert_eq!(got, want, "{bsdf:?} {mode:?} wo {wo} wi {wi}");
+                        let pair = bsdf.eval_pdf(sf, wo, wi, mode);
+                        assert_eq!(pair, (want.f, want.pdf_fwd), "{bsdf:?} {mode:?} eval_pdf");
                         assert_eq!(got.pdf_fwd, bsdf.pdf(sf, wo, wi, mode));
                         non_zero += (got.pdf_fwd > 0.0 && got.pdf_rev > 0.0) as usize;
                     }

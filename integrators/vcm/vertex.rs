@@ -125,8 +125,8 @@ impl<'a> Vertex<'a> {
     }
 
     /// `(self.f(wi), self.pdf_w(wo, wi), self.pdf_w(wi, wo))` with `wo` this vertex's own,
-    /// bit for bit, in one BSDF evaluation on non-delta surfaces (what a connection or
-    /// next-event estimation needs at each end).
+    /// bit for bit, in one BSDF (or phase) evaluation except on delta surfaces: what a
+    /// connection or next-event estimation needs at each end, and a walk's MIS update.
     #[inline]
     pub fn f_pdfs(&self, scene: &Scene, wi: Vec3, mode: TransportMode) -> (Spectrum, f32, f32) {
         match self.scatter {
@@ -139,7 +139,14 @@ impl<'a> Vertex<'a> {
                     e.pdf_rev * q,
                 )
             }
-            _ => (
+            Scatter::Medium { medium } => {
+                // Henyey-Greenstein depends on wo . wi only: one value for both directions.
+                let m = &scene.media[medium as usize];
+                let p = m.phase.eval(self.wo, wi);
+                let q = m.continuation().min(self.q_cap);
+                (Spectrum::splat(p), p * q, p * q)
+            }
+            Scatter::Surface { .. } => (
                 self.f(scene, wi, mode),
                 self.pdf_w(scene, self.wo, wi),
                 self.pdf_w(scene, wi, self.wo),

@@ -282,8 +282,7 @@ impl Walk {
             }
             self.beta /= q;
         }
-        let pdf_fwd = v.pdf_w(scene, wo, wi);
-        let pdf_rev = v.pdf_w(scene, wi, wo);
+        let (_, pdf_fwd, pdf_rev) = v.f_pdfs(scene, wi, TransportMode::Radiance);
         if pdf_fwd <= 0.0 {
             return false;
         }

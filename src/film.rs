@@ -231,6 +231,16 @@ pub struct Film {
     splat: Vec<DVec3>,
 }
 
+/// `*to += v`, checked (`--check`), if `v` is finite and non-negative; whether it was.
+fn add_checked(to: &mut DVec3, v: DVec3) -> bool {
+    crate::check::value(crate::check::Technique::named("splat"), v.as_vec3());
+    let ok = v.is_finite() && v.min_element() >= 0.0;
+    if ok {
+        *to += v;
+    }
+    ok
+}
+
 impl Film {
     pub fn new(width: u32, height: u32) -> Film {
         let n = (width * height) as usize;
@@ -271,14 +281,36 @@ impl Film {
             .count() as u64
     }
 
+    /// [`Film::add_splats`] for several lists, in list order, on rayon's threads: each task
+    /// adds the splats of its own range of pixels, so every pixel's splats are summed in the
+    /// same order whatever the number of threads.
+    pub fn add_splat_lists(&mut self, lists: &[&[(u32, Spectrum)]]) -> u64 {
+        use rayon::prelude::*;
+        let chunk = self
+            .splat
+            .len()
+            .div_ceil(rayon::current_num_threads())
+            .max(1);
+        self.splat
+            .par_chunks_mut(chunk)
+            .enumerate()
+            .map(|(c, splat)| {
+                let range = c * chunk..c * chunk + splat.len();
+                let mut left_out = 0;
+                for &(i, v) in lists.iter().flat_map(|l| l.iter()) {
+                    if range.contains(&(i as usize)) {
+                        left_out +=
+                            !add_checked(&mut splat[i as usize - range.start], v.as_dvec3()) as u64;
+                    }
+                }
+                left_out
+            })
+            .sum()
+    }
+
     /// One splat, checked (`--check`) and added if finite and non-negative.
     fn add_splat(&mut self, i: u32, v: glam::DVec3) -> bool {
-        crate::check::value(crate::check::Technique::named("splat"), v.as_vec3());
-        let ok = v.is_finite() && v.min_element() >= 0.0;
-        if ok {
-            self.splat[i as usize] += v;
-        }
-        ok
+        add_checked(&mut self.splat[i as usize], v)
     }
 
     /// The image: pixel sums divided by `samples_per_pixel`, plus splats times `splat_scale`.

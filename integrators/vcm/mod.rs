@@ -360,9 +360,8 @@ impl Integrator for Vcm {
                     }
                 }
             });
-            for splats in lights.splats() {
-                invalid.fetch_add(film.add_splats(splats), Ordering::Relaxed);
-            }
+            let splats: Vec<_> = lights.splats().collect();
+            invalid.fetch_add(film.add_splat_lists(&splats), Ordering::Relaxed);
         };
         let image = |film: &Film, passes: u64| film.to_image(passes as f64, 1.0 / passes as f64);
         let (passes, seconds) = run_passes_with_snapshots(ctx, budget, &mut film, pass, image);

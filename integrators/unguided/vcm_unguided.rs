@@ -35,7 +35,8 @@ impl VcmUnguided {
 pub enum VcmPass<'s> {
     /// bdpt's light subpaths and grid, for bdpt's recording tracer (learning passes, and
     /// render passes whose sink needs every path's densities).
-    Recording(SharedLights<'s>),
+    /// (Boxed, as `Fast`: both hold a photon grid inline.)
+    Recording(Box<SharedLights<'s>>),
     /// vcm's own light subpaths and grid, for vcm's tracer (render passes with a
     /// [`HeldPaths`] test).
     Fast(Box<FastPass<'s>>),
@@ -176,7 +177,7 @@ impl Unguided for VcmUnguided {
         let r = self.radius_at(scene, ordinal);
         let mut pass = match spent {
             Some(VcmPass::Recording(p)) => p,
-            _ => SharedLights::default(),
+            _ => Box::default(),
         };
         pass.retrace(scene, &self.settings, seed, stream, r);
         VcmPass::Recording(pass)

@@ -9,10 +9,10 @@
 //! the input only. The sort scatters each entry's point index (4 bytes), then copies the
 //! points into place in entry order, asking for each a few entries ahead: scattering the
 //! entries themselves (52 bytes for vcm's photons, 100 MB a pass on SmallVCM's box) wrote a
-//! cache line or two at random per entry (86 -> 55 ms a pass). The build runs on rayon's
+//! cache line or two at random per entry (72 -> 55 ms a pass). The build runs on rayon's
 //! threads (keys by chunks of points, counts and scatter by ranges of buckets, the copy by
-//! chunks of entries) and gives the same grid on any number of them: on SmallVCM's box 55 ms
-//! on one thread, 33 ms on two, where it was a serial step of every vcm pass.
+//! chunks of entries) and gives the same grid on any number of them: on SmallVCM's box 60 ms
+//! on one thread, 31 ms on two, where it was a serial step of every vcm pass.
 //!
 //! Each point carries a payload `T` (an index, or what the query needs of the point), stored
 //! with its position: a query touches one run of memory. (Cells of side 2r queried 2 x 2 x 2, with

@@ -273,17 +273,10 @@ impl Film {
             .count() as u64
     }
 
-    /// Add light-tracing splats; returns the number left out as in [`Film::add_splats64`].
-    pub fn add_splats(&mut self, splats: &[(u32, Spectrum)]) -> u64 {
-        splats
-            .iter()
-            .filter(|&&(i, v)| !self.add_splat(i, v.as_dvec3()))
-            .count() as u64
-    }
-
-    /// [`Film::add_splats`] for several lists, in list order, on rayon's threads: each task
-    /// adds the splats of its own range of pixels, so every pixel's splats are summed in the
-    /// same order whatever the number of threads.
+    /// Add light-tracing splats, list after list, on rayon's threads: each task adds the
+    /// splats of its own range of pixels, so every pixel's splats are summed in the same order
+    /// whatever the number of threads. Returns the number left out as in
+    /// [`Film::add_splats64`].
     pub fn add_splat_lists(&mut self, lists: &[&[(u32, Spectrum)]]) -> u64 {
         use rayon::prelude::*;
         let chunk = self

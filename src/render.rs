@@ -312,12 +312,11 @@ fn render_rows_with<S: PixelSampler, T: RowTracer>(
             })
             .collect();
         drop(crows);
-        for row in &splats {
-            invalid.fetch_add(film.add_splats(row), Ordering::Relaxed);
-            if let Some(c) = &mut cascade {
-                for &(p, v) in row {
-                    c.add(p, v);
-                }
+        let lists: Vec<&[(u32, Spectrum)]> = splats.iter().map(Vec::as_slice).collect();
+        invalid.fetch_add(film.add_splat_lists(&lists), Ordering::Relaxed);
+        if let Some(c) = &mut cascade {
+            for &(p, v) in splats.iter().flatten() {
+                c.add(p, v);
             }
         }
     };

@@ -100,9 +100,10 @@ impl<T: Copy + Default + Send + Sync> HashGrid<T> {
         // Buckets: as many as points, at least one; PARTS ranges of them (about b PARTS / m,
         // by multiply-shift: no division per key), part p from bucket lo(p) on.
         let m = points.len().max(1);
-        let scale = ((PARTS as u64) << 32) / m as u64;
+        // (At least 1: with 2^28 points or more, every bucket falls in part 0.)
+        let scale = (((PARTS as u64) << 32) / m as u64).max(1);
         let part_of = |b: u32| ((b as u64 * scale) >> 32) as usize;
-        // lo(p): the least b with b scale >= p 2^32 (scale > 0, as m < 2^32 / PARTS).
+        // lo(p): the least b with b scale >= p 2^32.
         let lo: Vec<usize> = (0..=PARTS)
             .map(|p| match p {
                 PARTS => m,

@@ -129,7 +129,8 @@ impl<T: Copy + Default + Send + Sync> HashGrid<T> {
                 }
             });
         let keys = &self.keys[..chunks];
-        let in_part = |p: usize| keys.iter().flat_map(move |parts| parts[p].iter().copied());
+        // Part p's keys: chunk after chunk, so in input order.
+        let part = |p: usize| keys.iter().map(move |parts| &parts[p]);
         // 2. Counts, each part its own buckets; then exclusive prefix sums.
         self.starts.clear();
         self.starts.resize(m + 1, 0);
@@ -137,7 +138,7 @@ impl<T: Copy + Default + Send + Sync> HashGrid<T> {
             .into_par_iter()
             .enumerate()
             .for_each(|(p, counts)| {
-                for (b, _) in in_part(p) {
+                for &(b, _) in part(p).flatten() {
                     counts[b as usize - lo[p]] += 1;
                 }
             });
@@ -158,9 +159,9 @@ impl<T: Copy + Default + Send + Sync> HashGrid<T> {
             .enumerate()
             .for_each(|(p, (next, order))| {
                 let base = entry_lo[p];
-                for part in keys.iter().map(|parts| &parts[p]) {
-                    for (j, &(b, i)) in part.iter().enumerate() {
-                        if let Some(&(ahead, _)) = part.get(j + GATHER_AHEAD) {
+                for keys in part(p) {
+                    for (j, &(b, i)) in keys.iter().enumerate() {
+                        if let Some(&(ahead, _)) = keys.get(j + GATHER_AHEAD) {
                             crate::prefetch::line(&next[ahead as usize - lo[p]]);
                         }
                         let slot = &mut next[b as usize - lo[p]];

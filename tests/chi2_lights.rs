@@ -40,7 +40,7 @@ fn mesh_light(mesh: &TriangleMesh, radiance: Vec3) -> Light {
         0,
         radiance,
         AreaShape::Mesh {
-            mesh: mesh.clone(),
+            mesh: Box::new(mesh.clone()),
             sampler: MeshSampler::new(mesh),
         },
     ))
@@ -816,7 +816,7 @@ fn a_mesh_sampler_ignoring_triangle_areas_is_rejected() {
             0,
             RADIANCE,
             AreaShape::Mesh {
-                mesh: mesh.clone(),
+                mesh: Box::new(mesh.clone()),
                 sampler,
             },
         ))

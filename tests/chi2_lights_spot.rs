@@ -131,7 +131,7 @@ fn spot_area_light(mesh: &TriangleMesh, profile: SpotProfile) -> Light {
         0,
         RADIANCE,
         AreaShape::Mesh {
-            mesh: mesh.clone(),
+            mesh: Box::new(mesh.clone()),
             sampler: MeshSampler::new(mesh),
         },
         profile,
@@ -328,7 +328,7 @@ fn spot_area_light_falloff_and_power() {
         0,
         RADIANCE,
         AreaShape::Mesh {
-            mesh: mesh.clone(),
+            mesh: Box::new(mesh.clone()),
             sampler: MeshSampler::new(&mesh),
         },
     ));
@@ -893,7 +893,7 @@ fn light_sampler_includes_the_new_lights() {
             0,
             RADIANCE,
             AreaShape::Mesh {
-                mesh: mesh.clone(),
+                mesh: Box::new(mesh.clone()),
                 sampler: MeshSampler::new(&mesh),
             },
         )),

@@ -215,6 +215,50 @@ pub struct MeshSampler {
     /// [`TriangleMesh::geometric_normal`] of every triangle (next-event estimation samples
     /// emitters once per vertex; recomputing cross products there was 3 % of pt's time).
     normals: Vec<Vec3>,
+    /// A mesh of two triangles that make a parallelogram (a quad light): sampled as
+    /// `origin + u.x edge_u + u.y edge_v`, with no triangle to choose and no square root.
+    parallelogram: Option<Parallelogram>,
+}
+
+/// Two triangles sharing a diagonal whose midpoints coincide, with the same orientation.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Parallelogram {
+    origin: Vec3,
+    edge_u: Vec3,
+    edge_v: Vec3,
+    normal: Vec3,
+}
+
+impl Parallelogram {
+    /// `mesh` as a parallelogram, if it is one: two triangles with the same geometric normal
+    /// sharing an edge (the diagonal) whose midpoint is the midpoint of the two other
+    /// corners, to 1e-6 of the mesh's size.
+    fn of(mesh: &TriangleMesh, normals: &[Vec3]) -> Option<Parallelogram> {
+        let [t0, t1] = mesh.indices[..] else {
+            return None;
+        };
+        if normals[0].dot(normals[1]) < 1.0 - 1e-6 {
+            return None;
+        }
+        let shared: Vec<u32> = t0.iter().copied().filter(|i| t1.contains(i)).collect();
+        let [a, b] = shared[..] else {
+            return None;
+        };
+        let other = |t: [u32; 3]| t.into_iter().find(|i| *i != a && *i != b);
+        let (c, d) = (other(t0)?, other(t1)?);
+        let p = |i: u32| mesh.positions[i as usize];
+        let (pa, pb, pc, pd) = (p(a), p(b), p(c), p(d));
+        let size = (pa - pc).length() + (pb - pc).length() + (pd - pc).length();
+        if size.is_nan() || size <= 0.0 || ((pa + pb) - (pc + pd)).length() > 1e-6 * size {
+            return None;
+        }
+        Some(Parallelogram {
+            origin: pc,
+            edge_u: pa - pc,
+            edge_v: pb - pc,
+            normal: normals[0],
+        })
+    }
 }
 
 impl MeshSampler {
@@ -223,22 +267,33 @@ impl MeshSampler {
             .map(|i| mesh.triangle_area(i))
             .collect();
         let area = areas.iter().sum();
+        let normals: Vec<Vec3> = (0..mesh.indices.len())
+            .map(|i| mesh.geometric_normal(i))
+            .collect();
         MeshSampler {
             tri_distribution: Distribution1D::new(&areas),
             area,
-            normals: (0..mesh.indices.len())
-                .map(|i| mesh.geometric_normal(i))
-                .collect(),
+            parallelogram: Parallelogram::of(mesh, &normals),
+            normals,
         }
     }
 
-    /// A point uniform in area: (position, geometric normal, triangle index). Density 1/area.
-    pub fn sample(&self, mesh: &TriangleMesh, u: Vec2) -> (Vec3, Vec3, u32) {
+    /// Whether the mesh is sampled as one parallelogram.
+    pub fn is_parallelogram(&self) -> bool {
+        self.parallelogram.is_some()
+    }
+
+    /// A point uniform in area: (position, geometric normal). Density 1/area.
+    #[inline]
+    pub fn sample(&self, mesh: &TriangleMesh, u: Vec2) -> (Vec3, Vec3) {
+        if let Some(q) = &self.parallelogram {
+            return (q.origin + q.edge_u * u.x + q.edge_v * u.y, q.normal);
+        }
         let (tri, _, ux) = self.tri_distribution.sample(u.x);
         let b = warp::square_to_uniform_triangle(Vec2::new(ux, u.y));
         let [a, bb, c] = mesh.triangle(tri);
         let p = a * (1.0 - b.x - b.y) + bb * b.x + c * b.y;
-        (p, self.normals[tri], tri as u32)
+        (p, self.normals[tri])
     }
 }
 
@@ -272,6 +327,44 @@ mod tests {
             let centroid = (a + b + c) / 3.0;
             assert!(m.geometric_normal(i).dot(centroid) > 0.0);
         }
+    }
+
+    /// A quad, sheared and moved, is sampled as a parallelogram: every point lies in one of
+    /// its triangles, with its normal; a kite, a pair of opposite windings and a cube are not.
+    #[test]
+    fn parallelograms_are_recognised_and_sampled_inside() {
+        let (o, u, v) = (
+            Vec3::new(0.3, -2.0, 1.0),
+            Vec3::new(1.5, 0.2, 0.0),
+            Vec3::new(0.4, 0.0, 0.7),
+        );
+        let quad = TriangleMesh::quad(o, u, v);
+        let sampler = MeshSampler::new(&quad);
+        assert!(sampler.is_parallelogram());
+        let n = quad.geometric_normal(0);
+        for k in 0..64 {
+            let uv = Vec2::new((k % 8) as f32 / 7.0, (k / 8) as f32 / 7.0);
+            let (p, pn) = sampler.sample(&quad, uv);
+            assert_eq!(pn, n);
+            // Inside iff its coordinates in (u, v) are in [0, 1]^2 and it lies on the plane.
+            let d = p - o;
+            assert!(d.dot(n).abs() < 1e-5, "{p} off the plane");
+            let inside = (0..2).any(|t| {
+                let [a, b, c] = quad.triangle(t);
+                let (e1, e2, w) = (b - a, c - a, p - a);
+                let area = e1.cross(e2).length();
+                let (l1, l2) = (w.cross(e2).length() / area, e1.cross(w).length() / area);
+                l1 + l2 <= 1.0 + 1e-5
+            });
+            assert!(inside, "{p} outside the quad");
+        }
+        let mut kite = quad.clone();
+        kite.positions[2] += 0.1 * u;
+        assert!(!MeshSampler::new(&kite).is_parallelogram());
+        let mut flipped = quad.clone();
+        flipped.indices[1] = [0, 3, 2];
+        assert!(!MeshSampler::new(&flipped).is_parallelogram());
+        assert!(!MeshSampler::new(&TriangleMesh::cube()).is_parallelogram());
     }
 
     #[test]

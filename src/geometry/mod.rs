@@ -98,20 +98,25 @@ pub fn offset_origin(p: Vec3, p_err: Vec3, n: Vec3, w: Vec3) -> Vec3 {
 /// `x` moved by one ulp in the direction of `dir` (unchanged for `dir == 0`). `x` is finite
 /// and the offset was just added to it, so the NaN and infinity cases of `f32::next_up` are
 /// not needed: the bit pattern steps by one (away from zero if `x` and `dir` share a sign).
+/// Written with selects rather than early returns (the three cases compile to conditional
+/// moves; ray offsets call it three times a point, with `dir == 0` on some axes and not others).
 #[inline(always)]
 fn next_away(x: f32, dir: f32) -> f32 {
-    if dir == 0.0 {
-        return x;
-    }
-    if x == 0.0 {
-        return f32::from_bits(1).copysign(dir);
-    }
-    let bits = x.to_bits();
-    f32::from_bits(if (x > 0.0) == (dir > 0.0) {
-        bits + 1
+    const SIGN: u32 = 0x8000_0000;
+    let (bits, dir_bits) = (x.to_bits(), dir.to_bits());
+    // x and dir nonzero: one step up in magnitude when their signs agree, one down otherwise.
+    let stepped = if (bits ^ dir_bits) & SIGN == 0 {
+        bits.wrapping_add(1)
     } else {
-        bits - 1
-    })
+        bits.wrapping_sub(1)
+    };
+    // x = +-0: the smallest subnormal with dir's sign.
+    let moved = if x == 0.0 {
+        1 | (dir_bits & SIGN)
+    } else {
+        stepped
+    };
+    if dir == 0.0 { x } else { f32::from_bits(moved) }
 }
 
 /// Shadow-ray tolerance: a fraction of the segment left out at its far end.

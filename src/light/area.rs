@@ -15,7 +15,8 @@ use glam::{Vec2, Vec3};
 #[derive(Debug, Clone)]
 pub enum AreaShape {
     Mesh {
-        mesh: TriangleMesh,
+        /// Boxed: sampling reads only `sampler` when the mesh is a parallelogram.
+        mesh: Box<TriangleMesh>,
         sampler: MeshSampler,
     },
     Sphere(Sphere),
@@ -94,26 +95,34 @@ impl AreaLight {
     }
 
     pub fn sample_li(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
-        let (p_l, n_l, pdf) = match &self.geometry {
+        let (p_l, n_l, pdf, v, dist) = match &self.geometry {
             AreaShape::Mesh { mesh, sampler } => {
-                let (p_l, n_l, _) = sampler.sample(mesh, u);
+                let (p_l, n_l) = sampler.sample(mesh, u);
                 let v = p_l - p;
                 let d2 = v.length_squared();
-                let cos_l = n_l.dot(-v) / d2.sqrt();
+                let dist = d2.sqrt();
+                let cos_l = n_l.dot(-v) / dist;
                 if cos_l <= 0.0 {
                     return None;
                 }
-                (p_l, n_l, d2 / (cos_l * sampler.area))
+                (p_l, n_l, d2 / (cos_l * sampler.area), v, dist)
             }
-            AreaShape::Sphere(s) => sphere_sample_li(s, p, u)?,
+            AreaShape::Sphere(s) => {
+                let (p_l, n_l, pdf) = sphere_sample_li(s, p, u)?;
+                let v = p_l - p;
+                (p_l, n_l, pdf, v, v.length())
+            }
         };
-        let v = p_l - p;
-        let dist = v.length();
         if dist == 0.0 || !pdf.is_finite() || pdf <= 0.0 {
             return None;
         }
         let wi = v / dist;
-        let li = self.le(n_l, -wi);
+        // Without a spot profile the sample faces p (checked above for meshes): `le` is the
+        // radiance.
+        let li = match (&self.geometry, &self.spot) {
+            (AreaShape::Mesh { .. }, None) => self.radiance,
+            _ => self.le(n_l, -wi),
+        };
         if li == Spectrum::ZERO {
             return None;
         }
@@ -146,7 +155,7 @@ impl AreaLight {
     pub fn sample_le(&self, u_pos: Vec2, u_dir: Vec2) -> Option<EmissionSample> {
         let (p, n, pdf_pos) = match &self.geometry {
             AreaShape::Mesh { mesh, sampler } => {
-                let (p, n, _) = sampler.sample(mesh, u_pos);
+                let (p, n) = sampler.sample(mesh, u_pos);
                 (p, n, 1.0 / sampler.area)
             }
             AreaShape::Sphere(s) => {

@@ -10,12 +10,33 @@ pub fn square_to_disk_concentric(u: Vec2) -> Vec2 {
     if o.x == 0.0 && o.y == 0.0 {
         return Vec2::ZERO;
     }
-    let (r, theta) = if o.x.abs() > o.y.abs() {
-        (o.x, (PI / 4.0) * (o.y / o.x))
+    // The angle is pi/4 (o.y / o.x), or pi/2 - pi/4 (o.x / o.y): both need sin and cos of an
+    // angle in [-pi/4, pi/4] only, which short polynomials give to about an ulp.
+    if o.x.abs() > o.y.abs() {
+        let (sin, cos) = sin_cos_quarter((PI / 4.0) * (o.y / o.x));
+        o.x * Vec2::new(cos, sin)
     } else {
-        (o.y, PI / 2.0 - (PI / 4.0) * (o.x / o.y))
-    };
-    r * Vec2::new(theta.cos(), theta.sin())
+        let (sin, cos) = sin_cos_quarter((PI / 4.0) * (o.x / o.y));
+        o.y * Vec2::new(sin, cos)
+    }
+}
+
+/// `(sin x, cos x)` for `|x| <= pi/4`: Taylor polynomials to x^9 and x^10, whose truncation
+/// errors there (below 2e-9 and 1e-10) are far under f32's rounding. Sampling calls this
+/// once per diffuse bounce; `f32::sin_cos` (a library call with range reduction) was 3 % of
+/// pt's time on the Cornell box.
+#[inline]
+pub fn sin_cos_quarter(x: f32) -> (f32, f32) {
+    let x2 = x * x;
+    let sin = x
+        * (1.0
+            + x2 * (-1.0 / 6.0
+                + x2 * (1.0 / 120.0 + x2 * (-1.0 / 5040.0 + x2 * (1.0 / 362_880.0)))));
+    let cos = 1.0
+        + x2 * (-0.5
+            + x2 * (1.0 / 24.0
+                + x2 * (-1.0 / 720.0 + x2 * (1.0 / 40_320.0 + x2 * (-1.0 / 3_628_800.0)))));
+    (sin, cos)
 }
 
 /// Cosine-weighted hemisphere around +z.
@@ -78,6 +99,25 @@ pub fn square_to_uniform_triangle(u: Vec2) -> Vec2 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Within 2 ulps of 1 (2.4e-7) of f64's sine and cosine on a fine grid of [-pi/4, pi/4]
+    /// and at its ends; odd and even as the functions are.
+    #[test]
+    fn sin_cos_quarter_is_accurate() {
+        let n = 200_000;
+        let mut worst = 0.0f64;
+        for i in 0..=n {
+            let x = (-PI / 4.0) + (PI / 2.0) * (i as f32 / n as f32);
+            let x = x.clamp(-PI / 4.0, PI / 4.0);
+            let (s, c) = sin_cos_quarter(x);
+            let (s64, c64) = (x as f64).sin_cos();
+            worst = worst
+                .max((s as f64 - s64).abs())
+                .max((c as f64 - c64).abs());
+            assert_eq!(sin_cos_quarter(-x), (-s, c));
+        }
+        assert!(worst < 2.4e-7, "worst error {worst:e}");
+    }
 
     #[test]
     fn concentric_disk_stays_inside() {

@@ -185,7 +185,7 @@ impl Builder<'_> {
                         let area = match &geometry {
                             ShapeGeometry::Mesh(m) => AreaShape::Mesh {
                                 sampler: MeshSampler::new(m),
-                                mesh: m.clone(),
+                                mesh: Box::new(m.clone()),
                             },
                             ShapeGeometry::Sphere(sp) => AreaShape::Sphere(*sp),
                         };

@@ -62,6 +62,39 @@ fn transmittance_through_an_absorbing_slab_is_exp_of_minus_sigma_t_d() {
     util::assert_constant_image(&img, expected, "absorbing slab");
 }
 
+/// A segment that leaves the slab just before its end (within the shadow epsilon of the
+/// target, which occlusion does not test) still ends outside the medium: bdpt's vertices
+/// rebuilt from a path (`from_path`) take their media from `end_medium`, and vcm's weights
+/// disagreed with the densities from scratch on a floor vertex 2e-4 outside cornell-fog's
+/// fog cube. Ending 1e-5 past the face of a segment 2 long: inside the 2e-4 epsilon.
+#[test]
+fn a_boundary_crossed_within_the_shadow_epsilon_decides_the_end_medium() {
+    let scene = util::scene(&slab_scene([0.5, 0.5, 0.5]));
+    let ink = Some(0);
+    for (from, to, medium, end, inside) in [
+        (0.0, -0.25 - 1e-5, ink, None, 0.25), // leaves the slab through its back face
+        (2.25 - 1e-5, 0.25 - 1e-5, None, ink, 1e-5), // enters it just before the end
+        (0.0, -0.2, ink, ink, 0.2),           // stays inside: no crossing
+    ] {
+        let (a, b) = (Vec3::new(0.1, 0.2, from), Vec3::new(0.1, 0.2, to));
+        let t = scene
+            .transmittance(
+                &Endpoint::point(a),
+                Some(&Endpoint::point(b)),
+                Vec3::NEG_Z,
+                medium,
+            )
+            .expect("only index-matched boundaries in between");
+        assert_eq!(t.end_medium, end, "segment {from} -> {to}");
+        let expected = (-0.5f32 * inside).exp();
+        assert!(
+            (t.tr.x - expected).abs() < 1e-4,
+            "{from} -> {to}: tr {} vs {expected}",
+            t.tr.x
+        );
+    }
+}
+
 /// A purely scattering sphere (index-matched) in a uniform environment conserves energy: the
 /// image is the environment's radiance everywhere, with every strategy.
 #[test]

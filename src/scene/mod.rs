@@ -442,20 +442,26 @@ impl Scene {
         } else {
             0.0
         };
-        // A bounded number of index-matched crossings (closed shapes give two each).
+        // A bounded number of index-matched crossings (closed shapes give two each). Rays
+        // reach the target, so that a medium boundary crossed within the shadow epsilon of it
+        // still decides the medium the segment ends in; a surface there does not block.
         for _ in 0..64 {
-            if remaining <= 0.0 {
+            let to_target = remaining + slack;
+            if to_target <= 0.0 {
                 out.end_medium = medium;
                 return Some(out);
             }
             let ray = Ray {
                 o,
                 d,
-                t_max: remaining,
+                t_max: to_target,
             };
-            let Some(sp) = self.intersect(&ray) else {
+            let blocker = self
+                .intersect(&ray)
+                .filter(|sp| sp.is_null() || sp.hit.t < remaining);
+            let Some(sp) = blocker else {
                 if let Some(m) = medium {
-                    segment(&mut out, m, remaining + slack);
+                    segment(&mut out, m, to_target);
                 }
                 out.end_medium = medium;
                 return Some(out);

@@ -1,5 +1,5 @@
 //! Area lights: emissive shapes with constant radiance on their front side. Meshes are
-//! sampled uniformly by area; spheres by the cone of directions they subtend (uniform area
+//! sampled uniformly by area (a parallelogram, such as a quad, directly: `MeshSampler`); spheres by the cone of directions they subtend (uniform area
 //! sampling from inside).
 //!
 //! A spot area light ([`AreaLight::with_spot`]) scales the radiance by a [`SpotProfile`] of

@@ -1,6 +1,6 @@
 //! Area lights: emissive shapes with constant radiance on their front side. Meshes are
-//! sampled uniformly by area (a parallelogram, such as a quad, directly: `MeshSampler`); spheres by the cone of directions they subtend (uniform area
-//! sampling from inside).
+//! sampled uniformly by area (a parallelogram, such as a quad, directly: `MeshSampler`);
+//! spheres by the cone of directions they subtend (uniform area sampling from inside).
 //!
 //! A spot area light ([`AreaLight::with_spot`]) scales the radiance by a [`SpotProfile`] of
 //! the angle between the emitted direction and the geometric normal; its emitted rays are

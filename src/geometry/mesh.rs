@@ -346,15 +346,14 @@ mod tests {
             let uv = Vec2::new((k % 8) as f32 / 7.0, (k / 8) as f32 / 7.0);
             let (p, pn) = sampler.sample(&quad, uv);
             assert_eq!(pn, n);
-            // Inside iff its coordinates in (u, v) are in [0, 1]^2 and it lies on the plane.
-            let d = p - o;
-            assert!(d.dot(n).abs() < 1e-5, "{p} off the plane");
+            // On the plane, and inside one of the triangles by its signed barycentrics.
+            assert!((p - o).dot(n).abs() < 1e-5, "{p} off the plane");
             let inside = (0..2).any(|t| {
                 let [a, b, c] = quad.triangle(t);
                 let (e1, e2, w) = (b - a, c - a, p - a);
-                let area = e1.cross(e2).length();
-                let (l1, l2) = (w.cross(e2).length() / area, e1.cross(w).length() / area);
-                l1 + l2 <= 1.0 + 1e-5
+                let area = e1.cross(e2).dot(n);
+                let (l1, l2) = (w.cross(e2).dot(n) / area, e1.cross(w).dot(n) / area);
+                l1 >= -1e-5 && l2 >= -1e-5 && l1 + l2 <= 1.0 + 1e-5
             });
             assert!(inside, "{p} outside the quad");
         }

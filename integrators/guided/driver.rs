@@ -39,6 +39,7 @@ use crate::error::Result;
 use crate::film::Film;
 use crate::geometry::bvh::rays_traced;
 use crate::integrators::unguided::{HeldPaths, Unguided};
+use crate::math::sobol::SobolSampler;
 use crate::math::{AnySampler, IndependentSampler, Sampler, SamplerKind, luminance, luminance64};
 use crate::render::{
     Budget, Integrator, RenderContext, RenderResult, cascade_rows, run_passes_with_snapshots,
@@ -73,6 +74,21 @@ pub struct Guided<U: Unguided, S: Seeder> {
 type PassGrid = (Vec<[f64; share::N]>, [f64; share::N]);
 
 impl<U: Unguided, S: Seeder> Guided<U, S> {
+    /// U's own estimate of pixel (x, y)'s sample drawn from `sampler`.
+    fn plain_sample(
+        &self,
+        tracer: &mut U::Tracer<'_>,
+        scene: &Scene,
+        x: u32,
+        y: u32,
+        mut sampler: impl Sampler,
+        splats: &mut Vec<(u32, glam::DVec3)>,
+    ) -> glam::DVec3 {
+        let raster = Camera::jittered(x, y, sampler.next_2d());
+        self.unguided
+            .estimate(tracer, scene, raster, &mut sampler, splats)
+    }
+
     /// One pass: U per pixel plus the guided samples; returns per-row outputs in row order
     /// and, when `measure`, the pass's per-pixel luminance of the mixed estimate and of U alone.
     #[allow(clippy::too_many_arguments)]
@@ -112,20 +128,26 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
                     } else {
                         self.settings.sampler
                     };
-                    let mut sampler = AnySampler::new(kind, ctx.seed, pass, index);
-                    let raster = Camera::jittered(x as u32, y as u32, sampler.next_2d());
                     let rays = rays_traced();
                     let (sum, grid) = if plain {
-                        // Nothing of the guider to evaluate: U's own estimator, as fast as U.
-                        let v = self.unguided.estimate(
-                            &mut tracer,
-                            scene,
-                            raster,
-                            &mut sampler,
-                            &mut out.splats,
-                        );
+                        // Nothing of the guider to evaluate: U's own estimator, as fast as U
+                        // (with the sampler's own type, as U's driver has it: the same
+                        // numbers as `AnySampler`'s, without a dispatch per number).
+                        let (x, y, splats) = (x as u32, y as u32, &mut out.splats);
+                        let v = match kind {
+                            SamplerKind::Independent => {
+                                let s = IndependentSampler::new(ctx.seed, pass, index);
+                                self.plain_sample(&mut tracer, scene, x, y, s, splats)
+                            }
+                            SamplerKind::Sobol => {
+                                let s = SobolSampler::new(ctx.seed, pass, index);
+                                self.plain_sample(&mut tracer, scene, x, y, s, splats)
+                            }
+                        };
                         (v, [0.0; share::N])
                     } else {
+                        let mut sampler = AnySampler::new(kind, ctx.seed, pass, index);
+                        let raster = Camera::jittered(x as u32, y as u32, sampler.next_2d());
                         let source = Source::Unguided { pass, index };
                         let mut col = Collector::new(est, &mut out, source, learning, measure);
                         self.unguided

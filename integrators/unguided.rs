@@ -211,10 +211,19 @@ fn densities(
         return None;
     }
     let mut p = [0.0f64; MAX_VERTICES];
-    let mut terms = bdpt::path_terms(scene, y, rr_depth);
-    terms.direct_by_camera &= !direct_splats;
-    terms.technique_densities(&mut p);
+    TERMS.with_borrow_mut(|terms| {
+        crate::integrators::paths::path_terms_into(scene, y, rr_depth, terms);
+        terms.direct_by_camera &= !direct_splats;
+        terms.technique_densities(&mut p);
+    });
     Some(p)
+}
+
+thread_local! {
+    /// [`densities`]' scratch: the guided estimators ask for the densities of every path U
+    /// forms, and a fresh `PathTerms` per path was three allocations.
+    static TERMS: std::cell::RefCell<crate::integrators::paths::PathTerms> =
+        std::cell::RefCell::new(crate::integrators::paths::PathTerms::new(0));
 }
 
 impl Unguided for PathTracer {

@@ -85,10 +85,19 @@ pub fn roulette(q: f32, segments: usize, rr_depth: u32) -> f32 {
 /// bdpt's default settings: `direct_by_camera` is set for a directly seen emitter through
 /// vacuum in a pixel it fills; a caller with `BdptSettings::direct_splats` clears it).
 pub fn path_terms(scene: &Scene, y: &[Vertex], rr_depth: u32) -> PathTerms {
+    let mut terms = PathTerms::new(0);
+    path_terms_into(scene, y, rr_depth, &mut terms);
+    terms
+}
+
+/// [`path_terms`] into `terms`, whose storage is reused (no allocation once it has grown to
+/// the path's length).
+pub fn path_terms_into(scene: &Scene, y: &[Vertex], rr_depth: u32, terms: &mut PathTerms) {
     let k = y.len() - 1;
-    let mut terms = PathTerms::new(k);
+    terms.reset(k);
+    terms.eta = 0.0;
     let Kind::Light { light } = y[k].kind else {
-        return terms;
+        return;
     };
     terms.hittable = hittable(scene, light);
     for (j, v) in y.iter().enumerate() {
@@ -112,7 +121,7 @@ pub fn path_terms(scene: &Scene, y: &[Vertex], rr_depth: u32) -> PathTerms {
             };
             let end = (!y[j + 1].is_infinite_light(scene)).then(|| endpoint(&y[j + 1]));
             let Some(tr) = scene.transmittance(&endpoint(&y[j]), end.as_ref(), d, start) else {
-                return terms;
+                return;
             };
             let edge = Edge::along(&tr);
             if j == 0 && edge.first.is_some() {
@@ -145,7 +154,6 @@ pub fn path_terms(scene: &Scene, y: &[Vertex], rr_depth: u32) -> PathTerms {
         terms.pl[j] = (dir_pdf(j + 1, next, j) * to_prev[j] * rr) as f64;
     }
     terms.nee_k = nee_density(scene, &y[k - 1], &y[k], light);
-    terms
 }
 
 /// BDPT's `pdf_unguided` (DESIGN.md §3): the sum over its techniques of the density of

@@ -44,11 +44,12 @@ use crate::scene::Scene;
 use glam::{DVec3, Vec3};
 
 /// Names of [`Stats::reasons`], in order.
-pub const FAILURE_REASONS: &str = "offimage_miss_structure_scatter_occluded_zero_edge_nonfinite";
+pub const FAILURE_REASONS: &str =
+    "offimage_miss_structure_scatter_occluded_light_zero_edge_nonfinite";
 /// Index of the reasons that are not [`sampler::Failure`]s.
-const ZERO: usize = 5;
-const EDGE: usize = 6;
-const NON_FINITE: usize = 7;
+const ZERO: usize = 6;
+const EDGE: usize = 7;
+const NON_FINITE: usize = 8;
 
 /// Counters of one or more passes.
 #[derive(Debug, Clone, Copy, Default)]
@@ -56,9 +57,13 @@ pub struct Stats {
     pub guided: u64,
     pub failed: u64,
     /// Failures by reason ([`FAILURE_REASONS`]): off the image, missed / wrong vertex,
-    /// structure (mode), scatter, occluded medium target, zero contribution, own guide's term
-    /// zero on re-evaluation (a truncation edge), non-finite value.
-    pub reasons: [u64; 8],
+    /// structure (mode), scatter, occluded medium target, emitter not reached by the step to
+    /// it, zero contribution, own guide's term zero on re-evaluation (a truncation edge),
+    /// non-finite value.
+    pub reasons: [u64; 9],
+    /// Failures of the walk ([`sampler::Failure`]) by the vertex it was drawing: x_1 ..
+    /// x_6, then x_7 and later.
+    pub failed_by_vertex: [u64; PG_ZERO_VERTICES],
     pub pg_evaluations: u64,
     pub pg_candidates: u64,
     /// Of `pg_evaluations` and `pg_candidates`, those of guided samples.
@@ -138,6 +143,9 @@ impl Stats {
         {
             *a += b;
         }
+        for (a, b) in self.failed_by_vertex.iter_mut().zip(o.failed_by_vertex) {
+            *a += b;
+        }
         for (a, b) in self.reasons.iter_mut().zip(o.reasons) {
             *a += b;
         }
@@ -146,6 +154,12 @@ impl Stats {
     fn fail(&mut self, reason: usize) {
         self.failed += 1;
         self.reasons[reason] += 1;
+    }
+
+    /// A walk that failed while drawing vertex `v` (1 for x_1).
+    fn fail_at(&mut self, why: sampler::Failure, v: usize) {
+        self.fail(why as usize);
+        self.failed_by_vertex[v.clamp(1, PG_ZERO_VERTICES) - 1] += 1;
     }
 }
 
@@ -425,7 +439,8 @@ impl<'a, U: Unguided> Estimator<'a, U> {
         let g = match sampler::sample_path_into(self.scene, self.cache, sampler, path) {
             Ok(g) => g,
             Err(e) => {
-                stats.fail(e as usize);
+                // The walk leaves the vertices drawn so far in `path`: it failed at the next.
+                stats.fail_at(e, path.vertices().len());
                 return None;
             }
         };

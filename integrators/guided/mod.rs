@@ -79,7 +79,9 @@
 //! full structure (7.7k instead of 2.7k) raised it. Such paths need the specular suffix guided
 //! on its own (closing note of issue 6). Every render reports this account for its own scene:
 //! `unguided_second_moment_by_coverage` (structure not held / p_g = 0 / covered),
-//! `pg_zero_second_moment_by_vertex` (where p_g vanished; `estimator.rs`) and
+//! `pg_zero_second_moment_by_vertex` (where p_g vanished; `estimator.rs`),
+//! `failed_walks_by_vertex` (where guided samples fail; with the reason `light` for a step to
+//! the emitter that does not reach it) and
 //! `variance_by_coverage`: the render passes' image variance split into the same three
 //! classes plus the guided samples (`coverage.rs`). The second moment counts each class's
 //! mean too; the variance is the error (on dining, direct light holds most of the unguided

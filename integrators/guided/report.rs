@@ -121,6 +121,10 @@ pub fn stats(f: &Facts) -> Vec<(String, String)> {
             &format!("failures_{FAILURE_REASONS}"),
             format!("{:?}", rs.reasons),
         ),
+        stat(
+            "failed_walks_by_vertex",
+            vertex_shares(&rs.failed_by_vertex.map(|n| n as f64)),
+        ),
     ]
 }
 
@@ -130,7 +134,7 @@ fn coverage_shares(sums: &[f64; 3]) -> String {
 }
 
 /// `x1:share/.../x7+:share` of the p_g = 0 class's second moment by the vertex where p_g
-/// vanished.
+/// vanished, or of the failed guided walks by the vertex they were drawing.
 fn vertex_shares(sums: &[f64; PG_ZERO_VERTICES]) -> String {
     let names = (1..=PG_ZERO_VERTICES).map(|v| match v {
         PG_ZERO_VERTICES => format!("x{v}+"),

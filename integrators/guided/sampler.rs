@@ -29,7 +29,8 @@ use glam::{Vec2, Vec3};
 pub enum Failure {
     /// The first direction leaves the image.
     OffImage,
-    /// A ray missed, or hit something else than the guide's vertex kind or emitter.
+    /// A ray towards a surface vertex hit nothing, or a surface of another kind (delta or
+    /// not) than the guide's vertex.
     Miss,
     /// The path's structure (modes, delta flags) differs from the guide's.
     Structure,
@@ -37,6 +38,9 @@ pub enum Failure {
     Scatter,
     /// A medium target is not visible or not in the guide's medium.
     Occluded,
+    /// The step to the emitter does not reach it: a specular or BSDF direction outside a
+    /// light's cone, or a ray towards the emitter that hits something else first.
+    Light,
 }
 
 pub struct GuidedSample {
@@ -284,7 +288,7 @@ pub fn sample_path_into(
             let lt = &scene.lights[light as usize];
             let ls = lt
                 .sample_li(at.pv.p, Vec2::splat(0.5))
-                .ok_or(Failure::Miss)?;
+                .ok_or(Failure::Light)?;
             let (p, n) = if lt.is_infinite() {
                 (at.pv.p + ls.wi, ls.wi)
             } else {
@@ -423,7 +427,7 @@ pub fn sample_path_into(
             } = node
                 && scene.lights[light as usize].le(Vec3::ZERO, dir) == Vec3::ZERO
             {
-                return Err(Failure::Miss);
+                return Err(Failure::Light);
             }
             let (sp, medium) = trace(scene, at.ray(dir), start_medium);
             match (node, sp) {
@@ -447,7 +451,7 @@ pub fn sample_path_into(
                     if sp.light() != Some(light as usize)
                         || scene.lights[light as usize].le(sp.hit.ng, -dir) == Vec3::ZERO
                     {
-                        return Err(Failure::Miss);
+                        return Err(Failure::Light);
                     }
                     taken = branch_density_w * area_factor(at.pv.p, sp.hit.p, sp.hit.ng);
                     next = At::emitter(sp.hit.p, sp.hit.ng, light, medium);
@@ -463,6 +467,7 @@ pub fn sample_path_into(
                         medium,
                     };
                 }
+                (Node::Emitter { .. }, _) => return Err(Failure::Light),
                 _ => return Err(Failure::Miss),
             }
         }

@@ -14,7 +14,7 @@
 //! ([`HeldKey`]) without reading the photon's subpath.
 
 use crate::light::Light;
-use crate::path::{Path, Vertex as PathVertex, VertexKind};
+use crate::path::{MAX_VERTICES, Path, Vertex as PathVertex, VertexKind};
 use crate::scene::Scene;
 use glam::Vec3;
 
@@ -48,9 +48,31 @@ pub enum Node {
 
 /// Nodes of vertices 1 .. L-1 of a path and their hash; `None` for paths the guider does
 /// not handle (fewer than 3 vertices, not ending on an emitter, or too long).
-pub fn structure(scene: &Scene, path: &Path, max_len: usize) -> Option<(u64, Vec<Node>)> {
-    let nodes = nodes_of(scene, path, max_len)?.collect::<Option<Vec<Node>>>()?;
+pub fn structure(scene: &Scene, path: &Path, max_len: usize) -> Option<(u64, Nodes)> {
+    let mut nodes = Nodes {
+        len: 0,
+        items: [Node::Medium { medium: 0 }; MAX_VERTICES],
+    };
+    for node in nodes_of(scene, path, max_len)? {
+        nodes.items[nodes.len] = node?;
+        nodes.len += 1;
+    }
     Some((hash_nodes(nodes.iter().copied()), nodes))
+}
+
+/// The nodes of a path's vertices 1 .. L-1, held inline: the guided estimators take them for
+/// every path whose structure the cache holds, so they do not allocate. Reads as `[Node]`.
+#[derive(Debug, Clone, Copy)]
+pub struct Nodes {
+    len: usize,
+    items: [Node; MAX_VERTICES],
+}
+
+impl std::ops::Deref for Nodes {
+    type Target = [Node];
+    fn deref(&self) -> &[Node] {
+        &self.items[..self.len]
+    }
 }
 
 /// The structure hash of a path alone, without allocating: what decides whether a cache can

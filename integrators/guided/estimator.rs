@@ -304,7 +304,8 @@ impl<'a, U: Unguided> Estimator<'a, U> {
         if self.n_g == 0.0 {
             return not_held;
         }
-        // The hash alone (no allocation) rejects every path whose structure the cache lacks.
+        // The hash alone (cheaper than the nodes) rejects every path whose structure the cache
+        // lacks.
         match kernel::signature(self.scene, path, MAX_VERTICES) {
             Some(sig) if self.cache.holds(sig) => {}
             _ => return not_held,

@@ -554,3 +554,59 @@ pub struct RowOutput {
     /// not held, or p_g = 0), summed (the chain seeder's `uncovered` target).
     pub uncovered: f64,
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use sampler::Failure;
+
+    /// The report names `Stats::reasons` by [`FAILURE_REASONS`] while the walk's failures are
+    /// counted at `Failure as usize`: the two orders must agree, or the report mislabels them.
+    #[test]
+    fn failure_reasons_are_named_in_the_order_they_are_counted() {
+        // Exhaustive: a new `Failure` must be named here (and in FAILURE_REASONS).
+        let name = |f: Failure| match f {
+            Failure::OffImage => "offimage",
+            Failure::Miss => "miss",
+            Failure::Structure => "structure",
+            Failure::Scatter => "scatter",
+            Failure::Occluded => "occluded",
+            Failure::Light => "light",
+        };
+        let names: Vec<&str> = FAILURE_REASONS.split('_').collect();
+        assert_eq!(names.len(), Stats::default().reasons.len());
+        for f in [
+            Failure::OffImage,
+            Failure::Miss,
+            Failure::Structure,
+            Failure::Scatter,
+            Failure::Occluded,
+            Failure::Light,
+        ] {
+            assert_eq!(names[f as usize], name(f), "{f:?}");
+        }
+        assert_eq!(
+            [names[ZERO], names[EDGE], names[NON_FINITE]],
+            ["zero", "edge", "nonfinite"]
+        );
+    }
+
+    /// The estimator passes the length of the walk's path buffer, which holds x_0 .. x_{v-1}
+    /// when drawing x_v fails: x_1 .. x_6 get a bucket each, x_7 and later share the last.
+    #[test]
+    fn a_failed_walk_counts_at_the_vertex_it_was_drawing() {
+        let mut s = Stats::default();
+        for (why, v) in [
+            (Failure::OffImage, 1),
+            (Failure::Light, 4),
+            (Failure::Structure, 6),
+            (Failure::Light, 7),
+            (Failure::Miss, 12),
+        ] {
+            s.fail_at(why, v);
+        }
+        assert_eq!(s.failed, 5);
+        assert_eq!(s.failed_by_vertex, [1, 0, 0, 1, 0, 1, 2]);
+        assert_eq!(s.reasons, [1, 1, 1, 0, 0, 2, 0, 0, 0]);
+    }
+}

@@ -92,7 +92,7 @@ pub fn bench(args: BenchArgs) -> Result<()> {
     } else {
         lodestar::bench::bench_from_parts(&prepared, &args.from_parts)?
     };
-    print!("{}", report.table);
+    out!("{}", report.table);
     if !args.quiet {
         eprintln!("wrote {}", prepared.config.out.join("index.html").display());
     }

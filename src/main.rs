@@ -1,5 +1,19 @@
 //! The `lodestar` command line: render (with snapshots), bench, compare, info, integrators.
 
+/// `println!` for what a command prints on stdout, through [`write_stdout`].
+macro_rules! outln {
+    ($($arg:tt)*) => {
+        $crate::write_stdout(format_args!($($arg)*), true)
+    };
+}
+
+/// `print!` through [`write_stdout`].
+macro_rules! out {
+    ($($arg:tt)*) => {
+        $crate::write_stdout(format_args!($($arg)*), false)
+    };
+}
+
 mod cli_bench;
 
 use clap::{Parser, Subcommand};
@@ -212,7 +226,7 @@ fn main() -> ExitCode {
         Command::Info { scene } => info(&scene),
         Command::Integrators => {
             for e in integrators::REGISTRY {
-                println!("{:<8} {}", e.name, e.summary);
+                outln!("{:<8} {}", e.name, e.summary);
             }
             Ok(())
         }
@@ -516,35 +530,39 @@ fn compare(a: &Path, b: &Path, crop: Option<&str>) -> Result<()> {
     let (ib, _) = Image::read_exr(b)?;
     let c = lodestar::metrics::compare_crop(&ia, &ib, crop)
         .map_err(|e| e.context(format!("{} vs {}", a.display(), b.display())))?;
-    println!(
+    outln!(
         "mean A  {:.6} {:.6} {:.6}",
-        c.mean_a.x, c.mean_a.y, c.mean_a.z
+        c.mean_a.x,
+        c.mean_a.y,
+        c.mean_a.z
     );
-    println!(
+    outln!(
         "mean B  {:.6} {:.6} {:.6}",
-        c.mean_b.x, c.mean_b.y, c.mean_b.z
+        c.mean_b.x,
+        c.mean_b.y,
+        c.mean_b.z
     );
-    println!("MSE     {:.6e}", c.mse);
-    println!("RMSE    {:.6e}", c.rmse);
-    println!("relMSE  {:.6e}", c.rel_mse);
+    outln!("MSE     {:.6e}", c.mse);
+    outln!("RMSE    {:.6e}", c.rmse);
+    outln!("relMSE  {:.6e}", c.rel_mse);
     Ok(())
 }
 
 fn info(path: &Path) -> Result<()> {
     let s = loader::load_file(path)?;
     let r = s.camera.resolution;
-    println!("scene       {}", s.source);
-    println!("resolution  {} x {}", r.x, r.y);
-    println!(
+    outln!("scene       {}", s.source);
+    outln!("resolution  {} x {}", r.x, r.y);
+    outln!(
         "shapes      {} ({} triangles, {} spheres)",
         s.shapes.len(),
         s.triangle_count(),
         s.sphere_count()
     );
-    println!("lights      {}", s.lights.len());
-    println!("materials   {}", s.materials.len());
-    println!("features    {}", s.features);
-    println!(
+    outln!("lights      {}", s.lights.len());
+    outln!("materials   {}", s.materials.len());
+    outln!("features    {}", s.features);
+    outln!(
         "defaults    integrator {}, max_depth {}, spp {}",
         s.render.integrator,
         depth_label(s.render.max_depth),
@@ -557,4 +575,30 @@ fn info(path: &Path) -> Result<()> {
 pub(crate) fn cli_max_depth(d: Option<i64>) -> Result<Option<u32>> {
     d.map(|d| parse_max_depth(d).map_err(|e| Error::new(format!("--max-depth {e}"))))
         .transpose()
+}
+
+/// Writes one piece of a command's output to stdout (and a newline with `newline`). A reader
+/// that stops early (`lodestar compare A B | head -1`) closes the pipe and the write fails
+/// with `BrokenPipe`: the program then ends at once with status 0, as the reader wanted no
+/// more, where `println!` would panic. Any other failure to write is an error (status 1).
+fn write_stdout(args: std::fmt::Arguments, newline: bool) {
+    use std::io::Write;
+    let mut stdout = std::io::stdout().lock();
+    let written = stdout
+        .write_fmt(args)
+        .and_then(|()| {
+            if newline {
+                stdout.write_all(b"\n")
+            } else {
+                Ok(())
+            }
+        })
+        .and_then(|()| stdout.flush());
+    if let Err(e) = written {
+        if e.kind() == std::io::ErrorKind::BrokenPipe {
+            std::process::exit(0);
+        }
+        eprintln!("lodestar: cannot write to stdout: {e}");
+        std::process::exit(1);
+    }
 }

@@ -685,3 +685,27 @@ fn bench_output_parent_missing() {
         &["--out /nonexistent/dir/out", "does not exist"],
     );
 }
+
+/// A reader that stops early (`lodestar info S | head -1`) closes the pipe: the write fails
+/// and lodestar ends quietly with status 0 instead of panicking in `println!` (which printed
+/// "internal error" and exited 101). The pipe's read end is closed before lodestar starts,
+/// so its first write fails every time.
+#[test]
+fn output_into_a_closed_pipe_ends_quietly() {
+    for args in [
+        &["info", "scenes/cornell-box.toml"][..],
+        &["integrators"][..],
+    ] {
+        let (reader, writer) = std::io::pipe().expect("a pipe");
+        drop(reader);
+        let out = Command::new(env!("CARGO_BIN_EXE_lodestar"))
+            .args(args)
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .stdout(writer)
+            .output()
+            .expect("cannot run lodestar");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{args:?}: {:?}: {stderr}", out.status);
+        assert!(stderr.is_empty(), "{args:?}: {stderr}");
+    }
+}

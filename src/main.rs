@@ -1,19 +1,7 @@
 //! The `lodestar` command line: render (with snapshots), bench, compare, info, integrators.
 
-/// `println!` for what a command prints on stdout, through [`write_stdout`].
-macro_rules! outln {
-    ($($arg:tt)*) => {
-        $crate::write_stdout(format_args!($($arg)*), true)
-    };
-}
-
-/// `print!` through [`write_stdout`].
-macro_rules! out {
-    ($($arg:tt)*) => {
-        $crate::write_stdout(format_args!($($arg)*), false)
-    };
-}
-
+#[macro_use]
+mod stdout;
 mod cli_bench;
 
 use clap::{Parser, Subcommand};
@@ -575,30 +563,4 @@ fn info(path: &Path) -> Result<()> {
 pub(crate) fn cli_max_depth(d: Option<i64>) -> Result<Option<u32>> {
     d.map(|d| parse_max_depth(d).map_err(|e| Error::new(format!("--max-depth {e}"))))
         .transpose()
-}
-
-/// Writes one piece of a command's output to stdout (and a newline with `newline`). A reader
-/// that stops early (`lodestar compare A B | head -1`) closes the pipe and the write fails
-/// with `BrokenPipe`: the program then ends at once with status 0, as the reader wanted no
-/// more, where `println!` would panic. Any other failure to write is an error (status 1).
-fn write_stdout(args: std::fmt::Arguments, newline: bool) {
-    use std::io::Write;
-    let mut stdout = std::io::stdout().lock();
-    let written = stdout
-        .write_fmt(args)
-        .and_then(|()| {
-            if newline {
-                stdout.write_all(b"\n")
-            } else {
-                Ok(())
-            }
-        })
-        .and_then(|()| stdout.flush());
-    if let Err(e) = written {
-        if e.kind() == std::io::ErrorKind::BrokenPipe {
-            std::process::exit(0);
-        }
-        eprintln!("lodestar: cannot write to stdout: {e}");
-        std::process::exit(1);
-    }
 }

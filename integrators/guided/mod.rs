@@ -16,6 +16,7 @@
 //! Where to read: `estimator.rs` (the mixture, one pass's densities and a guided sample),
 //! `driver.rs` (learning, the share, passes), `seeder.rs` (which paths become guides),
 //! `chains.rs` (the Markov-chain seeder), `coverage.rs` (where the variance sits),
+//! `stats.rs` (the counters a render reports: failed samples by reason and vertex, p_g's work),
 //! `cache/` (storage and weights in `mod.rs`, building in `build.rs`, p_g in `density.rs`;
 //! its surface-to-surface Gaussians precomputed in `plane.rs`),
 //! `integrators/paths/structure.rs` (a path's nodes and their hash), `kernel.rs` (the per-vertex densities,
@@ -108,6 +109,7 @@ pub mod report;
 pub mod sampler;
 pub mod seeder;
 pub mod share;
+pub mod stats;
 
 pub use crate::integrators::paths::contribution;
 pub use chains::{ChainSettings, ChainTarget, Mcmc};

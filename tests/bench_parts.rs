@@ -60,6 +60,20 @@ fn rows(path: &Path) -> HashMap<(String, String), HashMap<String, String>> {
         .collect()
 }
 
+/// stats.csv rows: (integrator, run, key) -> value.
+fn stats(path: &Path) -> HashMap<(String, String, String), String> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some("scene,integrator,run,seed,key,value"));
+    lines
+        .map(|l| {
+            let f: Vec<&str> = l.split(',').collect();
+            assert_eq!(f.len(), 6, "{l}");
+            ((f[1].into(), f[2].into(), f[4].into()), f[5].into())
+        })
+        .collect()
+}
+
 fn mse(a: &Image, b: &Image) -> f64 {
     let mut s = 0.0;
     for (p, q) in a.pixels.iter().zip(&b.pixels) {
@@ -181,6 +195,35 @@ fn a_bench_in_three_parts_gathers_to_the_same_runs() {
     }
     assert!(dir.0.join("merged/index.html").exists());
     assert!(dir.0.join("merged/curves.svg").exists());
+    // Every run's end-of-render statistics reach stats.csv, through the parts as well.
+    let (single_stats, merged_stats) = (
+        stats(&dir.0.join("single/stats.csv")),
+        stats(&dir.0.join("merged/stats.csv")),
+    );
+    let names = |m: &HashMap<(String, String, String), String>| {
+        let mut k: Vec<_> = m.keys().cloned().collect();
+        k.sort();
+        k
+    };
+    assert_eq!(names(&single_stats), names(&merged_stats));
+    for integrator in ["pt", "bdpt"] {
+        for run in ["0", "1", "2"] {
+            assert!(
+                merged_stats
+                    .keys()
+                    .any(|(i, r, _)| i == integrator && r == run),
+                "no statistics for {integrator} run {run}"
+            );
+        }
+    }
+    for run in ["0", "1", "2"] {
+        let key = (
+            "pt".to_string(),
+            run.to_string(),
+            "invalid_samples".to_string(),
+        );
+        assert_eq!(merged_stats[&key], "0", "pt run {run}");
+    }
 
     // Refusals, each naming what is wrong.
     let refuse = |extra: &[&str], needle: &str| {

@@ -13,7 +13,8 @@
 //! | `crop` | whole image | `[x0, x1) x [y0, y1)` for every metric |
 //! | `max_depth` | the scene's | path segments |
 //!
-//! Outputs in the directory `out`: `report.csv` and `curves.csv` ([`report`]), `curves.svg`
+//! Outputs in the directory `out`: `report.csv`, `curves.csv` and `stats.csv` (every run's
+//! end-of-render statistics) ([`report`]), `curves.svg`
 //! ([`plot`]), `images/<integrator>.exr|.png|.error.png` of the first run plus
 //! `images/reference.png` ([`colormap`]), and `index.html` ([`html`]), which shows it all
 //! offline. [`run`] renders; [`report`] computes the rows and writes the numbers; [`parts`]
@@ -176,6 +177,7 @@ pub fn write_outputs(p: &Prepared, results: &[run::IntegratorRuns]) -> Result<()
     let scene = p.scene.source.as_str();
     report::write_report_csv(&c.out.join("report.csv"), scene, results)?;
     report::write_curves_csv(&c.out.join("curves.csv"), scene, results)?;
+    report::write_stats_csv(&c.out.join("stats.csv"), scene, results)?;
     let title = format!("{scene}: MSE against time");
     plot::write_svg(&c.out.join("curves.svg"), &title, results)?;
     p.reference

@@ -114,6 +114,9 @@ fn parse_comparison(words: &[&str]) -> Option<Comparison> {
     }
 }
 
+/// Prefix of the EXR header fields that carry a run's end-of-render statistics.
+const STAT_PREFIX: &str = "bench_stat:";
+
 /// File of one run inside a part's output directory.
 fn run_file(out: &Path, job: Job, c: &BenchConfig) -> PathBuf {
     out.join("runs").join(format!(
@@ -153,6 +156,12 @@ pub fn run_part(p: &Prepared, part: Part) -> Result<usize> {
             })
             .collect();
         meta.push(("bench_curve".into(), curve.join(";")));
+        meta.extend(
+            r.run
+                .stats
+                .iter()
+                .map(|(k, v)| (format!("{STAT_PREFIX}{k}"), v.clone())),
+        );
         r.image.write_exr(&run_file(&c.out, job, c), &meta)?;
     }
     Ok(mine.len())
@@ -221,6 +230,10 @@ fn read_run(path: &Path, identity: &[(&str, String)], c: &BenchConfig) -> Result
         passes: number("passes")?,
         error,
         curve,
+        stats: meta
+            .iter()
+            .filter_map(|(k, v)| Some((k.strip_prefix(STAT_PREFIX)?.to_string(), v.clone())))
+            .collect(),
     };
     let job = Job { integrator, seed };
     Ok((

@@ -10,7 +10,8 @@
 //! reference-free variance estimate from its seeds (`run::seed_pair_variance`, the same on
 //! every row of an integrator, NaN with one run) and `var_speedup` the first integrator's
 //! variance over this one's. `curves.csv`: `scene, integrator, run, seed, seconds, spp,
-//! passes, mse, rmse, rel_mse`.
+//! passes, mse, rmse, rel_mse`. `stats.csv`: `scene, integrator, run, seed, key, value`, every
+//! run's end-of-render statistics (what `lodestar render` prints after `stats:`), one per line.
 
 use super::run::IntegratorRuns;
 use crate::error::Result;
@@ -211,6 +212,27 @@ pub fn write_report_csv(path: &Path, scene: &str, all: &[IntegratorRuns]) -> Res
     write_text(path, &s)
 }
 
+/// Write `stats.csv`: every run's end-of-render statistics, one line per statistic.
+pub fn write_stats_csv(path: &Path, scene: &str, all: &[IntegratorRuns]) -> Result<()> {
+    let mut s = String::from("scene,integrator,run,seed,key,value\n");
+    for ir in all {
+        for (k, r) in ir.runs.iter().enumerate() {
+            for (key, value) in &r.stats {
+                let _ = writeln!(
+                    s,
+                    "{},{},{k},{},{},{}",
+                    field(scene),
+                    field(&ir.name),
+                    r.seed,
+                    field(key),
+                    field(value)
+                );
+            }
+        }
+    }
+    write_text(path, &s)
+}
+
 /// Write `curves.csv`: every curve point of every run.
 pub fn write_curves_csv(path: &Path, scene: &str, all: &[IntegratorRuns]) -> Result<()> {
     let mut s = String::from("scene,integrator,run,seed,seconds,spp,passes,mse,rmse,rel_mse\n");
@@ -279,6 +301,7 @@ mod tests {
                     passes: 4 + k as u64,
                     error,
                     curve: Vec::new(),
+                    stats: Vec::new(),
                 }
             })
             .collect();

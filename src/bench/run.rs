@@ -37,6 +37,9 @@ pub struct Run {
     pub error: Comparison,
     /// Snapshot points in time order, ending with the final image.
     pub curve: Vec<CurvePoint>,
+    /// The render's end-of-render statistics (`key`, `value`), as `lodestar render` prints
+    /// them: guide paths, acceptance rates, failure counts...
+    pub stats: Vec<(String, String)>,
 }
 
 /// All runs of one integrator, and the image of its first run.
@@ -200,6 +203,7 @@ fn render_one(p: &Prepared, name: &str, seed: u64) -> Result<(Run, Image, String
         passes: r.passes,
         error,
         curve,
+        stats: r.stats,
     };
     // The entry (with its options) names the row, so two settings of one integrator differ.
     Ok((run, r.image, name.to_string(), named.settings))

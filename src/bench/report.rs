@@ -212,12 +212,16 @@ pub fn write_report_csv(path: &Path, scene: &str, all: &[IntegratorRuns]) -> Res
     write_text(path, &s)
 }
 
-/// Write `stats.csv`: every run's end-of-render statistics, one line per statistic.
+/// Write `stats.csv`: every run's end-of-render statistics, one line per statistic, sorted
+/// by key within a run (so a bench gathered from parts writes the same lines in the same
+/// order as one machine: a part's EXR header does not keep the render's order).
 pub fn write_stats_csv(path: &Path, scene: &str, all: &[IntegratorRuns]) -> Result<()> {
     let mut s = String::from("scene,integrator,run,seed,key,value\n");
     for ir in all {
         for (k, r) in ir.runs.iter().enumerate() {
-            for (key, value) in &r.stats {
+            let mut stats: Vec<&(String, String)> = r.stats.iter().collect();
+            stats.sort_by(|a, b| a.0.cmp(&b.0));
+            for (key, value) in stats {
                 let _ = writeln!(
                     s,
                     "{},{},{k},{},{},{}",

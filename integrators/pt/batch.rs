@@ -6,13 +6,15 @@
 //! queued, and the queued shadow rays go through the BVH together
 //! ([`Scene::unoccluded_many`]). On a BVH larger than the caches a single ray waits on one
 //! memory miss after another; a batch keeps 16 rays in flight so their misses overlap
-//! ([`crate::geometry::interleaved`]). Each path draws from its own sample stream in the
+//! ([`crate::geometry::interleaved`]). In a scene small enough to be tested without a BVH
+//! (the Cornell boxes) every ray tests every primitive anyway, and a batch tests sixteen rays
+//! against each triangle in one AVX-512 register (`geometry/flat/packet.rs`). Each path draws from its own sample stream in the
 //! order [`PathTracer::li`] does and adds to its radiance in the same order, so the image is
 //! pt's bit for bit (test `batched_pt_is_pt_bit_for_bit` in `tests/pt_batch.rs`).
 //!
 //! | option | values               | default | meaning |
 //! |--------|----------------------|---------|---------|
-//! | batch  | `auto` / `on` / `off` | `auto`  | `auto`: batched where the accelerator says batches pay (`Accel::batches_pay`: a BVH of at least 16 MB, `BATCH_MIN_BYTES`); `on`: wherever it applies; `off`: one path at a time |
+//! | batch  | `auto` / `on` / `off` | `auto`  | `auto`: batched where the accelerator says batches pay (`Accel::batches_pay`: a BVH of at least 16 MB, `BATCH_MIN_BYTES`, or a flat list of primitives on a CPU with AVX-512); `on`: wherever it applies; `off`: one path at a time |
 //!
 //! It applies to plain pt in scenes without media (a shadow ray through media crosses its
 //! boundaries one segment at a time) and not under `--check` (which inspects each
@@ -110,6 +112,11 @@ impl PixelEstimator for Batched<'_> {
     }
 }
 
+thread_local! {
+    /// The calling thread's round buffers, kept from row to row.
+    static ROUND: std::cell::RefCell<Round> = std::cell::RefCell::new(Round::default());
+}
+
 /// One round's buffers, kept across rounds.
 #[derive(Default)]
 struct Round {
@@ -138,12 +145,23 @@ impl PathTracer {
             !scene.features.media,
             "batched pt traces scenes without media"
         );
-        let mut lanes: Vec<(usize, PathState)> = rasters
+        let lanes: Vec<(usize, PathState)> = rasters
             .iter()
             .enumerate()
             .map(|(i, &r)| (i, PathState::new(scene, r)))
             .collect();
-        let mut b = Round::default();
+        ROUND.with_borrow_mut(|b| self.rounds(scene, lanes, samplers, out, b));
+    }
+
+    /// The rounds of [`Self::li_row`] until every path of `lanes` has ended.
+    fn rounds<S: Sampler>(
+        &self,
+        scene: &Scene,
+        mut lanes: Vec<(usize, PathState)>,
+        samplers: &mut [S],
+        out: &mut [Spectrum],
+        b: &mut Round,
+    ) {
         while !lanes.is_empty() {
             b.rays.clear();
             b.rays.extend(lanes.iter().map(|(_, p)| p.ray));

@@ -14,10 +14,13 @@
 //! test's values in registers (with 16 its loop spilled to the stack: 15 % of the test's
 //! profile samples on the Cornell box), with the same instructions' results, bit for bit.
 //! Spheres are tested one by one. [`super::Accel::build`] picks this below [`FLAT_MAX_PRIMS`]
-//! primitives.
+//! primitives. Batches of rays are tested sixteen at a time instead, each triangle and sphere
+//! against all of them ([`packet`], with AVX-512).
 
 use super::bvh::{Prim, SPHERE_TAG, intersect_prim};
 use glam::{Vec2, Vec3A, Vec4};
+
+mod packet;
 
 /// Scenes with at most this many primitives are tested without a hierarchy.
 /// Measured (pt, one thread, bit-identical images): the Cornell box's 25 primitives render
@@ -51,6 +54,9 @@ pub struct Flat {
     lanes: Vec<u32>,
     /// Indices of the spheres in the primitive list.
     spheres: Vec<u32>,
+    /// The triangles and spheres again, one by one, for packets of rays ([`packet`]).
+    packet_tris: Vec<packet::PacketTri>,
+    packet_spheres: Vec<packet::PacketSphere>,
     /// The instructions the running CPU has for the group test.
     isa: Isa,
 }
@@ -94,6 +100,8 @@ impl Flat {
             lanes.extend(std::iter::repeat_n(u32::MAX, LANES - chunk.len()));
         }
         Flat {
+            packet_tris: packet::packet_tris(prims, &lanes),
+            packet_spheres: packet::packet_spheres(prims, &spheres),
             groups,
             lanes,
             spheres,

@@ -2,7 +2,8 @@
 //!
 //! Every shape is either a triangle mesh or an analytic sphere. All of them go into one obvhs
 //! `CwBvh` (see [`bvh::Accel`]), or, in a scene of at most 32 primitives, into a flat list
-//! tested four triangles at a time (`flat.rs`); heightfields are walked cell by cell instead
+//! tested eight triangles at a time, or sixteen rays at a time against each triangle
+//! (`flat.rs`, `flat/packet.rs`); heightfields are walked cell by cell instead
 //! (`grid.rs`), with the same hits. A hit reports the geometric normal `ng` (the
 //! shape's front side: triangle winding, or authored vertex normals when present; outward for
 //! spheres and cubes) and a shading normal `ns` on the same side as `ng`.

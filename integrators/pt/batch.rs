@@ -8,13 +8,14 @@
 //! memory miss after another; a batch keeps 16 rays in flight so their misses overlap
 //! ([`crate::geometry::interleaved`]). In a scene small enough to be tested without a BVH
 //! (the Cornell boxes) every ray tests every primitive anyway, and a batch tests sixteen rays
-//! against each triangle in one AVX-512 register (`geometry/flat/packet.rs`). Each path draws from its own sample stream in the
+//! against each triangle at once (one AVX-512 register, or two AVX ones;
+//! `geometry/flat/packet.rs`). Each path draws from its own sample stream in the
 //! order [`PathTracer::li`] does and adds to its radiance in the same order, so the image is
 //! pt's bit for bit (test `batched_pt_is_pt_bit_for_bit` in `tests/pt_batch.rs`).
 //!
 //! | option | values               | default | meaning |
 //! |--------|----------------------|---------|---------|
-//! | batch  | `auto` / `on` / `off` | `auto`  | `auto`: batched where the accelerator says batches pay (`Accel::batches_pay`: a BVH of at least 16 MB, `BATCH_MIN_BYTES`, or a flat list of primitives on a CPU with AVX-512); `on`: wherever it applies; `off`: one path at a time |
+//! | batch  | `auto` / `on` / `off` | `auto`  | `auto`: batched where the accelerator says batches pay (`Accel::batches_pay`: a BVH of at least 16 MB, `BATCH_MIN_BYTES`, or a flat list of primitives on a CPU with AVX); `on`: wherever it applies; `off`: one path at a time |
 //!
 //! It applies to plain pt in scenes without media (a shadow ray through media crosses its
 //! boundaries one segment at a time) and not under `--check` (which inspects each

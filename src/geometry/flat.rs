@@ -15,12 +15,14 @@
 //! profile samples on the Cornell box), with the same instructions' results, bit for bit.
 //! Spheres are tested one by one. [`super::Accel::build`] picks this below [`FLAT_MAX_PRIMS`]
 //! primitives. Batches of rays are tested sixteen at a time instead, each triangle and sphere
-//! against all of them ([`packet`], with AVX-512).
+//! against all of them ([`packet`], with AVX-512 or AVX).
 
 use super::bvh::{Prim, SPHERE_TAG, intersect_prim};
 use glam::{Vec2, Vec3A, Vec4};
 
 mod packet;
+#[cfg(target_arch = "x86_64")]
+mod packet_avx;
 
 /// Scenes with at most this many primitives are tested without a hierarchy.
 /// Measured (pt, one thread, bit-identical images): the Cornell box's 25 primitives render

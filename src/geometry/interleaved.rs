@@ -13,7 +13,7 @@
 //! single-ray traversal's.
 //!
 //! Scenes small enough to skip the BVH ([`super::flat`]) are tested in packets of sixteen rays
-//! where the CPU has AVX-512 (`flat/packet.rs`), else ray by ray; scenes with grid meshes
+//! where the CPU has AVX (`flat/packet.rs`), else ray by ray; scenes with grid meshes
 //! ([`super::grid`]) are traced ray by ray.
 
 use super::bvh::{
@@ -251,9 +251,10 @@ impl Accel {
     /// Whether batches of rays ([`Self::intersect_many`], [`Self::unoccluded_many`]) are
     /// worth what their callers pay to form them: the scene has no grids (those are traced
     /// ray by ray) and is searched through a BVH of at least [`BATCH_MIN_BYTES`], or tested
-    /// flat in packets (the CPU has AVX-512: Cornell box, pt, 32 spp, one thread, batched
-    /// against one path at a time in five rounds side by side: 0.95x the time, the same
-    /// image; README, "Packets of rays in small scenes").
+    /// flat in packets (the CPU has AVX: pt, 16 spp, one thread, batched against one path
+    /// at a time, side by side: 0.88x-0.90x the time on the Cornell boxes and SmallVCM's box
+    /// with AVX-512 packets, 0.88x-0.93x with AVX ones; README, "Packets of rays in small
+    /// scenes").
     pub fn batches_pay(&self) -> bool {
         self.grids.is_empty()
             && match &self.index {

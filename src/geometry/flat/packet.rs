@@ -10,15 +10,16 @@
 //! order with a strictly closer hit replacing the one before, so each ray's closest triangle,
 //! its `t` and its barycentrics are those [`Flat::closest`] reports, bit for bit. The spheres
 //! follow, as there, each in all lanes with [`crate::geometry::Sphere::intersect`]'s
-//! operations. Used where the CPU has AVX-512 F ([`Flat::has_packets`]);
-//! callers without it test rays one by one.
+//! operations. Where the CPU has AVX but not AVX-512 a packet is tested as two halves of
+//! eight in AVX registers ([`super::packet_avx`], the same bits); without AVX
+//! ([`Flat::has_packets`]) rays are tested one by one.
 
 use super::{Flat, Isa};
 use crate::geometry::bvh::Prim;
 use glam::{Vec2, Vec3A};
 
 /// Rays per packet: one per lane of an AVX-512 register.
-pub const PACKET: usize = 16;
+pub(super) const PACKET: usize = 16;
 
 /// A ray of a packet: origin, (canonical) direction, and the end of its open interval.
 pub type PacketRay = (Vec3A, Vec3A, f32);
@@ -26,10 +27,10 @@ pub type PacketRay = (Vec3A, Vec3A, f32);
 /// Up to [`PACKET`] rays, one per lane, component by component; unused lanes have `t_max = 0`
 /// (no hit is then strictly closer).
 #[derive(Default)]
-struct Packet {
-    o: [[f32; PACKET]; 3],
-    d: [[f32; PACKET]; 3],
-    t_max: [f32; PACKET],
+pub(super) struct Packet {
+    pub(super) o: [[f32; PACKET]; 3],
+    pub(super) d: [[f32; PACKET]; 3],
+    pub(super) t_max: [f32; PACKET],
 }
 
 /// A triangle as the packet test reads it: `a`, `b`, `c` (as in [`Prim`]) and its index in
@@ -37,16 +38,16 @@ struct Packet {
 #[derive(Debug, Clone, Copy)]
 #[repr(C, align(16))]
 pub(super) struct PacketTri {
-    abc: [[f32; 3]; 3],
-    prim: u32,
+    pub(super) abc: [[f32; 3]; 3],
+    pub(super) prim: u32,
 }
 
 /// A sphere as the packet test reads it: centre, radius and its index in the primitive list.
 #[derive(Debug, Clone, Copy)]
 pub(super) struct PacketSphere {
-    center: [f32; 3],
-    radius: f32,
-    prim: u32,
+    pub(super) center: [f32; 3],
+    pub(super) radius: f32,
+    pub(super) prim: u32,
 }
 
 /// The spheres of `indices` (into `prims`), in that order.
@@ -97,9 +98,9 @@ impl Packet {
 
 impl Flat {
     /// Whether [`Self::closest_many`] and [`Self::unoccluded_many`] run packets here (the CPU
-    /// has AVX-512 F).
+    /// has AVX: in AVX-512 registers where it has those, else as two halves in AVX ones).
     pub fn has_packets(&self) -> bool {
-        self.isa == Isa::Avx512
+        self.isa >= Isa::Avx
     }
 
     /// [`Flat::closest`] for each of `n` rays (`ray(i)` gives the `i`-th), reported as
@@ -121,9 +122,18 @@ impl Flat {
         for start in (0..n).step_by(PACKET) {
             let len = PACKET.min(n - start);
             let packet = Packet::new(len, |k| ray(start + k));
-            // SAFETY: `has_packets` holds only where the CPU reports AVX-512 F.
             #[cfg(target_arch = "x86_64")]
-            let best = unsafe { avx512::closest(self, &packet) };
+            let best = match self.isa {
+                // SAFETY: `isa` names only features the running CPU reports.
+                Isa::Avx512 => unsafe { avx512::closest(self, &packet) },
+                _ => {
+                    // SAFETY: as above; `has_packets` means AVX at least.
+                    let half = |h| unsafe { super::packet_avx::closest(self, &packet, h) };
+                    let miss = [(u32::MAX, 0.0, 0.0, 0.0); 8];
+                    let (lo, hi) = (half(0), if len > 8 { half(1) } else { miss });
+                    std::array::from_fn(|k| if k < 8 { lo[k] } else { hi[k - 8] })
+                }
+            };
             #[cfg(not(target_arch = "x86_64"))]
             let best: [(u32, f32, f32, f32); PACKET] = unreachable!("{}", packet.t_max.len());
             for (k, &(prim, t, u, v)) in best[..len].iter().enumerate() {
@@ -155,9 +165,20 @@ impl Flat {
             let len = PACKET.min(n - start);
             let packet = Packet::new(len, |k| segment(start + k));
             let all = (u32::MAX >> (32 - len)) as u16;
-            // SAFETY: as in `closest_many`.
             #[cfg(target_arch = "x86_64")]
-            let blocked = unsafe { avx512::blocked(self, &packet, all) };
+            let blocked = match self.isa {
+                // SAFETY: as in `closest_many`.
+                Isa::Avx512 => unsafe { avx512::blocked(self, &packet, all) },
+                _ => {
+                    let all = all as u32;
+                    // SAFETY: as in `closest_many`.
+                    let half = |h| unsafe {
+                        super::packet_avx::blocked(self, &packet, h, (all >> (8 * h)) & 0xff)
+                    };
+                    let hi = if len > 8 { half(1) } else { 0 };
+                    (half(0) | hi << 8) as u16
+                }
+            };
             #[cfg(not(target_arch = "x86_64"))]
             let blocked: u16 = unreachable!("{all}");
             for k in 0..len {
@@ -414,8 +435,9 @@ mod tests {
     /// with two spheres and a few loose triangles (so the last group of eight is partial),
     /// from random points inside and from points on the surfaces (rays spawned off their
     /// hits), with finite and infinite `t_max`, axis-parallel directions with -0.0 among
-    /// them, in batches of random length (partial packets). Where the CPU has no AVX-512
-    /// the batches are traced ray by ray and the test says so.
+    /// them, in batches of random length (partial packets); with AVX-512 where the CPU has
+    /// it and with AVX alone. Where the CPU has no AVX the batches are traced ray by ray and
+    /// the test says so.
     #[test]
     fn packets_agree_with_single_rays_bit_for_bit() {
         let mut shapes = closed_box();
@@ -443,7 +465,13 @@ mod tests {
             panic!("a scene of 18 primitives is tested flat");
         };
         if !flat.has_packets() {
-            eprintln!("this CPU has no AVX-512: batches are traced ray by ray");
+            eprintln!("this CPU has no AVX: batches are traced ray by ray");
+        }
+        // The same list with packets in AVX registers (two halves of eight) where the CPU
+        // has AVX-512 too.
+        let mut avx = Accel::build(&shapes);
+        if let Index::Flat(f) = &mut avx.index {
+            *f = f.clone().without_avx512();
         }
         let mut rng = IndependentSampler::new(7, 0, 0);
         let axes = [Vec3::X, Vec3::Y, Vec3::Z];
@@ -472,22 +500,24 @@ mod tests {
         while start < rays.len() {
             let len = (1 + (rng.next_1d() * 40.0) as usize).min(rays.len() - start);
             let batch = &rays[start..start + len];
-            accel.intersect_many(batch, &shapes, &mut hits);
             let segments: Vec<_> = batch.iter().map(|r| (r.o, r.d, r.t_max)).collect();
-            accel.unoccluded_many(&segments, &mut free);
-            assert_eq!((hits.len(), free.len()), (len, len));
-            for (k, ray) in batch.iter().enumerate() {
-                let alone = accel.intersect(ray, &shapes);
-                assert_eq!(key(&hits[k]), key(&alone), "ray {ray:?}");
-                let clear = accel.unoccluded(ray.o, ray.d, ray.t_max);
-                assert_eq!(free[k], clear, "segment {ray:?}");
-                n_hit += alone.is_some() as usize;
-                n_free += clear as usize;
+            for (variant, packets) in [("default", &accel), ("avx", &avx)] {
+                packets.intersect_many(batch, &shapes, &mut hits);
+                packets.unoccluded_many(&segments, &mut free);
+                assert_eq!((hits.len(), free.len()), (len, len));
+                for (k, ray) in batch.iter().enumerate() {
+                    let alone = accel.intersect(ray, &shapes);
+                    assert_eq!(key(&hits[k]), key(&alone), "{variant}: ray {ray:?}");
+                    let clear = accel.unoccluded(ray.o, ray.d, ray.t_max);
+                    assert_eq!(free[k], clear, "{variant}: segment {ray:?}");
+                    n_hit += alone.is_some() as usize;
+                    n_free += clear as usize;
+                }
             }
             start += len;
         }
         // Both outcomes of both queries occur often.
-        assert!((1000..5900).contains(&n_hit), "{n_hit} hits");
-        assert!((500..5500).contains(&n_free), "{n_free} free");
+        assert!((2000..11800).contains(&n_hit), "{n_hit} hits");
+        assert!((1000..11000).contains(&n_free), "{n_free} free");
     }
 }

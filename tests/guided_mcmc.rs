@@ -213,6 +213,17 @@ fn chain_options_are_checked() {
     );
     let e = err(&["seeder=mcmc", "chain_target=dark"]).expect("unknown chain target");
     assert!(e.contains("chain_target") && e.contains("uncovered"), "{e}");
+    assert!(err(&["seeder=mcmc", "chain_spread=0"]).is_none());
+    let e = err(&["seeder=mcmc", "chain_spread=-2"]).expect("negative spread");
+    assert!(
+        e.contains("chain_spread") && e.contains("integer >= 0"),
+        "{e}"
+    );
+    let e = err(&["chain_spread=3"]).expect("chain spread without the chain seeder");
+    assert!(
+        e.contains("chain_spread") && e.contains("seeder=mcmc"),
+        "{e}"
+    );
 }
 
 /// A chain started at U's sample (seed, pass, pixel) of a learning pass replays it: the

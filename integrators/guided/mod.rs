@@ -46,6 +46,7 @@
 //! | chain_share     | number > 0    | 0.25    | `mcmc`: chain steps per learning iteration, per pixel |
 //! | chain_large_step | [0, 1]       | 0.1     | `mcmc`: large-step probability of the chains |
 //! | chain_target    | `mixture` / `uncovered` | `mixture` | `mcmc`: a chain state's importance: all its sample adds under the current mixture, or only its paths with p_g = 0 (`chains.rs`) |
+//! | chain_spread    | integer >= 0  | 7       | `mcmc`: chain states kept as guide paths lie at least this many pixels apart in x or y, per band of rows and iteration (0: any distance; `seeder.rs`) |
 //! | sampler         | `independent` / `sobol` | `independent` | U's numbers in the render passes (for guided-vcm: its camera subpaths'), as `pt -O sampler` (learning passes, guided samples and chains stay independent: outliers and chain states are replayed from their independent streams) |
 //! | keep_learning   | `true` / `false` | `true` | keep the learning passes in the image: their mixed estimate with guiding on, U's own with it off (`false`: strictly unbiased, see `driver.rs`) |
 //! | save_guides     | path          | —       | write the learned cache (`--save-guides`) |
@@ -283,6 +284,7 @@ fn options(params: &IntegratorParams, default_rr: u32) -> Result<(GuidedSettings
         "unguided" => ChainTarget::Unguided,
         _ => ChainTarget::Mixture,
     };
+    let chain_spread: u32 = o.get("chain_spread", defaults.spread, "an integer >= 0")?;
     let keep_learning = o.get("keep_learning", true, "true or false")?;
     let weights = match o.choice("weights", "second_moment", &["second_moment", "c"])? {
         "c" => WeightRule::C,
@@ -317,7 +319,12 @@ fn options(params: &IntegratorParams, default_rr: u32) -> Result<(GuidedSettings
         );
     }
     if seeder != "mcmc" {
-        for key in ["chain_share", "chain_large_step", "chain_target"] {
+        for key in [
+            "chain_share",
+            "chain_large_step",
+            "chain_target",
+            "chain_spread",
+        ] {
             if o.has(key) {
                 return Err(Error::new(format!(
                     "option '{key}' belongs to seeder=mcmc (the seeder is '{seeder}')"
@@ -367,6 +374,7 @@ fn options(params: &IntegratorParams, default_rr: u32) -> Result<(GuidedSettings
             share: chain_share,
             large_step: chain_large_step,
             target: chain_target,
+            spread: chain_spread,
         }),
         keep_learning,
         sampler: params.sampler()?,

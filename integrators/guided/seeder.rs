@@ -128,6 +128,9 @@ pub trait Seeder: Send + Sync {
 /// share is recorded; per band of rows the `intake` largest C.
 pub struct Outliers {
     pub intake: usize,
+    /// Chain states kept per band lie at least this many pixels apart in x or y (0: any
+    /// distance; see [`spread_out`]).
+    pub chain_spread: u32,
     cascade: Option<OutlierCascade>,
 }
 
@@ -135,6 +138,7 @@ impl Outliers {
     pub fn new(intake: usize) -> Outliers {
         Outliers {
             intake,
+            chain_spread: 0,
             cascade: None,
         }
     }
@@ -196,11 +200,84 @@ impl Outliers {
                 pool.into_iter().partition(|c| c.source == Source::Chain);
             for list in [&mut pool, &mut chains] {
                 list.sort_by(|x, y| y.record.c.total_cmp(&x.record.c));
-                list.truncate(self.intake);
             }
+            pool.truncate(self.intake);
+            let (intake, spread) = (self.intake, self.chain_spread);
             records.extend(pool);
-            records.extend(chains);
+            records.extend(spread_out(chains, intake, spread, res.x, |c| c.pixel));
         }
         records
+    }
+}
+
+/// The first `intake` of `list` (sorted by decreasing C) whose pixels lie at least `spread`
+/// pixels apart in x or y from every one kept before them (`spread` 0: the first `intake`).
+///
+/// A chain lingers where its target is large, so the states of one chain are near copies of
+/// each other: kept side by side they add guide paths that cover no more of path space than
+/// one does, while each costs a Gaussian to evaluate in every p_g near it. Kept apart, the
+/// chain states spread over the caustic the chain explored.
+pub fn spread_out<T>(
+    list: Vec<T>,
+    intake: usize,
+    spread: u32,
+    width: u32,
+    pixel: impl Fn(&T) -> u32,
+) -> Vec<T> {
+    let at = |t: &T| {
+        let p = pixel(t);
+        ((p % width) as i64, (p / width) as i64)
+    };
+    let mut kept: Vec<T> = Vec::new();
+    let mut places: Vec<(i64, i64)> = Vec::new();
+    let spread = spread as i64;
+    for t in list {
+        if kept.len() == intake {
+            break;
+        }
+        let (x, y) = at(&t);
+        let near = |&(kx, ky): &(i64, i64)| (kx - x).abs() < spread && (ky - y).abs() < spread;
+        if !places.iter().any(near) {
+            places.push((x, y));
+            kept.push(t);
+        }
+    }
+    kept
+}
+
+#[cfg(test)]
+mod tests {
+    use super::spread_out;
+
+    /// Kept items come in the list's order, at most `intake` of them, each at least `spread`
+    /// pixels (in x or y) from the ones kept before; spread 0 keeps the first `intake`.
+    #[test]
+    fn chain_states_are_kept_apart() {
+        let width = 100;
+        // (pixel, C) in decreasing C: a cluster around (10, 10), a state at (13, 10), one at
+        // (10, 20), then a second cluster around (50, 50).
+        let at = |x: u32, y: u32| y * width + x;
+        let list = vec![
+            (at(10, 10), 9.0),
+            (at(11, 10), 8.0),
+            (at(10, 12), 7.0),
+            (at(13, 10), 6.0),
+            (at(10, 20), 5.0),
+            (at(50, 50), 4.0),
+            (at(52, 48), 3.0),
+            (at(56, 50), 2.0),
+        ];
+        let kept = |intake, spread| {
+            spread_out(list.clone(), intake, spread, width, |t| t.0)
+                .iter()
+                .map(|t| t.1)
+                .collect::<Vec<f64>>()
+        };
+        assert_eq!(kept(3, 0), vec![9.0, 8.0, 7.0]);
+        assert_eq!(kept(100, 3), vec![9.0, 6.0, 5.0, 4.0, 2.0]);
+        assert_eq!(kept(100, 4), vec![9.0, 5.0, 4.0, 2.0]);
+        assert_eq!(kept(2, 3), vec![9.0, 6.0]);
+        // Distinct pixels only.
+        assert_eq!(kept(100, 1).len(), 8);
     }
 }

@@ -371,7 +371,7 @@ mod avx {
 
     #[inline]
     #[target_feature(enable = "avx")]
-    fn store(x: __m256) -> Lanes {
+    pub(super) fn store(x: __m256) -> Lanes {
         let mut out = [0.0; LANES];
         // SAFETY: `out` is eight writable f32s; the store has no alignment requirement.
         unsafe { _mm256_storeu_ps(out.as_mut_ptr(), x) };
@@ -380,7 +380,7 @@ mod avx {
 
     #[inline]
     #[target_feature(enable = "avx")]
-    fn cross(p: [__m256; 3], q: [__m256; 3]) -> [__m256; 3] {
+    pub(super) fn cross(p: [__m256; 3], q: [__m256; 3]) -> [__m256; 3] {
         let m = _mm256_mul_ps;
         [
             _mm256_sub_ps(m(p[1], q[2]), m(p[2], q[1])),
@@ -391,7 +391,7 @@ mod avx {
 
     #[inline]
     #[target_feature(enable = "avx")]
-    fn dot(p: [__m256; 3], q: [__m256; 3]) -> __m256 {
+    pub(super) fn dot(p: [__m256; 3], q: [__m256; 3]) -> __m256 {
         let m = _mm256_mul_ps;
         _mm256_add_ps(_mm256_add_ps(m(p[0], q[0]), m(p[1], q[1])), m(p[2], q[2]))
     }

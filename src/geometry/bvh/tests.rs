@@ -122,16 +122,7 @@ fn spawned_rays_do_not_self_intersect_at_any_scale() {
 #[test]
 fn flat_and_bvh_agree_bit_for_bit() {
     use crate::math::{Sampler, warp::square_to_uniform_sphere};
-    let mut shapes = closed_box();
-    for (c, r) in [
-        (Vec3::new(-0.4, -0.5, 0.2), 0.45),
-        (Vec3::new(0.5, -0.3, -0.3), 0.3),
-    ] {
-        shapes.push(ShapeGeometry::Sphere(Sphere {
-            center: c,
-            radius: r,
-        }));
-    }
+    let shapes = closed_box_with_spheres();
     let bvh = Accel::build_with(&shapes, 0, true);
     let flat = Accel::build_with(&shapes, FLAT_MAX_PRIMS, true);
     assert!(matches!(bvh.index, Index::Bvh(_)) && matches!(flat.index, Index::Flat(_)));
@@ -200,4 +191,19 @@ pub(in crate::geometry) fn closed_box() -> Vec<ShapeGeometry> {
         wall(o, y, z),
         wall(o + x, z, y),
     ]
+}
+
+/// [`closed_box`] with two spheres inside.
+pub(in crate::geometry) fn closed_box_with_spheres() -> Vec<ShapeGeometry> {
+    let mut shapes = closed_box();
+    for (c, r) in [
+        (Vec3::new(-0.4, -0.5, 0.2), 0.45),
+        (Vec3::new(0.5, -0.3, -0.3), 0.3),
+    ] {
+        shapes.push(ShapeGeometry::Sphere(Sphere {
+            center: c,
+            radius: r,
+        }));
+    }
+    shapes
 }

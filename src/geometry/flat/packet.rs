@@ -409,9 +409,9 @@ mod avx512 {
 
 #[cfg(test)]
 mod tests {
-    use crate::geometry::bvh::tests::closed_box;
+    use crate::geometry::bvh::tests::closed_box_with_spheres;
     use crate::geometry::bvh::{Accel, Index, ShapeGeometry};
-    use crate::geometry::{Hit, Ray, Sphere, TriangleMesh};
+    use crate::geometry::{Hit, Ray, TriangleMesh};
     use crate::math::{IndependentSampler, Sampler, warp::square_to_uniform_sphere};
     use glam::Vec3;
 
@@ -440,16 +440,7 @@ mod tests {
     /// the test says so.
     #[test]
     fn packets_agree_with_single_rays_bit_for_bit() {
-        let mut shapes = closed_box();
-        for (c, r) in [
-            (Vec3::new(-0.4, -0.5, 0.2), 0.45),
-            (Vec3::new(0.5, -0.3, -0.3), 0.3),
-        ] {
-            shapes.push(ShapeGeometry::Sphere(Sphere {
-                center: c,
-                radius: r,
-            }));
-        }
+        let mut shapes = closed_box_with_spheres();
         shapes.push(ShapeGeometry::Mesh(TriangleMesh::quad(
             Vec3::new(-0.3, 0.2, -0.5),
             Vec3::new(0.6, 0.1, 0.0),

@@ -3,6 +3,7 @@
 //! lane (so the same hits, bit for bit), lane masks kept as vectors and blended in.
 
 use super::Flat;
+use super::avx::{cross, dot, store};
 use super::packet::{PACKET, Packet, PacketSphere};
 use std::arch::x86_64::*;
 
@@ -15,33 +16,6 @@ fn load(x: &[f32; PACKET], half: usize) -> __m256 {
     // SAFETY: `x[HALF * half ..]` holds eight readable f32s (`half` is 0 or 1); the unaligned
     // load has no other requirement.
     unsafe { _mm256_loadu_ps(x[HALF * half..HALF * half + HALF].as_ptr()) }
-}
-
-#[inline]
-#[target_feature(enable = "avx")]
-fn store(x: __m256) -> [f32; HALF] {
-    let mut out = [0.0; HALF];
-    // SAFETY: `out` is eight writable f32s; the unaligned store has no other requirement.
-    unsafe { _mm256_storeu_ps(out.as_mut_ptr(), x) };
-    out
-}
-
-#[inline]
-#[target_feature(enable = "avx")]
-fn cross(p: [__m256; 3], q: [__m256; 3]) -> [__m256; 3] {
-    let m = _mm256_mul_ps;
-    [
-        _mm256_sub_ps(m(p[1], q[2]), m(p[2], q[1])),
-        _mm256_sub_ps(m(p[2], q[0]), m(p[0], q[2])),
-        _mm256_sub_ps(m(p[0], q[1]), m(p[1], q[0])),
-    ]
-}
-
-#[inline]
-#[target_feature(enable = "avx")]
-fn dot(p: [__m256; 3], q: [__m256; 3]) -> __m256 {
-    let m = _mm256_mul_ps;
-    _mm256_add_ps(_mm256_add_ps(m(p[0], q[0]), m(p[1], q[1])), m(p[2], q[2]))
 }
 
 #[inline]

@@ -396,27 +396,12 @@ mod avx {
         _mm256_add_ps(_mm256_add_ps(m(p[0], q[0]), m(p[1], q[1])), m(p[2], q[2]))
     }
 
+    /// The lanes (all bits set) whose ray crosses the triangle at `t > 0`, decided from `det`,
+    /// `u_det`, `v_det` and `t_det` as the scalar test decides (a usable `det`, then the
+    /// scaled barycentrics and distance compared after flipping them to `det`'s sign).
     #[inline]
     #[target_feature(enable = "avx")]
-    pub(super) fn test(g: &Group, o: Vec3A, d: Vec3A, t_max: f32) -> LaneHits {
-        let ld3 = |x: &[Lanes; 3]| [load(&x[0]), load(&x[1]), load(&x[2])];
-        let (a, b, c) = (ld3(&g.a), ld3(&g.b), ld3(&g.c));
-        let ds = [
-            _mm256_set1_ps(d.x),
-            _mm256_set1_ps(d.y),
-            _mm256_set1_ps(d.z),
-        ];
-        let pvec = cross(ds, c);
-        let det = dot(b, pvec);
-        let tvec = [
-            _mm256_sub_ps(_mm256_set1_ps(o.x), a[0]),
-            _mm256_sub_ps(_mm256_set1_ps(o.y), a[1]),
-            _mm256_sub_ps(_mm256_set1_ps(o.z), a[2]),
-        ];
-        let u_det = dot(tvec, pvec);
-        let qvec = cross(tvec, b);
-        let v_det = dot(ds, qvec);
-        let t_det = dot(c, qvec);
+    pub(super) fn inside_mask(det: __m256, u_det: __m256, v_det: __m256, t_det: __m256) -> __m256 {
         // signum (±1 with det's sign; NaN lanes are dropped by `usable`) and |det|.
         let neg_zero = _mm256_set1_ps(-0.0);
         let sign = _mm256_or_ps(_mm256_and_ps(det, neg_zero), _mm256_set1_ps(1.0));
@@ -441,7 +426,31 @@ mod avx {
                 _mm256_cmp_ps::<_CMP_GT_OQ>(t_s, zero),
             ),
         );
-        let mut mask = _mm256_movemask_ps(_mm256_and_ps(usable, inside)) as u32;
+        _mm256_and_ps(usable, inside)
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx")]
+    pub(super) fn test(g: &Group, o: Vec3A, d: Vec3A, t_max: f32) -> LaneHits {
+        let ld3 = |x: &[Lanes; 3]| [load(&x[0]), load(&x[1]), load(&x[2])];
+        let (a, b, c) = (ld3(&g.a), ld3(&g.b), ld3(&g.c));
+        let ds = [
+            _mm256_set1_ps(d.x),
+            _mm256_set1_ps(d.y),
+            _mm256_set1_ps(d.z),
+        ];
+        let pvec = cross(ds, c);
+        let det = dot(b, pvec);
+        let tvec = [
+            _mm256_sub_ps(_mm256_set1_ps(o.x), a[0]),
+            _mm256_sub_ps(_mm256_set1_ps(o.y), a[1]),
+            _mm256_sub_ps(_mm256_set1_ps(o.z), a[2]),
+        ];
+        let u_det = dot(tvec, pvec);
+        let qvec = cross(tvec, b);
+        let v_det = dot(ds, qvec);
+        let t_det = dot(c, qvec);
+        let mut mask = _mm256_movemask_ps(inside_mask(det, u_det, v_det, t_det)) as u32;
         if mask == 0 {
             return LaneHits {
                 mask,

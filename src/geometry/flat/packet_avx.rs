@@ -3,7 +3,7 @@
 //! lane (so the same hits, bit for bit), lane masks kept as vectors and blended in.
 
 use super::Flat;
-use super::avx::{cross, dot, store};
+use super::avx::{cross, dot, inside_mask, store};
 use super::packet::{PACKET, Packet, PacketSphere};
 use std::arch::x86_64::*;
 
@@ -28,13 +28,11 @@ fn splat3(v: [f32; 3]) -> [__m256; 3] {
     ]
 }
 
-/// `x` with every lane's sign bit cleared, and `signum(x)` (±1; NaN lanes give ±1 too).
+/// `signum(x)` on every lane (±1; NaN lanes give ±1 too).
 #[inline]
 #[target_feature(enable = "avx")]
-fn abs_signum(x: __m256) -> (__m256, __m256) {
-    let neg_zero = _mm256_set1_ps(-0.0);
-    let sign = _mm256_or_ps(_mm256_and_ps(x, neg_zero), _mm256_set1_ps(1.0));
-    (_mm256_andnot_ps(neg_zero, x), sign)
+fn signum(x: __m256) -> __m256 {
+    _mm256_or_ps(_mm256_and_ps(x, _mm256_set1_ps(-0.0)), _mm256_set1_ps(1.0))
 }
 
 /// One triangle against half a packet, as `packet::avx512::test`: the lanes that hit it with
@@ -59,28 +57,7 @@ fn test(
     let qvec = cross(tvec, b);
     let v_det = dot(*d, qvec);
     let t_det = dot(c, qvec);
-    let (abs_det, sign) = abs_signum(det);
-    let (u_s, v_s, t_s) = (
-        _mm256_mul_ps(u_det, sign),
-        _mm256_mul_ps(v_det, sign),
-        _mm256_mul_ps(t_det, sign),
-    );
-    let zero = _mm256_setzero_ps();
-    let usable = _mm256_and_ps(
-        _mm256_cmp_ps::<_CMP_NEQ_OQ>(det, zero),
-        _mm256_cmp_ps::<_CMP_LT_OQ>(abs_det, _mm256_set1_ps(f32::INFINITY)),
-    );
-    let inside = _mm256_and_ps(
-        _mm256_and_ps(
-            _mm256_cmp_ps::<_CMP_GE_OQ>(u_s, zero),
-            _mm256_cmp_ps::<_CMP_GE_OQ>(v_s, zero),
-        ),
-        _mm256_and_ps(
-            _mm256_cmp_ps::<_CMP_LE_OQ>(_mm256_add_ps(u_s, v_s), abs_det),
-            _mm256_cmp_ps::<_CMP_GT_OQ>(t_s, zero),
-        ),
-    );
-    let m = _mm256_and_ps(usable, inside);
+    let m = inside_mask(det, u_det, v_det, t_det);
     if _mm256_movemask_ps(m) == 0 {
         return None;
     }
@@ -111,7 +88,7 @@ fn sphere_test(s: &PacketSphere, o: &[__m256; 3], d: &[__m256; 3], t_max: __m256
     let (zero, inf) = (_mm256_setzero_ps(), _mm256_set1_ps(f32::INFINITY));
     let missed = _mm256_cmp_ps::<_CMP_LT_OQ>(disc, zero);
     let c = _mm256_sub_ps(dot(f, f), r2);
-    let q = _mm256_add_ps(b, _mm256_mul_ps(abs_signum(b).1, _mm256_sqrt_ps(disc)));
+    let q = _mm256_add_ps(b, _mm256_mul_ps(signum(b), _mm256_sqrt_ps(disc)));
     let q_zero = _mm256_cmp_ps::<_CMP_EQ_OQ>(q, zero);
     let t0 = _mm256_blendv_ps(_mm256_div_ps(c, q), zero, q_zero);
     let t1 = _mm256_blendv_ps(q, zero, q_zero);

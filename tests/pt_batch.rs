@@ -6,7 +6,8 @@
 
 mod util;
 
-use lodestar::integrators::pt::batch::BatchMode;
+use lodestar::integrators::pt::batch::{BatchMode, Tracing};
+use lodestar::integrators::pt::{PathTracer, PtSettings, wavefront};
 use lodestar::scene::Scene;
 use util::render;
 
@@ -79,11 +80,168 @@ fn batch_option_errors_name_the_option() {
         Err(e) => e.to_string(),
     };
     let e = err("pt", &["batch=sometimes"]);
-    assert!(e.contains("'batch'") && e.contains("auto, on, off"), "{e}");
+    assert!(
+        e.contains("'batch'") && e.contains("auto, wavefront, on, off"),
+        "{e}"
+    );
     let e = err("pt", &["batch=on", "guiding=sdtree"]);
     assert!(e.contains("'batch'") && e.contains("sdtree"), "{e}");
     assert!(build("pt", &params(&["batch=auto", "guiding=sdtree"])).is_ok());
     // pssmlt replays primary samples path by path: it has no batch option.
     let e = err("pssmlt", &["batch=on"]);
     assert!(e.contains("'batch'"), "{e}");
+}
+
+/// The Cornell box with every vertex kind the wavefront shades (`integrators/pt/wavefront/`):
+/// a checkerboard floor, a one-sided panel seen from the back, two lights of different power (the ceiling
+/// quad and a disk of twelve triangles on the back wall, so the light choice and the
+/// triangle choice on a light both vary), a glass sphere (refraction, total internal
+/// reflection) and a glass heightfield with smooth shading normals (a BVH instead of the flat
+/// list, and `ns != ng`).
+fn wavefront_box() -> Scene {
+    let text = lodestar::scene::CORNELL_BOX_TOML
+        .replace("resolution = [256, 256]", "resolution = [40, 30]")
+        .replace(
+            "name = \"floor\"\ntype = \"quad\"",
+            "name = \"floor\"\ntype = \"quad\"\ntiles = [4, 4]\ntile_material = \"red\"",
+        );
+    let extra = r#"
+[[material]]
+name = "front only"
+type = "diffuse"
+albedo = [0.6, 0.7, 0.5]
+one_sided = true
+
+# A panel facing the back wall: the camera sees its black back.
+[[shape]]
+name = "panel"
+type = "quad"
+origin = [-0.7, -1, 0.3]
+edge_u = [0, 0.9, 0]
+edge_v = [0.5, 0, 0]
+material = "front only"
+
+[[shape]]
+name = "back light"
+type = "disk"
+center = [0.5, 0.4, -0.99]
+normal = [0, 0, 1]
+radius = 0.15
+segments = 12
+material = "black"
+emission = [3, 6, 9]
+
+[[shape]]
+name = "glass waves"
+type = "heightfield"
+size = [0.8, 0.6]
+grid = [12, 9]
+material = "glass"
+waves = [{ amplitude = 0.05, wavelength = 0.3, direction = [1, 0.4], phase = 0.5 }]
+transform = { translate = [-0.3, 0.2, 0.2] }
+"#;
+    util::scene(&format!("{text}\n{extra}"))
+}
+
+/// The wavefront's lanes repeat pt's arithmetic and each path draws from its own sampler in
+/// pt's order, so its image is pt's bit for bit: on the Cornell box (flat-tested primitives)
+/// and on `wavefront_box` (a BVH, two mesh lights, one-sided and checkerboard materials,
+/// shading normals), with independent and Sobol samples, full and cut paths, one and two
+/// threads. A lane that mixes up two paths, a select that takes the wrong branch on one lane,
+/// or an operation done in another order changes bits of these images.
+#[test]
+fn wavefront_pt_is_pt_bit_for_bit() {
+    let pt = PathTracer {
+        settings: PtSettings::default(),
+    };
+    let Some(isa) = wavefront::Isa::detect() else {
+        eprintln!("no AVX-512: the wavefront does not run on this CPU, nothing to compare");
+        return;
+    };
+    for (name, scene) in [
+        ("cornell-box", shipped("cornell-box")),
+        ("wavefront box", wavefront_box()),
+    ] {
+        assert!(wavefront::supports(&pt, &scene), "{name}");
+        assert_eq!(
+            BatchMode::Auto.tracing(&pt, &scene),
+            Tracing::Wavefront(isa),
+            "{name}: auto takes the wavefront"
+        );
+        for (max_depth, sampler) in [(8, "independent"), (3, "independent"), (8, "sobol")] {
+            let sampler = format!("sampler={sampler}");
+            let one = render(&scene, "pt", max_depth, &["batch=off", &sampler], 4, 9, 2);
+            let wave = render(
+                &scene,
+                "pt",
+                max_depth,
+                &["batch=wavefront", &sampler],
+                4,
+                9,
+                2,
+            );
+            assert!(
+                one.image.pixels.iter().any(|p| p.max_element() > 0.0),
+                "{name}: a black image proves nothing"
+            );
+            let differ = one
+                .image
+                .pixels
+                .iter()
+                .zip(&wave.image.pixels)
+                .filter(|(a, b)| a.to_array().map(f32::to_bits) != b.to_array().map(f32::to_bits))
+                .count();
+            assert_eq!(
+                differ, 0,
+                "{name}, max_depth {max_depth}, {sampler}: {differ} pixels differ from pt's"
+            );
+            let one_thread = render(
+                &scene,
+                "pt",
+                max_depth,
+                &["batch=wavefront", &sampler],
+                4,
+                9,
+                1,
+            );
+            assert!(
+                one_thread.image == wave.image,
+                "{name}: thread count matters"
+            );
+        }
+    }
+}
+
+/// Scenes with a vertex the lanes do not shade keep the batched or one-path tracer.
+#[test]
+fn the_wavefront_applies_where_its_lanes_shade() {
+    let pt = PathTracer {
+        settings: PtSettings::default(),
+    };
+    for name in [
+        "cornell-glossy",
+        "cornell-fog",
+        "ajar",
+        "dining",
+        "pool",
+        "fog-dragon",
+    ] {
+        let scene = shipped(name);
+        assert!(!wavefront::supports(&pt, &scene), "{name}");
+        assert!(!matches!(
+            BatchMode::Wavefront.tracing(&pt, &scene),
+            Tracing::Wavefront(_)
+        ));
+    }
+    let cornell = shipped("cornell-box");
+    let nee_only = PathTracer {
+        settings: PtSettings {
+            strategy: lodestar::integrators::pt::Strategy::Nee,
+            ..PtSettings::default()
+        },
+    };
+    assert!(!wavefront::supports(&nee_only, &cornell));
+    assert!(wavefront::supports(&pt, &cornell));
+    assert_eq!(BatchMode::Off.tracing(&pt, &cornell), Tracing::Single);
+    assert_eq!(BatchMode::On.tracing(&pt, &cornell), Tracing::Batched);
 }

@@ -22,6 +22,7 @@
 //! next-event value once its visibility is known); elsewhere pt traces one path at a time
 //! whatever the option says.
 
+use super::wavefront::{self, Isa};
 use super::{Deferred, Extras, PathState, PathTracer};
 use crate::error::Result;
 use crate::integrators::IntegratorParams;
@@ -36,8 +37,20 @@ use glam::{Vec2, Vec3};
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum BatchMode {
     Auto,
+    Wavefront,
     On,
     Off,
+}
+
+/// How pt traces a scene's rows under a [`BatchMode`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Tracing {
+    /// Shaded sixteen paths at a time (`wavefront/`).
+    Wavefront(Isa),
+    /// Rays traced a row at a time, paths shaded one by one.
+    Batched,
+    /// One path at a time.
+    Single,
 }
 
 impl BatchMode {
@@ -45,8 +58,9 @@ impl BatchMode {
         Ok(
             match params
                 .options
-                .choice("batch", "auto", &["auto", "on", "off"])?
+                .choice("batch", "auto", &["auto", "wavefront", "on", "off"])?
             {
+                "wavefront" => BatchMode::Wavefront,
                 "on" => BatchMode::On,
                 "off" => BatchMode::Off,
                 _ => BatchMode::Auto,
@@ -54,15 +68,36 @@ impl BatchMode {
         )
     }
 
-    /// Whether pt traces `scene`'s rows batched under this mode.
+    /// Whether pt traces `scene`'s rows batched under this mode (wavefront or not).
     pub fn applies(self, scene: &Scene) -> bool {
         let possible = !scene.features.media && !crate::check::enabled();
         possible
             && match self {
                 BatchMode::Auto => scene.accel.batches_pay(),
-                BatchMode::On => true,
+                BatchMode::Wavefront | BatchMode::On => true,
                 BatchMode::Off => false,
             }
+    }
+
+    /// How `pt` traces `scene` under this mode: `auto` and `wavefront` take the wavefront
+    /// where it applies (`wavefront::supports`, a CPU with AVX2), then fall back as `auto`
+    /// and `on` do.
+    pub fn tracing(self, pt: &PathTracer, scene: &Scene) -> Tracing {
+        if matches!(self, BatchMode::Auto | BatchMode::Wavefront)
+            && wavefront::supports(pt, scene)
+            && let Some(isa) = Isa::detect()
+        {
+            return Tracing::Wavefront(isa);
+        }
+        let fallback = match self {
+            BatchMode::Wavefront => BatchMode::On,
+            m => m,
+        };
+        if fallback.applies(scene) {
+            Tracing::Batched
+        } else {
+            Tracing::Single
+        }
     }
 }
 
@@ -86,10 +121,14 @@ impl Integrator for Pt {
     }
 
     fn render(&mut self, ctx: &RenderContext, budget: Budget) -> RenderResult {
-        if self.batch.applies(ctx.scene) {
-            render_pixel_estimator(ctx, budget, self.sampler, &Batched(&self.pt))
-        } else {
-            render_pixel_estimator(ctx, budget, self.sampler, &self.pt)
+        match self.batch.tracing(&self.pt, ctx.scene) {
+            Tracing::Wavefront(isa) => {
+                render_pixel_estimator(ctx, budget, self.sampler, &Wavefront(&self.pt, isa))
+            }
+            Tracing::Batched => {
+                render_pixel_estimator(ctx, budget, self.sampler, &Batched(&self.pt))
+            }
+            Tracing::Single => render_pixel_estimator(ctx, budget, self.sampler, &self.pt),
         }
     }
 }
@@ -110,6 +149,26 @@ impl PixelEstimator for Batched<'_> {
         out: &mut [Spectrum],
     ) {
         self.0.li_row(scene, rasters, samplers, out);
+    }
+}
+
+/// pt estimating a row at a time with the wavefront.
+pub struct Wavefront<'a>(pub &'a PathTracer, pub Isa);
+
+impl PixelEstimator for Wavefront<'_> {
+    fn estimate<S: Sampler>(&self, scene: &Scene, raster: Vec2, sampler: &mut S) -> Spectrum {
+        self.0.li(scene, raster, sampler)
+    }
+
+    fn estimate_row<S: Sampler>(
+        &self,
+        scene: &Scene,
+        rasters: &[Vec2],
+        samplers: &mut [S],
+        out: &mut [Spectrum],
+    ) {
+        self.0
+            .li_row_wavefront(scene, rasters, samplers, out, self.1);
     }
 }
 

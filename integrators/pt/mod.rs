@@ -55,6 +55,7 @@ mod emission;
 pub mod guiding;
 mod recording;
 pub mod sdtree;
+pub mod wavefront;
 
 /// How emitters are reached.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -102,7 +102,7 @@ pub fn offset_origin(p: Vec3, p_err: Vec3, n: Vec3, w: Vec3) -> Vec3 {
 /// Written with selects rather than early returns (the three cases compile to conditional
 /// moves; ray offsets call it three times a point, with `dir == 0` on some axes and not others).
 #[inline(always)]
-fn next_away(x: f32, dir: f32) -> f32 {
+pub(crate) fn next_away(x: f32, dir: f32) -> f32 {
     const SIGN: u32 = 0x8000_0000;
     let (bits, dir_bits) = (x.to_bits(), dir.to_bits());
     // x and dir nonzero: one step up in magnitude when their signs agree, one down otherwise.

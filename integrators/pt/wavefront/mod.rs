@@ -1,0 +1,196 @@
+//! Wavefront pt: a row's paths traced in rounds of one segment, their vertices shaded
+//! sixteen at a time in vector registers.
+//!
+//! Batched pt (`batch.rs`) traces a row's rays together but shades each path on its own.
+//! Here each round's closest hits come from [`Scene::intersect_many`] as there, and then the
+//! round's paths are shaded in groups of sixteen (`shade.rs`): what a path does at a vertex
+//! (emission and its MIS weight, next-event estimation, the continuation, roulette, the
+//! spawned ray) runs as sixteen-lane operations (`lanes.rs`, compiled for AVX-512 or AVX2),
+//! with only the table look-ups (material, light, the point on a light) and the random
+//! numbers drawn path by path. The round's shadow rays then go through
+//! [`Scene::unoccluded_many`] together. The lanes repeat scalar pt's arithmetic operation for
+//! operation (`math.rs`) and each path draws from its own sampler in pt's order, so the
+//! image is pt's bit for bit (test `wavefront_pt_is_pt_bit_for_bit` in `tests/pt_batch.rs`).
+//!
+//! It applies where every vertex is one the lanes know ([`supports`]): surfaces of diffuse,
+//! smooth dielectric or black materials (checkerboards and one-sided materials included),
+//! lit by area lights on meshes without spot profiles, no media, no lights at infinity, the
+//! `mis` strategy, no `--check`; and on x86-64 CPUs with AVX2 or AVX-512. `pt -O batch=auto`
+//! (the default) takes it there; elsewhere pt is batched or traced one path at a time as
+//! `batch.rs` says.
+
+#[cfg(target_arch = "x86_64")]
+mod lanes;
+#[cfg(target_arch = "x86_64")]
+mod math;
+#[cfg(target_arch = "x86_64")]
+mod shade;
+
+use super::{Deferred, PathState, PathTracer, Strategy};
+use crate::bsdf::Bsdf;
+use crate::light::AreaShape;
+use crate::light::Light;
+use crate::math::{Sampler, Spectrum};
+use crate::scene::Scene;
+use glam::{Vec2, Vec3};
+
+/// The vector instructions the kernel is compiled for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Isa {
+    Avx512,
+}
+
+impl Isa {
+    /// What the CPU has, `None` without AVX-512.
+    pub fn detect() -> Option<Isa> {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            return Some(Isa::Avx512);
+        }
+        None
+    }
+}
+
+/// Whether the wavefront can trace `scene` for `pt` (module doc): every material, light and
+/// option is one the lanes compute.
+pub fn supports(pt: &PathTracer, scene: &Scene) -> bool {
+    let materials = scene.materials.iter().all(|m| {
+        matches!(
+            m.bsdf,
+            Bsdf::Black | Bsdf::Diffuse { .. } | Bsdf::Dielectric { .. }
+        )
+    });
+    let lights = scene.lights.iter().all(|l| {
+        matches!(l, Light::Area(a) if a.spot.is_none()
+            && matches!(a.geometry, AreaShape::Mesh { .. }))
+    });
+    materials
+        && lights
+        && scene.infinite_lights.is_empty()
+        && !scene.features.media
+        && !scene.shape_info.iter().any(|s| s.null)
+        && pt.settings.strategy == Strategy::Mis
+        && !crate::check::enabled()
+}
+
+thread_local! {
+    /// The calling thread's round buffers, kept from row to row.
+    static ROUND: std::cell::RefCell<Round> = std::cell::RefCell::new(Round::default());
+}
+
+/// One round's buffers, kept across rounds.
+#[derive(Default)]
+struct Round {
+    rays: Vec<crate::geometry::Ray>,
+    hits: Vec<Option<crate::geometry::Hit>>,
+    alive: Vec<bool>,
+    /// Next-event samples of the round, and the path (index in the round) of each.
+    deferred: Vec<Deferred>,
+    owner: Vec<usize>,
+    queries: Vec<(Vec3, Vec3, f32)>,
+    free: Vec<bool>,
+}
+
+impl PathTracer {
+    /// [`Self::li`] for the rasters of a row, each with its own sampler, into `out`: the same
+    /// values bit for bit (module doc). `scene` must be one [`supports`] accepts, `isa` one
+    /// the CPU has.
+    pub fn li_row_wavefront<S: Sampler>(
+        &self,
+        scene: &Scene,
+        rasters: &[Vec2],
+        samplers: &mut [S],
+        out: &mut [Spectrum],
+        isa: Isa,
+    ) {
+        assert!(supports(self, scene), "the wavefront does not apply here");
+        assert_eq!(
+            Isa::detect(),
+            Some(isa),
+            "{isa:?} instructions are not available"
+        );
+        let paths: Vec<(usize, PathState)> = rasters
+            .iter()
+            .enumerate()
+            .map(|(i, &r)| (i, PathState::new(scene, r)))
+            .collect();
+        ROUND.with_borrow_mut(|b| {
+            #[cfg(target_arch = "x86_64")]
+            match isa {
+                // SAFETY: the CPU has AVX-512F (checked above); nothing else is required.
+                Isa::Avx512 => unsafe { self.rounds_avx512(scene, paths, samplers, out, b) },
+            }
+        });
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    fn rounds_avx512<S: Sampler>(
+        &self,
+        scene: &Scene,
+        paths: Vec<(usize, PathState)>,
+        samplers: &mut [S],
+        out: &mut [Spectrum],
+        b: &mut Round,
+    ) {
+        self.wavefront_rounds(scene, paths, samplers, out, b);
+    }
+
+    /// The rounds of [`Self::li_row_wavefront`] until every path of `paths` has ended.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn wavefront_rounds<S: Sampler>(
+        &self,
+        scene: &Scene,
+        mut paths: Vec<(usize, PathState)>,
+        samplers: &mut [S],
+        out: &mut [Spectrum],
+        b: &mut Round,
+    ) {
+        while !paths.is_empty() {
+            b.rays.clear();
+            b.rays.extend(paths.iter().map(|(_, p)| p.ray));
+            scene.intersect_many(&b.rays, &mut b.hits);
+
+            b.alive.clear();
+            b.deferred.clear();
+            b.owner.clear();
+            for (c, (group, hits)) in paths
+                .chunks_mut(lanes::W)
+                .zip(b.hits.chunks_mut(lanes::W))
+                .enumerate()
+            {
+                self.shade_lanes(
+                    scene,
+                    group,
+                    hits,
+                    samplers,
+                    c * lanes::W,
+                    &mut b.alive,
+                    &mut b.deferred,
+                    &mut b.owner,
+                );
+            }
+
+            b.queries.clear();
+            b.queries.extend(b.deferred.iter().filter_map(|d| d.query));
+            scene.unoccluded_many(&b.queries, &mut b.free);
+            let mut free = b.free.iter();
+            for (d, &k) in b.deferred.iter().zip(&b.owner) {
+                let visible = d.query.is_none() || *free.next().expect("one answer per query");
+                let value = if visible { d.value } else { Spectrum::ZERO };
+                let path = &mut paths[k].1;
+                path.l += d.beta * value;
+            }
+
+            let mut alive = b.alive.iter();
+            paths.retain(|(i, path)| {
+                let keep = *alive.next().expect("one flag per path");
+                if !keep {
+                    out[*i] = path.l;
+                }
+                keep
+            });
+        }
+    }
+}

@@ -1,0 +1,369 @@
+//! One vertex of up to sixteen paths at once: what [`PathTracer::advance`] does at a surface,
+//! in three steps.
+//!
+//! 1. **Gather** (scalar, per path): the hit's point and normals, its material (checkerboard
+//!    and one-sided backs resolved as `Scene::surface_point` does), the emitter it is, and
+//!    the path's random numbers, drawn in `advance`'s order from the path's own sampler: for
+//!    a diffuse vertex the light's index and point (the light chosen by power and the point
+//!    on its mesh are table look-ups, left scalar), then the BSDF's three numbers.
+//! 2. **Shade** (sixteen lanes): emission under its MIS weight, next-event estimation
+//!    (the light sample's density, the BSDF's value and density, the power heuristic, the
+//!    shadow segment) and the continuation (cosine-weighted or Fresnel-weighted specular
+//!    sampling, its weight, the roulette probability, the spawned ray), as lane operations
+//!    (`lanes.rs`) that repeat the scalar code's arithmetic (`math.rs`).
+//! 3. **Scatter** (scalar, per path): the roulette number where a path needs one, the path's
+//!    new state, and its next-event sample queued for the shadow batch.
+
+use super::lanes::{F, M, Soa3, V3, W};
+use super::math::{
+    Frame, cosine_hemisphere, fresnel_dielectric, geometry_agrees, offset_origin, power_heuristic,
+    shadow_segment,
+};
+use crate::bsdf::Bsdf;
+use crate::geometry::{Hit, Ray, gamma};
+use crate::integrators::pt::{Deferred, PathState, PathTracer, Scattered};
+use crate::light::AreaShape;
+use crate::light::Light;
+use crate::math::{INV_PI, Sampler};
+use crate::scene::Scene;
+
+/// The lanes of one call, filled by the gather step (lanes past the chunk's length stay at
+/// their defaults: no hit, so they do nothing).
+#[derive(Default)]
+struct Gathered {
+    hit: [bool; W],
+    d: Soa3,
+    beta: Soa3,
+    l: Soa3,
+    prev_delta: [bool; W],
+    prev_pdf: [f32; W],
+    prev_p: Soa3,
+    p: Soa3,
+    p_err: Soa3,
+    ng: Soa3,
+    ns: Soa3,
+    /// Scatters (not black, not at the maximum depth).
+    scatter: [bool; W],
+    diffuse: [bool; W],
+    albedo: Soa3,
+    eta: [f32; W],
+    /// Roulette continuation of the vertex (`roulette_probability`).
+    q: [f32; W],
+    /// The emitter hit: its radiance (zero when the shape does not emit), probability of
+    /// being chosen by next-event estimation, and area.
+    radiance: Soa3,
+    pmf_hit: [f32; W],
+    area_hit: [f32; W],
+    /// Next-event estimation ran (a diffuse vertex), and found a point on a light.
+    nee: [bool; W],
+    nee_found: [bool; W],
+    p_l: Soa3,
+    n_l: Soa3,
+    li: Soa3,
+    pmf_l: [f32; W],
+    area_l: [f32; W],
+    u_lobe: [f32; W],
+    u_x: [f32; W],
+    u_y: [f32; W],
+}
+
+/// What the lanes computed, for the scatter step.
+struct Shaded {
+    l: V3,
+    /// Next-event value (before visibility) and shadow segment.
+    nee_value: V3,
+    nee_query: M,
+    query_o: V3,
+    query_d: V3,
+    query_len: F,
+    /// The continuation was sampled: new throughput (before roulette), density, delta.
+    cont: M,
+    beta: V3,
+    pdf: F,
+    delta: M,
+    wi: V3,
+    origin: V3,
+}
+
+#[inline(always)]
+fn v3(a: &Soa3) -> V3 {
+    V3::load(a)
+}
+
+#[inline(always)]
+fn f(a: &[f32; W]) -> F {
+    F::from_array(a)
+}
+
+#[inline(always)]
+fn m(a: &[bool; W]) -> M {
+    M::from_bools(a)
+}
+
+impl PathTracer {
+    /// One vertex of each path of `paths` (at most [`W`]) whose ray found `hits[k]`: the
+    /// paths' radiance, throughput and next ray updated as `advance` would, `alive` pushed
+    /// for each, and each next-event sample pushed to `deferred` with its path's index in
+    /// the round (`base + k`) in `owner`. Scenes that `super::supports` accepts only.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn shade_lanes<S: Sampler>(
+        &self,
+        scene: &Scene,
+        paths: &mut [(usize, PathState)],
+        hits: &mut [Option<Hit>],
+        samplers: &mut [S],
+        base: usize,
+        alive: &mut Vec<bool>,
+        deferred: &mut Vec<Deferred>,
+        owner: &mut Vec<usize>,
+    ) {
+        debug_assert!(paths.len() <= W && hits.len() == paths.len());
+        let g = self.gather(scene, paths, hits, samplers);
+        let s = shade(&g);
+        let (l, nee_value, query_o, query_d, query_len) = (
+            s.l.store(),
+            s.nee_value.store(),
+            s.query_o.store(),
+            s.query_d.store(),
+            s.query_len.to_array(),
+        );
+        let (beta, pdf, wi, origin) = (
+            s.beta.store(),
+            s.pdf.to_array(),
+            s.wi.store(),
+            s.origin.store(),
+        );
+        for (k, (i, path)) in paths.iter_mut().enumerate() {
+            if g.nee[k] {
+                deferred.push(Deferred {
+                    beta: path.beta,
+                    value: nee_value.get(k),
+                    query: s.nee_query.lane(k).then_some((
+                        query_o.get(k),
+                        query_d.get(k),
+                        query_len[k],
+                    )),
+                });
+                owner.push(base + k);
+            }
+            path.l = l.get(k);
+            if !s.cont.lane(k) {
+                alive.push(false);
+                continue;
+            }
+            path.beta = beta.get(k);
+            path.prev = Scattered {
+                delta: s.delta.lane(k),
+                pdf: pdf[k],
+                p: g.p.get(k),
+            };
+            path.pass = 1.0;
+            // Roulette (`PathTracer::roulette`), with the path's own next number.
+            let q = g.q[k];
+            if q < 1.0 {
+                if samplers[*i].next_1d() >= q {
+                    alive.push(false);
+                    continue;
+                }
+                path.beta /= q;
+            }
+            path.ray = Ray::new(origin.get(k), wi.get(k));
+            path.depth += 1;
+            alive.push(true);
+        }
+    }
+
+    /// Step 1 (module doc): the lanes' inputs, and the paths' random numbers up to the
+    /// roulette.
+    #[inline(always)]
+    fn gather<S: Sampler>(
+        &self,
+        scene: &Scene,
+        paths: &[(usize, PathState)],
+        hits: &mut [Option<Hit>],
+        samplers: &mut [S],
+    ) -> Gathered {
+        let mut g = Gathered::default();
+        for (k, ((i, path), hit)) in paths.iter().zip(hits.iter_mut()).enumerate() {
+            g.d.set(k, path.ray.d);
+            g.beta.set(k, path.beta);
+            g.l.set(k, path.l);
+            let Some(h) = hit.take() else {
+                continue;
+            };
+            g.hit[k] = true;
+            g.prev_delta[k] = path.prev.delta;
+            g.prev_pdf[k] = path.prev.pdf;
+            g.prev_p.set(k, path.prev.p);
+            g.p.set(k, h.p);
+            g.p_err.set(k, h.p_err);
+            g.ng.set(k, h.ng);
+            g.ns.set(k, h.ns);
+            let info = &scene.shape_info[h.shape as usize];
+            let material = &scene.materials[info.material_at(h.p) as usize];
+            let back = material.one_sided && path.ray.d.dot(h.ng) > 0.0;
+            let bsdf = if back { &Bsdf::Black } else { &material.bsdf };
+            if let Some(li) = info.light {
+                let Light::Area(a) = &scene.lights[li as usize] else {
+                    unreachable!("wavefront scenes have area lights only");
+                };
+                g.radiance.set(k, a.radiance);
+                g.pmf_hit[k] = scene.light_sampler.pmf(li as usize);
+                g.area_hit[k] = a.area();
+            }
+            match *bsdf {
+                Bsdf::Diffuse { albedo } => {
+                    g.diffuse[k] = true;
+                    g.albedo.set(k, albedo);
+                }
+                Bsdf::Dielectric { eta } => g.eta[k] = eta,
+                _ => {}
+            }
+            g.scatter[k] = !bsdf.is_black() && path.depth != self.settings.max_depth;
+            if !g.scatter[k] {
+                continue;
+            }
+            g.q[k] = self.roulette_probability(path.depth, bsdf.continuation());
+            let sampler = &mut samplers[*i];
+            if g.diffuse[k] {
+                g.nee[k] = true;
+                let u_light = sampler.next_1d();
+                let u = sampler.next_2d();
+                if let Some((light, pmf)) = scene.light_sampler.sample(u_light) {
+                    let Light::Area(a) = &scene.lights[light] else {
+                        unreachable!("wavefront scenes have area lights only");
+                    };
+                    let AreaShape::Mesh { mesh, sampler } = &a.geometry else {
+                        unreachable!("wavefront scenes have mesh lights only");
+                    };
+                    let (p_l, n_l) = sampler.sample(mesh, u);
+                    g.p_l.set(k, p_l);
+                    g.n_l.set(k, n_l);
+                    g.li.set(k, a.radiance);
+                    g.nee_found[k] = true;
+                    (g.pmf_l[k], g.area_l[k]) = (pmf, sampler.area);
+                }
+            }
+            g.u_lobe[k] = sampler.next_1d();
+            let u = sampler.next_2d();
+            (g.u_x[k], g.u_y[k]) = (u.x, u.y);
+        }
+        g
+    }
+}
+
+/// Step 2 (module doc): emission, next-event estimation and the continuation of sixteen
+/// paths, each lane as `PathTracer::advance`, `emission`, `direct` and `Bsdf::sample`
+/// compute it for a diffuse or smooth dielectric vertex.
+#[inline(always)]
+fn shade(g: &Gathered) -> Shaded {
+    let hit = m(&g.hit);
+    let (d, beta) = (v3(&g.d), v3(&g.beta));
+    let (p, p_err, ng, ns) = (v3(&g.p), v3(&g.p_err), v3(&g.ng), v3(&g.ns));
+    let wo = -d;
+
+    // ---- Emission (`AreaLight::le`, `pdf_li`, `emission_weight`) ----
+    let radiance = v3(&g.radiance);
+    let le = V3::select(ng.dot(wo).gt(F::zero()), radiance, V3::zero());
+    let emits = hit & !le.is_zero();
+    let d2 = (p - v3(&g.prev_p)).length_squared();
+    let cos_l = ng.dot(d).abs();
+    let pdf_li = F::select(
+        cos_l.eq(F::zero()),
+        F::zero(),
+        d2 / (cos_l * f(&g.area_hit)),
+    );
+    let w = power_heuristic(f(&g.prev_pdf) * 1.0, f(&g.pmf_hit) * pdf_li);
+    let w = F::select(m(&g.prev_delta), F::one(), w);
+    let l = v3(&g.l);
+    let l = V3::select(emits, l + beta * le * w, l);
+
+    let frame = Frame::from_z(ns);
+    let wo_l = frame.to_local(wo);
+    let albedo = v3(&g.albedo);
+    let diffuse = m(&g.diffuse);
+
+    // ---- Next-event estimation (`AreaLight::sample_li` on a mesh, `direct`) ----
+    let (p_l, n_l) = (v3(&g.p_l), v3(&g.n_l));
+    let v = p_l - p;
+    let d2 = v.length_squared();
+    let dist = d2.sqrt();
+    let cos_l = n_l.dot(-v) / dist;
+    let pdf_l = d2 / (cos_l * f(&g.area_l));
+    let li = v3(&g.li);
+    let found = m(&g.nee_found)
+        & cos_l.gt(F::zero())
+        & !dist.eq(F::zero())
+        & pdf_l.is_finite()
+        & pdf_l.gt(F::zero())
+        & !li.is_zero();
+    let wi = v / dist;
+    // `Bsdf::eval_pdf` of the diffuse BSDF, times |cos| at the shading normal.
+    let wi_l = frame.to_local(wi);
+    let transmission = (wo_l.z * wi_l.z).lt(F::zero());
+    let same_side = (wo_l.z * wi_l.z).gt(F::zero());
+    let agrees = geometry_agrees(ng, wo, wi, transmission);
+    let lit = agrees & same_side;
+    let cos_i = wi_l.z.abs();
+    let pdf_scatter = F::select(lit & cos_i.gt(F::zero()), cos_i * INV_PI, F::zero());
+    let f_nee = V3::select(lit, albedo * F::splat(INV_PI), V3::zero()) * wi.dot(ns).abs();
+    let nee_query = found & !f_nee.is_zero();
+    let err_l = V3::splat(F::splat(gamma(8))) * p_l.abs();
+    let (query_o, query_d, query_len) = shadow_segment(p, p_err, ng, p_l, err_l, n_l);
+    let p_light = f(&g.pmf_l) * pdf_l;
+    let w = power_heuristic(p_light, pdf_scatter * 1.0);
+    let nee_value = V3::select(nee_query, f_nee * li * (w / p_light), V3::zero());
+
+    // ---- Continuation (`Bsdf::sample`, diffuse or smooth dielectric) ----
+    let (u_x, u_y) = (f(&g.u_x), f(&g.u_y));
+    let (disk, pdf_d) = cosine_hemisphere(u_x, u_y);
+    let ok_d = disk.z.gt(F::zero());
+    let wi_d = V3::new(
+        disk.x,
+        disk.y,
+        F::select(wo_l.z.lt(F::zero()), -disk.z, disk.z),
+    );
+    let (f_r, cos_t, eta_rel) = fresnel_dielectric(wo_l.z, f(&g.eta));
+    let reflect = f(&g.u_lobe).lt(f_r);
+    let wi_r = V3::new(-wo_l.x, -wo_l.y, wo_l.z);
+    let wi_t = V3::new(
+        -wo_l.x / eta_rel,
+        -wo_l.y / eta_rel,
+        -wo_l.z.signum() * cos_t,
+    );
+    let t = 1.0 - f_r;
+    let f_t = t / wi_t.z.abs() / (eta_rel * eta_rel);
+    let f_refl = f_r / wi_r.z.abs();
+    let wi_s = V3::select(reflect, wi_r, wi_t);
+    let f_s = F::select(reflect, f_refl, f_t);
+    let pdf_s = F::select(reflect, f_r, t);
+
+    let wi_l = V3::select(diffuse, wi_d, wi_s);
+    let f_bsdf = V3::select(diffuse, albedo * F::splat(INV_PI), V3::splat(f_s));
+    let pdf = F::select(diffuse, pdf_d, pdf_s);
+    let transmission = !diffuse & !reflect;
+    let wi = frame.to_world(wi_l);
+    let weight = f_bsdf * wi_l.z.abs() / pdf;
+    let cont = m(&g.scatter)
+        & !wo_l.z.eq(F::zero())
+        & (!diffuse | ok_d)
+        & geometry_agrees(ng, wo, wi, transmission)
+        & weight.is_finite()
+        & pdf.gt(F::zero())
+        & !weight.is_zero();
+    Shaded {
+        l,
+        nee_value,
+        nee_query,
+        query_o,
+        query_d,
+        query_len,
+        cont,
+        beta: beta * weight,
+        pdf,
+        delta: !diffuse,
+        origin: offset_origin(p, p_err, ng, wi),
+        wi,
+    }
+}

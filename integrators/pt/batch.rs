@@ -15,7 +15,7 @@
 //!
 //! | option | values               | default | meaning |
 //! |--------|----------------------|---------|---------|
-//! | batch  | `auto` / `on` / `off` | `auto`  | `auto`: batched where the accelerator says batches pay (`Accel::batches_pay`: a BVH of at least 16 MB, `BATCH_MIN_BYTES`, or a flat list of primitives on a CPU with AVX); `on`: wherever it applies; `off`: one path at a time |
+//! | batch  | `auto` / `wavefront` / `on` / `off` | `auto`  | `auto`: the wavefront (`wavefront/`: vertices shaded sixteen at a time) where it applies, else batched where the accelerator says batches pay (`Accel::batches_pay`: a BVH of at least 16 MB, `BATCH_MIN_BYTES`, or a flat list of primitives on a CPU with AVX); `wavefront`: the wavefront where it applies, else as `on`; `on`: batched wherever it applies; `off`: one path at a time |
 //!
 //! It applies to plain pt in scenes without media (a shadow ray through media crosses its
 //! boundaries one segment at a time) and not under `--check` (which inspects each
@@ -173,21 +173,66 @@ impl PixelEstimator for Wavefront<'_> {
 }
 
 thread_local! {
-    /// The calling thread's round buffers, kept from row to row.
-    static ROUND: std::cell::RefCell<Round> = std::cell::RefCell::new(Round::default());
+    /// The calling thread's round buffers, kept from row to row (also the wavefront's).
+    pub(super) static ROUND: std::cell::RefCell<Round> = std::cell::RefCell::new(Round::default());
 }
 
 /// One round's buffers, kept across rounds.
 #[derive(Default)]
-struct Round {
+pub(super) struct Round {
+    pub(super) hits: Vec<Option<crate::geometry::Hit>>,
+    /// Per path, whether it goes on after this round.
+    pub(super) alive: Vec<bool>,
+    /// Next-event samples of the round, and the path (index in the round) of each.
+    pub(super) deferred: Vec<Deferred>,
+    pub(super) owner: Vec<usize>,
     rays: Vec<crate::geometry::Ray>,
-    hits: Vec<Option<crate::geometry::Hit>>,
-    alive: Vec<bool>,
-    /// Next-event samples of the round, and the path (index in `lanes`) of each.
-    deferred: Vec<Deferred>,
-    owner: Vec<usize>,
     queries: Vec<(Vec3, Vec3, f32)>,
     free: Vec<bool>,
+}
+
+impl Round {
+    /// Start a round: the closest hits of the paths' rays into `hits`, the other buffers
+    /// cleared.
+    pub(super) fn trace(&mut self, scene: &Scene, paths: &[(usize, PathState)]) {
+        self.rays.clear();
+        self.rays.extend(paths.iter().map(|(_, p)| p.ray));
+        scene.intersect_many(&self.rays, &mut self.hits);
+        self.alive.clear();
+        self.deferred.clear();
+        self.owner.clear();
+    }
+
+    /// End a round once every path has pushed its `alive` flag and its next-event samples:
+    /// the shadow rays traced together, each visible sample added to its path's radiance in
+    /// the order they were pushed, and the paths that ended written to `out` (at their
+    /// raster index) and dropped.
+    pub(super) fn settle(
+        &mut self,
+        scene: &Scene,
+        paths: &mut Vec<(usize, PathState)>,
+        out: &mut [Spectrum],
+    ) {
+        self.queries.clear();
+        self.queries
+            .extend(self.deferred.iter().filter_map(|d| d.query));
+        scene.unoccluded_many(&self.queries, &mut self.free);
+        let mut free = self.free.iter();
+        for (d, &k) in self.deferred.iter().zip(&self.owner) {
+            let visible = d.query.is_none() || *free.next().expect("one answer per query");
+            let value = if visible { d.value } else { Spectrum::ZERO };
+            let path = &mut paths[k].1;
+            path.l += d.beta * value;
+        }
+        let mut alive = self.alive.iter();
+        paths.retain(|(i, path)| {
+            let keep = *alive.next().expect("one flag per path");
+            if !keep {
+                out[*i] = path.l;
+            }
+            keep
+        });
+    }
 }
 
 impl PathTracer {
@@ -223,13 +268,7 @@ impl PathTracer {
         b: &mut Round,
     ) {
         while !lanes.is_empty() {
-            b.rays.clear();
-            b.rays.extend(lanes.iter().map(|(_, p)| p.ray));
-            scene.intersect_many(&b.rays, &mut b.hits);
-
-            b.alive.clear();
-            b.deferred.clear();
-            b.owner.clear();
+            b.trace(scene, &lanes);
             for (k, (i, path)) in lanes.iter_mut().enumerate() {
                 let sp = b.hits[k].take().map(|h| scene.surface_point(h, &path.ray));
                 let before = b.deferred.len();
@@ -243,26 +282,7 @@ impl PathTracer {
                 b.alive.push(alive);
                 b.owner.resize(b.deferred.len().max(before), k);
             }
-
-            b.queries.clear();
-            b.queries.extend(b.deferred.iter().filter_map(|d| d.query));
-            scene.unoccluded_many(&b.queries, &mut b.free);
-            let mut free = b.free.iter();
-            for (d, &k) in b.deferred.iter().zip(&b.owner) {
-                let visible = d.query.is_none() || *free.next().expect("one answer per query");
-                let value = if visible { d.value } else { Spectrum::ZERO };
-                let path = &mut lanes[k].1;
-                path.l += d.beta * value;
-            }
-
-            let mut alive = b.alive.iter();
-            lanes.retain(|(i, path)| {
-                let keep = *alive.next().expect("one flag per lane");
-                if !keep {
-                    out[*i] = path.l;
-                }
-                keep
-            });
+            b.settle(scene, &mut lanes, out);
         }
     }
 }

@@ -10,7 +10,7 @@
 //! | max_depth | integer >= 1           | 8       | maximum number of path segments; 1 shows only emitters seen directly, 2 is direct lighting (`--max-depth`) |
 //! | rr_depth  | integer >= 1           | 5       | Russian roulette starts on paths of this many segments (Mitsuba's default) |
 //! | strategy  | `mis` / `bsdf` / `nee` | `mis`   | `bsdf`: emitters only found by BSDF sampling; `nee`: only by next-event estimation (except after delta bounces and for the camera ray) |
-//! | batch     | `auto` / `on` / `off`  | `auto`  | trace a row's paths together, segment by segment, so that their rays through a large BVH overlap their cache misses (`batch.rs`; the same image bit for bit) |
+//! | batch     | `auto` / `wavefront` / `on` / `off` | `auto` | trace a row's paths together, segment by segment: `wavefront` shades them sixteen at a time in AVX-512 registers where the scene's materials and lights allow (`wavefront/`), `on` traces their rays together so that misses in a large BVH overlap (`batch.rs`), `auto` takes the wavefront where it applies and batches where that pays; the same image bit for bit in every mode |
 //! | sampler   | `independent` / `sobol` | `independent` | `sobol`: padded Owen-scrambled Sobol points per pixel (`math/sobol.rs`), stratifying every pair of numbers a path draws over the pixel's samples; unbiased, and lower error on smooth integrands (direct light from area lights) |
 //! | guiding   | `none` / `sdtree`      | `none`  | `sdtree`: learn a distribution of incident radiance and mix it with BSDF sampling at rough surfaces (`guiding.rs`, which also lists `guide_fraction` and `learn_fraction`) |
 //!

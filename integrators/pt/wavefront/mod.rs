@@ -26,13 +26,14 @@ mod math;
 #[cfg(target_arch = "x86_64")]
 mod shade;
 
-use super::{Deferred, PathState, PathTracer, Strategy};
+use super::batch::{ROUND, Round};
+use super::{PathState, PathTracer, Strategy};
 use crate::bsdf::Bsdf;
 use crate::light::AreaShape;
 use crate::light::Light;
 use crate::math::{Sampler, Spectrum};
 use crate::scene::Scene;
-use glam::{Vec2, Vec3};
+use glam::Vec2;
 
 /// The vector instructions the kernel is compiled for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -73,24 +74,6 @@ pub fn supports(pt: &PathTracer, scene: &Scene) -> bool {
         && !crate::check::enabled()
 }
 
-thread_local! {
-    /// The calling thread's round buffers, kept from row to row.
-    static ROUND: std::cell::RefCell<Round> = std::cell::RefCell::new(Round::default());
-}
-
-/// One round's buffers, kept across rounds.
-#[derive(Default)]
-struct Round {
-    rays: Vec<crate::geometry::Ray>,
-    hits: Vec<Option<crate::geometry::Hit>>,
-    alive: Vec<bool>,
-    /// Next-event samples of the round, and the path (index in the round) of each.
-    deferred: Vec<Deferred>,
-    owner: Vec<usize>,
-    queries: Vec<(Vec3, Vec3, f32)>,
-    free: Vec<bool>,
-}
-
 impl PathTracer {
     /// [`Self::li`] for the rasters of a row, each with its own sampler, into `out`: the same
     /// values bit for bit (module doc). `scene` must be one [`supports`] accepts, `isa` one
@@ -120,6 +103,14 @@ impl PathTracer {
                 // SAFETY: the CPU has AVX-512F (checked above); nothing else is required.
                 Isa::Avx512 => unsafe { self.rounds_avx512(scene, paths, samplers, out, b) },
             }
+            #[cfg(not(target_arch = "x86_64"))]
+            unreachable!(
+                "{isa:?} without x86-64: {} paths, {} samplers, {} outputs, {} rays",
+                paths.len(),
+                samplers.len(),
+                out.len(),
+                b.rays.len()
+            );
         });
     }
 
@@ -148,13 +139,7 @@ impl PathTracer {
         b: &mut Round,
     ) {
         while !paths.is_empty() {
-            b.rays.clear();
-            b.rays.extend(paths.iter().map(|(_, p)| p.ray));
-            scene.intersect_many(&b.rays, &mut b.hits);
-
-            b.alive.clear();
-            b.deferred.clear();
-            b.owner.clear();
+            b.trace(scene, &paths);
             for (c, (group, hits)) in paths
                 .chunks_mut(lanes::W)
                 .zip(b.hits.chunks_mut(lanes::W))
@@ -171,26 +156,7 @@ impl PathTracer {
                     &mut b.owner,
                 );
             }
-
-            b.queries.clear();
-            b.queries.extend(b.deferred.iter().filter_map(|d| d.query));
-            scene.unoccluded_many(&b.queries, &mut b.free);
-            let mut free = b.free.iter();
-            for (d, &k) in b.deferred.iter().zip(&b.owner) {
-                let visible = d.query.is_none() || *free.next().expect("one answer per query");
-                let value = if visible { d.value } else { Spectrum::ZERO };
-                let path = &mut paths[k].1;
-                path.l += d.beta * value;
-            }
-
-            let mut alive = b.alive.iter();
-            paths.retain(|(i, path)| {
-                let keep = *alive.next().expect("one flag per path");
-                if !keep {
-                    out[*i] = path.l;
-                }
-                keep
-            });
+            b.settle(scene, &mut paths, out);
         }
     }
 }

@@ -302,13 +302,7 @@ impl PathTracer {
         }
 
         let Some(sp) = sp else {
-            // ---- Escaped: lights at infinity ----
-            for &li in &scene.infinite_lights {
-                let le = scene.lights[li].le(Vec3::ZERO, path.ray.d);
-                if le != Spectrum::ZERO {
-                    self.emission(scene, path, extras, li, le, EmitterAt::Infinity);
-                }
-            }
+            self.escape(scene, path, extras);
             return false;
         };
         let hit = &sp.hit;
@@ -327,14 +321,7 @@ impl PathTracer {
 
         // ---- Emission of a hit emitter ----
         if let Some(li) = sp.light() {
-            let le = scene.lights[li].le(hit.ng, wo);
-            if le != Spectrum::ZERO {
-                let at = EmitterAt::Surface {
-                    p: hit.p,
-                    n: hit.ng,
-                };
-                self.emission(scene, path, extras, li, le, at);
-            }
+            self.hit_emitter(scene, path, extras, li, hit);
         }
         if sp.bsdf.is_black() || path.depth == s.max_depth {
             return false;
@@ -403,6 +390,37 @@ impl PathTracer {
         path.ray = hit.spawn(bs.wi);
         path.depth += 1;
         true
+    }
+
+    /// The path's ray escaped: the emission of the lights at infinity along it.
+    #[inline(always)]
+    fn escape(&self, scene: &Scene, path: &mut PathState, extras: &mut Extras) {
+        for &li in &scene.infinite_lights {
+            let le = scene.lights[li].le(Vec3::ZERO, path.ray.d);
+            if le != Spectrum::ZERO {
+                self.emission(scene, path, extras, li, le, EmitterAt::Infinity);
+            }
+        }
+    }
+
+    /// The path's ray found `hit` on area light `li`: its emission towards the path.
+    #[inline(always)]
+    fn hit_emitter(
+        &self,
+        scene: &Scene,
+        path: &mut PathState,
+        extras: &mut Extras,
+        li: usize,
+        hit: &crate::geometry::Hit,
+    ) {
+        let le = scene.lights[li].le(hit.ng, -path.ray.d);
+        if le != Spectrum::ZERO {
+            let at = EmitterAt::Surface {
+                p: hit.p,
+                n: hit.ng,
+            };
+            self.emission(scene, path, extras, li, le, at);
+        }
     }
 
     /// Next-event estimation at the path's current vertex (`q_here`: its roulette

@@ -4,20 +4,19 @@
 //! Batched pt (`batch.rs`) traces a row's rays together but shades each path on its own.
 //! Here each round's closest hits come from [`Scene::intersect_many`] as there, and then the
 //! round's paths are shaded in groups of sixteen (`shade.rs`): what a path does at a vertex
-//! (emission and its MIS weight, next-event estimation, the continuation, roulette, the
-//! spawned ray) runs as sixteen-lane operations (`lanes.rs`, compiled for AVX-512 or AVX2),
-//! with only the table look-ups (material, light, the point on a light) and the random
-//! numbers drawn path by path. The round's shadow rays then go through
-//! [`Scene::unoccluded_many`] together. The lanes repeat scalar pt's arithmetic operation for
-//! operation (`math.rs`) and each path draws from its own sampler in pt's order, so the
-//! image is pt's bit for bit (test `wavefront_pt_is_pt_bit_for_bit` in `tests/pt_batch.rs`).
+//! (next-event estimation, the continuation, roulette, the spawned ray) runs as sixteen-lane
+//! operations (`lanes.rs`, AVX-512), with only the table look-ups (material, light, the point
+//! on a light), emission and the random numbers done path by path. The round's shadow rays
+//! then go through [`Scene::unoccluded_many`] together. The lanes repeat scalar pt's
+//! arithmetic operation for operation (`math.rs`) and each path draws from its own sampler in
+//! pt's order, so the image is pt's bit for bit (test `wavefront_pt_is_pt_bit_for_bit` in
+//! `tests/pt_batch.rs`).
 //!
 //! It applies where every vertex is one the lanes know ([`supports`]): surfaces of diffuse,
-//! smooth dielectric or black materials (checkerboards and one-sided materials included),
-//! lit by area lights on meshes without spot profiles, no media, no lights at infinity, the
-//! `mis` strategy, no `--check`; and on x86-64 CPUs with AVX2 or AVX-512. `pt -O batch=auto`
-//! (the default) takes it there; elsewhere pt is batched or traced one path at a time as
-//! `batch.rs` says.
+//! smooth conductor (mirror), smooth dielectric or black materials (checkerboards and
+//! one-sided materials included), any lights, no media, the `mis` strategy, no `--check`;
+//! and on x86-64 CPUs with AVX-512. `pt -O batch=auto` (the default) takes it there;
+//! elsewhere pt is batched or traced one path at a time as `batch.rs` says.
 
 #[cfg(target_arch = "x86_64")]
 mod lanes;
@@ -29,8 +28,6 @@ mod shade;
 use super::batch::{ROUND, Round};
 use super::{PathState, PathTracer, Strategy};
 use crate::bsdf::Bsdf;
-use crate::light::AreaShape;
-use crate::light::Light;
 use crate::math::{Sampler, Spectrum};
 use crate::scene::Scene;
 use glam::Vec2;
@@ -52,22 +49,16 @@ impl Isa {
     }
 }
 
-/// Whether the wavefront can trace `scene` for `pt` (module doc): every material, light and
-/// option is one the lanes compute.
+/// Whether the wavefront can trace `scene` for `pt` (module doc): every material is one the
+/// lanes sample and every option one they follow.
 pub fn supports(pt: &PathTracer, scene: &Scene) -> bool {
     let materials = scene.materials.iter().all(|m| {
         matches!(
             m.bsdf,
-            Bsdf::Black | Bsdf::Diffuse { .. } | Bsdf::Dielectric { .. }
+            Bsdf::Black | Bsdf::Diffuse { .. } | Bsdf::Conductor { .. } | Bsdf::Dielectric { .. }
         )
     });
-    let lights = scene.lights.iter().all(|l| {
-        matches!(l, Light::Area(a) if a.spot.is_none()
-            && matches!(a.geometry, AreaShape::Mesh { .. }))
-    });
     materials
-        && lights
-        && scene.infinite_lights.is_empty()
         && !scene.features.media
         && !scene.shape_info.iter().any(|s| s.null)
         && pt.settings.strategy == Strategy::Mis

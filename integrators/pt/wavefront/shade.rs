@@ -1,16 +1,18 @@
 //! One vertex of up to sixteen paths at once: what [`PathTracer::advance`] does at a surface,
 //! in three steps.
 //!
-//! 1. **Gather** (scalar, per path): the hit's point and normals, its material (checkerboard
-//!    and one-sided backs resolved as `Scene::surface_point` does), the emitter it is, and
-//!    the path's random numbers, drawn in `advance`'s order from the path's own sampler: for
-//!    a diffuse vertex the light's index and point (the light chosen by power and the point
-//!    on its mesh are table look-ups, left scalar), then the BSDF's three numbers.
-//! 2. **Shade** (sixteen lanes): emission under its MIS weight, next-event estimation
-//!    (the light sample's density, the BSDF's value and density, the power heuristic, the
-//!    shadow segment) and the continuation (cosine-weighted or Fresnel-weighted specular
-//!    sampling, its weight, the roulette probability, the spawned ray), as lane operations
-//!    (`lanes.rs`) that repeat the scalar code's arithmetic (`math.rs`).
+//! 1. **Gather** (scalar, per path): emission (a hit emitter's, or the lights at infinity
+//!    for a ray that escaped: few paths, so pt's own code adds it), the hit's point and
+//!    normals, its material (checkerboard and one-sided backs resolved as
+//!    `Scene::surface_point` does), and the path's random numbers, drawn in `advance`'s order
+//!    from the path's own sampler: for a diffuse vertex the light's index and point (table
+//!    look-ups: a point on a mesh light here, whole `Light::sample_li` for other lights),
+//!    then the BSDF's three numbers.
+//! 2. **Shade** (sixteen lanes): next-event estimation (a mesh light's density and
+//!    direction, the BSDF's value and density, the power heuristic, the shadow segment) and
+//!    the continuation (cosine-weighted, mirror or Fresnel-weighted specular sampling, its
+//!    weight, the spawned ray), as lane operations (`lanes.rs`) that repeat the scalar code's
+//!    arithmetic (`math.rs`).
 //! 3. **Scatter** (scalar, per path): the roulette number where a path needs one, the path's
 //!    new state, and its next-event sample queued for the shadow batch.
 
@@ -21,9 +23,9 @@ use super::math::{
 };
 use crate::bsdf::Bsdf;
 use crate::geometry::{Hit, Ray, gamma};
-use crate::integrators::pt::{Deferred, PathState, PathTracer, Scattered};
-use crate::light::AreaShape;
+use crate::integrators::pt::{Deferred, Extras, PathState, PathTracer, Scattered};
 use crate::light::Light;
+use crate::light::{AreaLight, AreaShape};
 use crate::math::{INV_PI, Sampler};
 use crate::scene::Scene;
 
@@ -31,13 +33,9 @@ use crate::scene::Scene;
 /// their defaults: no hit, so they do nothing).
 #[derive(Default)]
 struct Gathered {
-    hit: [bool; W],
     d: Soa3,
     beta: Soa3,
     l: Soa3,
-    prev_delta: [bool; W],
-    prev_pdf: [f32; W],
-    prev_p: Soa3,
     p: Soa3,
     p_err: Soa3,
     ng: Soa3,
@@ -49,19 +47,25 @@ struct Gathered {
     eta: [f32; W],
     /// Roulette continuation of the vertex (`roulette_probability`).
     q: [f32; W],
-    /// The emitter hit: its radiance (zero when the shape does not emit), probability of
-    /// being chosen by next-event estimation, and area.
-    radiance: Soa3,
-    pmf_hit: [f32; W],
-    area_hit: [f32; W],
+    /// A smooth conductor (a mirror) and its reflectance.
+    conductor: [bool; W],
+    reflectance: Soa3,
     /// Next-event estimation ran (a diffuse vertex), and found a point on a light.
     nee: [bool; W],
     nee_found: [bool; W],
+    /// The light point was drawn on a mesh light without spot profile (its density and
+    /// direction are left to the lanes); otherwise `Light::sample_li` gave `wi`, `pdf_l`,
+    /// `delta` and `finite` below.
+    on_mesh: [bool; W],
     p_l: Soa3,
     n_l: Soa3,
     li: Soa3,
     pmf_l: [f32; W],
     area_l: [f32; W],
+    wi_l: Soa3,
+    pdf_l: [f32; W],
+    delta_l: [bool; W],
+    finite_l: [bool; W],
     u_lobe: [f32; W],
     u_x: [f32; W],
     u_y: [f32; W],
@@ -175,47 +179,51 @@ impl PathTracer {
     }
 
     /// Step 1 (module doc): the lanes' inputs, and the paths' random numbers up to the
-    /// roulette.
+    /// roulette. Emission (of a hit emitter, or of the lights at infinity for a ray that
+    /// escaped) is added to the path here, by pt's own code: few lanes need it.
     #[inline(always)]
     fn gather<S: Sampler>(
         &self,
         scene: &Scene,
-        paths: &[(usize, PathState)],
+        paths: &mut [(usize, PathState)],
         hits: &mut [Option<Hit>],
         samplers: &mut [S],
     ) -> Gathered {
         let mut g = Gathered::default();
-        for (k, ((i, path), hit)) in paths.iter().zip(hits.iter_mut()).enumerate() {
+        let mut no_extras = Extras {
+            rec: None,
+            guide: None,
+            trail: None,
+            deferred: None,
+        };
+        for (k, ((i, path), hit)) in paths.iter_mut().zip(hits.iter_mut()).enumerate() {
+            let Some(h) = hit.take() else {
+                self.escape(scene, path, &mut no_extras);
+                g.l.set(k, path.l);
+                continue;
+            };
+            let info = &scene.shape_info[h.shape as usize];
+            if let Some(li) = info.light {
+                self.hit_emitter(scene, path, &mut no_extras, li as usize, &h);
+            }
             g.d.set(k, path.ray.d);
             g.beta.set(k, path.beta);
             g.l.set(k, path.l);
-            let Some(h) = hit.take() else {
-                continue;
-            };
-            g.hit[k] = true;
-            g.prev_delta[k] = path.prev.delta;
-            g.prev_pdf[k] = path.prev.pdf;
-            g.prev_p.set(k, path.prev.p);
             g.p.set(k, h.p);
             g.p_err.set(k, h.p_err);
             g.ng.set(k, h.ng);
             g.ns.set(k, h.ns);
-            let info = &scene.shape_info[h.shape as usize];
             let material = &scene.materials[info.material_at(h.p) as usize];
             let back = material.one_sided && path.ray.d.dot(h.ng) > 0.0;
             let bsdf = if back { &Bsdf::Black } else { &material.bsdf };
-            if let Some(li) = info.light {
-                let Light::Area(a) = &scene.lights[li as usize] else {
-                    unreachable!("wavefront scenes have area lights only");
-                };
-                g.radiance.set(k, a.radiance);
-                g.pmf_hit[k] = scene.light_sampler.pmf(li as usize);
-                g.area_hit[k] = a.area();
-            }
             match *bsdf {
                 Bsdf::Diffuse { albedo } => {
                     g.diffuse[k] = true;
                     g.albedo.set(k, albedo);
+                }
+                Bsdf::Conductor { reflectance } => {
+                    g.conductor[k] = true;
+                    g.reflectance.set(k, reflectance);
                 }
                 Bsdf::Dielectric { eta } => g.eta[k] = eta,
                 _ => {}
@@ -231,18 +239,30 @@ impl PathTracer {
                 let u_light = sampler.next_1d();
                 let u = sampler.next_2d();
                 if let Some((light, pmf)) = scene.light_sampler.sample(u_light) {
-                    let Light::Area(a) = &scene.lights[light] else {
-                        unreachable!("wavefront scenes have area lights only");
-                    };
-                    let AreaShape::Mesh { mesh, sampler } = &a.geometry else {
-                        unreachable!("wavefront scenes have mesh lights only");
-                    };
-                    let (p_l, n_l) = sampler.sample(mesh, u);
-                    g.p_l.set(k, p_l);
-                    g.n_l.set(k, n_l);
-                    g.li.set(k, a.radiance);
-                    g.nee_found[k] = true;
-                    (g.pmf_l[k], g.area_l[k]) = (pmf, sampler.area);
+                    g.pmf_l[k] = pmf;
+                    match &scene.lights[light] {
+                        Light::Area(a @ AreaLight { spot: None, .. })
+                            if let AreaShape::Mesh { mesh, sampler } = &a.geometry =>
+                        {
+                            let (p_l, n_l) = sampler.sample(mesh, u);
+                            g.p_l.set(k, p_l);
+                            g.n_l.set(k, n_l);
+                            g.li.set(k, a.radiance);
+                            g.area_l[k] = sampler.area;
+                            (g.on_mesh[k], g.nee_found[k]) = (true, true);
+                        }
+                        l => {
+                            if let Some(ls) = l.sample_li(h.p, u) {
+                                g.p_l.set(k, ls.p);
+                                g.n_l.set(k, ls.n);
+                                g.li.set(k, ls.li);
+                                g.wi_l.set(k, ls.wi);
+                                (g.pdf_l[k], g.delta_l[k]) = (ls.pdf, ls.delta);
+                                g.finite_l[k] = ls.dist.is_finite();
+                                g.nee_found[k] = true;
+                            }
+                        }
+                    }
                 }
             }
             g.u_lobe[k] = sampler.next_1d();
@@ -253,52 +273,41 @@ impl PathTracer {
     }
 }
 
-/// Step 2 (module doc): emission, next-event estimation and the continuation of sixteen
-/// paths, each lane as `PathTracer::advance`, `emission`, `direct` and `Bsdf::sample`
-/// compute it for a diffuse or smooth dielectric vertex.
+/// Step 2 (module doc): next-event estimation and the continuation of sixteen paths, each
+/// lane as `PathTracer::advance`, `direct` and `Bsdf::sample` compute it for a diffuse,
+/// mirror or smooth dielectric vertex.
 #[inline(always)]
 fn shade(g: &Gathered) -> Shaded {
-    let hit = m(&g.hit);
     let (d, beta) = (v3(&g.d), v3(&g.beta));
     let (p, p_err, ng, ns) = (v3(&g.p), v3(&g.p_err), v3(&g.ng), v3(&g.ns));
     let wo = -d;
 
-    // ---- Emission (`AreaLight::le`, `pdf_li`, `emission_weight`) ----
-    let radiance = v3(&g.radiance);
-    let le = V3::select(ng.dot(wo).gt(F::zero()), radiance, V3::zero());
-    let emits = hit & !le.is_zero();
-    let d2 = (p - v3(&g.prev_p)).length_squared();
-    let cos_l = ng.dot(d).abs();
-    let pdf_li = F::select(
-        cos_l.eq(F::zero()),
-        F::zero(),
-        d2 / (cos_l * f(&g.area_hit)),
-    );
-    let w = power_heuristic(f(&g.prev_pdf) * 1.0, f(&g.pmf_hit) * pdf_li);
-    let w = F::select(m(&g.prev_delta), F::one(), w);
     let l = v3(&g.l);
-    let l = V3::select(emits, l + beta * le * w, l);
 
     let frame = Frame::from_z(ns);
     let wo_l = frame.to_local(wo);
     let albedo = v3(&g.albedo);
     let diffuse = m(&g.diffuse);
 
-    // ---- Next-event estimation (`AreaLight::sample_li` on a mesh, `direct`) ----
+    // ---- Next-event estimation (`direct`; `AreaLight::sample_li` on a mesh in lanes) ----
     let (p_l, n_l) = (v3(&g.p_l), v3(&g.n_l));
+    let on_mesh = m(&g.on_mesh);
     let v = p_l - p;
     let d2 = v.length_squared();
     let dist = d2.sqrt();
     let cos_l = n_l.dot(-v) / dist;
-    let pdf_l = d2 / (cos_l * f(&g.area_l));
+    let pdf_mesh = d2 / (cos_l * f(&g.area_l));
     let li = v3(&g.li);
-    let found = m(&g.nee_found)
-        & cos_l.gt(F::zero())
+    let mesh_ok = cos_l.gt(F::zero())
         & !dist.eq(F::zero())
-        & pdf_l.is_finite()
-        & pdf_l.gt(F::zero())
+        & pdf_mesh.is_finite()
+        & pdf_mesh.gt(F::zero())
         & !li.is_zero();
-    let wi = v / dist;
+    let found = m(&g.nee_found) & (mesh_ok | !on_mesh);
+    let wi = V3::select(on_mesh, v / dist, v3(&g.wi_l));
+    let pdf_l = F::select(on_mesh, pdf_mesh, f(&g.pdf_l));
+    let delta_l = m(&g.delta_l) & !on_mesh;
+    let finite_l = m(&g.finite_l) | on_mesh;
     // `Bsdf::eval_pdf` of the diffuse BSDF, times |cos| at the shading normal.
     let wi_l = frame.to_local(wi);
     let transmission = (wo_l.z * wi_l.z).lt(F::zero());
@@ -310,9 +319,13 @@ fn shade(g: &Gathered) -> Shaded {
     let f_nee = V3::select(lit, albedo * F::splat(INV_PI), V3::zero()) * wi.dot(ns).abs();
     let nee_query = found & !f_nee.is_zero();
     let err_l = V3::splat(F::splat(gamma(8))) * p_l.abs();
-    let (query_o, query_d, query_len) = shadow_segment(p, p_err, ng, p_l, err_l, n_l);
+    let (to_o, to_d, to_len) = shadow_segment(p, p_err, ng, p_l, err_l, n_l);
+    let query_o = V3::select(finite_l, to_o, offset_origin(p, p_err, ng, wi));
+    let query_d = V3::select(finite_l, to_d, wi);
+    let query_len = F::select(finite_l, to_len, F::splat(f32::INFINITY));
     let p_light = f(&g.pmf_l) * pdf_l;
     let w = power_heuristic(p_light, pdf_scatter * 1.0);
+    let w = F::select(delta_l, F::one(), w);
     let nee_value = V3::select(nee_query, f_nee * li * (w / p_light), V3::zero());
 
     // ---- Continuation (`Bsdf::sample`, diffuse or smooth dielectric) ----
@@ -339,10 +352,16 @@ fn shade(g: &Gathered) -> Shaded {
     let f_s = F::select(reflect, f_refl, f_t);
     let pdf_s = F::select(reflect, f_r, t);
 
-    let wi_l = V3::select(diffuse, wi_d, wi_s);
-    let f_bsdf = V3::select(diffuse, albedo * F::splat(INV_PI), V3::splat(f_s));
-    let pdf = F::select(diffuse, pdf_d, pdf_s);
-    let transmission = !diffuse & !reflect;
+    let conductor = m(&g.conductor);
+    let f_mirror = v3(&g.reflectance) / wi_r.z.abs();
+    let wi_l = V3::select(diffuse, wi_d, V3::select(conductor, wi_r, wi_s));
+    let f_bsdf = V3::select(
+        diffuse,
+        albedo * F::splat(INV_PI),
+        V3::select(conductor, f_mirror, V3::splat(f_s)),
+    );
+    let pdf = F::select(diffuse, pdf_d, F::select(conductor, F::one(), pdf_s));
+    let transmission = !diffuse & !conductor & !reflect;
     let wi = frame.to_world(wi_l);
     let weight = f_bsdf * wi_l.z.abs() / pdf;
     let cont = m(&g.scatter)

@@ -123,18 +123,19 @@ impl Integrator for Pt {
     fn render(&mut self, ctx: &RenderContext, budget: Budget) -> RenderResult {
         match self.batch.tracing(&self.pt, ctx.scene) {
             Tracing::Wavefront(isa) => {
-                render_pixel_estimator(ctx, budget, self.sampler, &Wavefront(&self.pt, isa))
+                render_pixel_estimator(ctx, budget, self.sampler, &Batched(&self.pt, Some(isa)))
             }
             Tracing::Batched => {
-                render_pixel_estimator(ctx, budget, self.sampler, &Batched(&self.pt))
+                render_pixel_estimator(ctx, budget, self.sampler, &Batched(&self.pt, None))
             }
             Tracing::Single => render_pixel_estimator(ctx, budget, self.sampler, &self.pt),
         }
     }
 }
 
-/// pt estimating a row at a time.
-pub struct Batched<'a>(pub &'a PathTracer);
+/// pt estimating a row at a time: batched (`None`) or with the wavefront on the given
+/// instructions.
+pub struct Batched<'a>(pub &'a PathTracer, pub Option<Isa>);
 
 impl PixelEstimator for Batched<'_> {
     fn estimate<S: Sampler>(&self, scene: &Scene, raster: Vec2, sampler: &mut S) -> Spectrum {
@@ -148,27 +149,10 @@ impl PixelEstimator for Batched<'_> {
         samplers: &mut [S],
         out: &mut [Spectrum],
     ) {
-        self.0.li_row(scene, rasters, samplers, out);
-    }
-}
-
-/// pt estimating a row at a time with the wavefront.
-pub struct Wavefront<'a>(pub &'a PathTracer, pub Isa);
-
-impl PixelEstimator for Wavefront<'_> {
-    fn estimate<S: Sampler>(&self, scene: &Scene, raster: Vec2, sampler: &mut S) -> Spectrum {
-        self.0.li(scene, raster, sampler)
-    }
-
-    fn estimate_row<S: Sampler>(
-        &self,
-        scene: &Scene,
-        rasters: &[Vec2],
-        samplers: &mut [S],
-        out: &mut [Spectrum],
-    ) {
-        self.0
-            .li_row_wavefront(scene, rasters, samplers, out, self.1);
+        match self.1 {
+            Some(isa) => self.0.li_row_wavefront(scene, rasters, samplers, out, isa),
+            None => self.0.li_row(scene, rasters, samplers, out),
+        }
     }
 }
 

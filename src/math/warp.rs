@@ -3,6 +3,7 @@
 
 use super::{INV_4PI, INV_PI, PI};
 use glam::{Vec2, Vec3};
+use std::ops::{Add, Mul};
 
 /// Shirley-Chiu concentric map of the unit square onto the unit disk.
 pub fn square_to_disk_concentric(u: Vec2) -> Vec2 {
@@ -25,8 +26,14 @@ pub fn square_to_disk_concentric(u: Vec2) -> Vec2 {
 /// errors there (below 2e-9 and 1e-10) are far under f32's rounding. Sampling calls this
 /// once per diffuse bounce; `f32::sin_cos` (a library call with range reduction) was 3 % of
 /// pt's time on the Cornell box.
-#[inline]
-pub fn sin_cos_quarter(x: f32) -> (f32, f32) {
+/// Generic over the number type so that the wavefront's sixteen-lane numbers
+/// (`integrators/pt/wavefront/lanes.rs`) evaluate the same polynomials operation for operation.
+#[inline(always)]
+pub fn sin_cos_quarter<T>(x: T) -> (T, T)
+where
+    T: Copy + Mul<Output = T> + Mul<f32, Output = T>,
+    f32: Add<T, Output = T>,
+{
     let x2 = x * x;
     let sin = x
         * (1.0

@@ -5,6 +5,7 @@
 
 use super::lanes::{F, M, V3};
 use crate::geometry::SHADOW_EPS;
+use crate::math::warp::sin_cos_quarter;
 use crate::math::{INV_PI, PI};
 
 /// [`crate::math::Frame`] per lane: (s, t, n).
@@ -89,21 +90,6 @@ pub fn fresnel_dielectric(cos_i: F, eta: F) -> (F, F, F) {
         F::select(total, F::zero(), cos_t),
         eta,
     )
-}
-
-/// `warp::sin_cos_quarter`: (sin x, cos x) for |x| <= pi/4.
-#[inline(always)]
-fn sin_cos_quarter(x: F) -> (F, F) {
-    let x2 = x * x;
-    let sin = x
-        * (1.0
-            + x2 * (-1.0 / 6.0
-                + x2 * (1.0 / 120.0 + x2 * (-1.0 / 5040.0 + x2 * (1.0 / 362_880.0)))));
-    let cos = 1.0
-        + x2 * (-0.5
-            + x2 * (1.0 / 24.0
-                + x2 * (-1.0 / 720.0 + x2 * (1.0 / 40_320.0 + x2 * (-1.0 / 3_628_800.0)))));
-    (sin, cos)
 }
 
 /// `warp::square_to_cosine_hemisphere` (through `square_to_disk_concentric`) and its density

@@ -24,6 +24,8 @@ mod lanes;
 mod math;
 #[cfg(target_arch = "x86_64")]
 mod shade;
+#[cfg(all(test, target_arch = "x86_64"))]
+mod tests;
 
 use super::batch::{ROUND, Round};
 use super::{PathState, PathTracer, Strategy};

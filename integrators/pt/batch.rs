@@ -234,11 +234,7 @@ impl PathTracer {
             !scene.features.media,
             "batched pt traces scenes without media"
         );
-        let lanes: Vec<(usize, PathState)> = rasters
-            .iter()
-            .enumerate()
-            .map(|(i, &r)| (i, PathState::new(scene, r)))
-            .collect();
+        let lanes = PathState::row(scene, rasters);
         ROUND.with_borrow_mut(|b| self.rounds(scene, lanes, samplers, out, b));
     }
 

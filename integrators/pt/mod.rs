@@ -519,6 +519,16 @@ impl PathState {
             null_crossings: 0,
         }
     }
+
+    /// The camera paths of a row's rasters, each with its index in the row (batched and
+    /// wavefront pt trace them in rounds).
+    fn row(scene: &Scene, rasters: &[Vec2]) -> Vec<(usize, PathState)> {
+        rasters
+            .iter()
+            .enumerate()
+            .map(|(i, &r)| (i, PathState::new(scene, r)))
+            .collect()
+    }
 }
 
 /// What a path may carry besides its state: the recorder, the directional guide and its

@@ -85,11 +85,7 @@ impl PathTracer {
             Some(isa),
             "{isa:?} instructions are not available"
         );
-        let paths: Vec<(usize, PathState)> = rasters
-            .iter()
-            .enumerate()
-            .map(|(i, &r)| (i, PathState::new(scene, r)))
-            .collect();
+        let paths = PathState::row(scene, rasters);
         ROUND.with_borrow_mut(|b| {
             #[cfg(target_arch = "x86_64")]
             match isa {

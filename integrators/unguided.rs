@@ -26,8 +26,9 @@
 //! where every path is reported with its densities.
 
 use super::bdpt::{self, BdptSettings, Vertex};
+use super::pt::batch::{BatchMode, Tracing};
 use super::pt::{PathRecorder, PathTracer, PtSettings};
-use crate::math::Sampler;
+use crate::math::{Sampler, Spectrum};
 use crate::path::{MAX_VERTICES, Path, Vertex as PathVertex};
 use crate::scene::Scene;
 use glam::{DVec3, Vec2};
@@ -175,6 +176,22 @@ pub trait Unguided: Sync + Send {
         sampler: &mut impl Sampler,
         splats: &mut Vec<(u32, DVec3)>,
     ) -> DVec3;
+    /// [`Self::estimate`] for the pixels of a row, `rasters[i]` drawn with `samplers[i]`,
+    /// into `out`: by default one after the other. An estimator may trace the row together
+    /// as long as each value stays `estimate`'s bit for bit (pt: batched, or as a wavefront).
+    fn estimate_row<S: Sampler>(
+        &self,
+        tracer: &mut Self::Tracer<'_>,
+        scene: &Scene,
+        rasters: &[Vec2],
+        samplers: &mut [S],
+        splats: &mut Vec<(u32, DVec3)>,
+        out: &mut [DVec3],
+    ) {
+        for ((&r, sampler), o) in rasters.iter().zip(samplers).zip(out) {
+            *o = self.estimate(tracer, scene, r, sampler, splats);
+        }
+    }
     /// Sum over the estimator's techniques of their densities for path `y` (camera first,
     /// a light last) in pass `pass`; 0 for paths it cannot form (longer than `max_depth`).
     fn pdf_unguided(&self, scene: &Scene, pass: &Self::Pass<'_>, y: &[Vertex]) -> f64;
@@ -269,6 +286,34 @@ impl Unguided for PathTracer {
         _: &mut Vec<(u32, DVec3)>,
     ) -> DVec3 {
         finite(self.li(scene, raster, sampler).as_dvec3())
+    }
+
+    /// A row as pt renders it at `batch = auto`: as a wavefront, batched or one path after
+    /// the other (`pt::batch`), each value `estimate`'s bit for bit.
+    fn estimate_row<S: Sampler>(
+        &self,
+        _: &mut (),
+        scene: &Scene,
+        rasters: &[Vec2],
+        samplers: &mut [S],
+        _: &mut Vec<(u32, DVec3)>,
+        out: &mut [DVec3],
+    ) {
+        let mut values = vec![Spectrum::ZERO; rasters.len()];
+        match BatchMode::Auto.tracing(self, scene) {
+            Tracing::Wavefront(isa) => {
+                self.li_row_wavefront(scene, rasters, samplers, &mut values, isa)
+            }
+            Tracing::Batched => self.li_row(scene, rasters, samplers, &mut values),
+            Tracing::Single => {
+                for ((&r, sampler), v) in rasters.iter().zip(samplers).zip(&mut values) {
+                    *v = self.li(scene, r, sampler);
+                }
+            }
+        }
+        for (o, v) in out.iter_mut().zip(values) {
+            *o = finite(v.as_dvec3());
+        }
     }
 
     /// pt's techniques are BDPT's s = 0 and (two or more segments) s = 1.

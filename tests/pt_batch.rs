@@ -247,3 +247,58 @@ fn the_wavefront_applies_where_its_lanes_shade() {
     assert_eq!(BatchMode::Off.tracing(&pt, &cornell), Tracing::Single);
     assert_eq!(BatchMode::On.tracing(&pt, &cornell), Tracing::Batched);
 }
+
+/// The guider's render passes with guiding off trace pt's rows as pt does
+/// (`Unguided::estimate_row`: as a wavefront on the Cornell box, one path after the other in
+/// fog, batched in the glossy box where `auto` batches); each value must be the pixel's own
+/// `Unguided::estimate` bit for bit, for both samplers, or guided-pt's image would depend on
+/// which tracer ran.
+#[test]
+fn pt_rows_for_the_guider_are_its_estimates_bit_for_bit() {
+    use lodestar::integrators::unguided::Unguided;
+    use lodestar::math::sobol::SobolSampler;
+    use lodestar::math::{IndependentSampler, Sampler};
+
+    fn rows<S: Sampler>(pt: &PathTracer, scene: &Scene, new: impl Fn(u64) -> S) -> usize {
+        let (w, h) = (scene.camera.resolution.x, scene.camera.resolution.y);
+        let mut lit = 0;
+        for y in 0..h {
+            let index = |x: u32| y as u64 * w as u64 + x as u64;
+            let mut samplers: Vec<S> = (0..w).map(|x| new(index(x))).collect();
+            let rasters: Vec<glam::Vec2> = (samplers.iter_mut().enumerate())
+                .map(|(x, s)| glam::Vec2::new(x as f32, y as f32) + s.next_2d() * 0.999)
+                .collect();
+            let mut row = vec![glam::DVec3::ZERO; w as usize];
+            pt.estimate_row(
+                &mut (),
+                scene,
+                &rasters,
+                &mut samplers,
+                &mut vec![],
+                &mut row,
+            );
+            for (x, v) in row.iter().enumerate() {
+                let mut s = new(index(x as u32));
+                let r = glam::Vec2::new(x as f32, y as f32) + s.next_2d() * 0.999;
+                let one = pt.estimate(&mut (), scene, r, &mut s, &mut vec![]);
+                assert_eq!(
+                    v.to_array().map(f64::to_bits),
+                    one.to_array().map(f64::to_bits)
+                );
+                lit += (one.max_element() > 0.0) as usize;
+            }
+        }
+        lit
+    }
+    let pt = PathTracer {
+        settings: PtSettings::default(),
+    };
+    for name in ["cornell-box", "cornell-glossy", "cornell-fog"] {
+        let scene = shipped(name);
+        for pass in [0, 5] {
+            let lit = rows(&pt, &scene, |i| IndependentSampler::new(7, pass, i));
+            assert!(lit > 600, "{name}: {lit} pixels lit of 1200");
+            rows(&pt, &scene, |i| SobolSampler::new(7, pass, i));
+        }
+    }
+}

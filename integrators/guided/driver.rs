@@ -74,19 +74,49 @@ pub struct Guided<U: Unguided, S: Seeder> {
 type PassGrid = (Vec<[f64; share::N]>, [f64; share::N]);
 
 impl<U: Unguided, S: Seeder> Guided<U, S> {
-    /// U's own estimate of pixel (x, y)'s sample drawn from `sampler`.
-    fn plain_sample(
+    /// U's own estimates of row `y` (pixel i's sample from stream (seed, pass, i)), traced
+    /// together where U can (`Unguided::estimate_row`: pt as a wavefront).
+    #[allow(clippy::too_many_arguments)]
+    fn plain_row(
         &self,
         tracer: &mut U::Tracer<'_>,
         scene: &Scene,
-        x: u32,
+        (seed, pass): (u64, u64),
         y: u32,
-        mut sampler: impl Sampler,
+        kind: SamplerKind,
         splats: &mut Vec<(u32, glam::DVec3)>,
-    ) -> glam::DVec3 {
-        let raster = Camera::jittered(x, y, sampler.next_2d());
+    ) -> Vec<glam::DVec3> {
+        match kind {
+            SamplerKind::Independent => self.plain_row_with(tracer, scene, y, splats, |i| {
+                IndependentSampler::new(seed, pass, i)
+            }),
+            SamplerKind::Sobol => self.plain_row_with(tracer, scene, y, splats, |i| {
+                SobolSampler::new(seed, pass, i)
+            }),
+        }
+    }
+
+    /// [`Self::plain_row`] with the sampler's own type, as U's driver has it (the same
+    /// numbers as `AnySampler`'s, without a dispatch per number).
+    fn plain_row_with<Smp: Sampler>(
+        &self,
+        tracer: &mut U::Tracer<'_>,
+        scene: &Scene,
+        y: u32,
+        splats: &mut Vec<(u32, glam::DVec3)>,
+        sampler: impl Fn(u64) -> Smp,
+    ) -> Vec<glam::DVec3> {
+        let w = scene.camera.resolution.x;
+        let mut samplers: Vec<Smp> = (0..w)
+            .map(|x| sampler(y as u64 * w as u64 + x as u64))
+            .collect();
+        let rasters: Vec<glam::Vec2> = (samplers.iter_mut().enumerate())
+            .map(|(x, s)| Camera::jittered(x as u32, y, s.next_2d()))
+            .collect();
+        let mut values = vec![glam::DVec3::ZERO; w as usize];
         self.unguided
-            .estimate(tracer, scene, raster, &mut sampler, splats)
+            .estimate_row(tracer, scene, &rasters, &mut samplers, splats, &mut values);
+        values
     }
 
     /// One pass: U per pixel plus the guided samples; returns per-row outputs in row order
@@ -119,6 +149,16 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
                 out.candidates.collect_terms =
                     learning && n_g > 0 && self.settings.weights == WeightRule::SecondMoment;
                 let mut tracer = est.unguided.tracer(est.scene, &est.pass);
+                // Nothing of the guider to evaluate: U's own estimator, as fast as U.
+                let plain_row = plain.then(|| {
+                    let rays = rays_traced();
+                    let seeds = (ctx.seed, pass);
+                    let kind = self.settings.sampler;
+                    let v =
+                        self.plain_row(&mut tracer, scene, seeds, y as u32, kind, &mut out.splats);
+                    out.stats.rays_u += rays_traced() - rays;
+                    v
+                });
                 for (x, acc) in row.iter_mut().enumerate() {
                     let index = y as u64 * w as u64 + x as u64;
                     // Learning passes draw independent numbers: their outliers and chain
@@ -129,22 +169,8 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
                         self.settings.sampler
                     };
                     let rays = rays_traced();
-                    let (sum, grid) = if plain {
-                        // Nothing of the guider to evaluate: U's own estimator, as fast as U
-                        // (with the sampler's own type, as U's driver has it: the same
-                        // numbers as `AnySampler`'s, without a dispatch per number).
-                        let (x, y, splats) = (x as u32, y as u32, &mut out.splats);
-                        let v = match kind {
-                            SamplerKind::Independent => {
-                                let s = IndependentSampler::new(ctx.seed, pass, index);
-                                self.plain_sample(&mut tracer, scene, x, y, s, splats)
-                            }
-                            SamplerKind::Sobol => {
-                                let s = SobolSampler::new(ctx.seed, pass, index);
-                                self.plain_sample(&mut tracer, scene, x, y, s, splats)
-                            }
-                        };
-                        (v, [0.0; share::N])
+                    let (sum, grid) = if let Some(values) = &plain_row {
+                        (values[x], [0.0; share::N])
                     } else {
                         let mut sampler = AnySampler::new(kind, ctx.seed, pass, index);
                         let raster = Camera::jittered(x as u32, y as u32, sampler.next_2d());

@@ -28,7 +28,9 @@
 use super::bdpt::{self, BdptSettings, Vertex};
 use super::pt::batch::{BatchMode, Tracing};
 use super::pt::{PathRecorder, PathTracer, PtSettings};
-use crate::math::{Sampler, Spectrum};
+use crate::camera::Camera;
+use crate::math::sobol::SobolSampler;
+use crate::math::{IndependentSampler, Sampler, SamplerKind, Spectrum};
 use crate::path::{MAX_VERTICES, Path, Vertex as PathVertex};
 use crate::scene::Scene;
 use glam::{DVec3, Vec2};
@@ -402,4 +404,48 @@ fn bdpt_estimate(
         }
     }
     finite(v.as_dvec3())
+}
+
+/// U's own estimates of row `y`, pixel i's sample drawn from the stream (seed, pass, i) of
+/// sampler `kind` (first its jitter, as U's driver draws it), traced together where U can
+/// (`Unguided::estimate_row`: pt as a wavefront): what the guider renders when it has no
+/// guided samples to mix in.
+pub fn own_row<U: Unguided>(
+    unguided: &U,
+    tracer: &mut U::Tracer<'_>,
+    scene: &Scene,
+    (seed, pass): (u64, u64),
+    y: u32,
+    kind: SamplerKind,
+    splats: &mut Vec<(u32, DVec3)>,
+) -> Vec<DVec3> {
+    /// With the sampler's own type, as U's driver has it (the same numbers as
+    /// `AnySampler`'s, without a dispatch per number).
+    fn with<U: Unguided, S: Sampler>(
+        unguided: &U,
+        tracer: &mut U::Tracer<'_>,
+        scene: &Scene,
+        y: u32,
+        splats: &mut Vec<(u32, DVec3)>,
+        sampler: impl Fn(u64) -> S,
+    ) -> Vec<DVec3> {
+        let w = scene.camera.resolution.x;
+        let mut samplers: Vec<S> = (0..w)
+            .map(|x| sampler(y as u64 * w as u64 + x as u64))
+            .collect();
+        let rasters: Vec<Vec2> = (samplers.iter_mut().enumerate())
+            .map(|(x, s)| Camera::jittered(x as u32, y, s.next_2d()))
+            .collect();
+        let mut values = vec![DVec3::ZERO; w as usize];
+        unguided.estimate_row(tracer, scene, &rasters, &mut samplers, splats, &mut values);
+        values
+    }
+    match kind {
+        SamplerKind::Independent => with(unguided, tracer, scene, y, splats, |i| {
+            IndependentSampler::new(seed, pass, i)
+        }),
+        SamplerKind::Sobol => with(unguided, tracer, scene, y, splats, |i| {
+            SobolSampler::new(seed, pass, i)
+        }),
+    }
 }

@@ -38,8 +38,7 @@ use crate::dbor::Cascade;
 use crate::error::Result;
 use crate::film::Film;
 use crate::geometry::bvh::rays_traced;
-use crate::integrators::unguided::{HeldPaths, Unguided};
-use crate::math::sobol::SobolSampler;
+use crate::integrators::unguided::{HeldPaths, Unguided, own_row};
 use crate::math::{AnySampler, IndependentSampler, Sampler, SamplerKind, luminance, luminance64};
 use crate::render::{
     Budget, Integrator, RenderContext, RenderResult, cascade_rows, run_passes_with_snapshots,
@@ -74,51 +73,6 @@ pub struct Guided<U: Unguided, S: Seeder> {
 type PassGrid = (Vec<[f64; share::N]>, [f64; share::N]);
 
 impl<U: Unguided, S: Seeder> Guided<U, S> {
-    /// U's own estimates of row `y` (pixel i's sample from stream (seed, pass, i)), traced
-    /// together where U can (`Unguided::estimate_row`: pt as a wavefront).
-    #[allow(clippy::too_many_arguments)]
-    fn plain_row(
-        &self,
-        tracer: &mut U::Tracer<'_>,
-        scene: &Scene,
-        (seed, pass): (u64, u64),
-        y: u32,
-        kind: SamplerKind,
-        splats: &mut Vec<(u32, glam::DVec3)>,
-    ) -> Vec<glam::DVec3> {
-        match kind {
-            SamplerKind::Independent => self.plain_row_with(tracer, scene, y, splats, |i| {
-                IndependentSampler::new(seed, pass, i)
-            }),
-            SamplerKind::Sobol => self.plain_row_with(tracer, scene, y, splats, |i| {
-                SobolSampler::new(seed, pass, i)
-            }),
-        }
-    }
-
-    /// [`Self::plain_row`] with the sampler's own type, as U's driver has it (the same
-    /// numbers as `AnySampler`'s, without a dispatch per number).
-    fn plain_row_with<Smp: Sampler>(
-        &self,
-        tracer: &mut U::Tracer<'_>,
-        scene: &Scene,
-        y: u32,
-        splats: &mut Vec<(u32, glam::DVec3)>,
-        sampler: impl Fn(u64) -> Smp,
-    ) -> Vec<glam::DVec3> {
-        let w = scene.camera.resolution.x;
-        let mut samplers: Vec<Smp> = (0..w)
-            .map(|x| sampler(y as u64 * w as u64 + x as u64))
-            .collect();
-        let rasters: Vec<glam::Vec2> = (samplers.iter_mut().enumerate())
-            .map(|(x, s)| Camera::jittered(x as u32, y, s.next_2d()))
-            .collect();
-        let mut values = vec![glam::DVec3::ZERO; w as usize];
-        self.unguided
-            .estimate_row(tracer, scene, &rasters, &mut samplers, splats, &mut values);
-        values
-    }
-
     /// One pass: U per pixel plus the guided samples; returns per-row outputs in row order
     /// and, when `measure`, the pass's per-pixel luminance of the mixed estimate and of U alone.
     #[allow(clippy::too_many_arguments)]
@@ -154,8 +108,15 @@ impl<U: Unguided, S: Seeder> Guided<U, S> {
                     let rays = rays_traced();
                     let seeds = (ctx.seed, pass);
                     let kind = self.settings.sampler;
-                    let v =
-                        self.plain_row(&mut tracer, scene, seeds, y as u32, kind, &mut out.splats);
+                    let v = own_row(
+                        &self.unguided,
+                        &mut tracer,
+                        scene,
+                        seeds,
+                        y as u32,
+                        kind,
+                        &mut out.splats,
+                    );
                     out.stats.rays_u += rays_traced() - rays;
                     v
                 });

@@ -19,8 +19,7 @@
 //! samples. Of the chain states, brightest first, a band keeps only those at least
 //! `chain_spread` (7) pixels apart in x or y (`seeder::spread_out`): a chain's states are near
 //! copies of each other, and side by side they cost p_g evaluations without covering more of
-//! path space (pool, guided-bdpt: 0.84x the outlier seeder's MSE at 240 s without the spread,
-//! stop 67; with it 1.01x at 240 s and 1.06x at 60 s over six seeds; README).
+//! path space (README, Results, has the measurements with and without the spread).
 //!
 //! **Steps per learning iteration: `chain_share` x N_pix (default 0.25 N_pix)**, spread over
 //! the chains (`CHAINS` = 32, so 512 steps each at 256 x 256). A step costs about one U sample

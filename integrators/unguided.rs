@@ -26,12 +26,13 @@
 //! where every path is reported with its densities.
 
 use super::bdpt::{self, BdptSettings, Vertex};
-use super::pt::batch::{BatchMode, Tracing};
+use super::pt::batch::{BatchMode, Batched, Tracing};
 use super::pt::{PathRecorder, PathTracer, PtSettings};
 use crate::camera::Camera;
 use crate::math::sobol::SobolSampler;
 use crate::math::{IndependentSampler, Sampler, SamplerKind, Spectrum};
 use crate::path::{MAX_VERTICES, Path, Vertex as PathVertex};
+use crate::render::PixelEstimator;
 use crate::scene::Scene;
 use glam::{DVec3, Vec2};
 use std::sync::Arc;
@@ -302,15 +303,16 @@ impl Unguided for PathTracer {
         out: &mut [DVec3],
     ) {
         let mut values = vec![Spectrum::ZERO; rasters.len()];
+        // The row tracers of pt's own driver (`pt::batch`).
         match BatchMode::Auto.tracing(self, scene) {
             Tracing::Wavefront(isa) => {
-                self.li_row_wavefront(scene, rasters, samplers, &mut values, isa)
+                Batched(self, Some(isa)).estimate_row(scene, rasters, samplers, &mut values)
             }
-            Tracing::Batched => self.li_row(scene, rasters, samplers, &mut values),
+            Tracing::Batched => {
+                Batched(self, None).estimate_row(scene, rasters, samplers, &mut values)
+            }
             Tracing::Single => {
-                for ((&r, sampler), v) in rasters.iter().zip(samplers).zip(&mut values) {
-                    *v = self.li(scene, r, sampler);
-                }
+                PixelEstimator::estimate_row(self, scene, rasters, samplers, &mut values)
             }
         }
         for (o, v) in out.iter_mut().zip(values) {

@@ -255,6 +255,7 @@ fn the_wavefront_applies_where_its_lanes_shade() {
 /// which tracer ran.
 #[test]
 fn pt_rows_for_the_guider_are_its_estimates_bit_for_bit() {
+    use lodestar::camera::Camera;
     use lodestar::integrators::unguided::Unguided;
     use lodestar::math::sobol::SobolSampler;
     use lodestar::math::{IndependentSampler, Sampler};
@@ -266,7 +267,7 @@ fn pt_rows_for_the_guider_are_its_estimates_bit_for_bit() {
             let index = |x: u32| y as u64 * w as u64 + x as u64;
             let mut samplers: Vec<S> = (0..w).map(|x| new(index(x))).collect();
             let rasters: Vec<glam::Vec2> = (samplers.iter_mut().enumerate())
-                .map(|(x, s)| glam::Vec2::new(x as f32, y as f32) + s.next_2d() * 0.999)
+                .map(|(x, s)| Camera::jittered(x as u32, y, s.next_2d()))
                 .collect();
             let mut row = vec![glam::DVec3::ZERO; w as usize];
             pt.estimate_row(
@@ -279,7 +280,7 @@ fn pt_rows_for_the_guider_are_its_estimates_bit_for_bit() {
             );
             for (x, v) in row.iter().enumerate() {
                 let mut s = new(index(x as u32));
-                let r = glam::Vec2::new(x as f32, y as f32) + s.next_2d() * 0.999;
+                let r = Camera::jittered(x as u32, y, s.next_2d());
                 let one = pt.estimate(&mut (), scene, r, &mut s, &mut vec![]);
                 assert_eq!(
                     v.to_array().map(f64::to_bits),

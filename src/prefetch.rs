@@ -3,7 +3,7 @@
 //!
 //! vcm's merging reads a photon grid written a whole pass earlier (about 100 MB on SmallVCM's
 //! box at 512 x 512: out of the nearer caches and, with 4 KiB pages, out of the TLB); a
-//! plain early load stalls the core just the same once its reorder window fills (tried), a
+//! plain early load stalls the core just the same once its reorder window fills (measured), a
 //! prefetch instruction does not. The interleaved BVH traversal (`geometry/interleaved.rs`)
 //! prefetches each ray's next node or leaf while the other rays take their steps; the guided
 //! density `p_g` prefetches the guide data of the candidate a few ahead of the one it
@@ -20,7 +20,7 @@ pub fn line<T>(p: *const T) {
     // can observe, whatever `p` points at (even a dangling or unmapped address); SSE is part
     // of the x86-64 baseline. For vcm's merging (about 8 % of its time on SmallVCM's box)
     // and the interleaved BVH traversal (1.35-1.4x the rays per second on a 1M-triangle
-    // mesh; README "Throughput against the CPU peers"). lodestar's other `unsafe`: the AVX
+    // mesh; docs/results.md). lodestar's other `unsafe`: the AVX
     // triangle test of small scenes (`geometry/flat.rs`, about 9 % of pt's time on the
     // Cornell box).
     unsafe {

@@ -410,10 +410,10 @@ impl Target for TwoRegions {
 /// runs 40k mutations through the driver's `advance`; the mean of their shares is tested by
 /// its standard error across chains at |z| < 4 (false failure about 6e-5 for a normal mean of
 /// 256 bounded values; fixed seed). Measured: share 0.4962 (z = -0.33) with Kelemen steps,
-/// 0.4976 (z = -0.35) with Gaussian ones. The earlier sampler, which restored an unread
-/// dimension's value from before the steps it missed on every rejection (pbrt-v3's scheme),
-/// fails: Gaussian 0.7017 (z = 19.2); Kelemen 0.5193 (z = 0.60) with its missed steps capped
-/// at 16, 0.7546 (z = 19.0) without the cap.
+/// 0.4976 (z = -0.35) with Gaussian ones. A sampler that restores an unread dimension's
+/// value from before the steps it missed on every rejection (pbrt-v3's scheme) fails:
+/// Gaussian 0.7017 (z = 19.2); Kelemen 0.5193 (z = 0.60) with its missed steps capped at 16,
+/// 0.7546 (z = 19.0) without the cap.
 #[test]
 fn lazy_small_steps_keep_the_target_distribution() {
     let a = 0.5 * (0.02 * 50.0 + 0.98 * 0.01);

@@ -26,7 +26,7 @@
 //! | only      | `s,t`                | none      | render technique (s, t) alone, MIS-weighted (`bdpt` only): the images of every technique sum to the bdpt image |
 //! | skip      | `s,t`                | none      | leave technique (s, t) out (`bdpt` only; biased: a control for tests) |
 //! | sampler   | `independent` / `sobol` | `independent` | whose numbers each pixel sample draws, as `pt`'s option: `sobol` stratifies every pair of numbers of the camera and light subpaths over the pixel's samples |
-//! | direct_splats | `true` / `false` | `false`   | directly seen emitters also by technique (1, 1), MIS-weighted (`bdpt` only; the weights before stop 42) |
+//! | direct_splats | `true` / `false` | `false`   | directly seen emitters also by technique (1, 1), MIS-weighted (`bdpt` only; off: a directly seen emitter through vacuum is left to the camera ray in the pixels it fills, `paths/terms.rs`) |
 //!
 //! Light subpaths start in the medium around the light (`Scene::light_medium`); lights at
 //! infinity seen through a world medium send none (they are attenuated to nothing).

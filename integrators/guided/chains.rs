@@ -19,7 +19,7 @@
 //! samples. Of the chain states, brightest first, a band keeps only those at least
 //! `chain_spread` (7) pixels apart in x or y (`seeder::spread_out`): a chain's states are near
 //! copies of each other, and side by side they cost p_g evaluations without covering more of
-//! path space (README, Results, has the measurements with and without the spread).
+//! path space (docs/results.md, "The two seeders at 240 s", compares the two seeders).
 //!
 //! **Steps per learning iteration: `chain_share` x N_pix (default 0.25 N_pix)**, spread over
 //! the chains (`CHAINS` = 32, so 512 steps each at 256 x 256). A step costs about one U sample
@@ -36,7 +36,7 @@
 //! some (proposals of importance 0 are never accepted). `unguided` is U's own estimate of the
 //! state's sample, its paths weighted by the balance heuristic over U's techniques alone
 //! (f / p_u: bdpt's own weights; pt's own are the power heuristic's), i.e. pssmlt over pt and
-//! PSSMLT over bdpt as issue 14 words it. A step then costs one U sample and no p_g; only the
+//! PSSMLT over bdpt. A step then costs one U sample and no p_g; only the
 //! [`KEPT_STATES`] brightest states a chain visits (accepted states) are evaluated under the
 //! mixture afterwards, replayed from their primary samples, and offered like the other
 //! targets' states.

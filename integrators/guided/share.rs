@@ -45,13 +45,13 @@ pub const PG_CANDIDATE_RAYS: f64 = 0.05;
 pub const GUIDED_SAMPLE_RAYS: f64 = 3.5;
 
 /// Guiding is turned on only for a predicted `V · cost` below this share of U's alone: the
-/// prediction is optimistic where guiding gains little (about 20 % on dining, stop 54 in
-/// README), and the margin was set when the learning passes were lost with guiding on (they
-/// are kept since stop 55, as U's estimate with it off and the mixture's with it on).
+/// prediction is optimistic where guiding gains little (by about 20 % on dining). The margin
+/// was chosen with the learning passes left out of the image (`keep_learning = false`); by
+/// default they are kept, as U's estimate with guiding off and the mixture's with it on.
 /// Measured on ajar, 60 s, one thread: guided-pt with a predicted 0.81 rendered at 0.89x
-/// pt's efficiency (so 0.85 let it on); with the spec's weight rule earlier, a predicted
-/// gain of a few per cent became a 0.83x loss. Where guiding pays the prediction sits far
-/// lower (30 s: dining 0.25 for guided-pt, 0.49 for guided-bdpt, pool lower still;
+/// pt's efficiency (so 0.85 let it on); with the spec's weight rule (`weights = c`), a
+/// predicted gain of a few per cent became a 0.83x loss. Where guiding pays the prediction
+/// sits far lower (30 s: dining 0.25 for guided-pt, 0.49 for guided-bdpt, pool lower still;
 /// cornell-box guided-bdpt 0.59, which renders at 1.0x bdpt).
 pub const MARGIN: f64 = 0.75;
 
@@ -226,7 +226,7 @@ pub const EARLY_STOP_GROWTH: f64 = 0.1;
 /// has settled (grown by at most [`EARLY_STOP_GROWTH`] per iteration). The verdict is about
 /// the cache that was measured; while the cache still grows, the next one may differ (on
 /// dining the first small caches can measure above the margin and a later one far below
-/// it: README, stop 53). Stopping saves little: the learning passes are kept when guiding
+/// it). Stopping saves little: the learning passes are kept when guiding
 /// stays off, so only their extra cost is lost.
 #[derive(Debug, Default)]
 pub struct EarlyStop {

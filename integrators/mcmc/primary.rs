@@ -12,7 +12,7 @@
 //! proposal, and where a dimension matters in one region of path space and not in another,
 //! the chain gets a fresh try at re-entering with each proposal and over-visits the region
 //! (test `lazy_small_steps_keep_the_target_distribution`, Gaussian steps: 0.70 of the weight
-//! in a region that holds 0.50 of the integral; lodestar did this until stop 38). Rejecting
+//! in a region that holds 0.50 of the integral, where this sampler gives 0.50). Rejecting
 //! a proposal restores exactly the dimensions that proposal touched.
 //!
 //! Dimensions are numbered per stream: number `i` of stream `s` is dimension `i * S + s` of
@@ -22,8 +22,8 @@
 //! Small steps, both symmetric (so the Metropolis ratio is the ratio of contributions):
 //! - `Kelemen`: `±s2 · exp(−ln(s2/s1) · u)`, sizes from s1 to s2 (defaults 1/1024, 1/64); a
 //!   dimension that missed `n` steps takes all `n` of them, one by one (as Mitsuba's PSSMLT
-//!   does; at most what eager mutation of every dimension would cost). Taking fewer (at
-//!   most 16, before stop 38) is not the chain that mutates every dimension: a dimension
+//!   does; at most what eager mutation of every dimension would cost). Taking fewer (a cap
+//!   of 16, say) is not the chain that mutates every dimension: a dimension
 //!   left unread while the chain is elsewhere stops drifting and comes back near the value
 //!   the target favoured when it was last read.
 //! - `Gaussian`: normal of deviation `sigma` (default 0.01); `n` missed steps are one step of

@@ -20,7 +20,7 @@
 //! | option          | type          | default | meaning |
 //! |-----------------|---------------|---------|---------|
 //! | guiding         | `none` / `sdtree` | `none` | learn and sample the tree |
-//! | guide_fraction  | (0, 1)        | 0.7     | probability of drawing the continuation from the tree where it has learned something (Müller et al. use 0.5; 0.7 gave the lower error on dining and pool, README's Results) |
+//! | guide_fraction  | (0, 1)        | 0.7     | probability of drawing the continuation from the tree where it has learned something (Müller et al. use 0.5; 0.7 measured the lower error on dining and pool) |
 //! | learn_fraction  | (0, 1)        | 0.25    | share of the budget spent learning |
 //!
 //! Only pt's own continuation is guided: guided-pt, pssmlt and the recorders use pt without

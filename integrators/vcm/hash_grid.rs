@@ -61,7 +61,8 @@ impl<T> Default for HashGrid<T> {
 }
 
 /// The most cache lines of a bucket [`HashGrid::prefetch_entries`] asks for: more than a
-/// typical bucket has (README, "Throughput against the CPU peers", has the measurements).
+/// typical bucket has (on SmallVCM's box a query scans about 26 entries of 52 bytes, 21
+/// lines; asking for 64 lines measured no faster).
 const PREFETCH_LINES: usize = 32;
 
 /// How many entries ahead [`HashGrid::rebuild`] asks for the point it will copy.

@@ -26,7 +26,8 @@ use obvhs::cwbvh::{CwBvh, Traversal, firstbithigh};
 use obvhs::faststack::FastStack;
 
 /// Rays in flight per thread: the best of 4 to 32 on the 1M-triangle mesh of `cargo bench
-/// --bench bvh` (figures in README, "Throughput against the CPU peers").
+/// --bench bvh` (closest hits, one thread, Mrays/s: 4 lanes 1.44, 8 1.54, 12 1.70, 16
+/// 1.64-1.72, 32 1.65; docs/results.md compares the traversal with Embree).
 pub const LANES: usize = 16;
 
 /// No node waits to be tested.
@@ -243,8 +244,7 @@ fn run_lanes<const AVX2: bool>(
 /// BVH stays in the caches, a single ray rarely waits on memory, and the interleaved
 /// traversal's bookkeeping costs more than it hides (`cargo bench --bench pt_batch`, pt on
 /// noisy spheres in the Cornell box, batched against one path at a time, with the AVX2 node
-/// test: 0.94x at 3.4 MB, 0.97x at 8.3 MB, 1.14x at 21 MB, 1.29x at 69 MB; README, "Batched
-/// pt").
+/// test: 0.94x at 3.4 MB, 0.97x at 8.3 MB, 1.14x at 21 MB, 1.29x at 69 MB).
 pub const BATCH_MIN_BYTES: usize = 16 << 20;
 
 impl Accel {
@@ -253,8 +253,7 @@ impl Accel {
     /// ray by ray) and is searched through a BVH of at least [`BATCH_MIN_BYTES`], or tested
     /// flat in packets (the CPU has AVX: pt, 16 spp, one thread, batched against one path
     /// at a time, side by side: 0.88x-0.90x the time on the Cornell boxes and SmallVCM's box
-    /// with AVX-512 packets, 0.88x-0.93x with AVX ones; README, "Packets of rays in small
-    /// scenes").
+    /// with AVX-512 packets, 0.88x-0.93x with AVX ones).
     pub fn batches_pay(&self) -> bool {
         self.grids.is_empty()
             && match &self.index {

@@ -13,7 +13,7 @@
 //! interleaved traversal calling it is compiled for AVX2 as a whole (`interleaved::run_avx2`),
 //! so it inlines there. Batches gain from it (their lanes keep the core busy, so the test's
 //! instruction count is what limits them); single rays, which wait on each node's load before
-//! the next, do not (`cargo bench --bench bvh`, README "The node test in AVX2").
+//! the next, do not (`cargo bench --bench bvh`; docs/results.md has the figures).
 
 use obvhs::cwbvh::node::CwBvhNode;
 use obvhs::ray::Ray;

@@ -4,7 +4,7 @@ use std::fmt;
 
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct SceneFeatures {
-    /// Participating media (none yet: media arrive with the media issue).
+    /// Participating media (a world medium or a shape's interior or exterior).
     pub media: bool,
     /// Point (or other delta) lights.
     pub delta_lights: bool,

@@ -310,6 +310,7 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
             .cache
             .take()
             .unwrap_or_else(|| GuideCache::with_widths(st.widths));
+        cache.manifold.share = st.manifold;
         let mut stats = Stats::default();
         let mut learn_passes = 0u64;
         let mut rebuild_seconds = 0.0;

@@ -396,7 +396,12 @@ impl<'a, U: Unguided> Estimator<'a, U> {
         candidates.terms = each;
         let (p_g, own) = (terms.sum, terms.own);
         if own == 0.0 {
-            stats.fail(EDGE);
+            // A chain step's path whose own walk returns another chain, else a truncation edge.
+            if g.used_chain_step() {
+                stats.fail(sampler::Failure::OtherChain as usize);
+            } else {
+                stats.fail(EDGE);
+            }
             return None;
         }
         let p_u = self.unguided.pdf_unguided(self.scene, &self.pass, &y);

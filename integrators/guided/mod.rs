@@ -15,7 +15,8 @@
 //!
 //! Where to read: `estimator.rs` (the mixture, one pass's densities and a guided sample),
 //! `driver.rs` (learning, the share, passes), `seeder.rs` (which paths become guides),
-//! `chains.rs` (the Markov-chain seeder), `coverage.rs` (where the variance sits),
+//! `chains.rs` (the Markov-chain seeder), `manifold.rs` (the specular-chain step: a Newton
+//! walk seeded by the guide's chain, its density with the basin indicator), `coverage.rs` (where the variance sits),
 //! `stats.rs` (the counters a render reports: failed samples by reason and vertex, p_g's work),
 //! `cache/` (storage and weights in `mod.rs`, building in `build.rs`, p_g in `density.rs`;
 //! its surface-to-surface Gaussians precomputed in `plane.rs`),
@@ -48,6 +49,7 @@
 //! | chain_target    | `mixture` / `uncovered` | `mixture` | `mcmc`: a chain state's importance: all its sample adds under the current mixture, or only its paths with p_g = 0 (`chains.rs`) |
 //! | chain_spread    | integer >= 0  | 7       | `mcmc`: chain states kept as guide paths lie at least this many pixels apart in x or y, per band of rows and iteration (0: any distance; `seeder.rs`) |
 //! | sampler         | `independent` / `sobol` | `independent` | U's numbers in the render passes (for guided-vcm: its camera subpaths'), as `pt -O sampler` (learning passes, guided samples and chains stay independent: outliers and chain states are replayed from their independent streams) |
+//! | manifold        | [0, 1]        | 0.5     | probability of the specular-chain step where the guide has a chain of 1-4 delta vertices after a non-delta vertex (`manifold.rs`; 0: off) |
 //! | keep_learning   | `true` / `false` | `true` | keep the learning passes in the image: their mixed estimate with guiding on, U's own with it off (`false`: strictly unbiased, see `driver.rs`) |
 //! | save_guides     | path          | —       | write the learned cache (`--save-guides`) |
 //! | load_guides     | path          | —       | start from a saved cache and skip learning (`--load-guides`) |
@@ -105,6 +107,7 @@ pub mod gaussian;
 pub mod io;
 pub mod kernel;
 pub mod learn;
+pub mod manifold;
 pub mod plane;
 pub mod report;
 pub mod sampler;
@@ -164,6 +167,9 @@ pub struct GuidedSettings {
     pub keep_learning: bool,
     /// U's sampler in the render passes (option `sampler`).
     pub sampler: SamplerKind,
+    /// Probability of the specular-chain step where a guide's chain allows it (option
+    /// `manifold`, `manifold.rs`).
+    pub manifold: f64,
 }
 
 impl Default for GuidedSettings {
@@ -182,6 +188,7 @@ impl Default for GuidedSettings {
             chains: None,
             keep_learning: true,
             sampler: SamplerKind::Independent,
+            manifold: manifold::DEFAULT_SHARE,
         }
     }
 }
@@ -286,6 +293,7 @@ fn options(params: &IntegratorParams, default_rr: u32) -> Result<(GuidedSettings
     };
     let chain_spread: u32 = o.get("chain_spread", defaults.spread, "an integer >= 0")?;
     let keep_learning = o.get("keep_learning", true, "true or false")?;
+    let manifold_share = o.get("manifold", manifold::DEFAULT_SHARE, "a number in [0, 1]")?;
     let weights = match o.choice("weights", "second_moment", &["second_moment", "c"])? {
         "c" => WeightRule::C,
         _ => WeightRule::SecondMoment,
@@ -331,6 +339,9 @@ fn options(params: &IntegratorParams, default_rr: u32) -> Result<(GuidedSettings
                 )));
             }
         }
+    }
+    if !(0.0..=1.0).contains(&manifold_share) {
+        return bad("manifold", "a number in [0, 1]", manifold_share.to_string());
     }
     if max_guides == 0 {
         return bad("max_guides", "an integer >= 1", "0".into());
@@ -378,6 +389,7 @@ fn options(params: &IntegratorParams, default_rr: u32) -> Result<(GuidedSettings
         }),
         keep_learning,
         sampler: params.sampler()?,
+        manifold: manifold_share,
         ..GuidedSettings::default()
     };
     Ok((settings, rr_depth))

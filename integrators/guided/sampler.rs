@@ -15,6 +15,7 @@ use super::kernel::{
     MIN_PLANE_COS, Node, Reach, bsdf_branch_probability, coords, distance_density, dvec,
     is_infinite_vertex,
 };
+use super::manifold::{self, Chain};
 use crate::bsdf::TransportMode;
 use crate::geometry::Ray;
 use crate::integrators::bdpt::{Kind, Vertex};
@@ -41,6 +42,11 @@ pub enum Failure {
     /// The step to the emitter does not reach it: a specular or BSDF direction outside a
     /// light's cone, or a ray towards the emitter that hits something else first.
     Light,
+    /// The specular-chain step's Newton walk did not converge (`manifold.rs`).
+    NoConvergence,
+    /// The specular-chain step converged, but the walk from the path's own far end returns
+    /// another chain (the basin indicator is 0 for the path drawn).
+    OtherChain,
 }
 
 pub struct GuidedSample {
@@ -133,7 +139,7 @@ impl<'s> At<'s> {
 
 /// First non-null surface along `ray` (index-matched boundaries crossed), and the medium the
 /// ray arrives through.
-fn trace<'s>(
+pub(super) fn trace<'s>(
     scene: &'s Scene,
     mut ray: Ray,
     mut medium: Option<u32>,
@@ -174,8 +180,38 @@ pub struct GuidedDraw {
     pub raster: Vec2,
     /// Guide path followed.
     pub guide: usize,
-    /// p(X | guide) as drawn.
-    pub density: f64,
+    /// p(X | guide) as drawn, but for the vertices that start a specular chain the
+    /// guide allows the chain step at (`deferred`).
+    pub partial_density: f64,
+    /// Per chain of the guide that the step could solve: the chain, the density of its
+    /// x_{a+1} under the vertex's usual mixture, and whether the chain step drew it.
+    pub deferred: Vec<(Chain, f64, bool)>,
+}
+
+impl GuidedDraw {
+    /// Whether the specular-chain step drew some vertex of the path.
+    pub fn used_chain_step(&self) -> bool {
+        self.deferred.iter().any(|d| d.2)
+    }
+
+    /// p(X | guide) of the path drawn (`path`): the partial density times, per chain, the
+    /// mixture `share q_chain + (1 − share) q_usual` with q_chain evaluated from the path's
+    /// vertices ([`manifold::density`]), as p_g evaluates it.
+    pub fn density(&self, scene: &Scene, cache: &GuideCache, path: &Path) -> f64 {
+        let mut d = self.partial_density;
+        if self.deferred.is_empty() {
+            return d;
+        }
+        let Some(y) = crate::integrators::bdpt::from_path(scene, path) else {
+            return 0.0;
+        };
+        let share = cache.manifold.share;
+        for (chain, usual, _) in &self.deferred {
+            let q = manifold::density(scene, cache, self.guide, &y, chain, &cache.manifold);
+            d *= share * q + (1.0 - share) * usual;
+        }
+        d
+    }
 }
 
 /// Draw one guided path from `cache` (which must not be empty).
@@ -186,11 +222,12 @@ pub fn sample_path(
 ) -> Result<GuidedSample, Failure> {
     let mut path = Path::default();
     let d = sample_path_into(scene, cache, sampler, &mut path)?;
+    let density = d.density(scene, cache, &path);
     Ok(GuidedSample {
         path,
         raster: d.raster,
         guide: d.guide,
-        density: d.density,
+        density,
     })
 }
 
@@ -273,6 +310,7 @@ pub fn sample_path_into(
         Node::Emitter { .. } => return Err(Failure::Structure),
     };
     prev = path.vertices()[0];
+    let mut deferred = Vec::new();
 
     // ---- Vertices 2 .. L-1 ----
     for v in 2..len {
@@ -310,13 +348,32 @@ pub fn sample_path_into(
         let seg_frame = *cache.frame(l, v);
         let ell = (dvec(g.p) - dvec(g_prev.p)).length();
         let medium_target = matches!(node, Node::Medium { .. });
-        let use_bsdf = p_b > 0.0 && (p_b >= 1.0 || (sampler.next_1d() as f64) < p_b);
+        // Where the guide has a specular chain after x_{v-1}, the chain step draws x_v with
+        // probability `share` (`manifold.rs`); no number is drawn elsewhere.
+        let share = cache.manifold.share;
+        let chain = (share > 0.0)
+            .then(|| manifold::chain_at(scene, cache, l, v - 1))
+            .flatten();
+        let use_chain = chain.is_some() && (share >= 1.0 || (sampler.next_1d() as f64) < share);
+        let use_bsdf = !use_chain && p_b > 0.0 && (p_b >= 1.0 || (sampler.next_1d() as f64) < p_b);
 
         // Choose the direction (and for medium targets the point).
         let mut point: Option<Vec3> = None;
         let dir: Vec3;
         let branch_density_w: f64; // solid-angle density (BSDF) or point density (Gaussian)
-        if use_bsdf {
+        if let Some(chain) = chain.filter(|_| use_chain) {
+            let goal = manifold::draw_goal(scene, cache, l, &chain, at.pv.p, sampler)
+                .ok_or(Failure::Light)?;
+            let from = manifold::From {
+                p: at.pv.p,
+                n: at.pv.n,
+                medium: None,
+            };
+            let seed = manifold::seed(scene, cache, l, v - 1, at.pv.p);
+            dir = manifold::solve(scene, &from, seed, &chain, &goal)?.dir;
+            // The vertex's density is the mixture's, completed from the finished path.
+            branch_density_w = 0.0;
+        } else if use_bsdf {
             let wo = (prev.p - at.pv.p).normalize();
             let (wi, pdf) = match &at.sp {
                 Some(sp) => {
@@ -498,18 +555,43 @@ pub fn sample_path_into(
                 0.0
             }
         };
-        density *= if use_bsdf {
+        let usual = if use_chain {
+            // Both branches of the usual mixture evaluated.
+            let y_now = [
+                Vertex::new(Kind::Camera, prev.p, prev.n),
+                x,
+                as_vertex(scene, &next),
+            ];
+            let gaussian = if p_b < 1.0 {
+                super::kernel::gaussian_branch_density_in(
+                    scene, &y_now, 2, &seg_frame, &g_prev, &g, kernel,
+                )
+            } else {
+                0.0
+            };
+            let bsdf = if p_b > 0.0 {
+                super::kernel::bsdf_branch_density(scene, &y_now, 2, None)
+            } else {
+                0.0
+            };
+            p_b * bsdf + (1.0 - p_b) * gaussian
+        } else if use_bsdf {
             p_b * taken + (1.0 - p_b) * other
         } else {
             (1.0 - p_b) * taken + p_b * other
         };
+        match chain {
+            Some(chain) => deferred.push((chain, usual, use_chain)),
+            None => density *= usual,
+        }
         prev = at.pv;
         at = next;
     }
     Ok(GuidedDraw {
         raster,
         guide: l,
-        density,
+        partial_density: density,
+        deferred,
     })
 }
 

@@ -6,11 +6,11 @@ use super::sampler;
 
 /// Names of [`Stats::reasons`], in order.
 pub const FAILURE_REASONS: &str =
-    "offimage_miss_structure_scatter_occluded_light_zero_edge_nonfinite";
+    "offimage_miss_structure_scatter_occluded_light_noconvergence_otherchain_zero_edge_nonfinite";
 /// Index of the reasons that are not [`sampler::Failure`]s.
-pub(super) const ZERO: usize = 6;
-pub(super) const EDGE: usize = 7;
-pub(super) const NON_FINITE: usize = 8;
+pub(super) const ZERO: usize = 8;
+pub(super) const EDGE: usize = 9;
+pub(super) const NON_FINITE: usize = 10;
 
 /// Counters of one or more passes.
 #[derive(Debug, Clone, Copy, Default)]
@@ -19,9 +19,10 @@ pub struct Stats {
     pub failed: u64,
     /// Failures by reason ([`FAILURE_REASONS`]): off the image, missed / wrong vertex,
     /// structure (mode), scatter, occluded medium target, emitter not reached by the step to
-    /// it, zero contribution, own guide's term zero on re-evaluation (a truncation edge),
+    /// it, the specular-chain step's walk did not converge, or the path's own walk returns
+    /// another chain, zero contribution, own guide's term zero on re-evaluation (a truncation edge),
     /// non-finite value.
-    pub reasons: [u64; 9],
+    pub reasons: [u64; 11],
     /// Failures of the walk ([`sampler::Failure`]) by the vertex it was drawing: x_1 ..
     /// x_6, then x_7 and later.
     pub failed_by_vertex: [u64; PG_ZERO_VERTICES],
@@ -119,10 +120,21 @@ mod tests {
             Scatter => "scatter",
             Occluded => "occluded",
             Light => "light",
+            NoConvergence => "noconvergence",
+            OtherChain => "otherchain",
         };
         let names: Vec<&str> = FAILURE_REASONS.split('_').collect();
         assert_eq!(names.len(), Stats::default().reasons.len());
-        for f in [OffImage, Miss, Structure, Scatter, Occluded, Light] {
+        for f in [
+            OffImage,
+            Miss,
+            Structure,
+            Scatter,
+            Occluded,
+            Light,
+            NoConvergence,
+            OtherChain,
+        ] {
             assert_eq!(names[f as usize], name(f), "{f:?}");
         }
         assert_eq!(

@@ -9,6 +9,10 @@
 use super::GuideCache;
 use crate::integrators::bdpt::Vertex;
 use crate::integrators::guided::gaussian::LogDensity;
+use crate::integrators::guided::manifold::{self, Chain};
+
+/// Chains whose step density [`GuideCache::pdf_given`] evaluates last (further ones at once).
+const DEFERRED: usize = 4;
 use crate::integrators::guided::kernel::{
     FirstTest, FirstVertexQuery, Node, Reach, SegmentTarget, bsdf_branch_density,
     bsdf_branch_probability, dvec, first_vertex_density,
@@ -47,12 +51,38 @@ impl GuideCache {
         terms: &mut PathTerms,
     ) -> (f64, usize) {
         let len = self.guides[l].len as usize;
+        let share = self.manifold.share;
         let mut p = p1;
+        // Vertices that start a specular chain the step solves: the usual mixture's density
+        // now, the chain step's (a Newton walk) once every other factor is known non-zero.
+        let mut deferred: [Option<(Chain, f64)>; DEFERRED] = [None; DEFERRED];
+        let mut n_deferred = 0;
         for v in 2..len {
             if p.is_zero() {
                 return (0.0, v - 1);
             }
-            p = p.times(self.vertex_density_with(scene, l, y, v, terms));
+            let usual = self.vertex_density_with(scene, l, y, v, terms);
+            match (share > 0.0)
+                .then(|| manifold::chain_at(scene, self, l, v - 1))
+                .flatten()
+            {
+                Some(chain) if n_deferred < DEFERRED => {
+                    deferred[n_deferred] = Some((chain, usual.value()));
+                    n_deferred += 1;
+                }
+                Some(chain) => {
+                    let q = manifold::density(scene, self, l, y, &chain, &self.manifold);
+                    p = p.times(LogDensity::plain(share * q + (1.0 - share) * usual.value()));
+                }
+                None => p = p.times(usual),
+            }
+        }
+        for (chain, usual) in deferred.iter().take(n_deferred).flatten() {
+            if p.is_zero() {
+                break;
+            }
+            let q = manifold::density(scene, self, l, y, chain, &self.manifold);
+            p = p.times(LogDensity::plain(share * q + (1.0 - share) * usual));
         }
         let p = p.value();
         (p, if p == 0.0 { len - 1 } else { len })

@@ -68,6 +68,7 @@ pub use density::Terms;
 #[cfg(doc)]
 use super::kernel::segment_frame;
 use super::kernel::{FirstKernel, Kernel, Node};
+use super::manifold::ManifoldSettings;
 use super::plane::PlaneKernel;
 use crate::integrators::paths::structure::{HeldKey, SigMap, SigSet};
 use crate::math::AliasTable;
@@ -226,6 +227,9 @@ pub struct GuideCache {
     /// Testing hook: leave this guide path out of `pdf` (a deliberately wrong p_g, which the
     /// unbiasedness test must detect). Never set by the renderer.
     pub skip_in_pdf: Option<usize>,
+    /// The specular-chain step's settings (`manifold.rs`), which sampling and p_g share; set
+    /// from the render's options, not saved with the cache.
+    pub manifold: ManifoldSettings,
     /// The ratio n_g / n_u the learning run chose for rendering (`share.rs`); a loaded cache
     /// renders with it, so it repeats the render phase of the run that saved it.
     pub learned_ratio: Option<f64>,

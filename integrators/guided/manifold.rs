@@ -7,8 +7,8 @@
 //! refraction at the water's surface misses the sun's cone in most walks). This step instead
 //! draws the chain's **far end** first and solves for the chain:
 //!
-//! - the far end is a direction drawn by the light's own sampling for a light at infinity with
-//!   a cone or a map (the sun, an environment; `Light::sample_li`), or a point on the plane of
+//! - the far end is a direction drawn by the sun's own sampling (uniform in its cone;
+//!   `Light::sample_li`), or a point on the plane of
 //!   the guide segment's kernel at `g_b` (orthogonal to the segment `g_{b-1} → g_b`, the
 //!   kernel's Gaussian conditioned on the guide's own `g_{b-1}`) for an area light or the next
 //!   rough surface: the chain's last ray must pass through it;
@@ -43,6 +43,8 @@
 //! **What it does not cover.** Chains that start at the camera (x_1 delta: the first-vertex
 //! kernel decides the pixel and keeps drawing x_1), chains that end in a medium point (the
 //! distance along the last ray is free, so the far end is not a 2D target), chains that end on
+//! an environment (the usual step reaches a light that fills the sky; the walk would only add
+//! its cost to every p_g evaluation of the many paths that see the sky), chains that end on
 //! a delta light (a point or directional light cannot be reached through a specular chain by
 //! any technique), and chains longer than [`MAX_CHAIN`]. There the usual mixture draws the
 //! vertex alone.
@@ -53,9 +55,10 @@ use super::sampler::{Failure, trace};
 use crate::geometry::bvh::ShapeGeometry;
 use crate::geometry::{Hit, Ray, gamma, offset_origin};
 use crate::integrators::bdpt::Vertex;
+use crate::light::Light;
 use crate::math::Sampler;
 use crate::scene::{Scene, SurfacePoint};
-use glam::{DVec3, Vec3};
+use glam::{DVec3, IVec3, Vec3};
 
 use super::cache::GuideCache;
 
@@ -69,8 +72,12 @@ pub const TOLERANCE: f64 = 1e-5;
 /// The basin indicator holds when the walk's `x_{a+1}` lies within this times the length of
 /// the segment `x_a → x_{a+1}` of the path's own.
 pub const BASIN: f64 = 1e-3;
+/// The walk's seed offsets are rounded to a grid of this times the scene's radius ([`seed`]).
+pub const SEED_GRID: f64 = 0.02;
 const MAX_ITERATIONS: usize = 24;
 const MAX_HALVINGS: usize = 10;
+/// Full Newton steps tried after convergence, kept while they lower the residual.
+const POLISH: usize = 2;
 
 /// The step's settings (on the cache: p_g and the sampler read them alike).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -175,7 +182,7 @@ pub fn chain_at(scene: &Scene, cache: &GuideCache, l: usize, a: usize) -> Option
         Node::Emitter {
             light,
             reach: Reach::Infinite,
-        } if !scene.lights[light as usize].is_delta() => Far::Direction { light },
+        } if matches!(scene.lights[light as usize], Light::Sun(_)) => Far::Direction { light },
         _ => return None,
     };
     Some(Chain {
@@ -565,29 +572,22 @@ pub fn solve<'s>(
     let Some(mut m) = trace_chain(scene, from, &cur.sp, chain, goal) else {
         return fail;
     };
-    for _ in 0..MAX_ITERATIONS {
-        if m.error() <= TOLERANCE {
-            return Ok(Solution {
-                sp: cur.sp,
-                medium: cur.medium,
-                dir: cur.dir,
-                det: m.det,
-            });
+    // Newton steps, halved until the residual falls, up to the tolerance; then up to
+    // POLISH full steps more while they still lower it (down to the f32 hit points' noise).
+    let mut polish = 0;
+    for _ in 0..MAX_ITERATIONS + POLISH {
+        let converged = m.error() <= TOLERANCE;
+        if converged && polish == POLISH {
+            break;
         }
-        let [[a, b], [c, d]] = m.j;
-        let det = a * d - b * c;
-        if !(det.abs() > 0.0) || !det.is_finite() {
-            return fail;
-        }
-        let step = [
-            -(d * m.r[0] - b * m.r[1]) / det,
-            -(a * m.r[1] - c * m.r[0]) / det,
-        ];
+        let Some(step) = newton_step(&m) else {
+            break;
+        };
         let [e1, e2, _] = basis(dvec(cur.sp.hit.ng));
         let x = dvec(cur.sp.hit.p);
         let mut lambda = 1.0;
         let mut accepted = false;
-        for _ in 0..MAX_HALVINGS {
+        for _ in 0..if converged { 1 } else { MAX_HALVINGS } {
             let p = x + (e1 * step[0] + e2 * step[1]) * lambda;
             if let Some(next) = cast(scene, from, p, shape)
                 && let Some(mm) = trace_chain(scene, from, &next.sp, chain, goal)
@@ -600,7 +600,12 @@ pub fn solve<'s>(
             }
             lambda *= 0.5;
         }
-        if !accepted {
+        if converged {
+            polish += 1;
+            if !accepted {
+                break;
+            }
+        } else if !accepted {
             return fail;
         }
     }
@@ -615,13 +620,62 @@ pub fn solve<'s>(
     fail
 }
 
-/// Where the Newton walk for guide `l`'s chain after `x_a` starts: the guide's own
-/// `g_{a+1}` moved by `x_a - g_a` (the guide's chain carried along with the path's vertex; the
-/// walk casts from `x_a` towards it onto the chain's first surface).
+/// The Newton step `-J⁻¹ r` in the tangent coordinates, `None` where J is singular.
+fn newton_step(m: &Measured) -> Option<[f64; 2]> {
+    let [[a, b], [c, d]] = m.j;
+    let det = a * d - b * c;
+    if !(det.abs() > 0.0) || !det.is_finite() {
+        return None;
+    }
+    Some([
+        -(d * m.r[0] - b * m.r[1]) / det,
+        -(a * m.r[1] - c * m.r[0]) / det,
+    ])
+}
+
+/// Where the Newton walk for guide `l`'s chain after `x_a` starts: `x_a` plus the guide's own
+/// offset `g_{a+1} − g_a` rounded to a grid of [`SEED_GRID`] times the scene's radius (the
+/// guide's chain carried along with the path's vertex; the walk casts from `x_a` towards it
+/// onto the chain's first surface). Neighbouring guides round to the same seed, so p_g walks
+/// once for all of them ([`WalkMemo`]).
 pub fn seed(scene: &Scene, cache: &GuideCache, l: usize, a: usize, x_a: Vec3) -> Vec3 {
-    let g_a = cache.vertex(scene, l, a).p;
-    let g_next = cache.vertex(scene, l, a + 1).p;
-    (dvec(g_next) + dvec(x_a) - dvec(g_a)).as_vec3()
+    let (cell, h) = seed_cell(scene, cache, l, a);
+    (dvec(x_a) + cell.as_dvec3() * h).as_vec3()
+}
+
+/// The grid cell of guide `l`'s offset `g_{a+1} − g_a`, and the grid's spacing.
+fn seed_cell(scene: &Scene, cache: &GuideCache, l: usize, a: usize) -> (IVec3, f64) {
+    let h = SEED_GRID * scene.radius as f64;
+    let off = dvec(cache.vertex(scene, l, a + 1).p) - dvec(cache.vertex(scene, l, a).p);
+    ((off / h).round().as_ivec3(), h)
+}
+
+/// The outcomes of the walks one path's p_g evaluation ran, by chain start and seed cell
+/// (for a chain ending on the sun the goal is the path's own direction whatever the guide, so
+/// guides with one seed share the walk).
+#[derive(Default)]
+pub struct WalkMemo {
+    entries: [Option<(usize, IVec3, Option<(DVec3, f64)>)>; WalkMemo::SIZE],
+    len: usize,
+}
+
+impl WalkMemo {
+    const SIZE: usize = 8;
+
+    fn get(&self, a: usize, cell: IVec3) -> Option<Option<(DVec3, f64)>> {
+        self.entries[..self.len]
+            .iter()
+            .flatten()
+            .find(|e| e.0 == a && e.1 == cell)
+            .map(|e| e.2)
+    }
+
+    fn put(&mut self, a: usize, cell: IVec3, walk: Option<(DVec3, f64)>) {
+        if self.len < Self::SIZE {
+            self.entries[self.len] = Some((a, cell, walk));
+            self.len += 1;
+        }
+    }
 }
 
 /// Draw the chain's far end for guide `l` from `x_a` at `from`: the goal and its density
@@ -660,6 +714,27 @@ pub fn density(
     chain: &Chain,
     settings: &ManifoldSettings,
 ) -> f64 {
+    density_with(
+        scene,
+        cache,
+        l,
+        y,
+        chain,
+        settings,
+        &mut WalkMemo::default(),
+    )
+}
+
+/// [`density`], reusing the walks of `memo` (which must hold only walks of the path `y`).
+pub fn density_with(
+    scene: &Scene,
+    cache: &GuideCache,
+    l: usize,
+    y: &[Vertex],
+    chain: &Chain,
+    settings: &ManifoldSettings,
+    memo: &mut WalkMemo,
+) -> f64 {
     let (a, b) = (chain.a, chain.b);
     let (goal, q_far) = match chain.far {
         Far::Direction { light } => {
@@ -692,23 +767,39 @@ pub fn density(
     if !(q_far > 0.0) {
         return 0.0;
     }
-    let from = From {
-        p: y[a].p,
-        n: y[a].n,
-        medium: None,
+    let (cell, h) = seed_cell(scene, cache, l, a);
+    // Walks towards the sun share the path's goal; a plane goal is the guide's own.
+    let shared = matches!(chain.far, Far::Direction { .. });
+    let walk = match shared.then(|| memo.get(a, cell)).flatten() {
+        Some(walk) => walk,
+        None => {
+            let from = From {
+                p: y[a].p,
+                n: y[a].n,
+                medium: None,
+            };
+            let seed = (dvec(y[a].p) + cell.as_dvec3() * h).as_vec3();
+            let walk = solve(scene, &from, seed, chain, &goal)
+                .ok()
+                .map(|sol| (dvec(sol.sp.hit.p), sol.det));
+            if shared {
+                memo.put(a, cell, walk);
+            }
+            walk
+        }
     };
-    let Ok(sol) = solve(scene, &from, seed(scene, cache, l, a, y[a].p), chain, &goal) else {
+    let Some((x, det)) = walk else {
         return 0.0;
     };
     if settings.basin {
         let own = dvec(y[a + 1].p);
         let reach = (own - dvec(y[a].p)).length();
-        if (dvec(sol.sp.hit.p) - own).length() > BASIN * reach {
+        if (x - own).length() > BASIN * reach {
             return 0.0;
         }
     }
     if settings.jacobian {
-        q_far * sol.det
+        q_far * det
     } else {
         q_far
     }

@@ -71,7 +71,15 @@ impl GuideCache {
                     n_deferred += 1;
                 }
                 Some(chain) => {
-                    let q = manifold::density(scene, self, l, y, &chain, &self.manifold);
+                    let q = manifold::density_with(
+                        scene,
+                        self,
+                        l,
+                        y,
+                        &chain,
+                        &self.manifold,
+                        &mut terms.walks,
+                    );
                     p = p.times(LogDensity::plain(share * q + (1.0 - share) * usual.value()));
                 }
                 None => p = p.times(usual),
@@ -81,7 +89,8 @@ impl GuideCache {
             if p.is_zero() {
                 break;
             }
-            let q = manifold::density(scene, self, l, y, chain, &self.manifold);
+            let q =
+                manifold::density_with(scene, self, l, y, chain, &self.manifold, &mut terms.walks);
             p = p.times(LogDensity::plain(share * q + (1.0 - share) * usual));
         }
         let p = p.value();
@@ -355,6 +364,8 @@ impl GuideCache {
 #[derive(Default)]
 struct PathTerms {
     values: [Option<VertexTerms>; PathTerms::CACHED],
+    /// The specular-chain step's walks from the path's vertices (`manifold.rs`).
+    walks: manifold::WalkMemo,
 }
 
 #[derive(Clone, Copy)]

@@ -523,7 +523,7 @@ fn chain_density_integrates_to_the_success_rate_and_the_controls_fail() {
     let exact = z(ManifoldSettings::default());
     assert!(exact.abs() < 4.0, "z {exact}");
     let no_jacobian = z(ManifoldSettings {
-        jacobian: false,
+        jacobian: 0.0,
         ..ManifoldSettings::default()
     });
     assert!(

@@ -84,9 +84,10 @@ const POLISH: usize = 2;
 pub struct ManifoldSettings {
     /// Probability of the step where the guide's chain allows it; 0 turns it off.
     pub share: f64,
-    /// Testing hooks (negative controls), never changed by the renderer: leave the Jacobian
-    /// determinant out of the density, or the basin indicator.
-    pub jacobian: bool,
+    /// Testing hooks (negative controls), never changed by the renderer: a factor on the
+    /// Jacobian determinant (1; 0 leaves it out of the density), and whether the basin
+    /// indicator applies.
+    pub jacobian: f64,
     pub basin: bool,
 }
 
@@ -94,7 +95,7 @@ impl Default for ManifoldSettings {
     fn default() -> Self {
         ManifoldSettings {
             share: DEFAULT_SHARE,
-            jacobian: true,
+            jacobian: 1.0,
             basin: true,
         }
     }
@@ -798,9 +799,9 @@ pub fn density_with(
             return 0.0;
         }
     }
-    if settings.jacobian {
-        q_far * det
-    } else {
+    if settings.jacobian == 0.0 {
         q_far
+    } else {
+        q_far * det * settings.jacobian
     }
 }

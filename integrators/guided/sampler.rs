@@ -587,6 +587,17 @@ pub fn sample_path_into(
         prev = at.pv;
         at = next;
     }
+    // A path the chain step drew is one it produces only where the walk from the path's own
+    // far end returns it (the basin indicator): elsewhere the step's density is 0 and the
+    // sample must fail, or the usual branch's density alone would weigh it.
+    if deferred.iter().any(|d| d.2) {
+        let y = crate::integrators::bdpt::from_path(scene, path).ok_or(Failure::Structure)?;
+        for (chain, _, taken) in &deferred {
+            if *taken && manifold::density(scene, cache, l, &y, chain, &cache.manifold) == 0.0 {
+                return Err(Failure::OtherChain);
+            }
+        }
+    }
     Ok(GuidedDraw {
         raster,
         guide: l,

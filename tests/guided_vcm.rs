@@ -193,7 +193,7 @@ fn reported_densities_match_the_recomputation() {
 /// image: in total to 2e-3 (measured 7e-4 and 1e-4) and nine pixels in ten to 1 %; merged
 /// paths (the camera vertex standing in for the light vertex, see above) differ more on a
 /// few. A technique density off by one strategy (`vc[s + 1]`) or merges weighed by a
-/// connection's density fail it (tried). U's own estimate of such a pass (`estimate`: the
+/// connection's density fail it (checked against such a broken build). U's own estimate of such a pass (`estimate`: the
 /// claimed paths at vcm's weights) is vcm's image, pixel by pixel to f32 rounding (1e-4).
 /// "Every path" is every path with a structure: the tracer asks about no path of two
 /// vertices (`paths::structure`), so those go weighted, only in pixels that see an emitter.
@@ -447,7 +447,7 @@ fn bdpt_paths_cache(
 /// - two passes claim the same paths with the low-bit test as without it (every claimed
 ///   path handed over with the same f and p_u, every other path with the same weighted
 ///   value), so the test drops no held path (a table missing one held structure's bit,
-///   or a photon keyed after its own vertex, fails this; tried);
+///   or a photon keyed after its own vertex, fails this (checked against such a broken build));
 /// - and it spares at least 90 % of the exact tests that answer no.
 #[test]
 fn the_low_bit_test_keeps_every_held_path() {
@@ -721,7 +721,7 @@ fn recursive_weights_give_the_explicit_values() {
 /// through the guider's collector, every path booked so has p_g = 0 by the sum over every
 /// guide path of its structure (`GuideCache::terms_brute_force`), and both kinds of held path
 /// occur often (measured: 774 booked at vcm's weight, 2248 from their densities, with a cache
-/// of 6 structures). Booking every held path at vcm's weight fails it (tried at stride 100:
+/// of 6 structures). Booking every held path at vcm's weight fails it (checked against such a broken build at stride 100:
 /// 212 of 2651 had p_g > 0).
 #[test]
 fn held_paths_no_guide_reaches_keep_vcms_weight() {

@@ -2,6 +2,9 @@
 //! Newton walk against analytic refraction chains, its Jacobian against independent finite
 //! differences, and the density's normalisation (with a control that leaves the Jacobian out).
 
+// The 2x2 Jacobians read best with explicit indices.
+#![allow(clippy::needless_range_loop)]
+
 mod util;
 
 use glam::{DVec3, Vec3};

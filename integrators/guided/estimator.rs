@@ -25,7 +25,7 @@
 //! the path keeps U's own (counted as `unguided_density_disagreements`), which bounds its
 //! value by U's own `f / p_u`. The guided technique cannot know that density for the same
 //! path (it has only the recomputation), so on that set the two weights do not sum to one:
-//! a bias confined to paths whose visibility f32 rounding decides (README: fog-dragon's bunny
+//! a bias confined to paths whose visibility f32 rounding decides (on fog-dragon: the bunny's
 //! rim), and for guided-vcm to merges near corners, a region that shrinks with the radius.
 //! (guided-vcm's render passes weigh the held paths from their vertices in the first place,
 //! `PathSink::record_from_vertices`: their `p_u` is that function's, and is not recomputed.)

@@ -35,10 +35,17 @@
 //! technique (DESIGN.md §3).
 //!
 //! **Mixture.** Where the guide has such a chain at `x_a`, vertex `x_{a+1}` is drawn by this
-//! step with probability `share` (option `manifold`, default [`DEFAULT_SHARE`]) and by the
-//! vertex's usual mixture (BSDF branch and conditional Gaussian) otherwise; its density is
+//! step with probability `share` (option `manifold`, default [`DEFAULT_SHARE`], i.e. off; e.g.
+//! `-O manifold=0.5`) and by the vertex's usual mixture (BSDF branch and conditional
+//! Gaussian) otherwise; its density is
 //! `share q_chain + (1 − share) q_usual`, in the sampler and in p_g. Everywhere else the walk is
-//! unchanged.
+//! unchanged. A path the step drew whose own walk does not return it fails (`otherchain`):
+//! the step's density there is 0, and the usual branch's alone must not weigh it.
+//!
+//! **Cost.** p_g runs the walk for every candidate guide of a path whose structure has such a
+//! chain; guides whose seeds round to one grid cell share it ([`WalkMemo`]). On `pool` the step
+//! lowers the guided samples' failures (86 % to 53-71 %) and a pass's error a little, but
+//! costs more than it saves at equal time (`docs/results.md`), so it is off by default.
 //!
 //! **What it does not cover.** Chains that start at the camera (x_1 delta: the first-vertex
 //! kernel decides the pixel and keeps drawing x_1), chains that end in a medium point (the
@@ -64,8 +71,9 @@ use super::cache::GuideCache;
 
 /// Longest chain of delta vertices the step solves.
 pub const MAX_CHAIN: usize = 4;
-/// Default probability of the step where a guide's chain allows it (option `manifold`).
-pub const DEFAULT_SHARE: f64 = 0.5;
+/// Default probability of the step where a guide's chain allows it (option `manifold`): off,
+/// since it does not yet pay at equal time (`docs/results.md`, "The specular-chain step").
+pub const DEFAULT_SHARE: f64 = 0.0;
 /// The Newton walk has converged when the far end lies within this of the target: radians for
 /// a direction, the distance to the kernel plane times this for a point.
 pub const TOLERANCE: f64 = 1e-5;
@@ -654,9 +662,13 @@ fn seed_cell(scene: &Scene, cache: &GuideCache, l: usize, a: usize) -> (IVec3, f
 /// The outcomes of the walks one path's p_g evaluation ran, by chain start and seed cell
 /// (for a chain ending on the sun the goal is the path's own direction whatever the guide, so
 /// guides with one seed share the walk).
+/// A walk of [`WalkMemo`]: the chain's start `a`, the seed's cell, and the walk's `x_{a+1}`
+/// and determinant where it converged.
+type MemoEntry = (usize, IVec3, Option<(DVec3, f64)>);
+
 #[derive(Default)]
 pub struct WalkMemo {
-    entries: [Option<(usize, IVec3, Option<(DVec3, f64)>)>; WalkMemo::SIZE],
+    entries: [Option<MemoEntry>; WalkMemo::SIZE],
     len: usize,
 }
 

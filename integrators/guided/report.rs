@@ -1,6 +1,6 @@
 //! The statistics a guided render reports (`RenderResult::stats`): the cache, the learning
 //! and render phases, the share's decision, and where U's error sits against the cache
-//! (README, "A tour of the command line", says what each means).
+//! (`docs/cli.md`, "The guided integrators", says what each means).
 
 use super::cache::GuideCache;
 use super::coverage;

@@ -159,6 +159,6 @@ mod tests {
         }
         assert_eq!(s.failed, 5);
         assert_eq!(s.failed_by_vertex, [1, 0, 0, 1, 0, 1, 2]);
-        assert_eq!(s.reasons, [1, 1, 1, 0, 0, 2, 0, 0, 0]);
+        assert_eq!(s.reasons, [1, 1, 1, 0, 0, 2, 0, 0, 0, 0, 0]);
     }
 }

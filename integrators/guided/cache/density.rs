@@ -4,7 +4,7 @@
 //! of the BSDF and Gaussian branches. Every guide left out has a term of exactly 0. While it
 //! evaluates one candidate, [`GuideCache::terms`] asks the memory system for the guide data of
 //! the candidate [`PREFETCH_AHEAD`] further on: on large caches much of a candidate's cost is
-//! waiting for its data (figures in README, "Throughput against the CPU peers").
+//! waiting for its data (`docs/results.md`, "The cost of p_g").
 
 use super::GuideCache;
 use crate::integrators::bdpt::Vertex;

@@ -35,8 +35,7 @@
 //! them. A specular g_1 is followed by its deterministic lobe, so moving x_1 moves the rest of
 //! the path smoothly and a wider kernel there covers more of a caustic seen through glass or
 //! water; a rough g_1 is followed by its conditional Gaussian, whose regression degrades away
-//! from the guide. The measurements behind each default are in README (the guided
-//! integrators' entry in the tour, and "What limits the headline").
+//! from the guide. The equal-time figures at these defaults are in `docs/results.md`.
 //!
 //! **Weights by second moment (`weights = second_moment`, the default; not the spec's rule,
 //! which `weights = c` keeps).** The spec's
@@ -83,8 +82,7 @@ pub const NEIGHBOURS: usize = 10;
 
 /// The first-vertex kernel's std is at most the distance to the `SPACING_RANK`-th nearest
 /// other first vertex of the same structure (module doc, "Adaptive first-vertex width"); 4
-/// rather than 10 since stop 57 (the same variance on dining and pool, fewer p_g candidates;
-/// README).
+/// rather than 10 gave the same variance on dining and pool with fewer p_g candidates.
 pub const SPACING_RANK: usize = 4;
 
 /// A guide path to install: vertices (camera first), luminance of f, p_u, weight, age.

@@ -33,6 +33,7 @@
 use super::cache::{GuideCache, Record};
 pub use super::collector::Collector;
 use super::kernel::FirstTest;
+use super::manifold::WalkMemo;
 use super::seeder::LearnRow;
 use super::share;
 pub use super::stats::{COVERAGE_CLASSES, FAILURE_REASONS, PG_ZERO_VERTICES, Stats};
@@ -384,7 +385,8 @@ impl<'a, U: Unguided> Estimator<'a, U> {
         let collect = candidates.collect_terms;
         let list = candidates.of(self.cache, self.scene, sig, &y[1], stats);
         let n = list.len();
-        let terms = self.cache.terms(
+        let mut walks = WalkMemo::default();
+        let terms = self.cache.terms_with(
             self.scene,
             &y,
             sig,
@@ -392,16 +394,16 @@ impl<'a, U: Unguided> Estimator<'a, U> {
             list,
             Some(g.guide),
             collect.then_some(&mut each),
+            &mut walks,
         );
         candidates.terms = each;
         let (p_g, own) = (terms.sum, terms.own);
+        if let Err(e) = g.check_chains(self.scene, self.cache, &y, &walks) {
+            stats.fail(e as usize);
+            return None;
+        }
         if own == 0.0 {
-            // A chain step's path whose own walk returns another chain, else a truncation edge.
-            if g.used_chain_step() {
-                stats.fail(sampler::Failure::OtherChain as usize);
-            } else {
-                stats.fail(EDGE);
-            }
+            stats.fail(EDGE);
             return None;
         }
         let p_u = self.unguided.pdf_unguided(self.scene, &self.pass, &y);

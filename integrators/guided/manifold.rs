@@ -81,11 +81,11 @@ pub const TOLERANCE: f64 = 1e-5;
 /// the segment `x_a → x_{a+1}` of the path's own.
 pub const BASIN: f64 = 1e-3;
 /// The walk's seed offsets are rounded to a grid of this times the scene's radius ([`seed`]).
-pub const SEED_GRID: f64 = 0.02;
+pub const SEED_GRID: f64 = 0.1;
 const MAX_ITERATIONS: usize = 24;
 const MAX_HALVINGS: usize = 10;
 /// Full Newton steps tried after convergence, kept while they lower the residual.
-const POLISH: usize = 2;
+const POLISH: usize = 1;
 
 /// The step's settings (on the cache: p_g and the sampler read them alike).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -716,6 +716,32 @@ pub fn draw_goal(
     }
 }
 
+/// Whether the walk for guide `l`'s chain towards the path `y`'s own far end returns `y`'s
+/// `x_{a+1}` (the basin indicator of a path the step drew): read from `memo` where p_g's
+/// evaluation already walked from the same seed, else walked here.
+pub fn returns_own_chain(
+    scene: &Scene,
+    cache: &GuideCache,
+    l: usize,
+    y: &[Vertex],
+    chain: &Chain,
+    memo: &WalkMemo,
+) -> bool {
+    let shared = matches!(chain.far, Far::Direction { .. });
+    let (cell, _) = seed_cell(scene, cache, l, chain.a);
+    match shared.then(|| memo.get(chain.a, cell)).flatten() {
+        Some(walk) => walk.is_some_and(|(x, _)| in_basin(y, chain.a, x)),
+        None => density(scene, cache, l, y, chain, &cache.manifold) > 0.0,
+    }
+}
+
+/// Whether the walk's `x` is the path `y`'s `x_{a+1}` (within [`BASIN`] of its segment).
+fn in_basin(y: &[Vertex], a: usize, x: DVec3) -> bool {
+    let own = dvec(y[a + 1].p);
+    let reach = (own - dvec(y[a].p)).length();
+    (x - own).length() <= BASIN * reach
+}
+
 /// The step's density of the path `y`'s vertex `x_{a+1}` given `x_a` along guide `l` (area
 /// measure; module doc): the far end's density times the chain's `|det ∂T/∂x_{a+1}|`, where
 /// the Newton walk towards `y`'s far end returns `y`'s `x_{a+1}`, else 0.
@@ -804,12 +830,8 @@ pub fn density_with(
     let Some((x, det)) = walk else {
         return 0.0;
     };
-    if settings.basin {
-        let own = dvec(y[a + 1].p);
-        let reach = (own - dvec(y[a].p)).length();
-        if (x - own).length() > BASIN * reach {
-            return 0.0;
-        }
+    if settings.basin && !in_basin(y, a, x) {
+        return 0.0;
     }
     if settings.jacobian == 0.0 {
         q_far

@@ -194,6 +194,26 @@ impl GuidedDraw {
         self.deferred.iter().any(|d| d.2)
     }
 
+    /// A path the chain step drew is one it produces only where the walk from the path's own
+    /// far end returns it (the basin indicator): elsewhere the step's density is 0 and the
+    /// sample must fail ([`Failure::OtherChain`]), or the usual branch's density alone would
+    /// weigh it. `y` is the path's vertices; `memo` the walks p_g's evaluation of it ran (or
+    /// empty).
+    pub fn check_chains(
+        &self,
+        scene: &Scene,
+        cache: &GuideCache,
+        y: &[Vertex],
+        memo: &manifold::WalkMemo,
+    ) -> Result<(), Failure> {
+        for (chain, _, taken) in &self.deferred {
+            if *taken && !manifold::returns_own_chain(scene, cache, self.guide, y, chain, memo) {
+                return Err(Failure::OtherChain);
+            }
+        }
+        Ok(())
+    }
+
     /// p(X | guide) of the path drawn (`path`): the partial density times, per chain, the
     /// mixture `share q_chain + (1 − share) q_usual` with q_chain evaluated from the path's
     /// vertices ([`manifold::density`]), as p_g evaluates it.
@@ -222,6 +242,10 @@ pub fn sample_path(
 ) -> Result<GuidedSample, Failure> {
     let mut path = Path::default();
     let d = sample_path_into(scene, cache, sampler, &mut path)?;
+    if d.used_chain_step() {
+        let y = crate::integrators::bdpt::from_path(scene, &path).ok_or(Failure::Structure)?;
+        d.check_chains(scene, cache, &y, &manifold::WalkMemo::default())?;
+    }
     let density = d.density(scene, cache, &path);
     Ok(GuidedSample {
         path,
@@ -586,17 +610,6 @@ pub fn sample_path_into(
         }
         prev = at.pv;
         at = next;
-    }
-    // A path the chain step drew is one it produces only where the walk from the path's own
-    // far end returns it (the basin indicator): elsewhere the step's density is 0 and the
-    // sample must fail, or the usual branch's density alone would weigh it.
-    if deferred.iter().any(|d| d.2) {
-        let y = crate::integrators::bdpt::from_path(scene, path).ok_or(Failure::Structure)?;
-        for (chain, _, taken) in &deferred {
-            if *taken && manifold::density(scene, cache, l, &y, chain, &cache.manifold) == 0.0 {
-                return Err(Failure::OtherChain);
-            }
-        }
     }
     Ok(GuidedDraw {
         raster,

@@ -278,9 +278,30 @@ impl GuideCache {
         nodes: &[Node],
         candidates: &[FirstTest],
         own: Option<usize>,
-        mut each: Option<&mut Vec<(u32, f64)>>,
+        each: Option<&mut Vec<(u32, f64)>>,
     ) -> Terms {
-        let mut terms = PathTerms::default();
+        let mut walks = manifold::WalkMemo::default();
+        self.terms_with(scene, y, sig, nodes, candidates, own, each, &mut walks)
+    }
+
+    /// [`Self::terms`], leaving in `walks` the specular-chain step's walks it ran for `y`
+    /// (which a guided sample's basin check then reads instead of walking again).
+    #[allow(clippy::too_many_arguments)]
+    pub fn terms_with(
+        &self,
+        scene: &Scene,
+        y: &[Vertex],
+        sig: u64,
+        nodes: &[Node],
+        candidates: &[FirstTest],
+        own: Option<usize>,
+        mut each: Option<&mut Vec<(u32, f64)>>,
+        walks: &mut manifold::WalkMemo,
+    ) -> Terms {
+        let mut terms = PathTerms {
+            walks: std::mem::take(walks),
+            ..PathTerms::default()
+        };
         let mut own_term = None;
         let (mut sum, mut reach) = (0.0, 1);
         if let Some(index) = self.index.get(&sig).filter(|_| !self.is_empty()) {
@@ -325,6 +346,7 @@ impl GuideCache {
         // outside the own guide's box (so the sum left it out), the sample gets 0 and is a
         // failure, and the guided samples kept are exactly those whose term p_g holds.
         let own = own_term.unwrap_or(0.0);
+        *walks = terms.walks;
         Terms { sum, own, reach }
     }
 

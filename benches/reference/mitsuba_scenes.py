@@ -52,7 +52,7 @@ What it compares
 
 How to run (from anywhere; paths are relative to the repository)
     pip install mitsuba numpy     # mitsuba brings drjit; EXRs are read with mi.Bitmap
-    cargo build --release         # the script runs ./target/release/lodestar (no build)
+    cargo build --profile timed   # the script runs ./target/timed/lodestar (no build)
     python3 benches/reference/mitsuba_scenes.py                       # both scenes, N=8, S=64, H=512
     python3 benches/reference/mitsuba_scenes.py --scenes cornell-fog --renders 8 --spp 64 --high-spp 256
     python3 benches/reference/mitsuba_scenes.py --threads 1           # while a build is running
@@ -341,7 +341,7 @@ def main():
     ap.add_argument("--high-spp", type=int, default=512,
                     help="spp of the saved comparison images (H; 0 = skip)")
     ap.add_argument("--threads", type=int, default=2, help="Mitsuba and lodestar threads")
-    ap.add_argument("--lodestar", default=os.path.join(REPO, "target", "release", "lodestar"))
+    ap.add_argument("--lodestar", default=os.path.join(REPO, "target", "timed", "lodestar"))
     ap.add_argument("--no-lodestar", action="store_true", help="Mitsuba side only")
     ap.add_argument("--scene-file", action="append", default=[], metavar="NAME=PATH",
                     help="use PATH (relative to the repository, or absolute) for scene NAME on "
@@ -362,7 +362,7 @@ def main():
     print(f"mitsuba {mi.__version__} drjit {dr.__version__} variant {mi.variant()} "
           f"threads {args.threads}; lodestar {args.lodestar}")
     if not args.no_lodestar and not os.path.exists(args.lodestar):
-        ap.error(f"{args.lodestar} not found: run `cargo build --release` (or --no-lodestar)")
+        ap.error(f"{args.lodestar} not found: run `cargo build --profile timed` (or --no-lodestar)")
     for name in args.scenes:
         run_scene(name, args, args.lodestar)
 

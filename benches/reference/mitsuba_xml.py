@@ -27,7 +27,7 @@ What it compares
 
 Usage
     pip install mitsuba numpy; apt-get install libllvm19   (for llvm_ad_rgb)
-    cargo build --release
+    cargo build --profile timed
     python3 benches/reference/mitsuba_xml.py --variant llvm_ad_rgb --res 128 --spp 64 --renders 8
 """
 import argparse
@@ -51,7 +51,7 @@ def main():
     ap.add_argument("--spp", type=int, default=64)
     ap.add_argument("--renders", type=int, default=8)
     ap.add_argument("--threads", type=int, default=2)
-    ap.add_argument("--lodestar", default=os.path.join(ROOT, "target/release/lodestar"))
+    ap.add_argument("--lodestar", default=os.path.join(ROOT, "target/timed/lodestar"))
     ap.add_argument("--control", action="store_true", help="also compare lodestar with itself")
     args = ap.parse_args()
 

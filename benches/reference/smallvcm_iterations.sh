@@ -19,7 +19,7 @@ if ! grep -q 'Scene::kDefault$' "$SVCM/src/config.hxx"; then
     sed -i 's/    Scene::kGlossyFloor | Scene::kBothSmallSpheres  | Scene::kLightBackground$/    Scene::kGlossyFloor | Scene::kBothSmallSpheres  | Scene::kLightBackground,\n    Scene::kDefault/' "$SVCM/src/config.hxx"
 fi
 (cd "$SVCM" && make >/dev/null)
-(cd "$HERE" && cargo build --release -q)
+(cd "$HERE" && cargo build --profile timed -q)
 for round in 1 2 3; do
     for a in bpt vcm; do
         OMP_NUM_THREADS=$T /usr/bin/time -f "smallvcm $a: %U user + %S sys s for $N iterations" \
@@ -31,7 +31,7 @@ for round in 1 2 3; do
         set -- $a
         opt=${2:+-O $2}
         /usr/bin/time -f "lodestar $a: %U user + %S sys s for $N iterations" \
-            "$HERE/target/release/lodestar" render "$HERE/benches/scenes/smallvcm-cornell.toml" \
+            "$HERE/target/timed/lodestar" render "$HERE/benches/scenes/smallvcm-cornell.toml" \
             --integrator $1 $opt --spp "$N" --threads "$T" --max-depth 10 -q -o "/tmp/lodestar-smallvcm-$1.exr"
     done
 done

@@ -42,10 +42,11 @@
 //! unchanged. A path the step drew whose own walk does not return it fails (`otherchain`):
 //! the step's density there is 0, and the usual branch's alone must not weigh it.
 //!
-//! **Cost.** p_g runs the walk for every candidate guide of a path whose structure has such a
-//! chain; guides whose seeds round to one grid cell share it ([`WalkMemo`]). On `pool` the step
-//! lowers the guided samples' failures (86 % to 53-71 %) and a pass's error a little, but
-//! costs more than it saves at equal time (`docs/results.md`), so it is off by default.
+//! **Cost.** A walk takes about ten casts; p_g runs it for the candidate guides of a path
+//! whose structure has such a chain, once per seed cell ([`WalkMemo`]), and a guided sample
+//! the step drew reads its basin check from that walk. On `pool` the step lowers the guided
+//! samples' failures (86 % to 52-73 %) and a pass's error a little, but costs more than it
+//! saves at equal time (`docs/results.md`, "The specular-chain step"), so it is off by default.
 //!
 //! **What it does not cover.** Chains that start at the camera (x_1 delta: the first-vertex
 //! kernel decides the pixel and keeps drawing x_1), chains that end in a medium point (the

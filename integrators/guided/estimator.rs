@@ -351,6 +351,9 @@ impl<'a, U: Unguided> Estimator<'a, U> {
                 return None;
             }
         };
+        if g.used_chain_step() {
+            stats.chain_steps += 1;
+        }
         let path = &*path;
         let Some(y) = bdpt::from_path(self.scene, path) else {
             stats.fail(sampler::Failure::Structure as usize);

@@ -63,6 +63,7 @@ pub fn stats(f: &Facts) -> Vec<(String, String)> {
         stat("pg_candidates", rs.pg_candidates),
         stat("learning_passes_kept", kept),
         stat("guided_samples", rs.guided),
+        stat("chain_step_samples", rs.chain_steps),
         stat(
             "failed_guided_share",
             format!("{:.4}", rs.failed as f64 / rs.guided.max(1) as f64),

@@ -30,6 +30,9 @@ pub struct Stats {
     pub pg_candidates: u64,
     /// Of `pg_evaluations` and `pg_candidates`, those of guided samples.
     pub pg_evaluations_guided: u64,
+    /// Guided samples whose walk the specular-chain step completed (`manifold.rs`), before
+    /// the basin check and the contribution.
+    pub chain_steps: u64,
     pub pg_candidates_guided: u64,
     /// Unguided paths dropped for a non-finite or negative value.
     pub invalid: u64,
@@ -68,6 +71,7 @@ impl Stats {
         self.pg_candidates += o.pg_candidates;
         self.pg_candidates_guided += o.pg_candidates_guided;
         self.pg_evaluations_guided += o.pg_evaluations_guided;
+        self.chain_steps += o.chain_steps;
         self.invalid += o.invalid;
         self.pu_disagreements += o.pu_disagreements;
         self.bvh_queries += o.bvh_queries;

@@ -83,8 +83,8 @@ pub const TOLERANCE: f64 = 1e-5;
 pub const BASIN: f64 = 1e-3;
 /// The walk's seed offsets are rounded to a grid of this times the scene's radius ([`seed`]).
 pub const SEED_GRID: f64 = 0.1;
-const MAX_ITERATIONS: usize = 24;
-const MAX_HALVINGS: usize = 10;
+const MAX_ITERATIONS: usize = 12;
+const MAX_HALVINGS: usize = 4;
 /// Full Newton steps tried after convergence, kept while they lower the residual.
 const POLISH: usize = 1;
 

@@ -15,85 +15,39 @@ use lodestar::integrators::guided::sampler;
 use lodestar::math::{IndependentSampler, Sampler};
 use lodestar::path::{Vertex as PathVertex, VertexKind};
 use lodestar::scene::Scene;
+use util::caustics::{floor_scene, glass_sphere, sun};
 
 /// Flat water (ior 1.33) at y = 0 over a diffuse floor at y = -2, a sun.
-const FLAT_WATER: &str = r#"
-[camera]
-position = [0, 1.5, 2.5]
-look_at = [0, -2, 0]
-up = [0, 1, 0]
-fov = 50
-resolution = [32, 24]
-
-[[material]]
-name = "floor"
-type = "diffuse"
-albedo = [0.8, 0.8, 0.8]
-
-[[material]]
-name = "water"
-type = "dielectric"
-ior = 1.33
-
-[[shape]]
-type = "quad"
-origin = [-4, -2, -4]
-edge_u = [0, 0, 8]
-edge_v = [8, 0, 0]
-material = "floor"
-
+fn flat_water() -> String {
+    let water = r#"
 [[shape]]
 type = "quad"
 origin = [-4, 0, -4]
 edge_u = [0, 0, 8]
 edge_v = [8, 0, 0]
 material = "water"
-
-[[light]]
-type = "sun"
-direction = [0.25, 1, -0.35]
-angle = 4
-irradiance = [3, 3, 3]
 "#;
+    floor_scene(
+        [0.0, 1.5, 2.5],
+        [0.0, -2.0, 0.0],
+        50.0,
+        [32, 24],
+        -2.0,
+        water,
+    ) + &sun([0.25, 1.0, -0.35], 4.0)
+}
 
 /// A glass sphere (ior 1.5) of radius 0.5 at the origin above a diffuse floor at y = -2.
-const GLASS_SPHERE: &str = r#"
-[camera]
-position = [0, 1.5, 4]
-look_at = [0, -1, 0]
-up = [0, 1, 0]
-fov = 50
-resolution = [32, 24]
-
-[[material]]
-name = "floor"
-type = "diffuse"
-albedo = [0.8, 0.8, 0.8]
-
-[[material]]
-name = "glass"
-type = "dielectric"
-ior = 1.5
-
-[[shape]]
-type = "quad"
-origin = [-4, -2, -4]
-edge_u = [0, 0, 8]
-edge_v = [8, 0, 0]
-material = "floor"
-
-[[shape]]
-type = "sphere"
-center = [0, 0, 0]
-radius = 0.5
-material = "glass"
-
-[[light]]
-type = "sun"
-direction = [0.1, 1, 0.05]
-angle = 4
-irradiance = [3, 3, 3]
-"#;
+fn glass_sphere_scene() -> String {
+    floor_scene(
+        [0.0, 1.5, 4.0],
+        [0.0, -1.0, 0.0],
+        50.0,
+        [32, 24],
+        -2.0,
+        &glass_sphere([0.0; 3], 0.5),
+    ) + &sun([0.1, 1.0, 0.05], 4.0)
+}
 
 /// Refraction of the travelling unit direction `d` at unit normal `n` (either side) with
 /// `eta` = index inside / outside (the side `n` points away from is inside): written out
@@ -167,7 +121,7 @@ fn floor_point(p: DVec3) -> From {
 /// determinant is the solid angle per area of the analytic map.
 #[test]
 fn flat_water_walk_matches_snell_and_its_jacobian() {
-    let scene = util::scene(FLAT_WATER);
+    let scene = util::scene(&flat_water());
     let chain = Chain::new(2, 4, Far::Direction { light: 0 }, &[true]);
     let xa = DVec3::new(0.1, -2.0, 0.2);
     let from = floor_point(xa);
@@ -211,7 +165,7 @@ fn flat_water_walk_matches_snell_and_its_jacobian() {
 /// direction by an independent trace, and its determinant matches that trace's.
 #[test]
 fn glass_sphere_walk_matches_the_analytic_chain() {
-    let scene = util::scene(GLASS_SPHERE);
+    let scene = util::scene(&glass_sphere_scene());
     let chain = Chain::new(2, 5, Far::Direction { light: 0 }, &[true, true]);
     let xa = DVec3::new(0.15, -2.0, -0.1);
     let from = floor_point(xa);
@@ -313,49 +267,17 @@ fn heightfield_chain_derivative_matches_differences() {
 }
 
 /// Two glass spheres side by side above a floor, the sun straight above.
-const TWO_SPHERES: &str = r#"
-[camera]
-position = [0, 1.5, 4]
-look_at = [0, -1.5, 0]
-up = [0, 1, 0]
-fov = 60
-resolution = [32, 24]
-
-[[material]]
-name = "floor"
-type = "diffuse"
-albedo = [0.8, 0.8, 0.8]
-
-[[material]]
-name = "glass"
-type = "dielectric"
-ior = 1.5
-
-[[shape]]
-type = "quad"
-origin = [-4, -2, -4]
-edge_u = [0, 0, 8]
-edge_v = [8, 0, 0]
-material = "floor"
-
-[[shape]]
-type = "sphere"
-center = [-0.6, 0, 0]
-radius = 0.5
-material = "glass"
-
-[[shape]]
-type = "sphere"
-center = [0.6, 0, 0]
-radius = 0.5
-material = "glass"
-
-[[light]]
-type = "sun"
-direction = [0, 1, 0]
-angle = 4
-irradiance = [3, 3, 3]
-"#;
+fn two_spheres() -> String {
+    let spheres = glass_sphere([-0.6, 0.0, 0.0], 0.5) + &glass_sphere([0.6, 0.0, 0.0], 0.5);
+    floor_scene(
+        [0.0, 1.5, 4.0],
+        [0.0, -1.5, 0.0],
+        60.0,
+        [32, 24],
+        -2.0,
+        &spheres,
+    ) + &sun([0.0, 1.0, 0.0], 4.0)
+}
 
 const CENTRES: [DVec3; 2] = [DVec3::new(-0.6, 0.0, 0.0), DVec3::new(0.6, 0.0, 0.0)];
 
@@ -514,7 +436,7 @@ fn integral_and_success(scene: &Scene, cache: &GuideCache, xa: DVec3) -> ((f64, 
 /// controls must reach |z| > 8.
 #[test]
 fn chain_density_integrates_to_the_success_rate_and_the_controls_fail() {
-    let scene = util::scene(TWO_SPHERES);
+    let scene = util::scene(&two_spheres());
     let xa = DVec3::new(0.0, -2.0, 0.1);
     let z = |settings: ManifoldSettings| {
         let cache = two_spheres_cache(&scene, xa, settings);
@@ -553,7 +475,7 @@ fn chain_density_integrates_to_the_success_rate_and_the_controls_fail() {
 /// 1e-6 apart).
 #[test]
 fn sampled_density_equals_evaluated_density() {
-    let scene = util::scene(TWO_SPHERES);
+    let scene = util::scene(&two_spheres());
     let xa = DVec3::new(0.0, -2.0, 0.1);
     let mut cache = two_spheres_cache(&scene, xa, ManifoldSettings::default());
     let chain = Chain::new(1, 4, Far::Direction { light: 0 }, &[true, true]);

@@ -17,84 +17,33 @@ use lodestar::integrators::guided::{GuidedBdpt, GuidedPt, GuidedSettings, Share,
 use lodestar::integrators::pt::PtSettings;
 use lodestar::render::{Budget, Integrator, RenderContext};
 use lodestar::scene::Scene;
+use util::caustics::{floor_scene, glass_sphere, sun};
 
 /// Two glass spheres above a diffuse floor, lit by a sun of 4 degrees straight above (and a
 /// dim sky); the camera looks at the floor under the spheres.
-const TWO_SPHERES: &str = r#"
-[camera]
-position = [0, 2.2, 3.2]
-look_at = [0, -1.6, 0]
-up = [0, 1, 0]
-fov = 40
-resolution = [24, 18]
-
-[[material]]
-name = "floor"
-type = "diffuse"
-albedo = [0.8, 0.8, 0.8]
-
-[[material]]
-name = "glass"
-type = "dielectric"
-ior = 1.5
-
-[[shape]]
-type = "quad"
-origin = [-4, -2, -4]
-edge_u = [0, 0, 8]
-edge_v = [8, 0, 0]
-material = "floor"
-
-[[shape]]
-type = "sphere"
-center = [-0.6, -0.6, 0]
-radius = 0.5
-material = "glass"
-
-[[shape]]
-type = "sphere"
-center = [0.6, -0.6, 0]
-radius = 0.5
-material = "glass"
-
-[[light]]
-type = "sun"
-direction = [0.05, 1, 0.1]
-angle = 4
-irradiance = [3, 3, 3]
-
+fn two_spheres() -> String {
+    let rest = glass_sphere([-0.6, -0.6, 0.0], 0.5)
+        + &glass_sphere([0.6, -0.6, 0.0], 0.5)
+        + &sun([0.05, 1.0, 0.1], 4.0)
+        + r#"
 [[light]]
 type = "environment"
 radiance = [0.05, 0.05, 0.05]
 "#;
+    floor_scene(
+        [0.0, 2.2, 3.2],
+        [0.0, -1.6, 0.0],
+        40.0,
+        [24, 18],
+        -2.0,
+        &rest,
+    )
+}
 
 /// The sun through a wavy water surface (a heightfield) onto a diffuse floor 0.8 m below,
 /// seen from above through the water.
-const WAVY_WATER: &str = r#"
-[camera]
-position = [0, 1.6, 1.2]
-look_at = [0, -0.8, 0]
-up = [0, 1, 0]
-fov = 45
-resolution = [24, 18]
-
-[[material]]
-name = "floor"
-type = "diffuse"
-albedo = [0.8, 0.8, 0.8]
-
-[[material]]
-name = "water"
-type = "dielectric"
-ior = 1.33
-
-[[shape]]
-type = "quad"
-origin = [-3, -0.8, -3]
-edge_u = [0, 0, 6]
-edge_v = [6, 0, 0]
-material = "floor"
-
+fn wavy_water() -> String {
+    let water = r#"
 [[shape]]
 type = "heightfield"
 size = [3, 3]
@@ -104,13 +53,16 @@ waves = [
   { amplitude = 0.02, wavelength = 0.7, direction = [1, 0.3], phase = 0.0 },
   { amplitude = 0.012, wavelength = 0.45, direction = [-0.4, 1], phase = 1.3 },
 ]
-
-[[light]]
-type = "sun"
-direction = [0.2, 1, -0.3]
-angle = 5
-irradiance = [3, 3, 3]
 "#;
+    floor_scene(
+        [0.0, 1.6, 1.2],
+        [0.0, -0.8, 0.0],
+        45.0,
+        [24, 18],
+        -0.8,
+        water,
+    ) + &sun([0.2, 1.0, -0.3], 5.0)
+}
 
 /// A glass sphere in fog between the camera's view and a small area light above it.
 const FOG_SPHERE: &str = r#"
@@ -257,7 +209,7 @@ fn guided_renders(
 /// family-wise false-failure rate of 1e-4 per comparison (fixed seeds).
 #[test]
 fn guided_with_the_chain_step_matches_bdpt_per_tile_and_the_controls_fail() {
-    let scene = util::scene(TWO_SPHERES);
+    let scene = util::scene(&two_spheres());
     let cache = learned_cache(&scene);
     let reference = util::seeded_renders(&scene, "bdpt", MAX_DEPTH, &[], 96, SEEDS, 1);
     let exact = ManifoldSettings {
@@ -296,7 +248,7 @@ fn guided_with_the_chain_step_matches_bdpt_per_tile_and_the_controls_fail() {
 /// guided-vcm (learning included) agrees with bdpt per tile with the step on.
 #[test]
 fn guided_vcm_with_the_chain_step_matches_bdpt_per_tile() {
-    let scene = util::scene(TWO_SPHERES);
+    let scene = util::scene(&two_spheres());
     let reference = util::seeded_renders(&scene, "bdpt", MAX_DEPTH, &[], 96, SEEDS, 1);
     let images = util::seeded_renders(
         &scene,
@@ -313,7 +265,7 @@ fn guided_vcm_with_the_chain_step_matches_bdpt_per_tile() {
 /// With the step on, guided-bdpt's image is the same on one thread and on two.
 #[test]
 fn the_chain_step_is_deterministic_over_threads() {
-    let scene = util::scene(TWO_SPHERES);
+    let scene = util::scene(&two_spheres());
     let opts = ["manifold=0.8", "share=fixed"];
     let one = util::render(&scene, "guided-bdpt", MAX_DEPTH, &opts, 12, 7, 1);
     let two = util::render(&scene, "guided-bdpt", MAX_DEPTH, &opts, 12, 7, 2);
@@ -337,10 +289,10 @@ fn the_chain_step_matches_bdpt_through_water_and_in_fog() {
         ..ManifoldSettings::default()
     };
     for (name, text, learn_spp) in [
-        ("wavy water", WAVY_WATER, 32),
-        ("fog sphere", FOG_SPHERE, 512),
+        ("wavy water", wavy_water(), 32),
+        ("fog sphere", FOG_SPHERE.to_string(), 512),
     ] {
-        let scene = util::scene(text);
+        let scene = util::scene(&text);
         let cache = learned_cache_spp(&scene, learn_spp);
         let reference = util::seeded_renders(&scene, "bdpt", MAX_DEPTH, &[], 96, SEEDS, 1);
         let images = guided_renders(&scene, &cache, true, exact, 24);

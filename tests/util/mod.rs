@@ -3,6 +3,7 @@
 
 #![allow(dead_code)]
 
+pub mod caustics;
 pub mod guided;
 
 use glam::DVec3;

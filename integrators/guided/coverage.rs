@@ -7,7 +7,7 @@
 //! the image, so for each pixel and each class c (U's paths whose structure the cache does
 //! not hold, those with p_g = 0, those the guided technique covers, and the guided samples
 //! themselves) the pass's luminance from that class, X_c, is one draw; over the passes,
-//! Var(X_c) = E[X_c²] − E[X_c]², summed over the pixels, is what the class adds to the
+//! Var(X_c) = E\[X_c²\] − E\[X_c\]², summed over the pixels, is what the class adds to the
 //! image's error (up to the covariances between classes; `class_variance_over_total`, Σ_c
 //! Var(X_c) / Var(Σ_c X_c), says how far they matter: 1 when the classes are independent).
 

@@ -76,7 +76,7 @@ impl std::ops::Deref for Nodes {
 }
 
 /// The structure hash of a path alone, without allocating: what decides whether a cache can
-/// hold the path at all ([`GuideCache::holds`](super::cache::GuideCache::holds)).
+/// hold the path at all ([`GuideCache::holds`](crate::integrators::guided::cache::GuideCache::holds)).
 pub fn signature(scene: &Scene, path: &Path, max_len: usize) -> Option<u64> {
     let vs = path.vertices();
     signature_with(scene, vs.len(), max_len, |i| vs[i])

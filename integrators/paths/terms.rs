@@ -39,7 +39,7 @@ pub enum Heuristic {
     Power,
 }
 
-/// Per-vertex inputs of [`technique_densities`] for one path of `k` segments.
+/// Per-vertex inputs of `technique_densities` for one path of `k` segments.
 pub struct PathTerms {
     pub k: usize,
     pub pc: Vec<f64>,
@@ -128,7 +128,7 @@ impl PathTerms {
     /// Vertex merging at y_j (1 <= j < k, `mergeable(j)`: a non-delta surface vertex): the
     /// camera walk and a light walk both generate y_j, and the kernel of radius r accepts
     /// the pair, with N light subpaths per pass:
-    /// `p_vm(j) = eta prod_{l <= j} pc[l] prod_{l >= j} pl[l]` (pc[0], the pinhole, left
+    /// `p_vm(j) = eta prod_{l <= j} pc[l] prod_{l >= j} pl[l]` (pc\[0\], the pinhole, left
     /// out as in [`PathTerms::technique_densities`]). Writes `out[j]` for j = 0..=k (0 where
     /// nothing merges) and returns their sum; all 0 when `eta` is 0.
     pub fn merge_densities(&self, mergeable: impl Fn(usize) -> bool, out: &mut [f64]) -> f64 {

@@ -2,7 +2,7 @@
 //!
 //! In each round every path of the row still running takes one segment: the row's rays go
 //! through the BVH together ([`Scene::intersect_many`]), each path then does its vertex
-//! ([`PathTracer::advance`]: emission, next-event sample, continuation) with its shadow ray
+//! (`PathTracer::advance`: emission, next-event sample, continuation) with its shadow ray
 //! queued, and the queued shadow rays go through the BVH together
 //! ([`Scene::unoccluded_many`]). On a BVH larger than the caches a single ray waits on one
 //! memory miss after another; a batch keeps 16 rays in flight so their misses overlap

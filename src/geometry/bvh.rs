@@ -1,8 +1,8 @@
 //! The acceleration structure: one obvhs compressed wide BVH (`CwBvh`) over every triangle and
 //! analytic sphere of the scene, with a Möller-Trumbore triangle test and the robust sphere test;
-//! scenes of at most [`FLAT_MAX_PRIMS`] primitives skip the hierarchy ([`super::flat`]).
+//! scenes of at most `FLAT_MAX_PRIMS` primitives skip the hierarchy (`geometry/flat.rs`).
 //! Meshes laid out as grids (heightfields) are not in it: they are walked cell by cell
-//! ([`super::grid`]) before the rest is searched up to their hit.
+//! (`geometry/grid.rs`) before the rest is searched up to their hit.
 //!
 //! Primitives are copied into BVH order so the traversal closure indexes them directly.
 //! Möller-Trumbore is not watertight (obvhs' own note; agreement with Embree was 0.999999 of
@@ -320,7 +320,7 @@ fn bvh_scale(bounds: &[Bounds]) -> f32 {
 }
 
 /// The power of two that maps `bounds` (every box and ray origin an obvhs BVH will see) to an
-/// extent of about 2^20, for any obvhs BVH (see [`bvh_scale`]; the guide cache uses it too).
+/// extent of about 2^20, for any obvhs BVH (see `bvh_scale`; the guide cache uses it too).
 pub fn scale_for_obvhs(bounds: &Aabb) -> f32 {
     let extent = (bounds.max - bounds.min)
         .max_element()

@@ -12,9 +12,9 @@
 //! order), so the closest hit, its barycentrics and every shorter `t_max` along the way are the
 //! single-ray traversal's.
 //!
-//! Scenes small enough to skip the BVH ([`super::flat`]) are tested in packets of sixteen rays
+//! Scenes small enough to skip the BVH (`geometry/flat.rs`) are tested in packets of sixteen rays
 //! where the CPU has AVX (`flat/packet.rs`), else ray by ray; scenes with grid meshes
-//! ([`super::grid`]) are traced ray by ray.
+//! (`geometry/grid.rs`) are traced ray by ray.
 
 use super::bvh::{
     Accel, Index, Prim, ShapeGeometry, canonical_dir, count_ray, intersect_prim, surface_hit,

@@ -6,7 +6,7 @@
 //!
 //! `p_g` of a path sums over the guides of its structure whose first-vertex kernel holds x_1:
 //! the structure's BVH yields the guides whose kernel box the camera ray through x_1 crosses,
-//! each is tested exactly ([`FirstVertexQuery::inside`]), and only the survivors' terms are
+//! each is tested exactly ([`FirstVertexQuery::inside`](super::kernel::FirstVertexQuery::inside)), and only the survivors' terms are
 //! evaluated (every other term is exactly 0 by truncation).
 //!
 //! Storage is flat: one header per guide path ([`Guide`]), its vertices g_1 .. g_{L-1} in
@@ -129,7 +129,7 @@ pub enum WeightRule {
     /// The spec's: `w_j ∝ C_j`, each guide path's own value under the mixture.
     C,
     /// Half `C_j / ΣC`, half each old guide's share of the second moment of the samples the
-    /// iteration drew ([`RebuildParams::second_moment`]).
+    /// iteration drew (`RebuildParams::second_moment`).
     SecondMoment,
 }
 

@@ -1,4 +1,4 @@
-//! The specular-chain step of the guided sampler (`integrators/guided/manifold.rs`): the
+//! The specular-chain step of the guided sampler (`integrators/guided/manifold/`): the
 //! Newton walk against analytic refraction chains, its Jacobian against independent finite
 //! differences, and the density's normalisation (with a control that leaves the Jacobian out).
 

@@ -15,7 +15,7 @@
 //!
 //! Where to read: `estimator.rs` (the mixture, one pass's densities and a guided sample),
 //! `driver.rs` (learning, the share, passes), `seeder.rs` (which paths become guides),
-//! `chains.rs` (the Markov-chain seeder), `manifold.rs` (the specular-chain step: a Newton
+//! `chains.rs` (the Markov-chain seeder), `manifold/` (the specular-chain step: a Newton
 //! walk seeded by the guide's chain, its density with the basin indicator), `coverage.rs` (where the variance sits),
 //! `stats.rs` (the counters a render reports: failed samples by reason and vertex, p_g's work),
 //! `cache/` (storage and weights in `mod.rs`, building in `build.rs`, p_g in `density.rs`;
@@ -49,7 +49,7 @@
 //! | chain_target    | `mixture` / `uncovered` | `mixture` | `mcmc`: a chain state's importance: all its sample adds under the current mixture, or only its paths with p_g = 0 (`chains.rs`) |
 //! | chain_spread    | integer >= 0  | 7       | `mcmc`: chain states kept as guide paths lie at least this many pixels apart in x or y, per band of rows and iteration (0: any distance; `seeder.rs`) |
 //! | sampler         | `independent` / `sobol` | `independent` | U's numbers in the render passes (for guided-vcm: its camera subpaths'), as `pt -O sampler` (learning passes, guided samples and chains stay independent: outliers and chain states are replayed from their independent streams) |
-//! | manifold        | [0, 1]        | 0       | probability of the specular-chain step where the guide has a chain of 1-4 delta vertices after a non-delta vertex (`manifold.rs`; 0: off) |
+//! | manifold        | [0, 1]        | 0       | probability of the specular-chain step where the guide has a chain of 1-4 delta vertices after a non-delta vertex (`manifold/`; 0: off) |
 //! | keep_learning   | `true` / `false` | `true` | keep the learning passes in the image: their mixed estimate with guiding on, U's own with it off (`false`: strictly unbiased, see `driver.rs`) |
 //! | save_guides     | path          | —       | write the learned cache (`--save-guides`) |
 //! | load_guides     | path          | —       | start from a saved cache and skip learning (`--load-guides`) |
@@ -81,7 +81,7 @@
 //! where it was. A BSDF branch at diffuse vertices made most of those paths' p_g non-zero,
 //! but not comparable to p_u, and the variance moved within its noise. More guide paths of the
 //! full structure (7.7k instead of 2.7k) raised it. Such paths need the specular suffix guided
-//! on its own (the specular-chain step, `manifold.rs`, does so for chains of delta vertices
+//! on its own (the specular-chain step, `manifold/`, does so for chains of delta vertices
 //! ending on the sun or before a rough vertex). Every render reports this account for its own scene:
 //! `unguided_second_moment_by_coverage` (structure not held / p_g = 0 / covered),
 //! `pg_zero_second_moment_by_vertex` (where p_g vanished; `estimator.rs`),
@@ -169,7 +169,7 @@ pub struct GuidedSettings {
     /// U's sampler in the render passes (option `sampler`).
     pub sampler: SamplerKind,
     /// Probability of the specular-chain step where a guide's chain allows it (option
-    /// `manifold`, `manifold.rs`).
+    /// `manifold`, `manifold/`).
     pub manifold: f64,
 }
 

@@ -15,7 +15,7 @@ use super::kernel::{
     MIN_PLANE_COS, Node, Reach, bsdf_branch_probability, coords, distance_density, dvec,
     is_infinite_vertex,
 };
-use super::manifold::{self, Chain};
+use super::manifold;
 use crate::bsdf::TransportMode;
 use crate::geometry::Ray;
 use crate::integrators::bdpt::{Kind, Vertex};
@@ -42,7 +42,7 @@ pub enum Failure {
     /// The step to the emitter does not reach it: a specular or BSDF direction outside a
     /// light's cone, or a ray towards the emitter that hits something else first.
     Light,
-    /// The specular-chain step's Newton walk did not converge (`manifold.rs`).
+    /// The specular-chain step's Newton walk did not converge (`manifold/`).
     NoConvergence,
     /// The specular-chain step converged, but the walk from the path's own far end returns
     /// another chain (the basin indicator is 0 for the path drawn).
@@ -183,22 +183,17 @@ pub struct GuidedDraw {
     /// p(X | guide) as drawn, but for the vertices that start a specular chain the
     /// guide allows the chain step at (`deferred`).
     pub partial_density: f64,
-    /// Per chain of the guide that the step could solve: the chain, the density of its
-    /// x_{a+1} under the vertex's usual mixture, and whether the chain step drew it.
-    pub deferred: Vec<(Chain, f64, bool)>,
+    /// The chains of the guide that the step could solve, met on the way.
+    pub deferred: manifold::DrawnChains,
 }
 
 impl GuidedDraw {
     /// Whether the specular-chain step drew some vertex of the path.
     pub fn used_chain_step(&self) -> bool {
-        self.deferred.iter().any(|d| d.2)
+        self.deferred.used_step()
     }
 
-    /// A path the chain step drew is one it produces only where the walk from the path's own
-    /// far end returns it (the basin indicator): elsewhere the step's density is 0 and the
-    /// sample must fail ([`Failure::OtherChain`]), or the usual branch's density alone would
-    /// weigh it. `y` is the path's vertices; `memo` the walks p_g's evaluation of it ran (or
-    /// empty).
+    /// [`manifold::DrawnChains::check`] of this draw's chains on the path's vertices `y`.
     pub fn check_chains(
         &self,
         scene: &Scene,
@@ -206,31 +201,18 @@ impl GuidedDraw {
         y: &[Vertex],
         memo: &manifold::WalkMemo,
     ) -> Result<(), Failure> {
-        for (chain, _, taken) in &self.deferred {
-            if *taken && !manifold::returns_own_chain(scene, cache, self.guide, y, chain, memo) {
-                return Err(Failure::OtherChain);
-            }
-        }
-        Ok(())
+        self.deferred.check(scene, cache, self.guide, y, memo)
     }
 
-    /// p(X | guide) of the path drawn (`path`): the partial density times, per chain, the
-    /// mixture `share q_chain + (1 − share) q_usual` with q_chain evaluated from the path's
-    /// vertices ([`manifold::density`]), as p_g evaluates it.
+    /// p(X | guide) of the path drawn (`path`): the partial density completed by
+    /// [`manifold::DrawnChains::density`], as p_g evaluates it.
     pub fn density(&self, scene: &Scene, cache: &GuideCache, path: &Path) -> f64 {
-        let mut d = self.partial_density;
         if self.deferred.is_empty() {
-            return d;
+            return self.partial_density;
         }
-        let Some(y) = crate::integrators::bdpt::from_path(scene, path) else {
-            return 0.0;
-        };
-        let share = cache.manifold.share;
-        for (chain, usual, _) in &self.deferred {
-            let q = manifold::density(scene, cache, self.guide, &y, chain, &cache.manifold);
-            d *= share * q + (1.0 - share) * usual;
-        }
-        d
+        crate::integrators::bdpt::from_path(scene, path).map_or(0.0, |y| {
+            self.partial_density * self.deferred.density(scene, cache, self.guide, &y)
+        })
     }
 }
 
@@ -334,7 +316,7 @@ pub fn sample_path_into(
         Node::Emitter { .. } => return Err(Failure::Structure),
     };
     prev = path.vertices()[0];
-    let mut deferred = Vec::new();
+    let mut deferred = manifold::DrawnChains::default();
 
     // ---- Vertices 2 .. L-1 ----
     for v in 2..len {
@@ -373,7 +355,7 @@ pub fn sample_path_into(
         let ell = (dvec(g.p) - dvec(g_prev.p)).length();
         let medium_target = matches!(node, Node::Medium { .. });
         // Where the guide has a specular chain after x_{v-1}, the chain step draws x_v with
-        // probability `share` (`manifold.rs`); no number is drawn elsewhere.
+        // probability `share` (`manifold/`); no number is drawn elsewhere.
         let share = cache.manifold.share;
         let chain = (share > 0.0)
             .then(|| manifold::chain_at(scene, cache, l, v - 1))
@@ -557,7 +539,9 @@ pub fn sample_path_into(
 
         // Mixture density at this vertex: the branch taken from sampling-time quantities, the
         // other branch evaluated.
-        let other = {
+        let other = if use_chain {
+            0.0 // both branches are evaluated below
+        } else {
             // Only y[v-2..=v] matter to the branch densities (index 2 of this window).
             let y_now = [
                 Vertex::new(Kind::Camera, prev.p, prev.n),
@@ -605,7 +589,7 @@ pub fn sample_path_into(
             (1.0 - p_b) * taken + p_b * other
         };
         match chain {
-            Some(chain) => deferred.push((chain, usual, use_chain)),
+            Some(chain) => deferred.push(chain, usual, use_chain),
             None => density *= usual,
         }
         prev = at.pv;

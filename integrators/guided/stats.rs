@@ -30,7 +30,7 @@ pub struct Stats {
     pub pg_candidates: u64,
     /// Of `pg_evaluations` and `pg_candidates`, those of guided samples.
     pub pg_evaluations_guided: u64,
-    /// Guided samples whose walk the specular-chain step completed (`manifold.rs`), before
+    /// Guided samples whose walk the specular-chain step completed (`manifold/`), before
     /// the basin check and the contribution.
     pub chain_steps: u64,
     pub pg_candidates_guided: u64,

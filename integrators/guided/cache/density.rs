@@ -386,7 +386,7 @@ impl GuideCache {
 #[derive(Default)]
 struct PathTerms {
     values: [Option<VertexTerms>; PathTerms::CACHED],
-    /// The specular-chain step's walks from the path's vertices (`manifold.rs`).
+    /// The specular-chain step's walks from the path's vertices (`manifold/`).
     walks: manifold::WalkMemo,
 }
 

@@ -225,7 +225,7 @@ pub struct GuideCache {
     /// Testing hook: leave this guide path out of `pdf` (a deliberately wrong p_g, which the
     /// unbiasedness test must detect). Never set by the renderer.
     pub skip_in_pdf: Option<usize>,
-    /// The specular-chain step's settings (`manifold.rs`), which sampling and p_g share; set
+    /// The specular-chain step's settings (`manifold/`), which sampling and p_g share; set
     /// from the render's options, not saved with the cache.
     pub manifold: ManifoldSettings,
     /// The ratio n_g / n_u the learning run chose for rendering (`share.rs`); a loaded cache

@@ -38,10 +38,36 @@ impl IntegratorParams {
     }
 }
 
+/// An integrator by name: the built-in ones in [`REGISTRY`], others added by [`register`].
+#[derive(Clone, Copy)]
 pub struct Entry {
     pub name: &'static str,
     pub summary: &'static str,
     pub build: fn(&IntegratorParams) -> Result<Box<dyn Integrator>>,
+}
+
+/// Integrators registered at run time by code outside the crate ([`register`]).
+static REGISTERED: std::sync::RwLock<Vec<Entry>> = std::sync::RwLock::new(Vec::new());
+
+/// Add an integrator written outside the crate (`examples/bsdf_pt/` shows one): from then on
+/// [`build`], [`render_named`], `lodestar::bench` and everything else that takes an integrator
+/// by name know it. A name already taken is an error.
+pub fn register(entry: Entry) -> Result<()> {
+    let mut registered = REGISTERED.write().unwrap_or_else(|e| e.into_inner());
+    if REGISTRY.iter().chain(registered.iter()).any(|e| e.name == entry.name) {
+        return Err(Error::new(format!(
+            "cannot register integrator '{}': the name is taken",
+            entry.name
+        )));
+    }
+    registered.push(entry);
+    Ok(())
+}
+
+/// Every integrator: the built-in ones in registry order, then those [`register`]ed.
+pub fn entries() -> Vec<Entry> {
+    let registered = REGISTERED.read().unwrap_or_else(|e| e.into_inner());
+    REGISTRY.iter().chain(registered.iter()).copied().collect()
 }
 
 pub static REGISTRY: &[Entry] = &[
@@ -100,8 +126,9 @@ pub static REGISTRY: &[Entry] = &[
 /// Build an integrator by name; an unknown name lists the valid ones, and an option that
 /// the integrator does not read is an error.
 pub fn build(name: &str, params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
-    let Some(entry) = REGISTRY.iter().find(|e| e.name == name) else {
-        let names: Vec<&str> = REGISTRY.iter().map(|e| e.name).collect();
+    let all = entries();
+    let Some(entry) = all.iter().find(|e| e.name == name) else {
+        let names: Vec<&str> = all.iter().map(|e| e.name).collect();
         return Err(Error::new(format!(
             "unknown integrator '{name}' (available: {})",
             names.join(", ")
@@ -213,6 +240,8 @@ pub struct RunSettings<'a> {
     pub dbor: bool,
     /// Global index of the first pass (`--part`; see `RenderContext::first_pass`).
     pub first_pass: u64,
+    /// A hold on the render from another thread: stop, progress (`RenderContext::control`).
+    pub control: Option<&'a crate::render::Control>,
 }
 
 /// Build integrator `name` and render `scene` with it on a pool of `threads` threads: what
@@ -233,6 +262,7 @@ pub fn render_named(
         snapshots: None,
         dbor: false,
         first_pass: 0,
+        control: None,
     };
     render_named_with(scene, name, params, budget, &run)
 }
@@ -258,6 +288,7 @@ pub fn render_named_with(
         snapshots: run.snapshots,
         dbor: run.dbor,
         first_pass: run.first_pass,
+        control: run.control,
     };
     integrator.prepare(scene)?;
     let cpu0 = crate::render::process_cpu_seconds();

@@ -213,7 +213,7 @@ fn main() -> ExitCode {
         } => merge(&parts, &output, png.as_deref(), exposure),
         Command::Info { scene } => info(&scene),
         Command::Integrators => {
-            for e in integrators::REGISTRY {
+            for e in integrators::entries() {
                 outln!("{:<8} {}", e.name, e.summary);
             }
             Ok(())
@@ -412,6 +412,7 @@ fn render(args: RenderArgs) -> Result<()> {
         progress: !args.quiet,
         snapshots: (!snapshot_times.is_empty()).then_some(&snapshots),
         first_pass,
+        control: None,
     };
     if args.check {
         lodestar::check::enable();

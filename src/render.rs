@@ -18,7 +18,7 @@ use crate::snapshot::Snapshots;
 use glam::{UVec2, Vec2};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 /// How much work a render may do.
@@ -46,6 +46,44 @@ pub struct RenderContext<'a> {
     /// Global index of the first pass (`--part`): the pass driver numbers passes from here,
     /// so a slice of a render draws the same random numbers as those passes of the whole.
     pub first_pass: u64,
+    /// A caller's hold on the render under way (the Python module's Ctrl-C and progress
+    /// callback): the pass driver reports its progress there and ends the render after the
+    /// pass under way once a stop is asked for.
+    pub control: Option<&'a Control>,
+}
+
+/// A hold on a render from another thread: ask it to stop, read its progress.
+///
+/// A stopped render returns the image of the passes it finished (at least one per phase), so
+/// what it returns is a valid, shorter render; phases with their own loops (the guided
+/// integrators' and pt's guiding learning) stop after their iteration under way.
+#[derive(Debug, Default)]
+pub struct Control {
+    stop: AtomicBool,
+    /// The fraction of the render phase's budget spent, as f64 bits.
+    progress: AtomicU64,
+}
+
+impl Control {
+    /// Ask the render to stop after the pass under way.
+    pub fn stop(&self) {
+        self.stop.store(true, Ordering::Relaxed);
+    }
+
+    /// Whether a stop was asked for.
+    pub fn stopped(&self) -> bool {
+        self.stop.load(Ordering::Relaxed)
+    }
+
+    /// The fraction of the current pass loop's budget spent, in [0, 1].
+    pub fn progress(&self) -> f64 {
+        f64::from_bits(self.progress.load(Ordering::Relaxed))
+    }
+
+    fn set_progress(&self, fraction: f64) {
+        self.progress
+            .store(fraction.clamp(0.0, 1.0).to_bits(), Ordering::Relaxed);
+    }
 }
 
 impl<'a> RenderContext<'a> {
@@ -58,7 +96,13 @@ impl<'a> RenderContext<'a> {
             snapshots: None,
             dbor: false,
             first_pass: 0,
+            control: None,
         }
+    }
+
+    /// Whether the caller asked the render to stop (see [`Control`]).
+    pub fn stopped(&self) -> bool {
+        self.control.is_some_and(Control::stopped)
     }
 }
 
@@ -122,6 +166,7 @@ pub fn run_passes(progress: bool, budget: Budget, mut pass: impl FnMut(u64)) -> 
     drive(
         progress,
         None,
+        None,
         0,
         budget,
         &mut (),
@@ -144,6 +189,7 @@ pub fn run_passes_with_snapshots<S>(
     drive(
         ctx.progress,
         ctx.snapshots,
+        ctx.control,
         ctx.first_pass,
         budget,
         state,
@@ -153,10 +199,13 @@ pub fn run_passes_with_snapshots<S>(
 }
 
 /// The pass loop: passes `first`, `first + 1`, ... The budget clock starts here and excludes
-/// time paused for snapshots.
+/// time paused for snapshots. A stop asked for through `control` ends it after at least one
+/// pass.
+#[allow(clippy::too_many_arguments)]
 fn drive<S>(
     progress: bool,
     snapshots: Option<&Snapshots>,
+    control: Option<&Control>,
     first: u64,
     budget: Budget,
     state: &mut S,
@@ -179,7 +228,7 @@ fn drive<S>(
             Budget::Spp(n) => passes >= n,
             Budget::Seconds(s) => passes > 0 && elapsed() >= s,
         };
-        if done {
+        if done || (passes > 0 && control.is_some_and(Control::stopped)) {
             break;
         }
         pass(state, first + passes);
@@ -188,9 +237,16 @@ fn drive<S>(
             let state = &*state;
             snaps.emit_due(passes, passes, || image(state, passes));
         }
-        match budget {
-            Budget::Spp(_) => bar.set_position(passes),
-            Budget::Seconds(s) => bar.set_position((elapsed() / s * 1000.0).min(1000.0) as u64),
+        let fraction = match budget {
+            Budget::Spp(n) => passes as f64 / n as f64,
+            Budget::Seconds(s) => elapsed() / s,
+        };
+        bar.set_position(match budget {
+            Budget::Spp(_) => passes,
+            Budget::Seconds(_) => (fraction * 1000.0).min(1000.0) as u64,
+        });
+        if let Some(c) = control {
+            c.set_progress(fraction);
         }
     }
     bar.finish_and_clear();
@@ -459,6 +515,41 @@ mod tests {
             let shorter = render(&RenderContext::new(&scene, 3, false), passes);
             assert_eq!(image, shorter.image, "snapshot after {passes} passes");
         }
+    }
+
+    /// A stop asked for through `Control` ends the loop after the pass under way (and never
+    /// before the first), and the loop reports its progress there.
+    #[test]
+    fn control_stops_the_pass_loop_and_reads_its_progress() {
+        let scene = small_scene();
+        let control = Control::default();
+        let ctx = RenderContext {
+            control: Some(&control),
+            ..RenderContext::new(&scene, 0, false)
+        };
+        let (passes, _) = run_passes_with_snapshots(
+            &ctx,
+            Budget::Spp(100),
+            &mut (),
+            |_, i| {
+                if i == 2 {
+                    control.stop();
+                }
+            },
+            |_, _| Image::new(1, 1),
+        );
+        assert_eq!(passes, 3);
+        assert_eq!(control.progress(), 0.03);
+        // Stopped before it starts: one pass all the same.
+        let (passes, _) = run_passes_with_snapshots(
+            &ctx,
+            Budget::Spp(100),
+            &mut (),
+            |_, _| {},
+            |_, _| Image::new(1, 1),
+        );
+        assert_eq!(passes, 1);
+        assert!(ctx.stopped());
     }
 
     /// Time spent in the snapshot sink is not charged to a seconds budget.

@@ -71,6 +71,7 @@ fn every_integrator_in_fog_with_dbor_is_bit_identical_for_1_2_3_threads() {
                 snapshots: None,
                 dbor: !name.ends_with("mlt"),
                 first_pass: 0,
+                control: None,
             };
             integrators::render_named_with(&scene, name, &params, Budget::Spp(spp), &run)
                 .unwrap()

@@ -421,7 +421,7 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
                         &second_moment,
                     );
                     rebuild_seconds += rebuild_start.elapsed().as_secs_f64();
-                    if done {
+                    if done || ctx.stopped() {
                         break;
                     }
                 }

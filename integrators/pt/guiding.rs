@@ -251,7 +251,7 @@ pub fn render(
                 iteration == 0 || t + 2.0 * last <= s * g.learn_fraction
             }
         };
-        if !go {
+        if !go || ctx.stopped() {
             break;
         }
         let t0 = Instant::now();

@@ -76,7 +76,7 @@ impl Builder<'_> {
             out.spp = *s.get_ref();
         }
         if let Some(i) = &r.integrator {
-            let registry = crate::integrators::REGISTRY;
+            let registry = crate::integrators::entries();
             if !registry.iter().any(|e| e.name == i.get_ref()) {
                 let names: Vec<&str> = registry.iter().map(|e| e.name).collect();
                 return self.src.err(

@@ -69,6 +69,7 @@ use settings::settings;
 pub use settings::{BdptSettings, RR_DEPTH, TechniqueFilter};
 pub use technique::TECHNIQUE_STREAMS;
 use vertex::{ConnectionEnd, Edge, connection_end, measure_factor, pdf, scaled, to_measure_factor};
+pub use walk::camera_subpath;
 use walk::roulette;
 use weights::Bridge;
 

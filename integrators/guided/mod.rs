@@ -255,6 +255,36 @@ impl GuidedBdpt {
     }
 }
 
+/// The guider over an estimator of the caller's: what an integrator outside the crate calls
+/// to be guided (`examples/bsdf_pt/`). Reads every option of the table above from `params`
+/// (`rr_depth`, default `default_rr`, is handed to `make`, which builds U) and feeds the cache
+/// from the seeder they name.
+pub fn build_over<U: crate::integrators::unguided::Unguided + 'static>(
+    name: &'static str,
+    params: &IntegratorParams,
+    default_rr: u32,
+    make: impl FnOnce(u32) -> Result<U>,
+) -> Result<Box<dyn Integrator>> {
+    let (settings, rr_depth) = options(params, default_rr)?;
+    let unguided = make(rr_depth)?;
+    Ok(match settings.chains {
+        Some(chains) => Box::new(Guided {
+            name,
+            seeder: Mcmc::new(settings.intake, chains),
+            unguided,
+            settings,
+            cache: None,
+        }),
+        None => Box::new(Guided {
+            name,
+            seeder: Outliers::new(settings.intake),
+            unguided,
+            settings,
+            cache: None,
+        }),
+    })
+}
+
 /// Options every guided integrator reads, and U's roulette depth (`default_rr`: U's own).
 fn options(params: &IntegratorParams, default_rr: u32) -> Result<(GuidedSettings, u32)> {
     crate::path::check_stored_depth("a guided integrator", params.max_depth).map_err(Error::new)?;

@@ -5,6 +5,7 @@
 pub mod bdpt;
 pub mod guided;
 pub mod mcmc;
+pub mod option_docs;
 pub mod paths;
 pub mod pt;
 pub mod unguided;
@@ -44,7 +45,16 @@ pub struct Entry {
     pub name: &'static str,
     pub summary: &'static str,
     pub build: fn(&IntegratorParams) -> Result<Box<dyn Integrator>>,
+    /// The sources (`include_str!` of module files) whose module documentation holds the
+    /// integrator's option tables (`option_docs`).
+    pub options: &'static [&'static str],
 }
+
+const PT_DOCS: &[&str] = &[include_str!("pt/mod.rs"), include_str!("pt/guiding.rs")];
+const BDPT_DOCS: &[&str] = &[include_str!("bdpt/mod.rs")];
+const GUIDED_DOCS: &[&str] = &[guided::OPTIONS_DOC];
+const MCMC_DOCS: &[&str] = &[include_str!("mcmc/mod.rs")];
+const VCM_DOCS: &[&str] = &[include_str!("vcm/mod.rs")];
 
 /// Integrators registered at run time by code outside the crate ([`register`]).
 static REGISTERED: std::sync::RwLock<Vec<Entry>> = std::sync::RwLock::new(Vec::new());
@@ -54,7 +64,11 @@ static REGISTERED: std::sync::RwLock<Vec<Entry>> = std::sync::RwLock::new(Vec::n
 /// by name know it. A name already taken is an error.
 pub fn register(entry: Entry) -> Result<()> {
     let mut registered = REGISTERED.write().unwrap_or_else(|e| e.into_inner());
-    if REGISTRY.iter().chain(registered.iter()).any(|e| e.name == entry.name) {
+    if REGISTRY
+        .iter()
+        .chain(registered.iter())
+        .any(|e| e.name == entry.name)
+    {
         return Err(Error::new(format!(
             "cannot register integrator '{}': the name is taken",
             entry.name
@@ -75,51 +89,61 @@ pub static REGISTRY: &[Entry] = &[
         name: "pt",
         summary: "path tracing: next-event estimation and BSDF sampling combined by MIS, Russian roulette",
         build: pt::build,
+        options: PT_DOCS,
     },
     Entry {
         name: "lt",
         summary: "light tracing: light subpaths connected to the camera and splatted",
         build: bdpt::build_lt,
+        options: BDPT_DOCS,
     },
     Entry {
         name: "guided-pt",
         summary: "selective guided sampling with complete guide paths (Reibold et al. 2018), mixed with pt",
         build: guided::build_pt,
+        options: GUIDED_DOCS,
     },
     Entry {
         name: "guided-bdpt",
         summary: "selective guided sampling with complete guide paths, mixed with bdpt (balance heuristic over all techniques)",
         build: guided::build_bdpt,
+        options: GUIDED_DOCS,
     },
     Entry {
         name: "guided-vcm",
         summary: "selective guided sampling with complete guide paths, mixed with vcm (bdpt's techniques and merging, explicit balance weights; consistent)",
         build: guided::build_vcm,
+        options: GUIDED_DOCS,
     },
     Entry {
         name: "bdpt",
         summary: "bidirectional path tracing: all (s, t) techniques, full MIS, media",
         build: bdpt::build,
+        options: BDPT_DOCS,
     },
     Entry {
         name: "pssmlt",
         summary: "primary-sample-space Metropolis light transport over pt (Kelemen et al. 2002)",
         build: mcmc::build_pssmlt,
+        options: MCMC_DOCS,
     },
     Entry {
         name: "mmlt",
         summary: "multiplexed Metropolis light transport over bdpt's techniques (Hachisuka et al. 2014)",
         build: mcmc::build_mmlt,
+        options: MCMC_DOCS,
     },
     Entry {
         name: "vcm",
         summary: "vertex connection and merging: BDPT's techniques plus photon merging, MIS, shrinking radius",
         build: vcm::build,
+        options: VCM_DOCS,
     },
     Entry {
         name: "bpm",
         summary: "bidirectional photon mapping: vcm's merging techniques alone, MIS, shrinking radius",
         build: vcm::build_bpm,
+        options: VCM_DOCS,
     },
 ];
 
@@ -143,6 +167,9 @@ pub fn build(name: &str, params: &IntegratorParams) -> Result<Box<dyn Integrator
 #[derive(Debug, Default)]
 pub struct Options {
     entries: Vec<(String, String, Cell<bool>)>,
+    /// Every key an integrator asked for, given or not (`tests/integrators_doc.rs` checks
+    /// them against the option tables).
+    asked: std::cell::RefCell<Vec<String>>,
 }
 
 impl Options {
@@ -161,10 +188,19 @@ impl Options {
             }
             entries.push((k, v.trim().to_string(), Cell::new(false)));
         }
-        Ok(Options { entries })
+        Ok(Options {
+            entries,
+            asked: Default::default(),
+        })
     }
 
     fn raw(&self, key: &str) -> Option<&str> {
+        {
+            let mut asked = self.asked.borrow_mut();
+            if !asked.iter().any(|k| k == key) {
+                asked.push(key.to_string());
+            }
+        }
         self.entries
             .iter()
             .find(|(k, _, _)| k == key)
@@ -172,6 +208,11 @@ impl Options {
                 used.set(true);
                 v.as_str()
             })
+    }
+
+    /// The keys asked for so far, given or not, in the order first asked.
+    pub fn asked(&self) -> Vec<String> {
+        self.asked.borrow().clone()
     }
 
     /// Whether `key` was given.

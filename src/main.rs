@@ -60,7 +60,14 @@ enum Command {
     /// Print a scene's counts and features.
     Info { scene: PathBuf },
     /// List the registered integrators.
-    Integrators,
+    Integrators {
+        /// Also list each integrator's options (`-O key=value`) with their defaults.
+        #[arg(long)]
+        options: bool,
+        /// Print docs/integrators.md: every integrator with its option table.
+        #[arg(long, conflicts_with = "options")]
+        markdown: bool,
+    },
 }
 
 #[derive(clap::Args)]
@@ -212,9 +219,16 @@ fn main() -> ExitCode {
             exposure,
         } => merge(&parts, &output, png.as_deref(), exposure),
         Command::Info { scene } => info(&scene),
-        Command::Integrators => {
-            for e in integrators::entries() {
-                outln!("{:<8} {}", e.name, e.summary);
+        Command::Integrators { options, markdown } => {
+            let entries = integrators::entries();
+            if markdown {
+                out!("{}", integrators::option_docs::markdown(&entries));
+            } else if options {
+                out!("{}", integrators::option_docs::text(&entries));
+            } else {
+                for e in entries {
+                    outln!("{:<12} {}", e.name, e.summary);
+                }
             }
             Ok(())
         }

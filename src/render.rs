@@ -80,7 +80,9 @@ impl Control {
         f64::from_bits(self.progress.load(Ordering::Relaxed))
     }
 
-    fn set_progress(&self, fraction: f64) {
+    /// Report progress (the pass driver does; so do drivers of several renders, such as
+    /// `bench::run::run_all_controlled`).
+    pub fn set_progress(&self, fraction: f64) {
         self.progress
             .store(fraction.clamp(0.0, 1.0).to_bits(), Ordering::Relaxed);
     }

@@ -37,6 +37,10 @@ use lodestar::render::{
 };
 use lodestar::scene::Scene;
 
+/// The guided integrators' option table (`integrators/guided/mod.rs`), which
+/// `guided-bsdf-pt` reads too.
+const GUIDED_OPTIONS: &str = lodestar::integrators::guided::OPTIONS_DOC;
+
 /// Russian roulette's default start (pt's).
 pub const RR_DEPTH: u32 = 5;
 
@@ -53,11 +57,13 @@ pub fn register() -> Result<()> {
         name: "bsdf-pt",
         summary: "path tracing by BSDF sampling alone (an integrator from examples/bsdf_pt)",
         build,
+        options: &[include_str!("integrator.rs")],
     })?;
     integrators::register(Entry {
         name: "guided-bsdf-pt",
         summary: "selective guided sampling mixed with bsdf-pt (examples/bsdf_pt)",
         build: build_guided,
+        options: &[include_str!("integrator.rs"), GUIDED_OPTIONS],
     })
 }
 

@@ -117,6 +117,10 @@ pub mod share;
 pub mod stats;
 
 pub use crate::integrators::paths::contribution;
+
+/// This module's documentation, whose option table lists what every guided integrator reads
+/// (`integrators::option_docs`); an integrator guided through [`build_over`] shows it too.
+pub const OPTIONS_DOC: &str = include_str!("mod.rs");
 pub use chains::{ChainSettings, ChainTarget, Mcmc};
 pub use driver::Guided;
 pub use estimator::{Estimator, Stats};

@@ -123,6 +123,8 @@ def bench(
     integrators: names with options, as on the command line: ``"guided-bdpt:alpha=0.5"``.
     out:         where the report, images and plot go (default: a temporary directory,
                  removed afterwards).
+    progress:    called with the fraction of renders done; Ctrl-C (or an exception in it)
+                 ends the bench after the render under way.
 
     Returns one dict per run and one median row per integrator (``median`` True), ready for
     ``pandas.DataFrame``: ``integrator``, ``run``, ``median``, ``seed``, ``runs``,
@@ -143,8 +145,9 @@ def compare(image: np.ndarray, reference: np.ndarray) -> Dict[str, Any]:
     return _lodestar.compare(_rgb(image, "image"), _rgb(reference, "reference"))
 
 
-def integrators() -> List[Dict[str, str]]:
-    """The registered integrators: ``name`` and one-line ``summary`` each."""
+def integrators() -> List[Dict[str, Any]]:
+    """The registered integrators: ``name``, one-line ``summary`` and ``options`` (a list of
+    dicts ``name``, ``type``, ``default``, ``meaning``: the table of docs/integrators.md)."""
     return _lodestar.integrators()
 
 

@@ -75,7 +75,9 @@ fn run_controlled<T: Send>(
                         if let Some(e) = interrupted {
                             return Err(e);
                         }
-                        if let Some(cb) = &progress {
+                        if let Some(cb) = &progress
+                            && reported != 1.0
+                        {
                             Python::attach(|py| cb.call1(py, (1.0f64,)))?;
                         }
                         return Ok(value);
@@ -264,10 +266,12 @@ fn py_bench<'py>(
         verbose: false,
     };
     let prepared = lodestar::bench::prepare(config).map_err(err)?;
-    // A bench has no pass loop of its own to stop: Ctrl-C takes effect between renders.
+    // Progress is the fraction of renders done; Ctrl-C ends the bench after the render
+    // under way.
     let control = Control::default();
-    let report = run_controlled(py, &control, progress.as_ref(), || {
-        lodestar::bench::bench(&prepared)
+    let control_ref = &control;
+    let report = run_controlled(py, &control, progress.as_ref(), move || {
+        lodestar::bench::bench_controlled(&prepared, Some(control_ref))
     })?
     .map_err(err)?;
     let rows = PyList::empty(py);
@@ -319,6 +323,16 @@ fn py_integrators<'py>(py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
         let d = PyDict::new(py);
         d.set_item("name", e.name)?;
         d.set_item("summary", e.summary)?;
+        let options = PyList::empty(py);
+        for row in lodestar::integrators::option_docs::options(&e) {
+            let o = PyDict::new(py);
+            o.set_item("name", &row.name)?;
+            o.set_item("type", &row.kind)?;
+            o.set_item("default", &row.default)?;
+            o.set_item("meaning", &row.meaning)?;
+            options.append(o)?;
+        }
+        d.set_item("options", options)?;
         list.append(d)?;
     }
     Ok(list)

@@ -130,7 +130,7 @@ def test_a_missing_scene_file_names_it():
 def test_progress_rises_to_one():
     seen = []
     lodestar.render(TINY, spp=40, progress=seen.append)
-    assert seen and seen[-1] == 1.0
+    assert seen and seen[-1] == 1.0 and seen.count(1.0) == 1
     assert all(0.0 <= p <= 1.0 for p in seen)
     assert seen == sorted(seen)
 
@@ -206,15 +206,22 @@ def test_integrators_lists_the_registry():
     for n in ["pt", "lt", "bdpt", "vcm", "bpm", "pssmlt", "mmlt", "guided-pt", "guided-bdpt", "guided-vcm"]:
         assert n in names
     assert all(e["summary"] for e in lodestar.integrators())
+    pt = next(e for e in lodestar.integrators() if e["name"] == "pt")
+    rr = next(o for o in pt["options"] if o["name"] == "rr_depth")
+    assert rr["default"] == "5"
 
 
 def test_bench_returns_rows_for_each_run_and_the_medians(tmp_path):
     reference, _ = lodestar.render(TINY, "pt", spp=64, seed=99)
     lodestar.write_exr(tmp_path / "ref.exr", reference)
+    seen = []
     rows = lodestar.bench(
         TINY, ["pt", "bdpt:mis=power"], time=0.2, reference=tmp_path / "ref.exr",
-        runs=2, out=tmp_path / "bench",
+        runs=2, out=tmp_path / "bench", progress=seen.append,
     )
+    # Four renders: progress moves by quarters (the callback sees what a poll finds), once 1.
+    assert set(seen) <= {0.0, 0.25, 0.5, 0.75, 1.0}
+    assert seen == sorted(seen) and seen[-1] == 1.0 and seen.count(1.0) == 1
     runs = [r for r in rows if not r["median"]]
     medians = [r for r in rows if r["median"]]
     assert [(r["integrator"], r["run"]) for r in runs] == [

@@ -151,7 +151,15 @@ pub struct BenchReport {
 
 /// Render everything and write the outputs into `config.out` (created if missing).
 pub fn bench(p: &Prepared) -> Result<BenchReport> {
-    let results = run::run_all(p)?;
+    bench_controlled(p, None)
+}
+
+/// [`bench`] held by `control` (see [`run::run_all_controlled`]).
+pub fn bench_controlled(
+    p: &Prepared,
+    control: Option<&crate::render::Control>,
+) -> Result<BenchReport> {
+    let results = run::run_all_controlled(p, control)?;
     report_from(p, results)
 }
 

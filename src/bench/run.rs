@@ -70,10 +70,27 @@ pub struct Rendered {
 
 /// Render every integrator `runs` times (seeds `seed .. seed + runs`).
 pub fn run_all(p: &Prepared) -> Result<Vec<IntegratorRuns>> {
+    run_all_controlled(p, None)
+}
+
+/// [`run_all`] held by `control` (the Python module): the fraction of renders done is its
+/// progress, and a stop asked for ends the bench, with an error, after the render under way.
+pub fn run_all_controlled(
+    p: &Prepared,
+    control: Option<&crate::render::Control>,
+) -> Result<Vec<IntegratorRuns>> {
     let c = &p.config;
+    let jobs = super::parts::jobs(c);
+    let total = jobs.len();
     let mut done = Vec::new();
-    for job in super::parts::jobs(c) {
+    for job in jobs {
+        if control.is_some_and(|c| c.stopped()) {
+            return Err(crate::Error::new("the bench was stopped"));
+        }
         done.push(render_job(p, job)?);
+        if let Some(c) = control {
+            c.set_progress(done.len() as f64 / total as f64);
+        }
     }
     assemble(p, done)
 }

@@ -321,20 +321,12 @@ impl Seeder for Mcmc {
                 for _ in 0..steps {
                     sampler.start_iteration();
                     let proposal = importance(&mut sampler, &mut tracer, &mut out);
-                    let a = if current > 0.0 {
-                        (proposal / current).min(1.0)
-                    } else {
-                        1.0
-                    };
-                    if proposal > 0.0 && (a >= 1.0 || sampler.uniform() < a) {
-                        sampler.accept();
+                    if sampler.metropolis(current, proposal).1 {
                         current = proposal;
                         accepted += 1;
                         if own {
                             keep_state(&mut kept, current, &sampler);
                         }
-                    } else {
-                        sampler.reject();
                     }
                 }
                 for (_, values) in &kept {

@@ -118,6 +118,34 @@ pub struct McmcSettings {
     /// A pixel's samples of [`Target::direct`] come every this many passes, after pass 0
     /// which samples every pixel (default 4).
     pub direct_every: u64,
+    /// Deliberate errors for the tests' negative controls (none by default; no option sets
+    /// them).
+    pub faults: Faults,
+}
+
+/// Deliberate errors of the chains, each of which a correct test must catch
+/// (`tests/mcmc_tiles.rs` runs them). All off by default.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Faults {
+    /// Accept every large step (a wrong acceptance: the chain no longer has the target's
+    /// distribution).
+    pub accept_large: bool,
+    /// Double the normalisation b of this group (for mmlt, one path length).
+    pub double_b: Option<usize>,
+    /// Splat every sample one pixel further along its row (wrapping into the next row).
+    pub shift_splats: bool,
+}
+
+impl Faults {
+    /// Where a splat to `pixel` of an image of `n` pixels lands.
+    fn pixel(&self, pixel: u32, n: usize) -> usize {
+        (pixel as usize + usize::from(self.shift_splats)) % n
+    }
+
+    /// The factor on group `g`'s normalisation.
+    fn b_factor(&self, g: usize) -> f64 {
+        if self.double_b == Some(g) { 2.0 } else { 1.0 }
+    }
 }
 
 impl Default for McmcSettings {
@@ -128,6 +156,7 @@ impl Default for McmcSettings {
             large_step: 0.3,
             small_step: SmallStep::default(),
             direct_every: 4,
+            faults: Faults::default(),
         }
     }
 }
@@ -275,13 +304,15 @@ pub fn pick_by_importance(w: &[f64], total: f64, u: f64) -> usize {
     last
 }
 
-/// `chain.mutations` Metropolis steps; splats go to `splats` (pixel, value).
+/// `chain.mutations` Metropolis steps; splats go to `splats` (pixel, value). `faults` are
+/// the tests' deliberate errors ([`Faults`]; none in a render).
 pub fn advance<T: Target>(
     target: &T,
     scratch: &mut T::Scratch<'_>,
     chain: &mut Chain,
     splats: &mut Vec<(u32, DVec3)>,
     counters: &mut Counters,
+    faults: &Faults,
 ) {
     for _ in 0..chain.mutations {
         let sampler = &mut chain.sampler;
@@ -290,7 +321,13 @@ pub fn advance<T: Target>(
         let proposal = target.eval(scratch, chain.group, sampler);
         let ip = proposal.importance();
         let ix = chain.importance;
-        let a = if ix > 0.0 { (ip / ix).min(1.0) } else { 1.0 };
+        // The acceptance and the chain's move (the splats below use `a` either way).
+        let (a, accepted) = if faults.accept_large && large && ip > 0.0 {
+            sampler.accept();
+            ((ip / ix).min(1.0), true)
+        } else {
+            sampler.metropolis(ix, ip)
+        };
         if ip > 0.0 {
             splats.push((proposal.pixel, proposal.value * (a * chain.scale / ip)));
         } else {
@@ -305,15 +342,11 @@ pub fn advance<T: Target>(
             counters.large += 1;
             counters.large_importance += ip;
         }
-        // Zero-importance proposals are never accepted from a state that has importance.
-        if ip > 0.0 && (a >= 1.0 || sampler.uniform() < a) {
-            sampler.accept();
+        if accepted {
             chain.current = proposal;
             chain.importance = ip;
             counters.accepted += 1;
             counters.large_accepted += u64::from(large);
-        } else {
-            sampler.reject();
         }
     }
 }
@@ -336,7 +369,7 @@ impl Accumulated {
 
     /// The image after `passes` passes: each group's splats rescaled from its bootstrap b_g
     /// (which the splats carry) to the refined one.
-    fn image(&self, boot: &[Bootstrap], w: u32, h: u32, passes: u64) -> Image {
+    fn image(&self, boot: &[Bootstrap], w: u32, h: u32, passes: u64, faults: &Faults) -> Image {
         let mut px = vec![DVec3::ZERO; (w * h) as usize];
         for ((p, d), &n) in px.iter_mut().zip(&self.direct).zip(&self.direct_samples) {
             if n > 0 {
@@ -347,7 +380,7 @@ impl Accumulated {
             if sums.is_empty() || boot[g].b <= 0.0 {
                 continue;
             }
-            let scale = self.b(boot, g) / boot[g].b / passes.max(1) as f64;
+            let scale = self.b(boot, g) * faults.b_factor(g) / boot[g].b / passes.max(1) as f64;
             for (p, s) in px.iter_mut().zip(sums) {
                 *p += *s * scale;
             }
@@ -458,7 +491,14 @@ pub fn render<T: Target>(
                 |scratch, chain| {
                     let mut splats = Vec::with_capacity(2 * chain.mutations as usize);
                     let mut c = Counters::default();
-                    advance(target, scratch, chain, &mut splats, &mut c);
+                    advance(
+                        target,
+                        scratch,
+                        chain,
+                        &mut splats,
+                        &mut c,
+                        &settings.faults,
+                    );
                     (splats, c)
                 },
             )
@@ -466,12 +506,13 @@ pub fn render<T: Target>(
         for (chain, (splats, c)) in chains.iter().zip(&out) {
             let sums = &mut acc.sums[chain.group];
             for &(p, v) in splats {
-                sums[p as usize] += v;
+                let n = sums.len();
+                sums[settings.faults.pixel(p, n)] += v;
             }
             acc.per_group[chain.group].add(c);
         }
     };
-    let image = |acc: &Accumulated, passes: u64| acc.image(&boot, w, h, passes);
+    let image = |acc: &Accumulated, passes: u64| acc.image(&boot, w, h, passes, &settings.faults);
     let (passes, seconds) = run_passes_with_snapshots(ctx, budget, &mut acc, pass, image);
     let mut c = Counters::default();
     for g in &acc.per_group {
@@ -480,7 +521,7 @@ pub fn render<T: Target>(
     let b: f64 = (0..groups).map(|g| acc.b(&boot, g)).sum();
     let b_boot: f64 = boot.iter().map(|g| g.b).sum();
     let rate = |a: u64, n: u64| if n > 0 { a as f64 / n as f64 } else { 0.0 };
-    let image = acc.image(&boot, w, h, passes);
+    let image = acc.image(&boot, w, h, passes, &settings.faults);
     let mut stats = vec![
         ("mcmc_b".to_string(), format!("{b:.6e}")),
         ("mcmc_b_bootstrap".to_string(), format!("{b_boot:.6e}")),

@@ -92,6 +92,7 @@ pub fn settings(o: &Options) -> Result<McmcSettings> {
         large_step,
         small_step,
         direct_every: d.direct_every,
+        faults: d.faults,
     })
 }
 

@@ -186,6 +186,27 @@ impl PrimarySampler {
         self.iteration -= 1;
     }
 
+    /// The Metropolis–Hastings decision on the proposal just evaluated: accept with
+    /// probability `a = min(1, proposal / current)` (1 from a state of no importance; a
+    /// proposal of no importance is never accepted), by [`Self::accept`] or [`Self::reject`].
+    /// Both small steps are symmetric and a large step is an independent draw, so this ratio
+    /// is the whole acceptance. The one step of every chain here: `pssmlt`, `mmlt` and the
+    /// guided integrators' chain seeder (`guided/chains.rs`). Returns (a, accepted).
+    pub fn metropolis(&mut self, current: f64, proposal: f64) -> (f64, bool) {
+        let a = if current > 0.0 {
+            (proposal / current).min(1.0)
+        } else {
+            1.0
+        };
+        let accepted = proposal > 0.0 && (a >= 1.0 || self.uniform() < a);
+        if accepted {
+            self.accept();
+        } else {
+            self.reject();
+        }
+        (a, accepted)
+    }
+
     /// The values of the first `n` dimensions as the integrator reads them (the state after
     /// `accept`; dimensions never read are 0).
     pub fn values(&self) -> Vec<f32> {

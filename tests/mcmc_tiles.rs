@@ -1,0 +1,157 @@
+//! pssmlt and mmlt render pt's image tile by tile, and three deliberate errors of the chains
+//! (`mcmc::driver::Faults`) fail the same test:
+//! - every large step accepted (a wrong acceptance),
+//! - mmlt's normalisation b of one path length doubled,
+//! - every splat landing one pixel further along its row.
+//!
+//! Unlike a test of the image mean (which a chain meets by construction: each mutation splats
+//! b's worth of luminance wherever it lands), the per-tile test sees where the chains put
+//! their splats. Each side is `SEEDS` independently seeded renders of a 16 x 16 Cornell box;
+//! `util::assert_same_image` compares every 4 x 4 tile and channel by Welch's t with a
+//! Bonferroni bound, family-wise false-failure rate 1e-4 per comparison (fixed seeds), and
+//! then the whole image as one tile (the renders' means, each with its own estimate of b).
+
+mod util;
+
+use lodestar::film::Image;
+use lodestar::integrators::bdpt::Heuristic;
+use lodestar::integrators::mcmc::driver::Faults;
+use lodestar::integrators::mcmc::mmlt::mmlt_bdpt_settings;
+use lodestar::integrators::mcmc::{McmcSettings, Mmlt, Pssmlt};
+use lodestar::integrators::pt::{PathTracer, PtSettings};
+use lodestar::render::{Budget, Integrator, RenderContext};
+use lodestar::scene::Scene;
+
+const SEEDS: u64 = 20;
+const BLOCK: u32 = 4;
+const MAX_DEPTH: u32 = 5;
+/// Mutations per pixel of a chain render; samples per pixel of pt's.
+const SPP: u64 = 128;
+
+fn scene() -> Scene {
+    util::cornell(16)
+}
+
+fn settings(faults: Faults) -> McmcSettings {
+    McmcSettings {
+        bootstrap: 20_000,
+        chains: 256,
+        faults,
+        ..McmcSettings::default()
+    }
+}
+
+fn render_with(scene: &Scene, make: &dyn Fn() -> Box<dyn Integrator>, seed: u64) -> Image {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(2)
+        .build()
+        .unwrap();
+    let mut integrator = make();
+    pool.install(|| {
+        integrator
+            .render(&RenderContext::new(scene, seed, false), Budget::Spp(SPP))
+            .image
+    })
+}
+
+fn pssmlt(faults: Faults) -> Box<dyn Integrator> {
+    Box::new(Pssmlt {
+        pt: PathTracer {
+            settings: PtSettings {
+                max_depth: MAX_DEPTH,
+                ..PtSettings::default()
+            },
+        },
+        settings: settings(faults),
+    })
+}
+
+fn mmlt(faults: Faults) -> Box<dyn Integrator> {
+    Box::new(Mmlt {
+        bdpt: mmlt_bdpt_settings(MAX_DEPTH, Heuristic::Balance),
+        settings: settings(faults),
+        separate_specular: false,
+    })
+}
+
+fn renders(scene: &Scene, make: &dyn Fn() -> Box<dyn Integrator>, first_seed: u64) -> Vec<Image> {
+    (0..SEEDS)
+        .map(|s| render_with(scene, make, first_seed + s))
+        .collect()
+}
+
+fn pt_renders(scene: &Scene) -> Vec<Image> {
+    (0..SEEDS)
+        .map(|s| util::render(scene, "pt", MAX_DEPTH, &[], SPP, 1000 + s, 2).image)
+        .collect()
+}
+
+/// Whether `util::assert_same_image` rejects `a` against `b`.
+fn rejected(a: &[Image], b: &[Image], what: &str) -> bool {
+    std::panic::catch_unwind(|| util::assert_same_image(a, b, BLOCK, what)).is_err()
+}
+
+#[test]
+fn pssmlt_renders_pt_image_and_its_faults_do_not() {
+    let scene = scene();
+    let pt = pt_renders(&scene);
+    let ok = renders(&scene, &|| pssmlt(Faults::default()), 0);
+    util::assert_same_image(&ok, &pt, BLOCK, "pssmlt against pt");
+    // The whole image as one tile: the renders' means (b's estimate included) agree.
+    util::assert_same_image(&ok, &pt, 16, "pssmlt against pt, image means");
+    for (what, faults) in [
+        (
+            "pssmlt, every large step accepted (control)",
+            Faults {
+                accept_large: true,
+                ..Faults::default()
+            },
+        ),
+        (
+            "pssmlt, splats one pixel off (control)",
+            Faults {
+                shift_splats: true,
+                ..Faults::default()
+            },
+        ),
+    ] {
+        let wrong = renders(&scene, &|| pssmlt(faults), 0);
+        assert!(rejected(&wrong, &pt, what), "{what}: passed");
+    }
+}
+
+#[test]
+fn mmlt_renders_pt_image_and_its_faults_do_not() {
+    let scene = scene();
+    let pt = pt_renders(&scene);
+    let ok = renders(&scene, &|| mmlt(Faults::default()), 0);
+    util::assert_same_image(&ok, &pt, BLOCK, "mmlt against pt");
+    util::assert_same_image(&ok, &pt, 16, "mmlt against pt, image means");
+    for (what, faults) in [
+        (
+            "mmlt, every large step accepted (control)",
+            Faults {
+                accept_large: true,
+                ..Faults::default()
+            },
+        ),
+        (
+            // Group 1: paths of two segments (direct light).
+            "mmlt, b of one length doubled (control)",
+            Faults {
+                double_b: Some(1),
+                ..Faults::default()
+            },
+        ),
+        (
+            "mmlt, splats one pixel off (control)",
+            Faults {
+                shift_splats: true,
+                ..Faults::default()
+            },
+        ),
+    ] {
+        let wrong = renders(&scene, &|| mmlt(faults), 0);
+        assert!(rejected(&wrong, &pt, what), "{what}: passed");
+    }
+}

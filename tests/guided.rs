@@ -6,7 +6,9 @@ use util::guided::{CAUSTIC, installs_of, trace_pt, twin_caustic_cache};
 
 use lodestar::integrators::bdpt;
 use lodestar::integrators::guided::cache::{self, GuideCache, Install};
-use lodestar::integrators::guided::{GuidedPt, GuidedSettings, contribution, kernel, sampler};
+use lodestar::integrators::guided::{
+    GuidedBdpt, GuidedPt, GuidedSettings, contribution, kernel, sampler,
+};
 use lodestar::integrators::pt::PtSettings;
 use lodestar::integrators::pt::{PathRecorder, PathTracer};
 use lodestar::math::IndependentSampler;
@@ -188,7 +190,7 @@ fn first_vertex_kernels_narrow_where_guides_are_dense() {
 /// z-test of the mean pixel difference, |z| < 4.5 (false-failure rate about 2e-5 for three
 /// channels). Its control is not here: on a caustic, pixel values are so heavy-tailed that
 /// this z stays below 4 even for a broken p_g that makes the image 18x too bright (measured),
-/// so the broken-p_g control is the Welch t over seeds of the caustic test below.
+/// so the controls of wrong weights are in the per-tile caustic test below.
 fn guided_vs_pt_z(scene: &Scene, spp: u64, cache: GuideCache) -> glam::DVec3 {
     let max_depth = 6;
     let pt = util::render(scene, "pt", max_depth, &[], spp, 1, 2);
@@ -216,55 +218,86 @@ fn guided_pt_is_unbiased_on_the_glass_cornell_box() {
     assert!(z.abs().max_element() < 4.5, "z {z:?}");
 }
 
-/// Welch's t of "guided-pt (frozen `cache`, split `alpha`) and bdpt have the same image mean",
-/// per channel, from `k` independent renders of each (seeds 1..=k). Caustics make pixel
-/// values heavy-tailed, so the test compares whole-image means across seeds instead of pixels.
-fn guided_vs_bdpt_t(scene: &Scene, cache: &GuideCache, alpha: f64, broken: bool) -> glam::DVec3 {
-    let k = 8u64;
-    let (mut g, mut r) = (Vec::new(), Vec::new());
-    for seed in 1..=k {
-        let mut c = GuideCache::default();
-        c.install(scene, installs_of(scene, cache), 10_000);
-        if broken {
-            c.skip_in_pdf = Some(0);
-        }
-        let mut integ = guided_pt(
-            6,
-            GuidedSettings {
-                alpha,
+/// Renders per side of the per-tile tests on the caustic.
+const TILE_SEEDS: u64 = 24;
+
+/// `TILE_SEEDS` renders of the caustic scene at 24 x 24 by guided-pt (`bdpt` false) or
+/// guided-bdpt with a frozen copy of `cache` (α = 0.05: 19 guided paths per pixel and pass),
+/// `edit` applied to each copy (the controls' faults).
+fn guided_caustic_renders(
+    scene: &Scene,
+    cache: &GuideCache,
+    bdpt: bool,
+    edit: impl Fn(&mut GuideCache),
+) -> Vec<lodestar::film::Image> {
+    (0..TILE_SEEDS)
+        .map(|seed| {
+            let mut c = GuideCache::default();
+            c.install(scene, installs_of(scene, cache), 10_000);
+            edit(&mut c);
+            let settings = GuidedSettings {
+                alpha: 0.05,
                 ..settings(0.0)
-            },
-            Some(c),
-        );
-        let ctx = RenderContext::new(scene, seed, false);
-        g.push(integ.render(&ctx, Budget::Spp(32)).image.mean());
-        r.push(
-            util::render(scene, "bdpt", 6, &[], 128, 100 + seed, 2)
-                .image
-                .mean(),
-        );
-    }
-    eprintln!("broken {broken}");
-    util::welch_t(&g, &r)
+            };
+            let ctx = RenderContext::new(scene, seed, false);
+            let r = if bdpt {
+                let b = bdpt::BdptSettings {
+                    max_depth: 6,
+                    rr_depth: 5,
+                    heuristic: bdpt::Heuristic::Balance,
+                    light_tracing: false,
+                    techniques: Default::default(),
+                    direct_splats: false,
+                };
+                GuidedBdpt::new(b, settings, Some(c)).render(&ctx, Budget::Spp(16))
+            } else {
+                guided_pt(6, settings, Some(c)).render(&ctx, Budget::Spp(16))
+            };
+            let guided: f64 = util::stat(&r, "guided_samples").unwrap().parse().unwrap();
+            assert!(guided > 0.0, "no guided samples");
+            r.image
+        })
+        .collect()
 }
 
-/// guided-pt is unbiased on a caustic, with a learned cache and with a cache that carries
-/// the caustic (one caustic path twice, weights 1/2, most samples guided); leaving the path
-/// out of the evaluation (a cache of that path alone, p_g = 0 for its samples) is caught by
-/// the same test. Welch t with 8 + 8 renders, |t| < 6 (false-failure rate below 1e-3 for
-/// the three channels, t with about 14 degrees of freedom).
+/// Per tile (4 x 4 pixels of 24 x 24, Welch's t over `TILE_SEEDS` renders a side, Bonferroni
+/// over tiles and channels, family-wise false-failure rate 1e-4), guided-pt and guided-bdpt
+/// with a cache that carries the caustic (one caustic path twice, weights 1/2, most samples
+/// guided) render bdpt's image. Three wrong weights fail the same test: p_g without the path
+/// (a cache of that path alone, left out of the evaluation: p_g = 0 for its samples), p_g
+/// scaled by 1.5 and n_g / n_u scaled by 2 where paths are weighed.
 #[test]
-fn guided_pt_is_unbiased_on_a_caustic_and_a_broken_pg_is_caught() {
-    let scene = util::scene(CAUSTIC);
-    let z = guided_vs_pt_z(&scene, 64, learn(&scene, 6, 12, 2));
-    assert!(z.abs().max_element() < 4.5, "z {z:?}");
-    let t = guided_vs_bdpt_t(&scene, &twin_caustic_cache(&scene, false), 0.05, false);
-    assert!(t.abs().max_element() < 6.0, "t {t:?}");
-    let tb = guided_vs_bdpt_t(&scene, &twin_caustic_cache(&scene, true), 0.05, true);
-    assert!(
-        tb.abs().max_element() > 6.0,
-        "the broken p_g went unnoticed: t {tb:?}"
-    );
+fn guided_renders_bdpt_image_on_a_caustic_tile_by_tile_and_wrong_weights_do_not() {
+    let scene = util::scene(&CAUSTIC.replace("resolution = [48, 48]", "resolution = [24, 24]"));
+    let reference: Vec<_> = (0..TILE_SEEDS)
+        .map(|s| util::render(&scene, "bdpt", 6, &[], 64, 100 + s, 2).image)
+        .collect();
+    let twin = twin_caustic_cache(&scene, false);
+    for bdpt in [false, true] {
+        let name = if bdpt { "guided-bdpt" } else { "guided-pt" };
+        let ok = guided_caustic_renders(&scene, &twin, bdpt, |_| {});
+        util::assert_same_image(&ok, &reference, 4, name);
+    }
+    let single = twin_caustic_cache(&scene, true);
+    type Control<'c> = (&'c str, &'c GuideCache, &'c dyn Fn(&mut GuideCache));
+    let controls: [Control; 3] = [
+        ("p_g without the path", &single, &|c| {
+            c.skip_in_pdf = Some(0)
+        }),
+        ("p_g x 1.5 in the weights", &twin, &|c| {
+            c.weight_faults.p_g = 1.5
+        }),
+        ("n_g / n_u x 2 in the weights", &twin, &|c| {
+            c.weight_faults.ratio = 2.0
+        }),
+    ];
+    for (what, cache, edit) in controls {
+        let wrong = guided_caustic_renders(&scene, cache, false, edit);
+        let caught = std::panic::catch_unwind(|| {
+            util::assert_same_image(&wrong, &reference, 4, &format!("control: {what}"))
+        });
+        assert!(caught.is_err(), "control '{what}' passed the per-tile test");
+    }
 }
 
 /// f(X) evaluated from the vertices equals what pt's estimate times its density gives, for

@@ -288,18 +288,20 @@ impl<'a, U: Unguided> Estimator<'a, U> {
     /// image-wide and a pixel's measurement carries the factor N_pix (one unguided sample per
     /// pixel and pass gives the usual `f / p_u`).
     pub fn mix(&self, p_u: f64, p_g: f64) -> f64 {
+        let faults = self.cache.weight_faults;
+        let (p_g, r) = (p_g * faults.p_g, self.n_g / self.n_u * faults.ratio);
         if crate::check::enabled() {
             use crate::check::{Technique, density, weight};
             let (u, g) = (Technique::named("unguided"), Technique::named("guided"));
             density(u, p_u);
             density(g, p_g);
-            let m = p_u + (self.n_g / self.n_u) * p_g;
+            let m = p_u + r * p_g;
             if m > 0.0 {
                 weight(u, p_u / m);
-                weight(g, (self.n_g / self.n_u) * p_g / m);
+                weight(g, r * p_g / m);
             }
         }
-        p_u + (self.n_g / self.n_u) * p_g
+        p_u + r * p_g
     }
 
     /// Credit each guide path with its share of a sample's squared value (`weights =

@@ -77,6 +77,25 @@ use crate::scene::Scene;
 use glam::Vec3;
 use obvhs::cwbvh::CwBvh;
 
+/// Deliberate errors in the guided estimator's weights, for the tests' negative controls
+/// ([`GuideCache::weight_faults`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct WeightFaults {
+    /// Factor on p_g in the weights.
+    pub p_g: f64,
+    /// Factor on n_g / n_u in the weights.
+    pub ratio: f64,
+}
+
+impl Default for WeightFaults {
+    fn default() -> Self {
+        WeightFaults {
+            p_g: 1.0,
+            ratio: 1.0,
+        }
+    }
+}
+
 /// Neighbours per guide path (the path itself included).
 pub const NEIGHBOURS: usize = 10;
 
@@ -225,6 +244,10 @@ pub struct GuideCache {
     /// Testing hook: leave this guide path out of `pdf` (a deliberately wrong p_g, which the
     /// unbiasedness test must detect). Never set by the renderer.
     pub skip_in_pdf: Option<usize>,
+    /// Testing hooks: factors on p_g and on the ratio n_g / n_u where the estimator weighs a
+    /// path (`Estimator::mix`), not where it samples one: deliberately wrong weights that the
+    /// tests' controls must detect. 1 (no effect) unless a test sets them.
+    pub weight_faults: WeightFaults,
     /// The specular-chain step's settings (`manifold/`), which sampling and p_g share; set
     /// from the render's options, not saved with the cache.
     pub manifold: ManifoldSettings,

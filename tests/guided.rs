@@ -700,3 +700,39 @@ fn a_walk_whose_step_to_the_light_is_blocked_fails_there_as_light() {
         "blocked: {light_blocked} light failures against {light_open} (+ {ok_open} drawn) open"
     );
 }
+
+/// A guided sample is booked to the pixel its first vertex x_1 projects to: for every guided
+/// path drawn from a cache of pt's paths in the glass box, the pixel it carries is the one of
+/// the direction from the camera to x_1 (up to f32 rounding of x_1: samples within 1e-3 of a
+/// pixel edge may fall on either side and are left out; none may land further away).
+#[test]
+fn a_guided_sample_lands_on_the_pixel_of_its_first_vertex() {
+    let scene = scene("cornell-box.toml", 32, |t| t);
+    let cache = cache_of_pt_paths(&scene, 6, 4000);
+    let camera = &scene.camera;
+    let (mut drawn, mut checked) = (0, 0);
+    let mut path = Path::default();
+    for i in 0..20_000u64 {
+        let mut s = IndependentSampler::new(11, 0, i);
+        if sampler::sample_path_into(&scene, &cache, &mut s, &mut path).is_err() {
+            continue;
+        }
+        drawn += 1;
+        let x1 = path.vertices()[1].p;
+        let raster = camera
+            .raster_of_direction((x1 - camera.position).normalize())
+            .expect("x_1 is on the image");
+        let frac = raster - raster.floor();
+        if frac.min_element() < 1e-3 || frac.max_element() > 1.0 - 1e-3 {
+            continue;
+        }
+        checked += 1;
+        assert_eq!(
+            path.pixel as usize,
+            camera.pixel_index(raster),
+            "sample {i}: booked to pixel {}, x_1 projects to raster {raster}",
+            path.pixel
+        );
+    }
+    assert!(checked > 1000, "{checked} of {drawn} samples checked");
+}

@@ -324,7 +324,10 @@ fn malformed_obj_file() {
         msg,
         &path.display().to_string(),
         line_of(&text, "broken.obj"),
-        &["meshes/broken.obj", "out of bounds"],
+        &[
+            "meshes/broken.obj",
+            "line 5: vertex index 9, but the file has 3 vertices",
+        ],
     );
 }
 
@@ -862,4 +865,329 @@ fn tiled_quad_is_one_quad_with_a_checkerboard_material() {
             }
         }
     }
+}
+
+// ---------------------------------------------------------------------------------------------
+// OBJ and PLY files: index forms, polygons, bad references, empty meshes, element counts
+// ---------------------------------------------------------------------------------------------
+
+/// A scratch directory for mesh files, removed when dropped.
+struct MeshDir(PathBuf);
+
+impl MeshDir {
+    fn new(tag: &str) -> MeshDir {
+        let d = std::env::temp_dir().join(format!(
+            "lodestar-scene-errors-{tag}-{}",
+            std::process::id()
+        ));
+        std::fs::create_dir_all(&d).unwrap();
+        MeshDir(d)
+    }
+
+    /// `BASE` plus a mesh shape of `kind` ("obj" or "ply") read from the file `name`, written
+    /// with `bytes` first; the scene's text and the result of loading it.
+    fn load(
+        &self,
+        name: &str,
+        kind: &str,
+        bytes: &[u8],
+    ) -> (String, lodestar::error::Result<Scene>) {
+        std::fs::write(self.0.join(name), bytes).unwrap();
+        let text = with(&format!(
+            "\n[[shape]]\nname = \"mesh\"\ntype = \"{kind}\"\nmaterial = \"white\"\nfile = \"{name}\" {MARK}\n"
+        ));
+        let loaded = load_str(&text, "bad.toml", Some(&self.0));
+        (text, loaded)
+    }
+
+    /// The mesh's triangles (as vertex positions) in a file that must load.
+    fn triangles(&self, name: &str, kind: &str, bytes: &[u8]) -> Vec<[Vec3; 3]> {
+        let (_, loaded) = self.load(name, kind, bytes);
+        let s = loaded.unwrap_or_else(|e| panic!("{name}: {e}"));
+        let i = s.shape_info.iter().position(|i| i.name == "mesh").unwrap();
+        let ShapeGeometry::Mesh(m) = &s.shapes[i] else {
+            panic!("{name} should be a mesh")
+        };
+        m.indices
+            .iter()
+            .map(|t| t.map(|k| m.positions[k as usize]))
+            .collect()
+    }
+
+    /// Loading a scene with this mesh fails with `bad.toml:LINE: cannot load mesh 'PATH': ...`,
+    /// LINE the shape's `file` line, naming every fact.
+    fn fails(&self, name: &str, kind: &str, bytes: &[u8], facts: &[&str]) -> String {
+        let (text, loaded) = self.load(name, kind, bytes);
+        let msg = match loaded {
+            Ok(_) => panic!("{name} loaded:\n{}", String::from_utf8_lossy(bytes)),
+            Err(e) => e.to_string(),
+        };
+        let file = format!("cannot load mesh '{}': ", self.0.join(name).display());
+        let mut all = vec![file.as_str()];
+        all.extend_from_slice(facts);
+        check_named(msg, "bad.toml", line_of(&text, MARK), &all)
+    }
+}
+
+impl Drop for MeshDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+const SIX_VERTICES: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 0 1 1\n";
+
+/// Negative OBJ indices count back from the last vertex defined before the face (-1 is the
+/// last; OBJ spec): the same triangles as the positive indices they stand for, also after
+/// more vertices follow, and mixed with `vt` / `vn` references.
+#[test]
+fn obj_negative_indices_count_back_from_the_last_vertex() {
+    let dir = MeshDir::new("obj-negative");
+    let positive = dir.triangles(
+        "pos.obj",
+        "obj",
+        format!("{SIX_VERTICES}f 1 2 3\nf 4 5 6\n").as_bytes(),
+    );
+    let negative = dir.triangles(
+        "neg.obj",
+        "obj",
+        b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf -3 -2 -1\nv 0 0 1\nv 1 0 1\nv 0 1 1\nf -3 -2 -1\n",
+    );
+    assert_eq!(positive.len(), 2);
+    assert_eq!(negative, positive);
+    let with_normals = dir.triangles(
+        "neg-vn.obj",
+        "obj",
+        format!("{SIX_VERTICES}vt 0 0\nvn 0 0 1\nf -6/-1/-1 -5/1/-1 -4//1\nf 4 5 -1\n").as_bytes(),
+    );
+    assert_eq!(with_normals, positive);
+}
+
+/// Faces of more than three vertices are fanned from their first vertex: a convex pentagon
+/// becomes three triangles covering its area, a quad two.
+#[test]
+fn obj_polygons_are_fanned_into_triangles() {
+    let dir = MeshDir::new("obj-ngon");
+    let v = [
+        Vec3::new(0.0, 0.0, 0.0),
+        Vec3::new(1.0, 0.0, 0.0),
+        Vec3::new(1.0, 1.0, 0.0),
+        Vec3::new(0.5, 1.5, 0.0),
+        Vec3::new(0.0, 1.0, 0.0),
+    ];
+    let tris = dir.triangles(
+        "pentagon.obj",
+        "obj",
+        b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0.5 1.5 0\nv 0 1 0\nf 1 2 3 4 5\n",
+    );
+    assert_eq!(
+        tris,
+        vec![[v[0], v[1], v[2]], [v[0], v[2], v[3]], [v[0], v[3], v[4]]]
+    );
+    let area: f32 = tris
+        .iter()
+        .map(|t| (t[1] - t[0]).cross(t[2] - t[0]).length() / 2.0)
+        .sum();
+    assert!((area - 1.25).abs() < 1e-6, "{area}");
+    let quad = dir.triangles(
+        "quad.obj",
+        "obj",
+        b"v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n",
+    );
+    assert_eq!(quad.len(), 2);
+}
+
+/// Face references out of range, of the wrong form, or to texture coordinates or normals the
+/// file does not have: errors naming the scene line, the mesh file, the OBJ line and what the
+/// index had to be. (`tobj` alone reads index 0 as "none" and ignores references to absent
+/// `vt` / `vn`.)
+#[test]
+fn obj_bad_face_references_name_the_obj_line() {
+    let dir = MeshDir::new("obj-bad");
+    let tri = "v 0 0 0\nv 1 0 0\nv 0 1 0\n";
+    let cases: &[(&str, &str)] = &[
+        (
+            "f 1 2 4",
+            "line 4: vertex index 4, but the file has 3 vertices",
+        ),
+        (
+            "f 1 2 -4",
+            "line 4: vertex index -4, but only 3 vertices are defined before it",
+        ),
+        ("f 0 1 2", "line 4: vertex index 0 (indices count from 1"),
+        (
+            "vt 0 0\nf 1/1 2/2 3/1",
+            "line 5: texture coordinate index 2, but the file has 1",
+        ),
+        (
+            "f 1/1 2/1 3/1",
+            "line 4: texture coordinate index 1, but the file has 0",
+        ),
+        (
+            "vt 0 0\nf 1/-2 2/1 3/1",
+            "line 5: texture coordinate index -2 of '1/-2', but only 1",
+        ),
+        (
+            "vn 0 0 1\nf 1//1 2//2 3//1",
+            "line 5: normal index 2, but the file has 1 normals",
+        ),
+        (
+            "f 1//1 2//1 3//1",
+            "line 4: normal index 1, but the file has 0 normals",
+        ),
+        (
+            "vn 0 0 1\nf 1//0 2//1 3//1",
+            "line 5: normal index 0 of '1//0'",
+        ),
+        (
+            "f 1 2",
+            "line 4: a face needs at least 3 vertices, this one has 2",
+        ),
+        ("f 1 2 x", "line 4: 'x' is not a vertex index"),
+        ("f 1 2 3.0", "line 4: '3.0' is not a vertex index"),
+        ("f 1 2 99999999999999999999", "is not a vertex index"),
+        (
+            "f 1/1/1/1 2 3",
+            "'1/1/1/1' is not a face vertex (expected v, v/vt, v//vn or v/vt/vn)",
+        ),
+        ("f /1 2 3", "'/1' is not a face vertex"),
+    ];
+    for (k, (faces, fact)) in cases.iter().enumerate() {
+        let name = format!("bad{k}.obj");
+        dir.fails(&name, "obj", format!("{tri}{faces}\n").as_bytes(), &[fact]);
+    }
+    let mut latin1 = format!("{tri}f 1 2 3\n# caf").into_bytes();
+    latin1.push(0xe9);
+    dir.fails(
+        "latin1.obj",
+        "obj",
+        &latin1,
+        &["line 5: the file is not UTF-8 text"],
+    );
+}
+
+/// A mesh file without a face: an error, for OBJ (no `f` lines, or nothing at all) and PLY
+/// (a face count of 0).
+#[test]
+fn meshes_without_faces_are_errors() {
+    let dir = MeshDir::new("empty");
+    let no_triangles = "the file has no triangles";
+    dir.fails(
+        "verts.obj",
+        "obj",
+        b"v 0 0 0\nv 1 0 0\nv 0 1 0\n",
+        &[no_triangles],
+    );
+    dir.fails("empty.obj", "obj", b"", &[no_triangles]);
+    dir.fails("comment.obj", "obj", b"# nothing here\n", &[no_triangles]);
+    let ply = format!("{}0 0 0\n1 0 0\n1 1 0\n0 1 0\n", ply_header("ascii", 4, 0));
+    dir.fails("empty.ply", "ply", ply.as_bytes(), &[no_triangles]);
+}
+
+fn ply_header(format: &str, vertices: usize, faces: usize) -> String {
+    format!(
+        "ply\nformat {format} 1.0\nelement vertex {vertices}\nproperty float x\nproperty float y\nproperty float z\nelement face {faces}\nproperty list uchar int vertex_indices\nend_header\n"
+    )
+}
+
+/// A binary little-endian PLY of the unit square (4 vertices, one quad) under a header that
+/// claims `vertices` and `faces`.
+fn binary_square(vertices: usize, faces: usize) -> Vec<u8> {
+    let mut b = ply_header("binary_little_endian", vertices, faces).into_bytes();
+    for p in [[0f32, 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.]] {
+        for x in p {
+            b.extend(x.to_le_bytes());
+        }
+    }
+    b.push(4);
+    for i in 0..4i32 {
+        b.extend(i.to_le_bytes());
+    }
+    b
+}
+
+/// PLY element counts that do not match the data (too large: the data ends inside an
+/// element; too small: data is left after the last one, which would otherwise be read as the
+/// wrong element or dropped), truncated binary data and bad face indices: errors that say
+/// which element and what was expected.
+#[test]
+fn ply_wrong_element_counts_and_truncated_data_are_errors() {
+    let dir = MeshDir::new("ply");
+    let body = "0 0 0\n1 0 0\n1 1 0\n0 1 0\n4 0 1 2 3\n";
+    let ascii = |v: usize, f: usize| format!("{}{body}", ply_header("ascii", v, f));
+    let good = dir.triangles("good.ply", "ply", ascii(4, 1).as_bytes());
+    assert_eq!(good.len(), 2);
+    assert_eq!(
+        dir.triangles("good-le.ply", "ply", &binary_square(4, 1)),
+        good
+    );
+    let ends = "the count is wrong or the file is cut short";
+    let after = "after the last element: the header's element counts do not match the data";
+    dir.fails(
+        "faces-2.ply",
+        "ply",
+        ascii(4, 2).as_bytes(),
+        &[
+            "the file ends in item 1 of element 'face', whose header count is 2",
+            ends,
+        ],
+    );
+    dir.fails("vertices-5.ply", "ply", ascii(5, 1).as_bytes(), &[ends]);
+    dir.fails("vertices-3.ply", "ply", ascii(3, 1).as_bytes(), &[after]);
+    dir.fails(
+        "faces-0.ply",
+        "ply",
+        ascii(4, 0).as_bytes(),
+        &["11 bytes", after],
+    );
+    dir.fails(
+        "le-faces-2.ply",
+        "ply",
+        &binary_square(4, 2),
+        &["item 1 of element 'face', whose header count is 2", ends],
+    );
+    dir.fails("le-vertices-3.ply", "ply", &binary_square(3, 1), &[after]);
+    let full = binary_square(4, 1);
+    for cut in [1, 5, 17, 40] {
+        let name = format!("le-cut-{cut}.ply");
+        dir.fails(
+            &name,
+            "ply",
+            &full[..full.len() - cut],
+            &["the file ends in item", ends],
+        );
+    }
+    let mut extra = full.clone();
+    extra.push(b'\n');
+    dir.fails("le-extra.ply", "ply", &extra, &["1 bytes", after]);
+    dir.fails(
+        "claims.ply",
+        "ply",
+        ascii(1_000_000, 1).as_bytes(),
+        &["element 'vertex' claims 1000000 items, more than the file can hold"],
+    );
+    let faces = |f: &str| {
+        format!(
+            "{}0 0 0\n1 0 0\n1 1 0\n0 1 0\n{f}\n",
+            ply_header("ascii", 4, 1)
+        )
+    };
+    dir.fails(
+        "index-4.ply",
+        "ply",
+        faces("3 0 1 4").as_bytes(),
+        &["a face refers to vertex 4, but the file has 4 vertices (numbered from 0)"],
+    );
+    dir.fails(
+        "index-neg.ply",
+        "ply",
+        faces("3 0 1 -1").as_bytes(),
+        &["vertex index -1 in a face"],
+    );
+    dir.fails(
+        "index-word.ply",
+        "ply",
+        faces("3 0 1 two").as_bytes(),
+        &["'two' in element 'face' is not a number"],
+    );
 }

@@ -32,13 +32,11 @@ pub(super) fn load(path: &Path, kind: &str, normals: Normals) -> Result<Triangle
     if mesh.positions.iter().any(|p| !p.is_finite()) {
         return Err("the file has non-finite vertex positions".to_string());
     }
-    if mesh
-        .indices
-        .iter()
-        .flatten()
-        .any(|&i| i as usize >= mesh.positions.len())
-    {
-        return Err("a face refers to a vertex that does not exist".to_string());
+    let n = mesh.positions.len();
+    if let Some(i) = mesh.indices.iter().flatten().find(|&&i| i as usize >= n) {
+        return Err(format!(
+            "a face refers to vertex {i}, but the file has {n} vertices (numbered from 0)"
+        ));
     }
     if let Some(ns) = &mesh.normals
         && ns.iter().any(|n| *n == Vec3::ZERO || !n.is_finite())
@@ -58,6 +56,7 @@ pub(super) fn load(path: &Path, kind: &str, normals: Normals) -> Result<Triangle
 
 /// Every model of an OBJ file in one mesh, with vertex normals when all models have them.
 fn load_obj(path: &Path) -> Result<TriangleMesh, String> {
+    check_obj_faces(&std::fs::read(path).map_err(|e| e.to_string())?)?;
     let (models, _materials) =
         tobj::load_obj(path, &tobj::GPU_LOAD_OPTIONS).map_err(|e| e.to_string())?;
     let mut mesh = TriangleMesh {
@@ -90,6 +89,103 @@ fn load_obj(path: &Path) -> Result<TriangleMesh, String> {
         );
     }
     Ok(mesh)
+}
+
+/// Checks the faces of an OBJ file before `tobj` reads it, so that a bad one is an error that
+/// names its line: every face has at least three vertices, each written `v`, `v/vt`, `v//vn`
+/// or `v/vt/vn`, and every index refers to an existing position, texture coordinate or normal.
+/// Indices count from 1; negative ones count back from the last element defined before the
+/// face (-1 is the last), positive ones may refer to elements defined further down.
+/// `tobj` would read index 0 as "none" and ignore `vt` and `vn` indices in a file without
+/// texture coordinates or normals.
+fn check_obj_faces(bytes: &[u8]) -> Result<(), String> {
+    let text = std::str::from_utf8(bytes).map_err(|e| {
+        let line = bytes[..e.valid_up_to()]
+            .iter()
+            .filter(|&&b| b == b'\n')
+            .count();
+        format!("line {}: the file is not UTF-8 text", line + 1)
+    })?;
+    const KINDS: [(&str, &str); 3] = [
+        ("vertex", "vertices"),
+        ("texture coordinate", "texture coordinates"),
+        ("normal", "normals"),
+    ];
+    // Positions, texture coordinates and normals defined so far.
+    let mut counts = [0u64; 3];
+    // The largest positive index of each kind and its line, checked against the totals at the
+    // end.
+    let mut largest = [(0u64, 0usize); 3];
+    for (k, line) in text.lines().enumerate() {
+        let at = k + 1;
+        let mut words = line.split_whitespace();
+        match words.next() {
+            Some("v") => counts[0] += 1,
+            Some("vt") => counts[1] += 1,
+            Some("vn") => counts[2] += 1,
+            Some("f") => {
+                let corners: Vec<&str> = words.collect();
+                if corners.len() < 3 {
+                    return Err(format!(
+                        "line {at}: a face needs at least 3 vertices, this one has {}",
+                        corners.len()
+                    ));
+                }
+                for corner in corners {
+                    let parts: Vec<&str> = corner.split('/').collect();
+                    if parts.len() > 3 || parts[0].is_empty() {
+                        return Err(format!(
+                            "line {at}: '{corner}' is not a face vertex (expected v, v/vt, v//vn \
+                             or v/vt/vn)"
+                        ));
+                    }
+                    // Where in the face an index is, when the vertex has more than one.
+                    let of = if parts.len() > 1 {
+                        format!(" of '{corner}'")
+                    } else {
+                        String::new()
+                    };
+                    for (kind, part) in parts.iter().enumerate() {
+                        if part.is_empty() {
+                            continue;
+                        }
+                        let (one, many) = KINDS[kind];
+                        let i: i64 = part
+                            .parse()
+                            .map_err(|_| format!("line {at}: '{part}'{of} is not a {one} index"))?;
+                        if i == 0 {
+                            return Err(format!(
+                                "line {at}: {one} index 0{of} (indices count from 1, or back \
+                                 from -1 for the last)"
+                            ));
+                        }
+                        if i > 0 {
+                            if i as u64 > largest[kind].0 {
+                                largest[kind] = (i as u64, at);
+                            }
+                        } else if i.unsigned_abs() > counts[kind] {
+                            return Err(format!(
+                                "line {at}: {one} index {i}{of}, but only {} {many} are \
+                                 defined before it",
+                                counts[kind]
+                            ));
+                        }
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    for (kind, &(i, at)) in largest.iter().enumerate() {
+        if i > counts[kind] {
+            let (one, many) = KINDS[kind];
+            return Err(format!(
+                "line {at}: {one} index {i}, but the file has {} {many}",
+                counts[kind]
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// A PLY scalar type.
@@ -150,6 +246,14 @@ enum Format {
     Big,
 }
 
+/// Why [`Body::next`] read no value.
+enum BodyError {
+    /// The data ended.
+    End,
+    /// An ASCII word that is not a number.
+    NotANumber(String),
+}
+
 /// Reads scalars from the body of a PLY file, ASCII or binary.
 struct Body<'a> {
     bytes: &'a [u8],
@@ -158,7 +262,25 @@ struct Body<'a> {
 }
 
 impl Body<'_> {
-    fn next(&mut self, t: Scalar) -> Result<f64, String> {
+    /// Nothing but (ASCII) white space may follow the last element: more data means an
+    /// element count in the header is too small.
+    fn expect_end(&self) -> Result<(), String> {
+        let rest = &self.bytes[self.pos.min(self.bytes.len())..];
+        let extra = match self.format {
+            Format::Ascii => rest.iter().any(|b| !b.is_ascii_whitespace()),
+            Format::Little | Format::Big => !rest.is_empty(),
+        };
+        if extra {
+            return Err(format!(
+                "{} bytes after the last element: the header's element counts do not match \
+                 the data",
+                rest.len()
+            ));
+        }
+        Ok(())
+    }
+
+    fn next(&mut self, t: Scalar) -> Result<f64, BodyError> {
         if self.format == Format::Ascii {
             while self.pos < self.bytes.len() && self.bytes[self.pos].is_ascii_whitespace() {
                 self.pos += 1;
@@ -169,15 +291,15 @@ impl Body<'_> {
             }
             let word = std::str::from_utf8(&self.bytes[start..self.pos]).unwrap_or("");
             if word.is_empty() {
-                return Err("the file ends before its elements do".to_string());
+                return Err(BodyError::End);
             }
             return word
                 .parse::<f64>()
-                .map_err(|_| format!("'{word}' is not a number"));
+                .map_err(|_| BodyError::NotANumber(word.to_string()));
         }
         let n = t.size();
         let Some(raw) = self.bytes.get(self.pos..self.pos + n) else {
-            return Err("the file ends before its elements do".to_string());
+            return Err(BodyError::End);
         };
         self.pos += n;
         let mut b = [0u8; 8];
@@ -302,21 +424,36 @@ fn load_ply(path: &Path) -> Result<TriangleMesh, String> {
         }
         let mut values = vec![0.0f64; e.properties.len()];
         let mut polygon: Vec<u32> = Vec::new();
-        for _ in 0..e.count {
+        for item in 0..e.count {
+            let next = |body: &mut Body, t: Scalar| {
+                body.next(t).map_err(|err| match err {
+                    BodyError::End => format!(
+                        "the file ends in item {item} of element '{}', whose header count is \
+                         {}: the count is wrong or the file is cut short",
+                        e.name, e.count
+                    ),
+                    BodyError::NotANumber(w) => {
+                        format!("'{w}' in element '{}' is not a number", e.name)
+                    }
+                })
+            };
             polygon.clear();
             for (i, p) in e.properties.iter().enumerate() {
                 match p.count {
-                    None => values[i] = body.next(p.item)?,
+                    None => values[i] = next(&mut body, p.item)?,
                     Some(ct) => {
-                        let n = body.next(ct)?;
+                        let n = next(&mut body, ct)?;
                         if !(n >= 0.0 && n as usize <= MAX_POLYGON) {
                             return Err(format!("a list of {n} items in element '{}'", e.name));
                         }
                         for _ in 0..n as usize {
-                            let v = body.next(p.item)?;
+                            let v = next(&mut body, p.item)?;
                             if Some(i) == list {
                                 if !(v >= 0.0 && v <= u32::MAX as f64) {
-                                    return Err(format!("vertex index {v} in a face"));
+                                    return Err(format!(
+                                        "vertex index {v} in a face (expected a vertex number \
+                                         from 0)"
+                                    ));
                                 }
                                 polygon.push(v as u32);
                             }
@@ -339,6 +476,7 @@ fn load_ply(path: &Path) -> Result<TriangleMesh, String> {
             }
         }
     }
+    body.expect_end()?;
     if !normals.is_empty() {
         mesh.normals = Some(normals);
     }

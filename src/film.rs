@@ -173,20 +173,47 @@ pub fn srgb_encode(x: f32) -> f32 {
     }
 }
 
-/// The directory `path` will be written into; an error if it does not exist.
+/// The directory `path` will be written into. An error naming `path` if `path` is a
+/// directory, or its directory does not exist, is not a directory or does not take new files
+/// (found by creating and removing an empty file there), so that a render fails before it
+/// starts rather than when it writes.
 pub fn output_dir(path: &Path) -> Result<&Path> {
     let dir = path
         .parent()
         .filter(|d| !d.as_os_str().is_empty())
         .unwrap_or(Path::new("."));
-    if !dir.is_dir() {
-        return Err(Error::new(format!(
-            "{}: cannot write: directory '{}' does not exist",
-            path.display(),
-            dir.display()
-        )));
+    let fail = |why: String| {
+        Err(Error::new(format!(
+            "{}: cannot write: {why}",
+            path.display()
+        )))
+    };
+    if path.is_dir() {
+        return fail("it is a directory (expected a file name)".to_string());
     }
-    Ok(dir)
+    if !dir.exists() {
+        return fail(format!("directory '{}' does not exist", dir.display()));
+    }
+    if !dir.is_dir() {
+        return fail(format!("'{}' is not a directory", dir.display()));
+    }
+    static PROBES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let probe = dir.join(format!(
+        ".lodestar-probe.{}.{}",
+        std::process::id(),
+        PROBES.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
+    ));
+    match std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&probe)
+    {
+        Ok(_) => {
+            let _ = std::fs::remove_file(&probe);
+            Ok(dir)
+        }
+        Err(e) => fail(format!("cannot create files in '{}': {e}", dir.display())),
+    }
 }
 
 /// Write through a temporary file in the target's directory, then rename it into place.

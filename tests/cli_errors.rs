@@ -268,6 +268,61 @@ fn png_directory_does_not_exist() {
     assert!(t.is_empty());
 }
 
+/// An output path under a regular file (`file.exr/out.exr`: fails for root too, unlike a
+/// read-only directory), for the EXR and for the PNG: the message says the parent is not a
+/// directory, and nothing is written.
+#[test]
+fn output_under_a_regular_file() {
+    let t = TempDir::new();
+    std::fs::write(t.path("file.exr"), b"not a directory").unwrap();
+    let (under, exr) = (t.s("file.exr/out.exr"), t.s("x.exr"));
+    let parent = format!("'{}' is not a directory", t.s("file.exr"));
+    let out = run(&["render", TINY, "-o", &under, "--quiet"]);
+    fails(&out, 1, &[&under, "cannot write", &parent]);
+    let png = t.s("file.exr/out.png");
+    let out = run(&["render", TINY, "-o", &exr, "--png", &png, "--quiet"]);
+    fails(&out, 1, &[&png, &parent]);
+    let names: Vec<_> = std::fs::read_dir(&t.0)
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert_eq!(names, ["file.exr"], "nothing may be written on error");
+}
+
+/// `-o` naming an existing directory fails before rendering.
+#[test]
+fn output_is_a_directory() {
+    let t = TempDir::new();
+    std::fs::create_dir(t.path("out.exr")).unwrap();
+    let dir = t.s("out.exr");
+    let out = run(&["render", TINY, "-o", &dir, "--quiet"]);
+    fails(&out, 1, &[&dir, "it is a directory (expected a file name)"]);
+}
+
+/// An output directory that does not take new files fails before rendering. Root writes into
+/// read-only directories, so there the test says it was skipped.
+#[test]
+fn output_directory_read_only() {
+    use std::os::unix::fs::PermissionsExt;
+    let t = TempDir::new();
+    let ro = t.path("ro");
+    std::fs::create_dir(&ro).unwrap();
+    std::fs::set_permissions(&ro, std::fs::Permissions::from_mode(0o555)).unwrap();
+    if std::fs::write(ro.join("probe"), b"").is_ok() {
+        eprintln!(
+            "output_directory_read_only: skipped: this user (root?) may write into a read-only \
+             directory (output_under_a_regular_file covers an unwritable path)"
+        );
+    } else {
+        let exr = t.s("ro/x.exr");
+        let out = run(&["render", TINY, "-o", &exr, "--quiet"]);
+        let dir = format!("cannot create files in '{}'", ro.display());
+        fails(&out, 1, &[&exr, &dir, "ermission denied"]);
+        assert_eq!(std::fs::read_dir(&ro).unwrap().count(), 0);
+    }
+    std::fs::set_permissions(&ro, std::fs::Permissions::from_mode(0o755)).unwrap();
+}
+
 // ---- render: bad scene files ----
 
 #[test]
@@ -285,6 +340,46 @@ fn nonexistent_scene_file() {
         &out,
         1,
         &["tests/data/no-such-scene.toml", "cannot read scene file"],
+    );
+    assert!(t.is_empty());
+}
+
+/// A scene file that is not UTF-8 text: the message names the file, the line and the byte.
+#[test]
+fn scene_file_not_utf8() {
+    let t = TempDir::new();
+    let scene = t.path("latin1.toml");
+    let mut text = std::fs::read(TINY).unwrap();
+    text.extend(b"\n# caf\xe9\n");
+    std::fs::write(&scene, &text).unwrap();
+    let line = String::from_utf8_lossy(&text).lines().count();
+    let (scene, exr) = (scene.display().to_string(), t.s("x.exr"));
+    let where_ = format!("{scene}:{line}:");
+    let out = run(&["render", &scene, "-o", &exr, "--quiet"]);
+    fails(
+        &out,
+        1,
+        &[
+            &where_,
+            "the scene file is not UTF-8 text (byte 0xe9 at column 6)",
+        ],
+    );
+    assert!(!t.path("x.exr").exists());
+}
+
+/// A directory given as the scene.
+#[test]
+fn scene_path_is_a_directory() {
+    let t = TempDir::new();
+    let exr = t.s("x.exr");
+    for dir in ["tests/data", "tests/data/"] {
+        let out = run(&["render", dir, "-o", &exr, "--quiet"]);
+        fails(&out, 1, &[dir, "cannot read scene file: it is a directory"]);
+    }
+    fails(
+        &run(&["info", "tests"]),
+        1,
+        &["tests: cannot read scene file", "directory"],
     );
     assert!(t.is_empty());
 }
@@ -708,4 +803,329 @@ fn output_into_a_closed_pipe_ends_quietly() {
         assert!(out.status.success(), "{args:?}: {:?}: {stderr}", out.status);
         assert!(stderr.is_empty(), "{args:?}: {stderr}");
     }
+}
+
+// ---- guide caches (-O load_guides=) ----
+
+/// One vertex of a guide path as `integrators/guided/io.rs` stores it.
+#[derive(Clone)]
+struct GuideVertex {
+    p: [f32; 3],
+    n: [f32; 3],
+    tag: u8,
+    ids: [u32; 2],
+}
+
+/// A guide path: vertex count as written (camera included), f, p_u, weight, vertices after
+/// the camera.
+#[derive(Clone)]
+struct GuidePath {
+    len: u8,
+    f: f64,
+    p_u: f64,
+    weight: f64,
+    vertices: Vec<GuideVertex>,
+}
+
+/// The fields of a guide cache file, serialised in the layout `io.rs` documents.
+#[derive(Clone)]
+struct GuideFile {
+    version: u32,
+    fingerprint: u64,
+    widths: [f64; 3],
+    ratio: f64,
+    paths: Vec<GuidePath>,
+    /// The path count as written, when not `paths.len()`.
+    count: Option<u32>,
+}
+
+impl GuideFile {
+    /// A valid cache for TINY: one path from the camera to the back wall (shape 0, material
+    /// 0) and on to the lamp (light 0).
+    fn valid() -> GuideFile {
+        use lodestar::integrators::guided::io;
+        let scene =
+            lodestar::scene::loader::load_file(&Path::new(env!("CARGO_MANIFEST_DIR")).join(TINY))
+                .unwrap();
+        assert_eq!(scene.shape_info[0].name, "back");
+        GuideFile {
+            version: io::VERSION,
+            fingerprint: io::scene_fingerprint(&scene),
+            widths: [1.0, 1.0, 1.0],
+            ratio: 0.5,
+            paths: vec![GuidePath {
+                len: 3,
+                f: 2.0,
+                p_u: 0.25,
+                weight: 1.0,
+                vertices: vec![
+                    GuideVertex {
+                        p: [0.0, 0.0, -1.0],
+                        n: [0.0, 0.0, 1.0],
+                        tag: 1,
+                        ids: [0, 0],
+                    },
+                    GuideVertex {
+                        p: [0.0, 0.99, 0.0],
+                        n: [0.0, -1.0, 0.0],
+                        tag: 3,
+                        ids: [0, 0],
+                    },
+                ],
+            }],
+            count: None,
+        }
+    }
+
+    fn bytes(&self) -> Vec<u8> {
+        let mut b = b"LSGUIDES".to_vec();
+        b.extend(self.version.to_le_bytes());
+        b.extend(self.fingerprint.to_le_bytes());
+        b.extend(3u32.to_le_bytes());
+        for w in self.widths {
+            b.extend(w.to_le_bytes());
+        }
+        b.extend(self.ratio.to_le_bytes());
+        let count = self.count.unwrap_or(self.paths.len() as u32);
+        b.extend(count.to_le_bytes());
+        for g in &self.paths {
+            b.push(g.len);
+            b.extend(1u16.to_le_bytes());
+            for x in [g.f, g.p_u, g.weight] {
+                b.extend(x.to_le_bytes());
+            }
+            for v in &g.vertices {
+                for x in [v.p, v.n, v.n].concat() {
+                    b.extend(x.to_le_bytes());
+                }
+                b.push(v.tag);
+                b.extend(v.ids[0].to_le_bytes());
+                b.extend(v.ids[1].to_le_bytes());
+                b.push(0);
+            }
+        }
+        b
+    }
+}
+
+/// `lodestar render TINY --integrator guided-pt -O load_guides=F` with F holding `data`: the
+/// output of the run.
+fn render_with_guides(t: &TempDir, name: &str, data: &[u8], extra: &[&str]) -> Output {
+    let file = t.path(name);
+    std::fs::write(&file, data).unwrap();
+    let load = format!("load_guides={}", file.display());
+    let exr = t.s("x.exr");
+    let mut args = vec![
+        "render",
+        TINY,
+        "--integrator",
+        "guided-pt",
+        "-O",
+        &load,
+        "--spp",
+        "1",
+        "-o",
+        &exr,
+        "--quiet",
+    ];
+    args.extend_from_slice(extra);
+    run(&args)
+}
+
+/// Every way `io::load` rejects a guide cache, through the command line: exit status 1, one
+/// line naming the file and what was expected, nothing written. The hand-made valid file the
+/// cases break renders, so each case fails for its own reason.
+#[test]
+fn bad_guide_caches_name_the_file_and_the_fault() {
+    let t = TempDir::new();
+    let valid = GuideFile::valid();
+    let out = render_with_guides(&t, "valid.guides", &valid.bytes(), &[]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "the valid cache: {stderr}");
+    assert!(t.path("x.exr").is_file());
+    std::fs::remove_file(t.path("x.exr")).unwrap();
+
+    let edited = |edit: &dyn Fn(&mut GuideFile)| {
+        let mut f = valid.clone();
+        edit(&mut f);
+        f.bytes()
+    };
+    let vertex = |k: usize, edit: &dyn Fn(&mut GuideVertex)| {
+        edited(&|f: &mut GuideFile| edit(&mut f.paths[0].vertices[k]))
+    };
+    let path = |edit: &dyn Fn(&mut GuidePath)| edited(&|f: &mut GuideFile| edit(&mut f.paths[0]));
+    let mut trailing = valid.bytes();
+    trailing.extend([0, 0, 0]);
+    let full = valid.bytes();
+    let path0 = "guide path 0";
+    let cases: Vec<(&str, Vec<u8>, Vec<&str>)> = vec![
+        (
+            "magic",
+            b"LSGUIDEX and more".to_vec(),
+            vec!["not a lodestar guide cache (bad magic)"],
+        ),
+        ("short", b"LSG".to_vec(), vec!["bad magic"]),
+        (
+            "version",
+            edited(&|f| f.version = 4),
+            vec!["guide cache format version 4, this lodestar reads version 5"],
+        ),
+        (
+            "fingerprint",
+            edited(&|f| f.fingerprint ^= 1),
+            vec!["guide cache was learned on another scene (not tests/data/tiny.toml)"],
+        ),
+        (
+            "widths",
+            edited(&|f| f.widths[1] = 0.0),
+            vec!["invalid kernel widths", "expected finite numbers > 0"],
+        ),
+        (
+            "ratio",
+            edited(&|f| f.ratio = -2.0),
+            vec!["invalid guided share ratio -2 (expected a finite number >= 0, or -1 for none)"],
+        ),
+        (
+            "ratio-nan",
+            edited(&|f| f.ratio = f64::NAN),
+            vec!["invalid guided share ratio NaN"],
+        ),
+        (
+            "length-2",
+            path(&|g| {
+                g.len = 2;
+                g.vertices.truncate(1);
+            }),
+            vec!["guide path 0 has 2 vertices (expected 3 to 64)"],
+        ),
+        (
+            "length-65",
+            path(&|g| g.len = 65),
+            vec!["guide path 0 has 65 vertices"],
+        ),
+        (
+            "kind",
+            vertex(0, &|v| v.tag = 0),
+            vec!["guide path 0, vertex 1: kind 0 (expected 1 surface, 2 medium or 3 emitter)"],
+        ),
+        (
+            "kind-9",
+            vertex(1, &|v| v.tag = 9),
+            vec!["guide path 0, vertex 2: kind 9"],
+        ),
+        (
+            "material",
+            vertex(0, &|v| v.ids[0] = 99),
+            vec!["guide path 0, vertex 1: material 99, but the scene has"],
+        ),
+        (
+            "shape",
+            vertex(0, &|v| v.ids[1] = 4),
+            vec!["guide path 0, vertex 1: shape 4, but the scene has 4"],
+        ),
+        (
+            "medium",
+            vertex(0, &|v| v.tag = 2),
+            vec!["guide path 0, vertex 1: medium 0, but the scene has 0"],
+        ),
+        (
+            "light",
+            vertex(1, &|v| v.ids[0] = 1),
+            vec!["guide path 0, vertex 2: light 1, but the scene has 1"],
+        ),
+        (
+            "position",
+            vertex(0, &|v| v.p[1] = f32::INFINITY),
+            vec![
+                "guide path 0, vertex 1: position [0, inf, -1]",
+                "expected finite numbers",
+            ],
+        ),
+        (
+            "normal",
+            vertex(1, &|v| v.n[0] = f32::NAN),
+            vec!["guide path 0, vertex 2: position", "normal [NaN, -1, 0]"],
+        ),
+        (
+            "f",
+            path(&|g| g.f = f64::INFINITY),
+            vec![
+                "guide path 0 has f = inf, p_u = 0.25, weight = 1 (expected finite numbers, weight >= 0)",
+            ],
+        ),
+        ("p_u", path(&|g| g.p_u = f64::NAN), vec![path0, "p_u = NaN"]),
+        (
+            "weight",
+            path(&|g| g.weight = -1.0),
+            vec![path0, "weight = -1"],
+        ),
+        (
+            "emitter-inside",
+            vertex(0, &|v| {
+                v.tag = 3;
+                v.ids = [0, 0];
+            }),
+            vec![
+                "guide path 0 is not a complete path (expected an emitter as its last vertex and only there)",
+            ],
+        ),
+        (
+            "no-emitter",
+            vertex(1, &|v| v.tag = 1),
+            vec![path0, "not a complete path"],
+        ),
+        (
+            "weights",
+            path(&|g| g.weight = 0.5),
+            vec!["guide path weights sum to 0.5, not 1"],
+        ),
+        (
+            "trailing",
+            trailing,
+            vec!["3 trailing bytes after the 1 guide paths the file declares"],
+        ),
+        (
+            "truncated",
+            full[..full.len() - 5].to_vec(),
+            vec!["truncated guide cache (needs more than"],
+        ),
+        (
+            "count",
+            edited(&|f| f.count = Some(2)),
+            vec!["truncated guide cache"],
+        ),
+    ];
+    for (name, data, facts) in cases {
+        let file = format!("{name}.guides");
+        let out = render_with_guides(&t, &file, &data, &[]);
+        let mut facts = facts;
+        let path = t.s(&file);
+        facts.push(&path);
+        fails(&out, 1, &facts);
+        assert!(!t.path("x.exr").exists(), "{name}: an image was written");
+    }
+    // A missing file, and guide paths longer than the render's max_depth (the driver's check).
+    let (missing, exr) = (t.s("missing.guides"), t.s("x.exr"));
+    let load = format!("load_guides={missing}");
+    fails(
+        &run(&[
+            "render",
+            TINY,
+            "--integrator",
+            "guided-pt",
+            "-O",
+            &load,
+            "-o",
+            &exr,
+            "--quiet",
+        ]),
+        1,
+        &[&missing, "cannot read guide cache"],
+    );
+    let out = render_with_guides(&t, "deep.guides", &full, &["--max-depth", "1"]);
+    fails(
+        &out,
+        1,
+        &["deep.guides", "2 segments, more than max_depth 1"],
+    );
 }

@@ -10,10 +10,12 @@
 //! normal as 9 f32, kind tag u8, two u32 ids, delta flag u8). Kernels, neighbours and the
 //! pruning BVH are rebuilt on load, deterministically, so a loaded cache renders exactly like
 //! the one that was saved. A wrong magic or version, a truncated file, a cache learned on
-//! another scene, or ids out of range are errors naming the file.
+//! another scene, ids out of range, non-finite numbers, a guide path that is not a complete
+//! path or trailing bytes are errors naming the file.
 
 use super::cache::{GuideCache, KernelWidths};
 use crate::error::{Error, Result};
+use crate::integrators::paths::structure::structure;
 use crate::path::{Vertex as PathVertex, VertexKind};
 use crate::scene::Scene;
 use glam::Vec3;
@@ -174,7 +176,9 @@ pub fn load(scene: &Scene, file: &Path) -> Result<GuideCache> {
         first_vertex_specular: r.f64()?,
     };
     if !widths.is_valid() {
-        return Err(bad(format!("invalid kernel widths {widths:?}")));
+        return Err(bad(format!(
+            "invalid kernel widths {widths:?} (expected finite numbers > 0)"
+        )));
     }
     let ratio = r.f64()?;
     let learned_ratio = if ratio == -1.0 {
@@ -182,14 +186,19 @@ pub fn load(scene: &Scene, file: &Path) -> Result<GuideCache> {
     } else if ratio.is_finite() && ratio >= 0.0 {
         Some(ratio)
     } else {
-        return Err(bad(format!("invalid guided share ratio {ratio}")));
+        return Err(bad(format!(
+            "invalid guided share ratio {ratio} (expected a finite number >= 0, or -1 for none)"
+        )));
     };
     let count = r.u32()? as usize;
     let mut entries = Vec::with_capacity(count.min(1 << 20));
     for i in 0..count {
         let len = r.u8()? as usize;
         if !(3..=crate::path::MAX_VERTICES).contains(&len) {
-            return Err(bad(format!("guide path {i} has {len} vertices")));
+            return Err(bad(format!(
+                "guide path {i} has {len} vertices (expected 3 to {})",
+                crate::path::MAX_VERTICES
+            )));
         }
         let age = r.u16()?;
         let f = r.f64()?;
@@ -201,27 +210,61 @@ pub fn load(scene: &Scene, file: &Path) -> Result<GuideCache> {
             ns: Vec3::ZERO,
             kind: VertexKind::Camera,
         }];
-        for _ in 1..len {
+        for v in 1..len {
             let (p, n, ns) = (r.vec3()?, r.vec3()?, r.vec3()?);
             let (tag, a, c, d) = (r.u8()?, r.u32()?, r.u32()?, r.u8()? != 0);
-            let kind = match tag {
-                1 if (a as usize) < scene.materials.len() && (c as usize) < scene.shapes.len() => {
-                    VertexKind::Surface {
-                        material: a,
-                        shape: c,
-                        delta: d,
-                    }
+            let vertex = |what: String| bad(format!("guide path {i}, vertex {v}: {what}"));
+            // An id of the scene's `what`, of which it has `n`.
+            let id = |x: u32, what: &str, n: usize| {
+                if (x as usize) < n {
+                    Ok(x)
+                } else {
+                    Err(vertex(format!("{what} {x}, but the scene has {n}")))
                 }
-                2 if (a as usize) < scene.media.len() => VertexKind::Medium { medium: a },
-                3 if (a as usize) < scene.lights.len() => {
-                    VertexKind::Emitter { light: a, delta: d }
-                }
-                _ => return Err(bad(format!("guide path {i} has an invalid vertex"))),
             };
+            let kind = match tag {
+                1 => VertexKind::Surface {
+                    material: id(a, "material", scene.materials.len())?,
+                    shape: id(c, "shape", scene.shapes.len())?,
+                    delta: d,
+                },
+                2 => VertexKind::Medium {
+                    medium: id(a, "medium", scene.media.len())?,
+                },
+                3 => VertexKind::Emitter {
+                    light: id(a, "light", scene.lights.len())?,
+                    delta: d,
+                },
+                _ => {
+                    return Err(vertex(format!(
+                        "kind {tag} (expected 1 surface, 2 medium or 3 emitter)"
+                    )));
+                }
+            };
+            if !(p.is_finite() && n.is_finite() && ns.is_finite()) {
+                return Err(vertex(format!(
+                    "position {p}, normal {n}, shading normal {ns} (expected finite numbers)"
+                )));
+            }
             vertices.push(PathVertex { p, n, ns, kind });
         }
         if !(f.is_finite() && p_u.is_finite() && weight.is_finite() && weight >= 0.0) {
-            return Err(bad(format!("guide path {i} has invalid numbers")));
+            return Err(bad(format!(
+                "guide path {i} has f = {f}, p_u = {p_u}, weight = {weight} (expected finite \
+                 numbers, weight >= 0)"
+            )));
+        }
+        // The guider keeps complete paths only (an emitter ends them, and only it); the cache
+        // would drop any other path, and the weights would no longer be the ones saved.
+        let mut path = crate::path::Path::default();
+        for x in &vertices {
+            path.push(*x);
+        }
+        if structure(scene, &path, crate::path::MAX_VERTICES).is_none() {
+            return Err(bad(format!(
+                "guide path {i} is not a complete path (expected an emitter as its last vertex \
+                 and only there)"
+            )));
         }
         entries.push((vertices, f, p_u, weight, age));
     }
@@ -230,7 +273,10 @@ pub fn load(scene: &Scene, file: &Path) -> Result<GuideCache> {
         return Err(bad(format!("guide path weights sum to {total}, not 1")));
     }
     if r.at != data.len() {
-        return Err(bad(format!("{} trailing bytes", data.len() - r.at)));
+        return Err(bad(format!(
+            "{} trailing bytes after the {count} guide paths the file declares",
+            data.len() - r.at
+        )));
     }
     let mut cache = GuideCache::with_widths(widths);
     cache.install(scene, entries, iteration);

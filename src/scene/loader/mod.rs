@@ -380,9 +380,24 @@ pub fn load_file(path: &Path) -> Result<Scene> {
 /// [`load_file`] with `name = value` definitions for a Mitsuba scene's `$name` parameters
 /// (they override its `<default>`s; a TOML scene takes none).
 pub fn load_file_with(path: &Path, defines: &[(String, String)]) -> Result<Scene> {
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| Error::new(format!("{}: cannot read scene file: {e}", path.display())))?;
     let name = path.display().to_string();
+    if path.is_dir() {
+        return Err(Error::new(format!(
+            "{name}: cannot read scene file: it is a directory (expected a TOML or Mitsuba XML \
+             file)"
+        )));
+    }
+    let bytes = std::fs::read(path)
+        .map_err(|e| Error::new(format!("{name}: cannot read scene file: {e}")))?;
+    let text = String::from_utf8(bytes).map_err(|e| {
+        let good = &e.as_bytes()[..e.utf8_error().valid_up_to()];
+        let line = good.iter().filter(|&&b| b == b'\n').count() + 1;
+        let column = good.iter().rev().take_while(|&&b| b != b'\n').count() + 1;
+        Error::new(format!(
+            "{name}:{line}: the scene file is not UTF-8 text (byte 0x{:02x} at column {column})",
+            e.as_bytes()[good.len()]
+        ))
+    })?;
     if is_mitsuba(path) {
         return load_mitsuba_str(&text, &name, path.parent(), defines);
     }

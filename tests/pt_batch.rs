@@ -161,7 +161,10 @@ fn wavefront_pt_is_pt_bit_for_bit() {
         settings: PtSettings::default(),
     };
     let Some(isa) = wavefront::Isa::detect() else {
-        eprintln!("no AVX-512: the wavefront does not run on this CPU, nothing to compare");
+        eprintln!(
+            "wavefront_pt_is_pt_bit_for_bit: skipped: this CPU has no AVX-512, so the wavefront \
+             cannot run"
+        );
         return;
     };
     for (name, scene) in [

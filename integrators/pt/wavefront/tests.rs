@@ -36,14 +36,20 @@ fn same(a: f32, b: f32) -> bool {
     a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
 }
 
-fn avx512() -> bool {
-    super::Isa::detect().is_some()
+/// Whether the CPU has AVX-512, which the lanes need; when it has not, says that `test` was
+/// skipped.
+fn avx512(test: &str) -> bool {
+    let has = super::Isa::detect().is_some();
+    if !has {
+        eprintln!("{test}: skipped: this CPU has no AVX-512, so the lanes cannot run");
+    }
+    has
 }
 
 /// Every pair of special values through each two-argument operation.
 #[test]
 fn operations_are_their_scalar_twins_lane_by_lane() {
-    if !avx512() {
+    if !avx512("operations_are_their_scalar_twins_lane_by_lane") {
         return;
     }
     type Lane = fn(F, F) -> F;
@@ -147,7 +153,7 @@ fn same3(a: Vec3, b: Vec3) -> bool {
 /// The helpers of `math.rs` against the scalar functions they mirror.
 #[test]
 fn helpers_are_their_scalar_twins_lane_by_lane() {
-    if !avx512() {
+    if !avx512("helpers_are_their_scalar_twins_lane_by_lane") {
         return;
     }
     for shift in 0..SPECIAL.len() {

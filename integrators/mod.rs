@@ -283,6 +283,9 @@ pub struct RunSettings<'a> {
     pub first_pass: u64,
     /// A hold on the render from another thread: stop, progress (`RenderContext::control`).
     pub control: Option<&'a crate::render::Control>,
+    /// The clock budgets are read from (`None`: the machine's; `RenderContext::clock`). The
+    /// snapshots must run on the same clock.
+    pub clock: Option<&'a dyn crate::clock::Clock>,
 }
 
 /// Build integrator `name` and render `scene` with it on a pool of `threads` threads: what
@@ -304,6 +307,7 @@ pub fn render_named(
         dbor: false,
         first_pass: 0,
         control: None,
+        clock: None,
     };
     render_named_with(scene, name, params, budget, &run)
 }
@@ -330,6 +334,7 @@ pub fn render_named_with(
         dbor: run.dbor,
         first_pass: run.first_pass,
         control: run.control,
+        clock: run.clock.unwrap_or(crate::clock::system()),
     };
     integrator.prepare(scene)?;
     let cpu0 = crate::render::process_cpu_seconds();

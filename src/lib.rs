@@ -9,6 +9,7 @@ pub mod bench;
 pub mod bsdf;
 pub mod camera;
 pub mod check;
+pub mod clock;
 pub mod dbor;
 pub mod error;
 pub mod film;

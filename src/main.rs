@@ -427,6 +427,7 @@ fn render(args: RenderArgs) -> Result<()> {
         snapshots: (!snapshot_times.is_empty()).then_some(&snapshots),
         first_pass,
         control: None,
+        clock: None,
     };
     if args.check {
         lodestar::check::enable();

@@ -8,6 +8,7 @@
 //! stream per (seed, pass, pixel), and each pixel is accumulated by exactly one task, so the
 //! image is bit-identical for any number of threads (and with or without snapshots).
 
+use crate::clock::Clock;
 use crate::dbor::Cascade;
 use crate::film::{Film, Image};
 use crate::math::{
@@ -19,7 +20,7 @@ use glam::{UVec2, Vec2};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// How much work a render may do.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -50,6 +51,8 @@ pub struct RenderContext<'a> {
     /// callback): the pass driver reports its progress there and ends the render after the
     /// pass under way once a stop is asked for.
     pub control: Option<&'a Control>,
+    /// The clock time budgets are read from ([`crate::clock`]: the machine's, or a test's).
+    pub clock: &'a dyn Clock,
 }
 
 /// A hold on a render from another thread: ask it to stop, read its progress.
@@ -99,6 +102,7 @@ impl<'a> RenderContext<'a> {
             dbor: false,
             first_pass: 0,
             control: None,
+            clock: crate::clock::system(),
         }
     }
 
@@ -166,6 +170,7 @@ pub trait PixelEstimator: Sync {
 pub fn run_passes(progress: bool, budget: Budget, mut pass: impl FnMut(u64)) -> (u64, f64) {
     // Without snapshots the image closure is never called.
     drive(
+        crate::clock::system(),
         progress,
         None,
         None,
@@ -189,6 +194,7 @@ pub fn run_passes_with_snapshots<S>(
     image: impl Fn(&S, u64) -> Image,
 ) -> (u64, f64) {
     drive(
+        ctx.clock,
         ctx.progress,
         ctx.snapshots,
         ctx.control,
@@ -205,6 +211,7 @@ pub fn run_passes_with_snapshots<S>(
 /// pass.
 #[allow(clippy::too_many_arguments)]
 fn drive<S>(
+    clock: &dyn Clock,
     progress: bool,
     snapshots: Option<&Snapshots>,
     control: Option<&Control>,
@@ -214,12 +221,11 @@ fn drive<S>(
     mut pass: impl FnMut(&mut S, u64),
     image: impl Fn(&S, u64) -> Image,
 ) -> (u64, f64) {
-    let start = Instant::now();
+    let start = clock.now();
     let paused = || snapshots.map_or(Duration::ZERO, |s| s.paused());
     let paused_at_start = paused();
     let elapsed = || {
-        start
-            .elapsed()
+        (clock.now() - start)
             .saturating_sub(paused() - paused_at_start)
             .as_secs_f64()
     };
@@ -442,21 +448,37 @@ mod tests {
     }
 
     /// A time budget runs at least one pass, starts every pass before the budget is spent,
-    /// and stops at the first pass boundary after it (checked from recorded start times, so
-    /// the test does not depend on the machine's speed).
+    /// and stops at the first pass boundary after it: on a clock where each pass takes 7 ms,
+    /// a 30 ms budget runs passes starting at 0, 7, 14, 21 and 28 ms, and reports 35 ms.
     #[test]
     fn time_budget_stops_after_the_pass_that_spends_it() {
-        let start = Instant::now();
+        let clock = crate::clock::ManualClock::default();
+        let scene = small_scene();
+        let ctx = RenderContext {
+            clock: &clock,
+            ..RenderContext::new(&scene, 0, false)
+        };
         let mut starts = Vec::new();
-        let budget = 0.03;
-        let (passes, seconds) = run_passes(false, Budget::Seconds(budget), |_| {
-            starts.push(start.elapsed().as_secs_f64());
-            std::thread::sleep(std::time::Duration::from_millis(5));
-        });
-        assert_eq!(passes as usize, starts.len());
-        assert!(passes >= 1 && seconds >= budget);
-        assert!(starts.iter().all(|&t| t < budget), "{starts:?}");
-        let (passes, _) = run_passes(false, Budget::Seconds(1e-9), |_| {});
+        let (passes, seconds) = run_passes_with_snapshots(
+            &ctx,
+            Budget::Seconds(0.03),
+            &mut (),
+            |_, _| {
+                starts.push(clock.now().as_millis());
+                clock.advance(Duration::from_millis(7));
+            },
+            |_, _| Image::new(1, 1),
+        );
+        assert_eq!(starts, [0, 7, 14, 21, 28]);
+        assert_eq!((passes, seconds), (5, 0.035));
+        // A budget the first pass spends at once still runs that pass.
+        let (passes, _) = run_passes_with_snapshots(
+            &ctx,
+            Budget::Seconds(1e-9),
+            &mut (),
+            |_, _| clock.advance(Duration::from_millis(1)),
+            |_, _| Image::new(1, 1),
+        );
         assert_eq!(passes, 1);
     }
 
@@ -554,37 +576,36 @@ mod tests {
         assert!(ctx.stopped());
     }
 
-    /// Time spent in the snapshot sink is not charged to a seconds budget.
+    /// Time spent in the snapshot sink is not charged to a seconds budget: with 5 ms passes
+    /// and a sink that takes 60 ms (after the first pass, when the snapshot is due), a 50 ms
+    /// budget still runs ten passes and reports 50 ms.
     #[test]
     fn snapshot_time_is_paused_out_of_the_budget() {
+        let clock = crate::clock::ManualClock::default();
         let sink = |_: &crate::snapshot::Snapshot| {
-            std::thread::sleep(Duration::from_millis(60));
+            clock.advance(Duration::from_millis(60));
             Ok(())
         };
-        let snaps = Snapshots::new(&[1e-9], &sink).unwrap();
+        let snaps = Snapshots::with_clock(&[1e-9], &sink, &clock).unwrap();
         let scene = small_scene();
         let ctx = RenderContext {
             snapshots: Some(&snaps),
+            clock: &clock,
             ..RenderContext::new(&scene, 0, false)
         };
         let mut n = 0u64;
-        let t0 = Instant::now();
         let (passes, seconds) = run_passes_with_snapshots(
             &ctx,
             Budget::Seconds(0.05),
             &mut n,
             |n, _| {
                 *n += 1;
-                std::thread::sleep(Duration::from_millis(5));
+                clock.advance(Duration::from_millis(5));
             },
             |_, _| Image::new(1, 1),
         );
-        // The sleeping sink ran once (60 ms, after the first pass) yet the budget still
-        // allowed ~50 ms of 5 ms passes (charged, it would have stopped after one), and the
-        // reported seconds leave the 60 ms out.
-        assert_eq!(passes, n);
-        assert!(passes >= 3, "{passes} passes");
-        assert!(seconds >= 0.05, "{seconds}");
-        assert!(t0.elapsed().as_secs_f64() >= seconds + 0.06, "{seconds}");
+        assert_eq!((passes, n), (10, 10));
+        assert_eq!(seconds, 0.05);
+        assert_eq!(clock.now(), Duration::from_millis(110));
     }
 }

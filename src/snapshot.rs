@@ -25,11 +25,12 @@
 //! File names: [`snapshot_path`] puts `out.t0005.exr` beside `out.exr` (seconds zero-padded to
 //! four digits, with a fraction only when the time has one: `out.t0002.5.exr`).
 
+use crate::clock::Clock;
 use crate::error::{Error, Result};
 use crate::film::Image;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// One snapshot handed to the sink.
 #[derive(Debug)]
@@ -52,19 +53,30 @@ pub type SnapshotSink<'a> = dyn Fn(&Snapshot) -> Result<()> + Sync + 'a;
 pub struct Snapshots<'a> {
     times: Vec<f64>,
     sink: &'a SnapshotSink<'a>,
+    clock: &'a dyn Clock,
     state: Mutex<State>,
 }
 
 struct State {
-    start: Instant,
+    start: Duration,
     paused: Duration,
     next: usize,
     error: Option<Error>,
 }
 
 impl<'a> Snapshots<'a> {
-    /// Times must be finite and positive; they are sorted and duplicates dropped.
+    /// Times must be finite and positive; they are sorted and duplicates dropped. The clock
+    /// is the machine's.
     pub fn new(times: &[f64], sink: &'a SnapshotSink<'a>) -> Result<Snapshots<'a>> {
+        Snapshots::with_clock(times, sink, crate::clock::system())
+    }
+
+    /// [`Snapshots::new`] on `clock` (the render's, `RenderContext::clock`).
+    pub fn with_clock(
+        times: &[f64],
+        sink: &'a SnapshotSink<'a>,
+        clock: &'a dyn Clock,
+    ) -> Result<Snapshots<'a>> {
         if let Some(t) = times.iter().find(|t| !(t.is_finite() && **t > 0.0)) {
             return Err(Error::new(format!(
                 "--snapshots: times must be positive numbers of seconds, got {t}"
@@ -76,8 +88,9 @@ impl<'a> Snapshots<'a> {
         Ok(Snapshots {
             times,
             sink,
+            clock,
             state: Mutex::new(State {
-                start: Instant::now(),
+                start: clock.now(),
                 paused: Duration::ZERO,
                 next: 0,
                 error: None,
@@ -93,7 +106,7 @@ impl<'a> Snapshots<'a> {
     /// Restart the clock (and the schedule): called when the integrator starts rendering.
     pub fn start_clock(&self) {
         let mut s = self.lock();
-        s.start = Instant::now();
+        s.start = self.clock.now();
         s.paused = Duration::ZERO;
         s.next = 0;
     }
@@ -101,7 +114,9 @@ impl<'a> Snapshots<'a> {
     /// Seconds since the clock started, without the time spent on snapshots.
     pub fn elapsed(&self) -> f64 {
         let s = self.lock();
-        s.start.elapsed().saturating_sub(s.paused).as_secs_f64()
+        (self.clock.now() - s.start)
+            .saturating_sub(s.paused)
+            .as_secs_f64()
     }
 
     /// Total time spent on snapshots so far (the pass driver subtracts it from its budget).
@@ -114,11 +129,13 @@ impl<'a> Snapshots<'a> {
     /// taken and [`Snapshots::finish`] returns the error.
     pub fn emit_due(&self, passes: u64, spp: u64, image: impl FnOnce() -> Image) {
         let mut s = self.lock();
-        let seconds = s.start.elapsed().saturating_sub(s.paused).as_secs_f64();
+        let seconds = (self.clock.now() - s.start)
+            .saturating_sub(s.paused)
+            .as_secs_f64();
         if s.error.is_some() || s.next >= self.times.len() || self.times[s.next] > seconds {
             return;
         }
-        let t0 = Instant::now();
+        let t0 = self.clock.now();
         let image = image();
         while s.next < self.times.len() && self.times[s.next] <= seconds {
             let snapshot = Snapshot {
@@ -135,7 +152,7 @@ impl<'a> Snapshots<'a> {
                 s.next = self.times.len();
             }
         }
-        s.paused += t0.elapsed();
+        s.paused += self.clock.now() - t0;
     }
 
     /// After the render: the sink's error if it failed, else the times never reached.
@@ -223,19 +240,20 @@ mod tests {
     /// sink time is paused out of the clock; a sink error stops snapshots and is reported.
     #[test]
     fn emission_schedule() {
+        let clock = crate::clock::ManualClock::default();
         let seen = Mutex::new(Vec::new());
         let sink = |s: &Snapshot| {
             seen.lock()
                 .unwrap()
                 .push((s.index, s.time, s.seconds, s.passes));
-            std::thread::sleep(Duration::from_millis(30)); // paused out
+            clock.advance(Duration::from_millis(30)); // paused out
             Ok(())
         };
-        let snaps = Snapshots::new(&[0.01, 0.02, 10.0], &sink).unwrap();
-        let outer = std::time::Instant::now();
+        let snaps = Snapshots::with_clock(&[0.01, 0.02, 10.0], &sink, &clock).unwrap();
         snaps.start_clock();
+        clock.advance(Duration::from_millis(5));
         snaps.emit_due(1, 1, || panic!("nothing is due yet"));
-        std::thread::sleep(Duration::from_millis(25));
+        clock.advance(Duration::from_millis(20));
         let mut calls = 0;
         snaps.emit_due(2, 2, || {
             calls += 1;
@@ -243,21 +261,19 @@ mod tests {
         });
         assert_eq!(calls, 1);
         let seen = seen.lock().unwrap().clone();
+        // Both due times are handed out together, at 25 ms on the render's clock.
         assert_eq!(seen.len(), 2);
         assert_eq!((seen[0].0, seen[1].0, seen[0].3), (0, 1, 2));
-        assert!(seen[0].2 >= 0.02 && seen[0].2 == seen[1].2, "{seen:?}");
-        assert!(snaps.paused() >= Duration::from_millis(60));
-        // Sink time is not on the render's clock: elapsed is at most the wall time since the
-        // clock started minus the pauses (no upper bound on the wall time itself, which a
-        // loaded machine stretches).
-        let elapsed = snaps.elapsed();
-        let bound = outer.elapsed().saturating_sub(snaps.paused()).as_secs_f64();
-        assert!(elapsed <= bound, "{elapsed} > {bound}");
+        assert_eq!((seen[0].2, seen[1].2), (0.025, 0.025), "{seen:?}");
+        // Sink time is not on the render's clock.
+        assert_eq!(snaps.paused(), Duration::from_millis(60));
+        assert_eq!(snaps.elapsed(), 0.025);
         assert_eq!(snaps.finish().unwrap(), [10.0]);
 
         let failing = |_: &Snapshot| Err(Error::new("disk full"));
-        let snaps = Snapshots::new(&[1e-9, 2e-9], &failing).unwrap();
-        std::thread::sleep(Duration::from_millis(1));
+        let clock = crate::clock::ManualClock::default();
+        let snaps = Snapshots::with_clock(&[1e-9, 2e-9], &failing, &clock).unwrap();
+        clock.advance(Duration::from_millis(1));
         snaps.emit_due(1, 1, || Image::new(1, 1));
         snaps.emit_due(2, 2, || panic!("no snapshots after an error"));
         assert_eq!(snaps.finish().unwrap_err().message(), "disk full");

@@ -47,7 +47,6 @@ use crate::scene::Scene;
 use glam::UVec2;
 use rayon::prelude::*;
 use std::sync::Arc;
-use std::time::Instant;
 
 /// Render passes draw from streams (seed, RENDER_STREAMS + pass, ...), learning passes from
 /// (seed, iteration, ...): a render with a loaded cache repeats the render phase of a run
@@ -300,7 +299,8 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
     fn render(&mut self, ctx: &RenderContext, budget: Budget) -> RenderResult {
         let scene = ctx.scene;
         let st = self.settings.clone();
-        let start = Instant::now();
+        let clock = ctx.clock;
+        let start = clock.now();
         let UVec2 { x: w, y: h } = scene.camera.resolution;
         let mut film = Film::new(w, h);
         // A loaded cache keeps the kernel widths it was saved with, and is rendered with even
@@ -387,7 +387,7 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
                     let (spent, extended) = match lb {
                         Budget::Spp(n) => (k >= n, k as f64 >= share::EXTENSION * n as f64),
                         Budget::Seconds(s) => {
-                            let t = start.elapsed().as_secs_f64();
+                            let t = (clock.now() - start).as_secs_f64();
                             (t >= s, t >= share::EXTENSION * s)
                         }
                     };
@@ -407,7 +407,7 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
                     if hopeless && !done && st.save_guides.is_none() {
                         break;
                     }
-                    let rebuild_start = Instant::now();
+                    let rebuild_start = clock.now();
                     cache.rebuild(
                         scene,
                         records,
@@ -420,7 +420,7 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
                         },
                         &second_moment,
                     );
-                    rebuild_seconds += rebuild_start.elapsed().as_secs_f64();
+                    rebuild_seconds += (clock.now() - rebuild_start).as_secs_f64();
                     if done || ctx.stopped() {
                         break;
                     }
@@ -428,7 +428,7 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
                 learn_passes = k;
             }
         }
-        let learn_seconds = start.elapsed().as_secs_f64();
+        let learn_seconds = (clock.now() - start).as_secs_f64();
         // ---- The guided share, from what learning measured ----
         let decision = meter.decide();
         if let Some(d) = &decision {
@@ -558,7 +558,7 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
             image,
             spp: kept + passes,
             passes: kept + passes,
-            seconds: start.elapsed().as_secs_f64(),
+            seconds: (clock.now() - start).as_secs_f64(),
             stats: out_stats,
         }
     }

@@ -439,10 +439,10 @@ pub fn render<T: Target>(
     let scene: &Scene = ctx.scene;
     let (w, h) = (scene.camera.resolution.x, scene.camera.resolution.y);
     let pixels = scene.camera.pixel_count() as f64;
-    let t0 = Instant::now();
+    let t0 = ctx.clock.now();
     let boot = bootstrap(target, ctx.seed, settings.bootstrap, settings);
     let mut chains = start_chains(target, &boot, ctx.seed, pixels as u64, pixels, settings);
-    let boot_seconds = t0.elapsed().as_secs_f64();
+    let boot_seconds = (ctx.clock.now() - t0).as_secs_f64();
     let budget = match budget {
         Budget::Seconds(s) => Budget::Seconds((s - boot_seconds).max(0.0)),
         b => b,

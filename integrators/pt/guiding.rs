@@ -40,7 +40,6 @@ use crate::render::{
 use crate::scene::{Scene, SurfacePoint};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
-use std::time::Instant;
 
 /// Stream key of the learning passes (apart from the render's passes).
 const LEARN_KEY: u64 = 0x5344_5452_4545_0000;
@@ -233,7 +232,8 @@ pub fn render(
     budget: Budget,
 ) -> RenderResult {
     let scene = ctx.scene;
-    let start = Instant::now();
+    let clock = ctx.clock;
+    let start = clock.now();
     let mut tree = SdTree::new(scene.center, scene.radius);
     let (w, h) = (scene.camera.resolution.x, scene.camera.resolution.y);
     let mut learned = 0u64;
@@ -247,14 +247,14 @@ pub fn render(
                     <= ((total as f64 * g.learn_fraction) as u64).min(total.saturating_sub(1))
             }
             Budget::Seconds(s) => {
-                let t = start.elapsed().as_secs_f64();
+                let t = (clock.now() - start).as_secs_f64();
                 iteration == 0 || t + 2.0 * last <= s * g.learn_fraction
             }
         };
         if !go || ctx.stopped() {
             break;
         }
-        let t0 = Instant::now();
+        let t0 = clock.now();
         let guide = Guide {
             tree: &tree,
             fraction: g.guide_fraction,
@@ -273,9 +273,9 @@ pub fn render(
         }
         tree.refine(n);
         learned += n;
-        last = t0.elapsed().as_secs_f64();
+        last = (clock.now() - t0).as_secs_f64();
     }
-    let learning_seconds = start.elapsed().as_secs_f64();
+    let learning_seconds = (clock.now() - start).as_secs_f64();
     let rest = match budget {
         Budget::Spp(total) => Budget::Spp(total.saturating_sub(learned)),
         Budget::Seconds(s) => Budget::Seconds((s - learning_seconds).max(0.0)),

@@ -212,6 +212,7 @@ fn py_render<'py>(
         dbor: false,
         first_pass: 0,
         control: Some(&control),
+        clock: None,
     };
     let (scene_ref, name_ref, run_ref) = (&scene, name.as_str(), &run);
     let named = run_controlled(py, &control, progress.as_ref(), move || {

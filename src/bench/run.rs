@@ -192,6 +192,7 @@ fn render_one(p: &Prepared, name: &str, seed: u64) -> Result<(Run, Image, String
         snapshots: Some(&snapshots),
         first_pass: 0,
         control: None,
+        clock: None,
     };
     let named = integrators::render_named_with(
         &p.scene,

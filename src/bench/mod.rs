@@ -154,7 +154,7 @@ pub fn bench(p: &Prepared) -> Result<BenchReport> {
     bench_controlled(p, None)
 }
 
-/// [`bench`] held by `control` (see [`run::run_all_controlled`]).
+/// [`bench()`] held by `control` (see [`run::run_all_controlled`]).
 pub fn bench_controlled(
     p: &Prepared,
     control: Option<&crate::render::Control>,

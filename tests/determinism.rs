@@ -72,6 +72,7 @@ fn every_integrator_in_fog_with_dbor_is_bit_identical_for_1_2_3_threads() {
                 dbor: !name.ends_with("mlt"),
                 first_pass: 0,
                 control: None,
+                clock: None,
             };
             integrators::render_named_with(&scene, name, &params, Budget::Spp(spp), &run)
                 .unwrap()
@@ -90,5 +91,57 @@ fn every_integrator_in_fog_with_dbor_is_bit_identical_for_1_2_3_threads() {
                 "{name}: DBOR image, 1 vs {threads} threads"
             );
         }
+    }
+}
+
+/// Bit for bit: the same f32 bits in every channel of every pixel (`==` takes -0 for 0).
+fn same_bits(a: &lodestar::film::Image, b: &lodestar::film::Image) -> bool {
+    let bits = |i: &lodestar::film::Image| -> Vec<[u32; 3]> {
+        i.pixels
+            .iter()
+            .map(|p| p.to_array().map(f32::to_bits))
+            .collect()
+    };
+    (a.width, a.height) == (b.width, b.height) && bits(a) == bits(b)
+}
+
+/// guided-vcm, guided-bdpt with the chain seeder and pt with SD-tree guiding, learning inside
+/// the render, on the caustic scene at 16 x 16 and 16 samples per pixel (where guided-vcm and
+/// guided-bdpt learn guide paths; in the fog scene above at this size they learn none), with
+/// the guided share fixed so that the render passes draw guided samples: the same image bit
+/// for bit on 1 and 2 threads. Each run must have done the work that could depend on the
+/// thread count (a statistic above 0: guided samples, chain steps, learning passes), or it
+/// proves nothing.
+#[test]
+fn guided_vcm_chain_seeded_bdpt_and_sdtree_pt_are_bit_identical_for_1_and_2_threads() {
+    let scene = util::scene(
+        &util::guided::CAUSTIC.replace("resolution = [48, 48]", "resolution = [16, 16]"),
+    );
+    for (name, options, worked) in [
+        (
+            "guided-vcm",
+            &["learn_fraction=0.5", "share=fixed"][..],
+            "guided_samples",
+        ),
+        (
+            "guided-bdpt",
+            &["learn_fraction=0.5", "seeder=mcmc", "share=fixed"][..],
+            "seeder_chain_steps",
+        ),
+        (
+            "pt",
+            &["guiding=sdtree", "learn_fraction=0.5"][..],
+            "learning_passes",
+        ),
+    ] {
+        let one = util::render(&scene, name, 6, options, 16, 5, 1);
+        let n: f64 = util::stat(&one, worked).map_or(0.0, |v| v.parse().unwrap());
+        assert!(n > 0.0, "{name} {options:?}: {worked} = {n}");
+        assert!(one.image.mean().max_element() > 0.0, "{name}: black");
+        let two = util::render(&scene, name, 6, options, 16, 5, 2);
+        assert!(
+            same_bits(&one.image, &two.image),
+            "{name} {options:?}: 1 and 2 threads differ"
+        );
     }
 }

@@ -21,6 +21,7 @@ use std::cell::Cell;
 pub struct IntegratorParams {
     /// Maximum number of path segments.
     pub max_depth: u32,
+    /// The `-O key=value` options; a key the integrator does not read is an error.
     pub options: Options,
 }
 
@@ -42,8 +43,11 @@ impl IntegratorParams {
 /// An integrator by name: the built-in ones in [`REGISTRY`], others added by [`register`].
 #[derive(Clone, Copy)]
 pub struct Entry {
+    /// The name `--integrator` takes (`pt`, `guided-bdpt`, ...).
     pub name: &'static str,
+    /// One line on what the integrator computes, for `lodestar integrators`.
     pub summary: &'static str,
+    /// Builds the integrator from its parameters; an option value it cannot use is an error.
     pub build: fn(&IntegratorParams) -> Result<Box<dyn Integrator>>,
     /// The sources (`include_str!` of module files) whose module documentation holds the
     /// integrator's option tables (`option_docs`).
@@ -84,6 +88,7 @@ pub fn entries() -> Vec<Entry> {
     REGISTRY.iter().chain(registered.iter()).copied().collect()
 }
 
+/// The built-in integrators, in the order `lodestar integrators` lists them.
 pub static REGISTRY: &[Entry] = &[
     Entry {
         name: "pt",
@@ -260,20 +265,24 @@ impl Options {
 
 /// The outcome of [`render_named`].
 pub struct NamedRender {
+    /// The image, sample counts, seconds and statistics of the render.
     pub result: crate::render::RenderResult,
     /// Process CPU seconds the render took (wall seconds times threads where unavailable).
     pub cpu_seconds: f64,
-    /// Registry name and settings of the integrator, for metadata.
+    /// Registry name of the integrator, for metadata.
     pub name: &'static str,
+    /// The integrator's settings ([`Integrator::settings`]), for metadata.
     pub settings: String,
 }
 
 /// How [`render_named_with`] runs: seed, threads, progress bar and snapshots.
 #[derive(Clone, Copy)]
 pub struct RunSettings<'a> {
+    /// Root seed of the random streams (`RenderContext::seed`).
     pub seed: u64,
     /// Size of the thread pool.
     pub threads: usize,
+    /// Draw a progress bar on stderr.
     pub progress: bool,
     /// Images at given elapsed seconds; the clock starts when the integrator starts rendering.
     pub snapshots: Option<&'a crate::snapshot::Snapshots<'a>>,

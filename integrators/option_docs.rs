@@ -16,7 +16,9 @@ pub struct OptionRow {
     pub name: String,
     /// Type or values.
     pub kind: String,
+    /// The value the integrator uses when the option is not given, as the table writes it.
     pub default: String,
+    /// What the option does.
     pub meaning: String,
 }
 

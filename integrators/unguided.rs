@@ -117,6 +117,7 @@ pub trait Unguided: Sync + Send {
 
     /// Registry name of the estimator alone (`pt`, `bdpt`, `vcm`).
     fn name(&self) -> &'static str;
+    /// Maximum number of path segments of the paths the estimator forms.
     fn max_depth(&self) -> u32;
     /// The shared state of a pass: `stream` is the pass's random-stream index, `ordinal` its
     /// position among the passes of the render (0, 1, ...; vcm's radius shrinks with it).
@@ -157,6 +158,7 @@ pub trait Unguided: Sync + Send {
         let _ = held;
         self.renew_pass(scene, seed, stream, ordinal, spent)
     }
+    /// Per-thread state for tracing samples of `pass` (one per row).
     fn tracer<'s, 'p: 's>(&'s self, scene: &'s Scene, pass: &'s Self::Pass<'p>)
     -> Self::Tracer<'s>;
     /// One sample through raster position `raster`; every path it forms goes to `sink`.
@@ -331,6 +333,8 @@ impl Unguided for PathTracer {
 /// BDPT as an unguided estimator: balance heuristic over all its techniques (the power
 /// heuristic does not mix with a further technique by adding its density).
 pub struct BdptUnguided {
+    /// BDPT's depth limit and Russian roulette; the heuristic must be the balance one, with
+    /// all techniques and no light tracing alone.
     pub settings: BdptSettings,
 }
 

@@ -14,18 +14,23 @@
 use crate::geometry::Ray;
 use glam::{UVec2, Vec2, Vec3};
 
+/// A pinhole camera: its frame in world space, resolution and field of view.
 #[derive(Debug, Clone)]
 pub struct Camera {
+    /// The pinhole, in world space.
     pub position: Vec3,
     /// Unit viewing direction.
     pub forward: Vec3,
     /// Unit vectors spanning the image plane (right, and up in the image).
     pub right: Vec3,
+    /// Unit up direction of the image, orthogonal to `forward` and `right`.
     pub up: Vec3,
+    /// Image size in pixels (width, height).
     pub resolution: UVec2,
     /// Half the image plane's height and width at distance 1.
     half_h: f32,
     half_w: f32,
+    /// Vertical field of view, in degrees.
     pub fov_y_degrees: f32,
 }
 
@@ -34,7 +39,9 @@ pub struct Camera {
 pub struct CameraSample {
     /// Unit direction from the scene point towards the pinhole.
     pub wi: Vec3,
+    /// Distance from the scene point to the pinhole.
     pub dist: f32,
+    /// Where the ray through the point crosses the image, in raster coordinates.
     pub raster: Vec2,
     /// `We` of the ray from the pinhole towards the point.
     pub we: f32,
@@ -69,6 +76,7 @@ impl Camera {
         }
     }
 
+    /// Number of pixels, width times height.
     pub fn pixel_count(&self) -> usize {
         (self.resolution.x * self.resolution.y) as usize
     }
@@ -125,7 +133,6 @@ impl Camera {
         self.raster_of_direction(d / len)
     }
 
-    /// Pixel index of a raster position.
     /// Raster position of pixel (x, y) jittered by `u` in [0, 1)²: always inside the pixel
     /// (`pixel_index` gives (x, y) back), also where the f32 sum x + u would round up to the
     /// next pixel's edge (from x = 4 on, u within half an ulp of 1).
@@ -134,6 +141,7 @@ impl Camera {
         (Vec2::new(x as f32, y as f32) + u).min(Vec2::new(below(x), below(y)))
     }
 
+    /// Row-major index of the pixel holding raster position `raster` (clamped to the image).
     pub fn pixel_index(&self, raster: Vec2) -> usize {
         let x = (raster.x as u32).min(self.resolution.x - 1);
         let y = (raster.y as u32).min(self.resolution.y - 1);

@@ -12,6 +12,7 @@ use std::time::{Duration, Instant};
 
 /// A monotonic clock: the time since some fixed instant of its own.
 pub trait Clock: Send + Sync {
+    /// The time elapsed since the clock's fixed instant; never decreases.
     fn now(&self) -> Duration;
 }
 
@@ -42,6 +43,7 @@ pub struct ManualClock {
 }
 
 impl ManualClock {
+    /// Move the clock forward by `by`.
     pub fn advance(&self, by: Duration) {
         self.nanos.fetch_add(by.as_nanos() as u64, Ordering::SeqCst);
     }

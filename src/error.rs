@@ -4,11 +4,14 @@
 
 use std::fmt;
 
+/// A failure meant for the user: one line saying where (file, line, key or flag) and what was
+/// expected.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Error {
     message: String,
 }
 
+/// A result whose error is lodestar's [`Error`].
 pub type Result<T> = std::result::Result<T, Error>;
 
 impl Error {
@@ -27,6 +30,7 @@ impl Error {
         }
     }
 
+    /// The message, one line, as printed.
     pub fn message(&self) -> &str {
         &self.message
     }

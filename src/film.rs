@@ -11,12 +11,16 @@ use std::path::Path;
 /// A linear-RGB image, row-major, top row first.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Image {
+    /// Width in pixels.
     pub width: u32,
+    /// Height in pixels.
     pub height: u32,
+    /// `width * height` pixel values, row-major.
     pub pixels: Vec<Spectrum>,
 }
 
 impl Image {
+    /// A black image of the given size.
     pub fn new(width: u32, height: u32) -> Image {
         Image {
             width,
@@ -252,7 +256,9 @@ pub fn atomic_write(
 /// lose precision.
 #[derive(Debug, Clone)]
 pub struct Film {
+    /// Width in pixels.
     pub width: u32,
+    /// Height in pixels.
     pub height: u32,
     sum: Vec<DVec3>,
     splat: Vec<DVec3>,
@@ -269,6 +275,7 @@ fn add_checked(to: &mut DVec3, v: DVec3) -> bool {
 }
 
 impl Film {
+    /// An empty film (every sum and splat zero) of the given size.
     pub fn new(width: u32, height: u32) -> Film {
         let n = (width * height) as usize;
         Film {
@@ -285,6 +292,7 @@ impl Film {
         self.sum.par_chunks_mut(self.width as usize)
     }
 
+    /// The per-pixel sums of the pixel samples (splats not included), row-major.
     pub fn sums(&self) -> &[DVec3] {
         &self.sum
     }
@@ -353,6 +361,7 @@ impl Film {
         }
     }
 
+    /// Set every pixel sum and splat back to zero.
     pub fn clear(&mut self) {
         self.sum.fill(DVec3::ZERO);
         self.splat.fill(DVec3::ZERO);

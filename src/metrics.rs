@@ -18,21 +18,31 @@ use glam::DVec3;
 /// The constant added to `r^2` in relMSE's denominator.
 pub const REL_EPSILON: f64 = 0.01;
 
+/// Image `a` measured against reference `b` over a crop (the whole image without one).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Comparison {
+    /// Per-channel mean of `a` over the crop.
     pub mean_a: DVec3,
+    /// Per-channel mean of the reference over the crop.
     pub mean_b: DVec3,
+    /// Mean of `(a - r)^2` over pixels and channels.
     pub mse: f64,
+    /// `sqrt(mse)`.
     pub rmse: f64,
+    /// Mean of `(a - r)^2 / (r^2 + REL_EPSILON)` over pixels and channels.
     pub rel_mse: f64,
 }
 
 /// A pixel rectangle `[x0, x1) x [y0, y1)`, non-empty.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Crop {
+    /// First column.
     pub x0: u32,
+    /// First row.
     pub y0: u32,
+    /// One past the last column.
     pub x1: u32,
+    /// One past the last row.
     pub y1: u32,
 }
 

@@ -53,22 +53,38 @@ pub fn check_stored_depth(who: &str, max_depth: u32) -> Result<(), String> {
     Ok(())
 }
 
+/// What a path vertex is: it decides the vertex's measure (area, volume or solid angle) and
+/// how the densities at it are evaluated.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum VertexKind {
     /// The pinhole.
     Camera,
     /// A scattering surface of scene shape `shape`; `delta` if its BSDF is specular.
     Surface {
+        /// Index of the surface's material in `Scene::materials`.
         material: u32,
+        /// Index of the shape in `Scene::shapes` and `Scene::shape_info`.
         shape: u32,
+        /// Whether the BSDF is a Dirac delta (perfect mirror or glass).
         delta: bool,
     },
     /// A scattering point inside a medium.
-    Medium { medium: u32 },
-    /// The emitter the path ends on; `delta` for point lights.
-    Emitter { light: u32, delta: bool },
+    Medium {
+        /// Index of the medium in `Scene::media`.
+        medium: u32,
+    },
+    /// The emitter the path ends on.
+    Emitter {
+        /// Index of the light in `Scene::lights`.
+        light: u32,
+        /// Whether the light is a delta one (point, spot, directional): reached only by a
+        /// deterministic connection, never by a sampled direction.
+        delta: bool,
+    },
 }
 
+/// One vertex of a complete path: its geometry and kind, from which every density and the
+/// path's contribution can be recomputed.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Vertex {
     /// Position; for a light at infinity, the previous vertex plus its direction.
@@ -79,10 +95,12 @@ pub struct Vertex {
     /// Shading normal of surface vertices (zero otherwise): needed to re-evaluate BSDF
     /// densities, so a path's density can be recomputed exactly from the path.
     pub ns: Vec3,
+    /// What the vertex is (camera, surface, medium, emitter) with its scene indices.
     pub kind: VertexKind,
 }
 
 impl Vertex {
+    /// A placeholder vertex (a camera vertex at the origin) filling unused slots.
     pub const EMPTY: Vertex = Vertex {
         p: Vec3::ZERO,
         n: Vec3::ZERO,
@@ -91,6 +109,8 @@ impl Vertex {
     };
 }
 
+/// A complete path x_0 (camera) .. x_k (emitter), vertices stored inline, with its
+/// contribution and pixel.
 #[derive(Debug, Clone)]
 pub struct Path {
     vertices: [Vertex; MAX_VERTICES],
@@ -113,6 +133,7 @@ impl Default for Path {
 }
 
 impl Path {
+    /// Empty the path (no vertices, zero contribution) for reuse; `pixel` is kept.
     pub fn clear(&mut self) {
         self.len = 0;
         self.f = Spectrum::ZERO;
@@ -134,6 +155,7 @@ impl Path {
         Some(self.vertices[self.len])
     }
 
+    /// The vertices, camera first.
     pub fn vertices(&self) -> &[Vertex] {
         &self.vertices[..self.len]
     }

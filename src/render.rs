@@ -33,7 +33,9 @@ pub enum Budget {
 
 /// What every integrator gets to render with.
 pub struct RenderContext<'a> {
+    /// The scene to render.
     pub scene: &'a Scene,
+    /// Root seed of the counter-based random streams, one per (seed, pass, pixel).
     pub seed: u64,
     /// Draw a progress bar on stderr (hidden when stderr is not a terminal).
     pub progress: bool,
@@ -115,10 +117,14 @@ impl<'a> RenderContext<'a> {
 /// The outcome of a render.
 #[derive(Debug, Clone)]
 pub struct RenderResult {
+    /// The rendered image: the estimate of every pixel's measurement.
     pub image: Image,
     /// Samples per pixel (camera paths per pixel for per-pixel estimators).
     pub spp: u64,
+    /// Passes the image averages (this render's own; learning passes kept in the image
+    /// count).
     pub passes: u64,
+    /// Seconds the render took on the context's clock, learning and set-up included.
     pub seconds: f64,
     /// Named counters and settings, also written into the EXR header.
     pub stats: Vec<(String, String)>,
@@ -133,6 +139,7 @@ pub trait Integrator: Send {
     fn name(&self) -> &'static str;
     /// Settings in a human-readable form, for logs and EXR metadata.
     fn settings(&self) -> String;
+    /// Render `ctx.scene` until `budget` is spent and return the image with its statistics.
     fn render(&mut self, ctx: &RenderContext, budget: Budget) -> RenderResult;
     /// Called before `render` with the scene: load and check inputs (default: nothing).
     fn prepare(&mut self, _scene: &Scene) -> crate::error::Result<()> {
@@ -294,6 +301,8 @@ fn progress_bar(progress: bool, budget: Budget) -> ProgressBar {
 /// One row's work for [`render_rows`]: a value for each pixel sample, plus splats (pixel
 /// index, value) to any pixel (light tracing, BDPT's t = 1), merged after the pass in row order.
 pub trait RowTracer {
+    /// One sample of the pixel at jittered raster position `raster`; splats it makes are
+    /// kept for [`Self::take_splats`].
     fn sample<S: Sampler>(&mut self, raster: Vec2, sampler: &mut S) -> Spectrum;
     /// [`Self::sample`] for every pixel of a row, in order, into `out` (by default one after
     /// the other; a tracer may trace them together if each value and splat stays the same).

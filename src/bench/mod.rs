@@ -37,15 +37,26 @@ use std::path::{Path, PathBuf};
 /// What to bench (see the module documentation).
 #[derive(Debug, Clone)]
 pub struct BenchConfig {
+    /// The scene file.
     pub scene: PathBuf,
+    /// Integrator entries, `name` or `name:key=value:...`; the first is the speed-ups'
+    /// baseline.
     pub integrators: Vec<String>,
+    /// Wall-clock budget of each render, learning included.
     pub seconds: f64,
+    /// EXR of the scene's converged image, at the scene's resolution.
     pub reference: PathBuf,
+    /// Renders per integrator, with seeds `seed .. seed + runs`.
     pub runs: u32,
+    /// Seed of the first run.
     pub seed: u64,
+    /// Output directory (report, curves, plot, images, page).
     pub out: PathBuf,
+    /// Size of each render's thread pool.
     pub threads: usize,
+    /// Maximum number of path segments (`None`: the scene's).
     pub max_depth: Option<u32>,
+    /// The pixel rectangle every metric is computed over (`None`: the whole image).
     pub crop: Option<Crop>,
     /// Exposure of the PNG images in stops.
     pub exposure: f32,
@@ -55,9 +66,13 @@ pub struct BenchConfig {
 
 /// A checked configuration with its scene and reference loaded.
 pub struct Prepared {
+    /// The configuration, checked.
     pub config: BenchConfig,
+    /// The loaded scene.
     pub scene: Scene,
+    /// The loaded reference image.
     pub reference: Image,
+    /// The depth limit every render uses: the configuration's, else the scene's.
     pub max_depth: u32,
 }
 
@@ -145,7 +160,9 @@ pub fn prepare(config: BenchConfig) -> Result<Prepared> {
 
 /// The outcome of a bench: every run, and the table as printed.
 pub struct BenchReport {
+    /// Every integrator's runs, in the order of the configuration.
     pub results: Vec<run::IntegratorRuns>,
+    /// The table `lodestar bench` prints: one row of medians per integrator.
     pub table: String,
 }
 

@@ -23,6 +23,7 @@ use std::path::Path;
 /// One line of the report: a run, or the medians of an integrator's runs.
 #[derive(Debug, Clone)]
 pub struct Row {
+    /// The integrator entry.
     pub integrator: String,
     /// Run index, or `None` for the median row.
     pub run: Option<usize>,
@@ -30,15 +31,23 @@ pub struct Row {
     pub seed: u64,
     /// How many runs the row summarises (1 for a run).
     pub runs: usize,
+    /// Render seconds (median over the runs for a median row, as for every number below).
     pub seconds: f64,
+    /// Samples per pixel.
     pub spp: f64,
+    /// Passes.
     pub passes: f64,
+    /// MSE against the reference.
     pub mse: f64,
+    /// RMSE against the reference.
     pub rmse: f64,
+    /// relMSE against the reference.
     pub rel_mse: f64,
+    /// The first integrator's MSE over this one's (same run, or medians).
     pub speedup: f64,
-    /// The integrator's seed-pair variance and the first integrator's over it.
+    /// The integrator's seed-pair variance (`IntegratorRuns::variance`).
     pub variance: f64,
+    /// The first integrator's seed-pair variance over this one's.
     pub var_speedup: f64,
 }
 

@@ -22,18 +22,26 @@ pub const CURVE_FRACTIONS: [f64; 5] = [1.0 / 32.0, 1.0 / 16.0, 1.0 / 8.0, 1.0 / 
 pub struct CurvePoint {
     /// Elapsed seconds on the render clock.
     pub seconds: f64,
+    /// Samples per pixel in the snapshot image.
     pub spp: u64,
+    /// Passes in the snapshot image.
     pub passes: u64,
+    /// The snapshot image against the reference.
     pub error: Comparison,
 }
 
 /// One render of one integrator with one seed.
 #[derive(Debug, Clone)]
 pub struct Run {
+    /// The render's seed.
     pub seed: u64,
+    /// Seconds the render took, learning included.
     pub seconds: f64,
+    /// Samples per pixel of the final image.
     pub spp: u64,
+    /// Passes of the final image.
     pub passes: u64,
+    /// The final image against the reference.
     pub error: Comparison,
     /// Snapshot points in time order, ending with the final image.
     pub curve: Vec<CurvePoint>,
@@ -45,9 +53,13 @@ pub struct Run {
 /// All runs of one integrator, and the image of its first run.
 #[derive(Debug, Clone)]
 pub struct IntegratorRuns {
+    /// The entry as the bench lists it (`name` or `name:key=value:...`).
     pub name: String,
+    /// The integrator's settings, as its EXR header records them.
     pub settings: String,
+    /// One run per seed, in seed order.
     pub runs: Vec<Run>,
+    /// The final image of the first run.
     pub image: Image,
     /// Per-pixel variance at the budget, estimated without the reference from the final images
     /// of the runs (seeds): the mean over pairs of `MSE(I_i, I_j) / 2` (NaN with one run).
@@ -61,10 +73,15 @@ pub struct IntegratorRuns {
 /// One finished render: which integrator (index in the bench's list), its run, final image
 /// and the entry and settings that name it.
 pub struct Rendered {
+    /// Index of the integrator in the bench's list.
     pub index: usize,
+    /// Seed, time, sample counts, errors and statistics of the render.
     pub run: Run,
+    /// The final image.
     pub image: Image,
+    /// The entry that names the integrator.
     pub name: String,
+    /// The integrator's settings.
     pub settings: String,
 }
 
@@ -228,6 +245,8 @@ fn render_one(p: &Prepared, name: &str, seed: u64) -> Result<(Run, Image, String
     Ok((run, r.image, name.to_string(), named.settings))
 }
 
+/// The EXR header of a bench image: integrator entry, settings, scene, spp, passes, seconds,
+/// seed and threads.
 pub fn metadata(p: &Prepared, name: &str, settings: &str, run: &Run) -> Vec<(String, String)> {
     vec![
         ("integrator".to_string(), name.to_string()),

@@ -37,9 +37,12 @@ use glam::{Vec2, Vec3};
 /// Lowest Russian-roulette continuation probability (caps the weight boost at 20x).
 pub const MIN_CONTINUATION: f32 = 0.05;
 
+/// What the path being built carries, which decides the non-symmetric factors of a BSDF.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum TransportMode {
+    /// A path from the camera: refraction scales by `1/eta^2`.
     Radiance,
+    /// A path from a light: shading normals get Veach's adjoint correction.
     Importance,
 }
 
@@ -53,6 +56,7 @@ pub struct ShadingFrame {
 }
 
 impl ShadingFrame {
+    /// The frame around shading normal `ns`, with geometric normal `ng`.
     pub fn new(ns: Vec3, ng: Vec3) -> ShadingFrame {
         ShadingFrame {
             frame: Frame::from_z(ns),
@@ -61,6 +65,7 @@ impl ShadingFrame {
     }
 }
 
+/// A direction drawn by [`Bsdf::sample`] with its value, density and weight.
 #[derive(Debug, Clone, Copy)]
 pub struct BsdfSample {
     /// Sampled direction (world space).
@@ -71,7 +76,9 @@ pub struct BsdfSample {
     pub pdf: f32,
     /// `f |cos(wi, ns)| / pdf`, including the importance-mode shading-normal correction.
     pub weight: Spectrum,
+    /// Whether a delta (specular) lobe was sampled: `pdf` is then a discrete probability.
     pub delta: bool,
+    /// Whether `wi` crosses the surface (refraction) rather than reflecting.
     pub transmission: bool,
     /// Relative index of refraction crossed (n_wi_side / n_wo_side); 1 for reflection.
     pub eta: f32,
@@ -83,22 +90,38 @@ pub enum Bsdf {
     /// Absorbs everything (e.g. the back of an emitter).
     Black,
     /// Lambertian reflection with the given albedo.
-    Diffuse { albedo: Spectrum },
+    Diffuse {
+        /// Diffuse reflectance per channel, in [0, 1].
+        albedo: Spectrum,
+    },
     /// Smooth conductor: a perfect mirror with an RGB reflectance.
-    Conductor { reflectance: Spectrum },
+    Conductor {
+        /// Reflectance per channel at every angle.
+        reflectance: Spectrum,
+    },
     /// Smooth dielectric interface; `eta` = index inside / index outside (front side).
-    Dielectric { eta: f32 },
+    Dielectric {
+        /// Index inside over index outside.
+        eta: f32,
+    },
     /// Rough conductor: GGX microfacet reflection of roughness `alpha` (clamped to at least
     /// [`microfacet::MIN_ALPHA`] when evaluated), two-sided. Build with
     /// [`Bsdf::rough_conductor`].
     RoughConductor {
+        /// GGX roughness (the slope distribution's width).
         alpha: f32,
+        /// Reflectance of the microfacets.
         fresnel: ConductorFresnel,
     },
     /// Rough dielectric interface (Walter et al. 2007): GGX reflection and transmission of
     /// roughness `alpha`; `eta` = index inside / index outside (front side), as for
     /// [`Bsdf::Dielectric`]. Build with [`Bsdf::rough_dielectric`].
-    RoughDielectric { eta: f32, alpha: f32 },
+    RoughDielectric {
+        /// Index inside over index outside.
+        eta: f32,
+        /// GGX roughness.
+        alpha: f32,
+    },
 }
 
 /// The Fresnel reflectance of a (rough) conductor.
@@ -109,7 +132,12 @@ pub enum ConductorFresnel {
     Constant(Spectrum),
     /// The exact conductor Fresnel equations per channel, complex index `eta + i k` relative
     /// to the outside medium (see [`fresnel::conductor`]).
-    Complex { eta: Spectrum, k: Spectrum },
+    Complex {
+        /// Real part of the relative index of refraction, per channel.
+        eta: Spectrum,
+        /// Extinction coefficient (imaginary part), per channel.
+        k: Spectrum,
+    },
 }
 
 impl ConductorFresnel {
@@ -310,6 +338,8 @@ pub struct EvalPdfs {
 }
 
 impl EvalPdfs {
+    /// No value and no density either way: what a delta lobe or an impossible pair of
+    /// directions gives.
     pub const ZERO: EvalPdfs = EvalPdfs {
         f: Spectrum::ZERO,
         pdf_fwd: 0.0,

@@ -34,12 +34,16 @@ use glam::{Vec2, Vec3};
 /// A ray `o + t d` with `d` normalised and `t` in `(0, t_max)`.
 #[derive(Debug, Clone, Copy)]
 pub struct Ray {
+    /// Origin.
     pub o: Vec3,
+    /// Unit direction.
     pub d: Vec3,
+    /// Upper end of the open parameter interval that counts as a hit.
     pub t_max: f32,
 }
 
 impl Ray {
+    /// A ray from `o` along unit `d` without an upper bound.
     pub fn new(o: Vec3, d: Vec3) -> Ray {
         Ray {
             o,
@@ -48,6 +52,7 @@ impl Ray {
         }
     }
 
+    /// The point `o + t d`.
     pub fn at(&self, t: f32) -> Vec3 {
         self.o + self.d * t
     }
@@ -56,7 +61,9 @@ impl Ray {
 /// A ray-surface intersection.
 #[derive(Debug, Clone, Copy)]
 pub struct Hit {
+    /// Ray parameter of the hit (its distance, `d` being unit).
     pub t: f32,
+    /// Position of the hit.
     pub p: Vec3,
     /// Absolute error bound of `p`, per axis.
     pub p_err: Vec3,
@@ -64,6 +71,8 @@ pub struct Hit {
     pub ng: Vec3,
     /// Shading normal, unit length, `dot(ns, ng) > 0`.
     pub ns: Vec3,
+    /// Barycentric coordinates (b1, b2) of the hit in its triangle, in the mesh's vertex
+    /// order (zero for spheres).
     pub uv: Vec2,
     /// Index of the shape in the scene.
     pub shape: u32,

@@ -37,13 +37,16 @@ pub use sun::SunLight;
 use crate::math::{Distribution1D, Spectrum, luminance};
 use glam::{Vec2, Vec3};
 
+/// A light of the scene, of any kind.
 #[derive(Debug, Clone)]
 pub enum Light {
     /// An emissive shape, plain or with a spot profile.
     Area(AreaLight),
+    /// A point emitting the same intensity in every direction (delta in position).
     Point(PointLight),
     /// A point light with a cone of emission (delta).
     Spot(SpotLight),
+    /// Constant radiance arriving from every direction at infinity.
     Environment(EnvironmentLight),
     /// Parallel light from one direction at infinity (delta in direction).
     Directional(DirectionalLight),
@@ -67,12 +70,15 @@ pub struct LightSample {
     pub li: Spectrum,
     /// Solid-angle density at the reference point; 1 for delta lights.
     pub pdf: f32,
+    /// Whether the light is a delta light: `pdf` is then a discrete probability and no BSDF
+    /// sample can reach the light.
     pub delta: bool,
 }
 
 /// An emitted ray for a light path.
 #[derive(Debug, Clone, Copy)]
 pub struct EmissionSample {
+    /// Origin of the ray on the light (for lights at infinity, on the disk outside the scene).
     pub p: Vec3,
     /// Normal at `p` (zero for point and spot lights; the ray direction for lights at
     /// infinity).
@@ -132,6 +138,9 @@ impl Light {
         }
     }
 
+    /// A direction from reference point `p` towards the light from the uniforms `u`, for
+    /// next-event estimation (occlusion not tested); `None` when the point drawn sends no
+    /// light towards `p` or has zero density.
     pub fn sample_li(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
         match self {
             Light::Area(l) => l.sample_li(p, u),
@@ -174,6 +183,8 @@ impl Light {
         }
     }
 
+    /// An emitted ray for a light path: its origin from `u_pos`, its direction from `u_dir`;
+    /// `None` when the light emits nothing along the ray drawn.
     pub fn sample_le(&self, u_pos: Vec2, u_dir: Vec2) -> Option<EmissionSample> {
         match self {
             Light::Area(l) => l.sample_le(u_pos, u_dir),
@@ -210,6 +221,7 @@ pub struct LightSampler {
 }
 
 impl LightSampler {
+    /// The sampler over `lights`, each weighted by its [`Light::power`].
     pub fn new(lights: &[Light]) -> LightSampler {
         if lights.is_empty() {
             return LightSampler { distribution: None };
@@ -227,6 +239,7 @@ impl LightSampler {
         Some((i, pmf))
     }
 
+    /// Probability that [`LightSampler::sample`] chooses light `light` (0 without lights).
     pub fn pmf(&self, light: usize) -> f32 {
         self.distribution.as_ref().map_or(0.0, |d| d.pmf(light))
     }

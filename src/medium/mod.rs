@@ -39,12 +39,18 @@ impl MediumInterface {
     }
 }
 
+/// A medium with the same coefficients everywhere (per unit length, RGB).
 #[derive(Debug, Clone, PartialEq)]
 pub struct HomogeneousMedium {
+    /// The name the scene file gives it.
     pub name: String,
+    /// Absorption coefficient.
     pub sigma_a: Spectrum,
+    /// Scattering coefficient.
     pub sigma_s: Spectrum,
+    /// Extinction coefficient, `sigma_a + sigma_s`.
     pub sigma_t: Spectrum,
+    /// The phase function of scattering events.
     pub phase: HenyeyGreenstein,
 }
 
@@ -53,6 +59,7 @@ pub struct HomogeneousMedium {
 pub struct FreeFlight {
     /// Distance to the scattering event, or `t_max` when the ray passed through.
     pub t: f32,
+    /// Whether the ray scattered in the medium at `t` (otherwise it reached `t_max`).
     pub scattered: bool,
     /// Throughput factor: `sigma_s Tr / pdf` on scattering, `Tr / P(pass)` otherwise.
     pub weight: Spectrum,
@@ -62,6 +69,8 @@ pub struct FreeFlight {
 }
 
 impl HomogeneousMedium {
+    /// A medium of absorption `sigma_a`, scattering `sigma_s` and Henyey-Greenstein asymmetry
+    /// `g`.
     pub fn new(name: impl Into<String>, sigma_a: Spectrum, sigma_s: Spectrum, g: f32) -> Self {
         HomogeneousMedium {
             name: name.into(),

@@ -2,6 +2,8 @@
 
 use std::fmt;
 
+/// Which kinds of content a scene has (media, delta lights, specular surfaces, an
+/// environment, emissive shapes).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct SceneFeatures {
     /// Participating media (a world medium or a shape's interior or exterior).

@@ -19,9 +19,12 @@ use glam::Vec3;
 /// The built-in default scene (the same text as `scenes/cornell-box.toml`).
 pub const CORNELL_BOX_TOML: &str = include_str!("../../scenes/cornell-box.toml");
 
+/// A named material: the BSDF of the surfaces that use it.
 #[derive(Debug, Clone)]
 pub struct Material {
+    /// The name the scene file gives it.
     pub name: String,
+    /// The scattering function.
     pub bsdf: Bsdf,
     /// Black when seen from the back of the shape (against its geometric normal), like
     /// Mitsuba's BSDFs without `twosided`; reflecting BSDFs are two-sided otherwise.
@@ -31,12 +34,14 @@ pub struct Material {
 /// What a one-sided material is from the back.
 static BLACK: Bsdf = Bsdf::Black;
 
+/// What the scene says about a shape beyond its geometry: material, emission, media.
 #[derive(Debug, Clone)]
 pub struct ShapeInfo {
     /// Display name (`name` key, or "shape #i (type)").
     pub name: String,
     /// Index of the shape in the scene.
     pub index: u32,
+    /// Index into [`Scene::materials`] (on a checkerboard, that of the even tiles).
     pub material: u32,
     /// Index into `Scene::lights` when the shape emits.
     pub light: Option<u32>,
@@ -65,11 +70,15 @@ impl ShapeInfo {
 /// colour keeps the tiles out of the accelerator.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Checker {
+    /// The corner of the quad that tile (0, 0) starts at.
     pub origin: Vec3,
     /// `s = du . (p - origin)`, `t = dv . (p - origin)` (rows of the inverse of the edges).
     pub du: Vec3,
+    /// See `du`.
     pub dv: Vec3,
+    /// Number of tiles along `edge_u` and `edge_v`.
     pub tiles: [u32; 2],
+    /// Material index of the odd tiles.
     pub odd: u32,
 }
 
@@ -113,8 +122,11 @@ impl Checker {
 /// `[render]` defaults of a scene file; the command line overrides them.
 #[derive(Debug, Clone, PartialEq)]
 pub struct RenderDefaults {
+    /// Maximum number of path segments (`--max-depth`).
     pub max_depth: u32,
+    /// Samples per pixel (`--spp`).
     pub spp: u32,
+    /// Registry name of the integrator (`--integrator`).
     pub integrator: String,
 }
 
@@ -128,18 +140,27 @@ impl Default for RenderDefaults {
     }
 }
 
+/// A loaded scene, immutable and shared by reference across the render's threads.
 pub struct Scene {
     /// The scene file, or `<built-in cornell-box>`.
     pub source: String,
+    /// The pinhole camera and the image resolution.
     pub camera: Camera,
+    /// Geometry of every shape, indexed like `shape_info` and by `Hit::shape`.
     pub shapes: Vec<ShapeGeometry>,
+    /// Material, emission and media of every shape.
     pub shape_info: Vec<ShapeInfo>,
+    /// Materials, indexed by `ShapeInfo::material`.
     pub materials: Vec<Material>,
+    /// Every light: emissive shapes and the point, spot, environment, directional and sun
+    /// lights.
     pub lights: Vec<Light>,
+    /// Chooses a light for next-event estimation and light subpaths, with its pmf.
     pub light_sampler: LightSampler,
     /// Indices of the lights at infinity (environment, directional, sun): what an escaping
     /// ray can see.
     pub infinite_lights: Vec<usize>,
+    /// Participating media, indexed by the medium ids of interfaces and vertices.
     pub media: Vec<HomogeneousMedium>,
     /// The medium filling the world outside every medium boundary (`world_medium`).
     pub world_medium: Option<u32>,
@@ -148,11 +169,16 @@ pub struct Scene {
     /// Per light, the medium its emitted rays start in, for lights whose shape is not itself a
     /// medium boundary (see `light_medium`).
     pub light_media: Vec<Option<u32>>,
+    /// The ray-intersection accelerator over `shapes` (a BVH, or a flat list for small
+    /// scenes).
     pub accel: Accel,
+    /// What the scene contains, so integrators can skip work it does not need.
     pub features: SceneFeatures,
     /// Bounding sphere of the geometry.
     pub center: Vec3,
+    /// Radius of the bounding sphere (lights at infinity emit across a disc of this radius).
     pub radius: f32,
+    /// The scene file's `[render]` defaults.
     pub render: RenderDefaults,
     /// Per pixel, whether an emitter fills it (`coverage.rs`), computed on first use.
     pub filled_pixels: std::sync::OnceLock<Vec<bool>>,
@@ -160,8 +186,11 @@ pub struct Scene {
 
 /// A surface point with what is needed to scatter there.
 pub struct SurfacePoint<'a> {
+    /// The ray's closest hit: position, normals, error bound, shape.
     pub hit: Hit,
+    /// The BSDF at the hit (black on the back of a one-sided material).
     pub bsdf: &'a Bsdf,
+    /// The shading frame around the shading normal, with the geometric normal.
     pub frame: ShadingFrame,
     /// The shape's light, media and whether it is an index-matched boundary (kept by
     /// reference: surface points are built for every ray and should stay small).
@@ -188,12 +217,16 @@ impl SurfacePoint<'_> {
 /// without a surface (a medium vertex or a point light: zero normal and error).
 #[derive(Debug, Clone, Copy)]
 pub struct Endpoint {
+    /// Position.
     pub p: Vec3,
+    /// Geometric normal (zero off surfaces): the side the shadow ray is offset to.
     pub n: Vec3,
+    /// Per-axis bound on the error of `p`.
     pub err: Vec3,
 }
 
 impl Endpoint {
+    /// The endpoint at a surface hit.
     pub fn surface(hit: &Hit) -> Endpoint {
         Endpoint {
             p: hit.p,
@@ -202,6 +235,7 @@ impl Endpoint {
         }
     }
 
+    /// An endpoint without a surface (medium vertex, point light).
     pub fn point(p: Vec3) -> Endpoint {
         Endpoint {
             p,
@@ -215,10 +249,14 @@ impl Endpoint {
 /// passes it without scattering (1 without media; it enters MIS densities).
 #[derive(Debug, Clone, Copy)]
 pub struct Transmittance {
+    /// Per-channel transmittance, the product of `exp(-sigma_t d)` over the medium segments.
     pub tr: Spectrum,
+    /// Probability that free-flight sampling crosses every medium segment without a
+    /// collision.
     pub pass: f32,
-    /// (medium, length) of the first and the last medium segment (for path densities).
+    /// (medium, length) of the first medium segment (for path densities).
     pub first: Option<(u32, f32)>,
+    /// (medium, length) of the last medium segment.
     pub last: Option<(u32, f32)>,
     /// Medium at the far end (after any index-matched crossings).
     pub end_medium: Option<u32>,
@@ -246,6 +284,7 @@ impl Scene {
             .expect("the built-in scene is valid")
     }
 
+    /// The closest surface point along `ray` within its extent, if any.
     pub fn intersect(&self, ray: &Ray) -> Option<SurfacePoint<'_>> {
         let hit = self.accel.intersect(ray, &self.shapes)?;
         Some(self.surface_point(hit, ray))
@@ -480,6 +519,7 @@ impl Scene {
         None
     }
 
+    /// Number of triangles over all meshes.
     pub fn triangle_count(&self) -> usize {
         self.shapes
             .iter()
@@ -493,6 +533,7 @@ impl Scene {
             .sum()
     }
 
+    /// Number of spheres.
     pub fn sphere_count(&self) -> usize {
         self.shapes
             .iter()

@@ -60,8 +60,11 @@ pub enum Coverage {
 /// What [`Estimator::densities`] finds for a path U formed.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Densities {
+    /// U's density sum over its own techniques for the path (`Unguided::pdf_unguided`).
     pub p_u: f64,
+    /// The guided density of the path under the frozen cache (0 when not held).
     pub p_g: f64,
+    /// What the cache offers the path.
     pub coverage: Coverage,
     /// For [`Coverage::Zero`]: the furthest vertex a guide path of the structure follows the
     /// path to before its term vanishes (1: x_1 is outside every first-vertex kernel of the
@@ -84,7 +87,9 @@ pub struct X1Candidates {
     list: Vec<FirstTest>,
     /// Query the BVH for every path instead (for measuring what the reuse saves).
     pub no_reuse: bool,
+    /// Leave each p_g evaluation's non-zero terms in `terms`.
     pub collect_terms: bool,
+    /// `(l, w_l p(X | l))` of the last p_g evaluation, when `collect_terms` is set.
     pub terms: Vec<(u32, f64)>,
 }
 
@@ -122,28 +127,37 @@ impl X1Candidates {
 
 /// A successful guided sample.
 pub struct GuidedValue {
+    /// Row-major index of the pixel x_1 projects to.
     pub pixel: u32,
+    /// The weighted contribution `f(X) / (n_u p_u + n_g p_g) · N_pix` to splat.
     pub value: DVec3,
     /// Guide path followed.
     pub guide: usize,
+    /// The path offered to the cache, when the caller asked for one (learning).
     pub record: Option<Record>,
     /// Luminance of f(X) and the densities (for the share's measurements).
     pub f_lum: f64,
+    /// U's density sum for the path.
     pub p_u: f64,
+    /// The guided density of the path.
     pub p_g: f64,
 }
 
 /// The estimator of one pass: cache, split and densities.
 pub struct Estimator<'a, U: Unguided> {
+    /// The scene rendered.
     pub scene: &'a Scene,
+    /// The unguided estimator U.
     pub unguided: &'a U,
     /// U's shared state of this pass (`Unguided::begin_pass`).
     pub pass: U::Pass<'a>,
+    /// The frozen guide cache of this pass.
     pub cache: &'a GuideCache,
     /// Unguided share α of this pass (1: no guided samples).
     pub alpha: f64,
     /// Unguided samples per pass (one per pixel) and guided paths per pass.
     pub n_u: f64,
+    /// Guided paths per pass, `n_u (1 − α) / α` (0 with guiding off).
     pub n_g: f64,
 }
 
@@ -443,8 +457,12 @@ impl<'a, U: Unguided> Estimator<'a, U> {
 /// What one row of a pass produces besides its pixels' unguided sums.
 #[derive(Default)]
 pub struct RowOutput {
+    /// (pixel, value) splats of the row: guided samples and U's splatted paths, added to the
+    /// film after the pass in row order.
     pub splats: Vec<(u32, DVec3)>,
+    /// While learning: the row's sample luminances and brightest candidates, for the seeder.
     pub learn: LearnRow,
+    /// The row's counters.
     pub stats: Stats,
     /// BVH candidates of the last x_1 (reused).
     pub candidates: X1Candidates,
@@ -453,7 +471,9 @@ pub struct RowOutput {
     /// While measuring the share (`share.rs`): per pixel of the row what U's sample adds to
     /// it under each ratio, U's splats likewise, and Σ g(r)² of the row's guided samples.
     pub grid: Vec<[f64; share::N]>,
+    /// U's splats under each ratio, as `grid` (pixel, values).
     pub grid_splats: Vec<(u32, [f64; share::N])>,
+    /// Σ g(r)² of the row's guided samples under each ratio, as `grid`.
     pub guided_m2: [f64; share::N],
     /// While learning: per pixel of the row U's own estimate from its sample (every path
     /// weighted `f / p_u`, the guided technique left out), and U's splats likewise; the image
@@ -462,10 +482,12 @@ pub struct RowOutput {
     /// Per pixel of the row, the luminance its own sample's paths add by coverage class, and
     /// (pixel, class, luminance) of splatted paths and guided samples (`coverage.rs`).
     pub class_pixels: Vec<[f64; coverage::CLASSES]>,
+    /// (pixel, class, luminance) of splatted paths and guided samples, as `class_pixels`.
     pub class_splats: Vec<(u32, u8, f64)>,
     /// While learning under `weights = second_moment`: (guide, credit) of the row's samples
     /// ([`Estimator::credit`]).
     pub responsibility: Vec<(u32, f64)>,
+    /// While learning: U's own splats, as `u_pixels`.
     pub u_splats: Vec<(u32, DVec3)>,
     /// Luminance of the contributions of U's paths that the cache does not cover (structure
     /// not held, or p_g = 0), summed (the chain seeder's `uncovered` target).

@@ -153,16 +153,27 @@ pub enum Share {
 /// The guider's own settings (U's are in U).
 #[derive(Debug, Clone, PartialEq)]
 pub struct GuidedSettings {
+    /// Unguided share α of the samples once the cache holds guide paths: a pass draws
+    /// `(1 − α) / α` guided paths per pixel (option `alpha`).
     pub alpha: f64,
+    /// Whether α is kept only where learning measured that guiding pays (option `share`).
     pub share: Share,
+    /// Share of the budget spent learning (option `learn_fraction`).
     pub learn_fraction: f64,
+    /// Cache capacity; the lightest guide paths are dropped first (option `max_guides`).
     pub max_guides: usize,
+    /// Outliers a seeder keeps per band of rows and iteration (option `intake`).
     pub intake: usize,
+    /// Damping t of the selection-weight update: `t w_fresh + (1 − t) w_old`.
     pub damping: f64,
     /// The selection weights' update rule (`cache/build.rs`).
     pub weights: WeightRule,
+    /// Factors on the kernels' widths (options `kernel_width`, `first_width`,
+    /// `first_width_specular`).
     pub widths: KernelWidths,
+    /// Where to write the learned cache (option `save_guides`).
     pub save_guides: Option<PathBuf>,
+    /// A saved cache to start from, skipping learning (option `load_guides`).
     pub load_guides: Option<PathBuf>,
     /// Where guide paths come from: `None` the outliers of the passes, else also the
     /// Markov chains of `chains.rs` with these settings.
@@ -430,6 +441,7 @@ fn options(params: &IntegratorParams, default_rr: u32) -> Result<(GuidedSettings
     Ok((settings, rr_depth))
 }
 
+/// Build guided-pt (with the chain seeder under `-O seeder=mcmc`) from its parameters.
 pub fn build_pt(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     let (settings, rr_depth) = options(params, PtSettings::default().rr_depth)?;
     let pt = PtSettings {
@@ -471,6 +483,7 @@ fn bdpt_settings(params: &IntegratorParams, name: &str, rr_depth: u32) -> Result
     })
 }
 
+/// Build guided-bdpt (with the chain seeder under `-O seeder=mcmc`) from its parameters.
 pub fn build_bdpt(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     let (settings, rr_depth) = options(params, crate::integrators::bdpt::RR_DEPTH)?;
     let bdpt = bdpt_settings(params, "guided-bdpt", rr_depth)?;
@@ -483,6 +496,7 @@ pub fn build_bdpt(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     })
 }
 
+/// Build guided-vcm (outlier seeder only) from its parameters.
 pub fn build_vcm(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     let (settings, rr_depth) = options(params, crate::integrators::bdpt::RR_DEPTH)?;
     let bdpt = bdpt_settings(params, "guided-vcm", rr_depth)?;

@@ -50,11 +50,14 @@ const DIRECT_KEY: u64 = 0x4d43_4d43_3000_0000;
 /// A contribution to the image: the pixel it lands in and its RGB value.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Contribution {
+    /// Row-major index of the pixel.
     pub pixel: u32,
+    /// The path's contribution f / p to that pixel, in pixel units.
     pub value: DVec3,
 }
 
 impl Contribution {
+    /// Nothing: zero value (importance 0) in pixel 0.
     pub const ZERO: Contribution = Contribution {
         pixel: 0,
         value: DVec3::ZERO,
@@ -77,6 +80,7 @@ pub trait Target: Sync {
     type Scratch<'s>
     where
         Self: 's;
+    /// Fresh scratch for one thread.
     fn scratch(&self) -> Self::Scratch<'_>;
     /// Sampler streams the target reads (`Sampler::start_stream`).
     fn streams(&self) -> u32;
@@ -114,6 +118,7 @@ pub struct McmcSettings {
     pub chains: u64,
     /// Probability of a large step (default 0.3).
     pub large_step: f64,
+    /// The kernel of small steps (default Kelemen's, sizes 1/1024 to 1/64).
     pub small_step: SmallStep,
     /// A pixel's samples of [`Target::direct`] come every this many passes, after pass 0
     /// which samples every pixel (default 4).
@@ -163,9 +168,13 @@ impl Default for McmcSettings {
 
 /// One chain: its primary samples and current state.
 pub struct Chain {
+    /// The chain group (for mmlt, the path length) the chain explores.
     pub group: usize,
+    /// The primary samples of the current state, with pending proposals.
     pub sampler: PrimarySampler,
+    /// The current state's contribution.
     pub current: Contribution,
+    /// The current state's importance (luminance of `current`), always positive.
     pub importance: f64,
     /// Mutations per pass.
     pub mutations: u64,
@@ -176,10 +185,15 @@ pub struct Chain {
 /// Counters of one render.
 #[derive(Debug, Default, Clone, Copy)]
 pub struct Counters {
+    /// Proposals made.
     pub mutations: u64,
+    /// Proposals accepted.
     pub accepted: u64,
+    /// Large-step proposals.
     pub large: u64,
+    /// Large-step proposals accepted.
     pub large_accepted: u64,
+    /// Proposals of zero importance (never accepted, nothing splatted for them).
     pub zero_proposals: u64,
     /// Sum of the large steps' importances (independent samples of b).
     pub large_importance: f64,
@@ -198,7 +212,9 @@ impl Counters {
 
 /// The bootstrap of one group: `b_g` and the importance of every sample.
 pub struct Bootstrap {
+    /// Mean importance of the bootstrap samples: the group's normalisation `b_g`.
     pub b: f64,
+    /// Importance of each bootstrap sample, by sample index (chain starts are drawn from it).
     pub importance: Vec<f64>,
 }
 

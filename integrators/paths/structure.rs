@@ -34,14 +34,21 @@ pub enum Reach {
 pub enum Node {
     /// A scattering surface: specular or not, and whether the path crosses it here.
     Surface {
+        /// Whether the BSDF there is a Dirac delta (mirror, glass).
         delta: bool,
+        /// Whether the path crosses the surface (transmission) rather than reflecting.
         transmit: bool,
     },
+    /// A scattering point in medium `medium` (index into `Scene::media`).
     Medium {
+        /// The medium's index.
         medium: u32,
     },
+    /// The emitter the path ends on.
     Emitter {
+        /// Index into `Scene::lights`.
         light: u32,
+        /// How a guided path reaches it.
         reach: Reach,
     },
 }
@@ -163,6 +170,8 @@ pub fn node_at(scene: &Scene, x: &PathVertex, a: Vec3, b: Option<Vec3>) -> Optio
     })
 }
 
+/// How a guided path reaches `light`: traced (area), by escaping (environment, sun), or by
+/// a deterministic connection (delta lights).
 pub fn reach(light: &Light) -> Reach {
     match light {
         Light::Area(_) => Reach::Area,
@@ -438,6 +447,7 @@ impl HeldKey {
         HeldKey((h as u16 & Self::MASK) | (class << Self::BITS))
     }
 
+    /// Whether the key is [`HeldKey::NONE`]: no path through the subpath is handled.
     pub fn is_none(self) -> bool {
         self == Self::NONE
     }

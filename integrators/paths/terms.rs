@@ -35,15 +35,23 @@
 /// MIS heuristic.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Heuristic {
+    /// Weight `p(s) / sum p`.
     Balance,
+    /// Weight `p(s)^2 / sum p^2`.
     Power,
 }
 
 /// Per-vertex inputs of `technique_densities` for one path of `k` segments.
 pub struct PathTerms {
+    /// Number of segments of the path.
     pub k: usize,
+    /// `pc[j]`: density of y_j generated from y_{j-1} by the camera-side walk (area measure,
+    /// volume measure in media), Russian roulette and free flight included.
     pub pc: Vec<f64>,
+    /// `pl[j]`: density of y_j generated from y_{j+1} by the light-side walk; `pl[k]` is the
+    /// emission origin's, light choice included.
     pub pl: Vec<f64>,
+    /// Density of next-event estimation choosing y_k from y_{k-1}, light choice included.
     pub nee_k: f64,
     /// A connection can end at y_j.
     pub connectible: Vec<bool>,
@@ -58,6 +66,7 @@ pub struct PathTerms {
 }
 
 impl PathTerms {
+    /// Terms of a path of `k` segments, every density zero and nothing connectible.
     pub fn new(k: usize) -> PathTerms {
         PathTerms {
             k,

@@ -21,16 +21,23 @@ pub enum Kind<'a> {
     /// On a light. For lights at infinity `n` holds the direction from the scene towards the
     /// light and `p` is unused.
     Light {
+        /// Index into `Scene::lights`.
         light: usize,
     },
+    /// A scattering surface.
     Surface {
+        /// The BSDF at the vertex (black on the back of a one-sided material).
         bsdf: &'a Bsdf,
+        /// The shading frame and geometric normal.
         frame: ShadingFrame,
+        /// The shape's light, media and flags.
         info: &'a ShapeInfo,
         /// The material at the vertex (differs from `info.material` on a checkerboard).
         material: u32,
     },
+    /// A scattering point in a medium.
     Medium {
+        /// Index into `Scene::media`.
         medium: u32,
     },
 }
@@ -39,6 +46,7 @@ pub enum Kind<'a> {
 /// the product of pass probabilities of its medium segments, and the first and last segment.
 #[derive(Clone, Copy, Default)]
 pub struct Edge {
+    /// Probability that free flight crosses every medium segment of the edge.
     pub pass: f32,
     /// (medium, length) of the segment next to the walk's previous vertex.
     pub first: Option<(u32, f32)>,
@@ -47,6 +55,7 @@ pub struct Edge {
 }
 
 impl Edge {
+    /// An edge through no medium: free flight always passes.
     pub const VACUUM: Edge = Edge {
         pass: 1.0,
         first: None,
@@ -108,9 +117,13 @@ impl Edge {
     }
 }
 
+/// A vertex of a camera or light subpath, with the throughput and densities that connections
+/// and MIS weights need.
 #[derive(Clone, Copy)]
 pub struct Vertex<'a> {
+    /// What the vertex is, with its scattering function.
     pub kind: Kind<'a>,
+    /// Position (unused for lights at infinity).
     pub p: Vec3,
     /// Position error bound (surfaces), for spawning and visibility.
     pub p_err: Vec3,
@@ -149,10 +162,12 @@ impl<'a> Vertex<'a> {
         }
     }
 
+    /// Whether the vertex is a scattering point in a medium.
     pub fn is_medium(&self) -> bool {
         matches!(self.kind, Kind::Medium { .. })
     }
 
+    /// Whether the vertex is on a light at infinity (environment, directional, sun).
     pub fn is_infinite_light(&self, scene: &Scene) -> bool {
         matches!(self.kind, Kind::Light { light } if scene.lights[light].is_infinite())
     }
@@ -201,8 +216,11 @@ impl<'a> Vertex<'a> {
 /// previous vertex, having come from the other end.
 #[derive(Clone, Copy)]
 pub struct ConnectionEnd {
+    /// Scattering value towards the other end, |cos| included on surfaces.
     pub f: Spectrum,
+    /// Solid-angle density at `v` of the other end, coming from the previous vertex.
     pub pdf_other: f32,
+    /// Solid-angle density at `v` of the previous vertex, coming from the other end.
     pub pdf_prev: f32,
 }
 

@@ -116,6 +116,8 @@ pub struct Guide {
     pub kernels: u32,
     /// Number of vertices L, camera included.
     pub len: u8,
+    /// Number of guide paths of its structure its conditional kernels were fitted to
+    /// (itself included; at most [`NEIGHBOURS`]).
     pub neighbours: u8,
     /// Rebuilds survived.
     pub age: u16,
@@ -136,9 +138,13 @@ pub struct Guide {
 /// of f, unguided density, and C = f / (α p_u + (1 − α) p_g) under the state that drew it.
 #[derive(Debug, Clone)]
 pub struct Record {
+    /// The path's vertices, camera first.
     pub vertices: Vec<PathVertex>,
+    /// Luminance of f(X).
     pub f: f64,
+    /// U's density sum for the path.
     pub p_u: f64,
+    /// `C = f / (α p_u + (1 − α) p_g)` under the state that drew the path.
     pub c: f64,
 }
 
@@ -166,6 +172,7 @@ pub struct RebuildParams {
     pub damping: f64,
     /// Final rebuild: weights from this iteration alone (no damping).
     pub render_mode: bool,
+    /// Cache capacity: beyond it the guide paths of lowest weight are dropped.
     pub max_guides: usize,
 }
 
@@ -217,13 +224,19 @@ struct StructureIndex {
     uniform: bool,
 }
 
+/// The guide-path cache: guide paths, their kernels and selection weights, and the
+/// per-structure BVHs that p_g is evaluated with (module doc).
 #[derive(Default)]
 pub struct GuideCache {
     /// Kernel widths used by [`GuideCache::install`] (saved with the cache).
     pub widths: KernelWidths,
+    /// One header per guide path.
     pub guides: Vec<Guide>,
+    /// Vertices g_1 .. g_{L-1} of every guide path, one after the other ([`Guide::start`]).
     pub vertices: Vec<PathVertex>,
+    /// The structure node of each vertex, beside `vertices`.
     pub nodes: Vec<Node>,
+    /// One conditional kernel per segment g_{v-1} -> g_v, v >= 2 ([`Guide::kernels`]).
     pub kernels: Vec<Kernel>,
     /// The frame of each segment's kernel ([`segment_frame`]), beside `kernels`.
     frames: Vec<Frame>,
@@ -265,10 +278,12 @@ impl GuideCache {
         }
     }
 
+    /// Whether no guide path can be selected (no guides, or no positive weight).
     pub fn is_empty(&self) -> bool {
         self.guides.is_empty() || self.alias.is_empty()
     }
 
+    /// Number of guide paths.
     pub fn len(&self) -> usize {
         self.guides.len()
     }
@@ -323,15 +338,18 @@ impl GuideCache {
         &self.vertices[self.guides[l].start as usize + v - 1]
     }
 
+    /// Node of vertex `v >= 1` of guide `l`.
     pub fn node(&self, l: usize, v: usize) -> Node {
         self.nodes[self.guides[l].start as usize + v - 1]
     }
 
+    /// Nodes of vertices 1 .. L-1 of guide `l`: its structure.
     pub fn nodes_of(&self, l: usize) -> &[Node] {
         let g = &self.guides[l];
         &self.nodes[g.start as usize..g.start as usize + g.len as usize - 1]
     }
 
+    /// The conditional kernel of guide `l`'s segment g_{v-1} -> g_v (v >= 2).
     pub fn kernel(&self, l: usize, v: usize) -> &Kernel {
         &self.kernels[self.guides[l].kernels as usize + v - 2]
     }

@@ -70,6 +70,7 @@ pub struct SharedLights<'a> {
     pub(super) grid: HashGrid<Photon>,
     /// eta = pi r^2 N, and 1 / eta (the merge's normalisation).
     pub eta: f64,
+    /// Merging radius r of the pass.
     pub radius: f32,
     /// Rays the light subpaths took (the guider counts them as the pass's cost).
     pub rays: u64,

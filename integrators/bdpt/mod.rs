@@ -73,6 +73,7 @@ pub use walk::camera_subpath;
 use walk::roulette;
 use weights::Bridge;
 
+/// Build bdpt from its parameters.
 pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     Ok(Box::new(Bdpt {
         settings: settings(params, false)?,
@@ -80,6 +81,7 @@ pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     }))
 }
 
+/// Build lt (light tracing: bdpt's t = 1 techniques alone) from its parameters.
 pub fn build_lt(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     Ok(Box::new(Bdpt {
         settings: settings(params, true)?,
@@ -87,7 +89,9 @@ pub fn build_lt(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     }))
 }
 
+/// Bidirectional path tracing (and light tracing) as an integrator.
 pub struct Bdpt {
+    /// Depth limit, Russian roulette, heuristic and techniques.
     pub settings: BdptSettings,
     /// Whose numbers each pixel's camera and light subpaths draw (option `sampler`).
     pub sampler: SamplerKind,
@@ -159,7 +163,9 @@ pub struct Tracer<'a> {
     terms: PathTerms,
     /// Scratch for the technique densities of the current connection.
     densities: Vec<f64>,
+    /// (pixel, value) light-tracing splats (t = 1) of the current row.
     pub splats: Vec<(u32, Spectrum)>,
+    /// Called with every complete path a technique forms, when set (tests).
     pub inspector: Option<std::cell::RefCell<Inspector<'a>>>,
     /// Recording mode ([`Tracer::sample_recorded`]): the weight functions leave the path they
     /// weigh in `joined` and its densities in `pending`, and return 1 (the raw estimate).
@@ -182,6 +188,7 @@ pub struct Tracer<'a> {
 }
 
 impl<'a> Tracer<'a> {
+    /// A tracer for `scene` with `settings`, its buffers empty.
     pub fn new(scene: &'a Scene, settings: &'a BdptSettings) -> Tracer<'a> {
         // Room for typical paths; longer ones grow the buffers (max_depth may be unlimited).
         let n = (settings.max_depth as usize)

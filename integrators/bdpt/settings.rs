@@ -5,6 +5,7 @@ use super::Heuristic;
 use crate::error::{Error, Result};
 use crate::integrators::IntegratorParams;
 
+/// Options of bdpt and lt (and of U in guided-bdpt and guided-vcm).
 #[derive(Debug, Clone, PartialEq)]
 pub struct BdptSettings {
     /// Maximum number of path segments (default 8).
@@ -29,13 +30,17 @@ pub struct BdptSettings {
 /// Weights are unchanged, so the `only` images of all techniques sum to the full image.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub enum TechniqueFilter {
+    /// Every technique.
     #[default]
     All,
+    /// Technique (s, t) alone (option `only`).
     Only(usize, usize),
+    /// Every technique but (s, t) (option `skip`).
     Skip(usize, usize),
 }
 
 impl TechniqueFilter {
+    /// Whether technique (s, t) adds its weighted contribution.
     pub fn includes(self, s: usize, t: usize) -> bool {
         match self {
             TechniqueFilter::All => true,

@@ -37,6 +37,7 @@ use crate::render::{Budget, Integrator, RenderContext, RenderResult};
 use crate::scene::Scene;
 use glam::{DVec3, Vec2};
 
+/// Build mmlt from its parameters (`max_depth` must fit a stored path).
 pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     // One chain group per path length, each with its own bootstrap: lengths must be few.
     crate::path::check_stored_depth("mmlt", params.max_depth).map_err(Error::new)?;
@@ -71,8 +72,11 @@ pub fn mmlt_bdpt_settings(max_depth: u32, heuristic: Heuristic) -> BdptSettings 
     }
 }
 
+/// Multiplexed Metropolis light transport (Hachisuka et al. 2014) as an integrator.
 pub struct Mmlt {
+    /// BDPT's settings for the techniques the chains pick among.
     pub bdpt: BdptSettings,
+    /// Bootstrap, chains and mutation settings.
     pub settings: McmcSettings,
     /// Estimate s = 0 on paths E S* L per pixel, not with the chains (default false).
     pub separate_specular: bool,
@@ -80,7 +84,9 @@ pub struct Mmlt {
 
 /// One BDPT technique per state, grouped by path length.
 pub struct MmltTarget<'a> {
+    /// BDPT's settings.
     pub bdpt: &'a BdptSettings,
+    /// The scene rendered.
     pub scene: &'a Scene,
     /// Leave s = 0 on paths E S* L out of the chains ([`Target::direct`] gives them).
     pub separate_specular: bool,

@@ -96,10 +96,12 @@ pub fn settings(o: &Options) -> Result<McmcSettings> {
     })
 }
 
+/// Build pssmlt (Metropolis over pt's primary samples) from its parameters.
 pub fn build_pssmlt(params: &IntegratorParams) -> Result<Box<dyn crate::render::Integrator>> {
     pssmlt::build(params)
 }
 
+/// Build mmlt (multiplexed Metropolis over bdpt's techniques) from its parameters.
 pub fn build_mmlt(params: &IntegratorParams) -> Result<Box<dyn crate::render::Integrator>> {
     mmlt::build(params)
 }

@@ -39,9 +39,17 @@ use rand_pcg::Pcg32;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum SmallStep {
     /// Kelemen's exponential step between sizes s1 and s2.
-    Kelemen { s1: f64, s2: f64 },
+    Kelemen {
+        /// Smallest step size.
+        s1: f64,
+        /// Largest step size.
+        s2: f64,
+    },
     /// A normal step of this deviation.
-    Gaussian { sigma: f64 },
+    Gaussian {
+        /// Standard deviation of the step.
+        sigma: f64,
+    },
 }
 
 impl Default for SmallStep {
@@ -221,6 +229,7 @@ impl PrimarySampler {
         out.extend(self.dims.iter().map(|d| to_f32(d.value)));
     }
 
+    /// Number of sampler streams the primary samples are split into.
     pub fn streams(&self) -> u32 {
         self.streams
     }
@@ -317,6 +326,7 @@ pub struct ReplaySampler<'v> {
 }
 
 impl<'v> ReplaySampler<'v> {
+    /// A sampler reading `values`, laid out in `streams` streams (at least 1).
     pub fn new(values: &'v [f32], streams: u32) -> ReplaySampler<'v> {
         ReplaySampler {
             values,

@@ -12,6 +12,7 @@ use crate::render::{Budget, Integrator, RenderContext, RenderResult};
 use crate::scene::Scene;
 use glam::Vec2;
 
+/// Build pssmlt from its parameters (pt's options plus the Metropolis ones).
 pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     Ok(Box::new(Pssmlt {
         pt: PathTracer {
@@ -21,14 +22,19 @@ pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     }))
 }
 
+/// Primary-sample-space Metropolis light transport (Kelemen et al. 2002) over pt.
 pub struct Pssmlt {
+    /// The path tracer whose samples the chains explore.
     pub pt: PathTracer,
+    /// Bootstrap, chains and mutation settings.
     pub settings: McmcSettings,
 }
 
 /// One pt sample as a function of primary samples.
 pub struct PssTarget<'a> {
+    /// The path tracer.
     pub pt: &'a PathTracer,
+    /// The scene rendered.
     pub scene: &'a Scene,
 }
 

@@ -36,9 +36,13 @@ use glam::{Vec2, Vec3};
 /// When pt traces a row's paths together.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum BatchMode {
+    /// The wavefront where it applies, else batches where they pay (default).
     Auto,
+    /// The wavefront where it applies, else batches.
     Wavefront,
+    /// Batches wherever they apply.
     On,
+    /// One path at a time.
     Off,
 }
 
@@ -54,6 +58,7 @@ pub enum Tracing {
 }
 
 impl BatchMode {
+    /// The mode of option `batch` (`auto`, `wavefront`, `on`, `off`).
     pub fn parse(params: &IntegratorParams) -> Result<BatchMode> {
         Ok(
             match params
@@ -103,8 +108,11 @@ impl BatchMode {
 
 /// `pt` as registered: the path tracer and its batch mode.
 pub struct Pt {
+    /// The path tracer.
     pub pt: PathTracer,
+    /// When rows are traced together (option `batch`).
     pub batch: BatchMode,
+    /// Whose numbers each pixel's path draws (option `sampler`).
     pub sampler: SamplerKind,
 }
 

@@ -44,9 +44,12 @@ use rayon::prelude::*;
 /// Stream key of the learning passes (apart from the render's passes).
 const LEARN_KEY: u64 = 0x5344_5452_4545_0000;
 
+/// Options of pt's SD-tree guiding (`guiding=sdtree`).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GuidingSettings {
+    /// Probability of drawing the continuation from the tree where it has learned something.
     pub guide_fraction: f32,
+    /// Share of the budget spent learning.
     pub learn_fraction: f64,
 }
 
@@ -83,7 +86,9 @@ pub fn settings(params: &IntegratorParams) -> Result<Option<GuidingSettings>> {
 
 /// The tree as pt's continuation sees it.
 pub struct Guide<'t> {
+    /// The learned spatio-directional tree.
     pub tree: &'t SdTree,
+    /// Probability of drawing from the tree where it has learned something.
     pub fraction: f32,
 }
 
@@ -104,6 +109,7 @@ impl Guide<'_> {
 /// BSDF sampling mixed with the tree's directions.
 #[derive(Clone, Copy)]
 pub struct Mixture<'t> {
+    /// The tree's directional distribution at the point.
     pub directions: &'t DTree,
     /// Probability of drawing from the tree.
     pub a: f32,
@@ -191,7 +197,9 @@ impl Trail {
 
 /// `pt` with `guiding=sdtree`.
 pub struct GuidedPathTracer {
+    /// The path tracer whose continuations are guided.
     pub pt: PathTracer,
+    /// Guiding's options.
     pub guiding: GuidingSettings,
     /// The sampler of the render after learning (learning draws independent numbers).
     pub sampler: SamplerKind,

@@ -68,6 +68,7 @@ pub enum Strategy {
     Nee,
 }
 
+/// Options of pt (and of U in guided-pt, and of pssmlt's path tracer).
 #[derive(Debug, Clone, PartialEq)]
 pub struct PtSettings {
     /// Maximum number of path segments (default 8).
@@ -88,6 +89,7 @@ impl Default for PtSettings {
     }
 }
 
+/// Build pt (batched, wavefront or SD-tree guided as its options say) from its parameters.
 pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     let pt = PathTracer {
         settings: settings(params)?,
@@ -131,7 +133,10 @@ pub fn settings(params: &IntegratorParams) -> Result<PtSettings> {
     })
 }
 
+/// The path tracer: one camera path per sample, next-event estimation and BSDF sampling
+/// combined by MIS, Russian roulette, media.
 pub struct PathTracer {
+    /// Depth limit, Russian roulette start and strategy.
     pub settings: PtSettings,
 }
 

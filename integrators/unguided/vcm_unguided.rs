@@ -17,9 +17,11 @@ use std::sync::Arc;
 /// recursive weights (`bdpt/merging.rs`). Consistent: merging's
 /// radius shrinks with the pass, r_i = r_0 (i + 1)^((alpha - 1) / 2).
 pub struct VcmUnguided {
+    /// BDPT's depth limit and Russian roulette, with the balance heuristic.
     pub settings: BdptSettings,
     /// Initial radius r_0 (`None`: 0.003 x the scene's bounding-sphere radius, as `vcm`).
     pub radius: Option<f32>,
+    /// Radius schedule exponent alpha in (0, 1].
     pub alpha: f32,
 }
 
@@ -63,7 +65,9 @@ pub enum VcmTracer<'s> {
     Recording(Box<bdpt::Tracer<'s>>),
     /// (Boxed: the camera tracer keeps its subpath and its structure hash inline.)
     Fast {
+        /// vcm's camera tracer over the pass's light subpaths and grid.
         tracer: Box<CameraTracer<'s, 's>>,
+        /// eta = pi r^2 N of the pass.
         eta: f64,
     },
 }

@@ -30,12 +30,20 @@ use crate::scene::{Endpoint, Scene};
 use glam::{Vec2, Vec3};
 use std::cell::RefCell;
 
+/// vcm's camera side: traces a camera subpath and, at every vertex, connects to the pass's
+/// light subpaths and merges with their photons, with recursive MIS weights.
 pub struct CameraTracer<'a, 'p> {
+    /// The scene rendered.
     pub scene: &'a Scene,
+    /// vcm's settings.
     pub settings: &'p VcmSettings,
+    /// The pass's radius and MIS factors.
     pub pc: &'p PassConstants,
+    /// The pass's light subpaths, connected to.
     pub lights: &'p LightPaths<'a>,
+    /// The pass's photons, merged with (`None` with merging off).
     pub grid: Option<&'p HashGrid<Photon>>,
+    /// Receives every weighted contribution, when inspecting.
     pub inspector: Option<&'p Inspector<'p>>,
     /// Contributions whose path this holds are kept in `claimed` instead of added.
     pub claims: Option<&'p dyn HeldPaths>,
@@ -49,6 +57,7 @@ pub struct CameraTracer<'a, 'p> {
 }
 
 impl<'a, 'p> CameraTracer<'a, 'p> {
+    /// A tracer of the pass given by `pc`, `lights` and `grid`.
     pub fn new(
         scene: &'a Scene,
         settings: &'p VcmSettings,

@@ -26,6 +26,8 @@
 use glam::{IVec3, Vec3};
 use rayon::prelude::*;
 
+/// Points with payloads `T`, bucketed by hashed cells for queries of all points within
+/// the radius r of a point.
 pub struct HashGrid<T = u32> {
     radius2: f32,
     inv_cell: f32,
@@ -191,6 +193,7 @@ impl<T: Copy + Default + Send + Sync> HashGrid<T> {
         self.points
     }
 
+    /// Whether the grid holds no point.
     pub fn is_empty(&self) -> bool {
         self.points == 0
     }

@@ -80,8 +80,11 @@ impl LightRow<'_> {
 pub struct Photon {
     /// Unit direction towards the light walk's previous vertex.
     pub wo: Vec3,
+    /// Throughput of the light subpath up to the vertex.
     pub beta: Spectrum,
+    /// The vertex's recursive MIS quantity `d_vcm` (`vertex::Mis`).
     pub d_vcm: f32,
+    /// The vertex's recursive MIS quantity `d_vm`, relative to a merge here.
     pub d_vm: f32,
     /// Segments from the light, saturated at 65535 (a subpath that deep needs `max_depth`
     /// above it and has probability below 1e-280 under roulette capped at 0.99, so merging's
@@ -90,10 +93,12 @@ pub struct Photon {
     /// The structure hash's low bits of the subpath before this vertex, when claims are
     /// tested (what a merge here tests first; `HeldKey`).
     pub held: HeldKey,
+    /// Global index of the light vertex among the pass's stored vertices.
     pub index: u32,
 }
 
 impl Photon {
+    /// What merging needs of light vertex `v`, global index `index`.
     pub fn of(v: &Vertex, index: usize, held: HeldKey) -> Photon {
         Photon {
             wo: v.wo,

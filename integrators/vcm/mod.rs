@@ -147,6 +147,7 @@ fn settings(params: &IntegratorParams, connect: bool) -> Result<VcmSettings> {
     })
 }
 
+/// Build vcm (connections and merging) from its parameters.
 pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     Ok(Box::new(Vcm {
         settings: settings(params, true)?,
@@ -154,6 +155,7 @@ pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     }))
 }
 
+/// Build bpm (merging alone) from its parameters.
 pub fn build_bpm(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     Ok(Box::new(Vcm {
         settings: settings(params, false)?,
@@ -161,7 +163,9 @@ pub fn build_bpm(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     }))
 }
 
+/// Vertex connection and merging (and bpm, its merging alone) as an integrator.
 pub struct Vcm {
+    /// Radius schedule, depth limit and which of connecting and merging are on.
     pub settings: VcmSettings,
     /// Whose numbers each pixel's camera subpath draws (option `sampler`).
     pub sampler: SamplerKind,
@@ -172,17 +176,26 @@ pub struct Vcm {
 pub enum Technique {
     /// A BDPT technique with `s` light vertices (s = 0: emitter hit, 1: next-event estimation
     /// or the light's origin seen by the pinhole, t = 1: light tracing).
-    Connect { s: usize },
+    Connect {
+        /// Number of light vertices of the technique.
+        s: usize,
+    },
     /// Merging at path vertex x_t (camera index): the path's x_t is the camera vertex, the
     /// light subpath's vertex within the radius is not part of it.
-    Merge { t: usize },
+    Merge {
+        /// Camera-side index of the merging vertex.
+        t: usize,
+    },
 }
 
 /// A weighted contribution handed to an inspector: the path (camera first, ending on the
 /// emitter), its technique, and its MIS weight.
 pub struct Record {
+    /// The technique that formed the path.
     pub technique: Technique,
+    /// The path, camera first, ending on the emitter (its `f` is left at zero).
     pub path: Path,
+    /// vcm's MIS weight of the technique for the path.
     pub weight: f64,
 }
 
@@ -193,6 +206,7 @@ pub type Inspector<'p> = RefCell<dyn FnMut(&Record) + 'p>;
 /// holds (guided-vcm's render passes, `unguided.rs`): kept out of vcm's own sum, unweighted,
 /// for the caller to weigh.
 pub struct Claimed {
+    /// The technique that formed the path.
     pub technique: Technique,
     /// Camera first, ending on the emitter; `pixel` is where it lands.
     pub path: Path,
@@ -214,18 +228,22 @@ pub struct Claims {
 }
 
 impl Claims {
+    /// Drop every claim, keeping the slots for reuse.
     pub fn clear(&mut self) {
         self.len = 0;
     }
 
+    /// Number of claims.
     pub fn len(&self) -> usize {
         self.len
     }
 
+    /// Whether there are no claims.
     pub fn is_empty(&self) -> bool {
         self.len == 0
     }
 
+    /// The claims, in the order they were made.
     pub fn as_slice(&self) -> &[Claimed] {
         &self.slots[..self.len]
     }
@@ -276,15 +294,18 @@ fn join_into(path: &mut Path, head: &[crate::path::Vertex], tail: &[crate::path:
 
 /// Constants of one pass.
 pub struct PassConstants {
+    /// Merging radius r of the pass.
     pub radius: f32,
     /// Light subpaths per pass (N).
     pub light_paths: usize,
+    /// How merging and connecting enter the MIS quantities this pass.
     pub factors: MisFactors,
     /// 1 / (pi r^2 N).
     pub vm_normalization: f32,
 }
 
 impl PassConstants {
+    /// The constants of pass `pass` (0-based): its radius, N = one light subpath per pixel.
     pub fn new(settings: &VcmSettings, scene: &Scene, pass: u64) -> PassConstants {
         let n = scene.camera.pixel_count();
         let radius = settings.radius_at(scene, pass);

@@ -37,6 +37,7 @@ use glam::Vec2;
 /// The vector instructions the kernel is compiled for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Isa {
+    /// AVX-512: sixteen f32 lanes per register.
     Avx512,
 }
 

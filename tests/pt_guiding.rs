@@ -85,11 +85,11 @@ fn another_trees_density_is_rejected() {
     assert!(report.rejected());
 }
 
-/// pt's continuation where it is guided: BSDF sampling mixed with the tree's directions, at a
-/// diffuse wall, the rough conductor box and the rough dielectric sphere of cornell-glossy,
-/// against the mixture's density (zero where the BSDF is zero: such directions end the path).
-#[test]
-fn the_guided_continuation_matches_the_mixture_density() {
+/// pt's continuation where it is guided: BSDF sampling mixed with the tree's directions, at
+/// the surface of cornell-glossy that a ray from the eye towards `target` hits (roughness at
+/// most `rough`), against the mixture's density (zero where the BSDF is zero: such
+/// directions end the path). One test per surface, so that they run in parallel.
+fn guided_continuation_matches_the_mixture_density(what: &str, target: Vec3, rough: f32) {
     use lodestar::bsdf::TransportMode;
     use lodestar::geometry::Ray;
     use lodestar::integrators::pt::guiding::Mixture;
@@ -105,45 +105,62 @@ fn the_guided_continuation_matches_the_mixture_density() {
         directions: directions(&tree),
         a: 0.7,
     };
-    for (what, target, rough) in [
-        ("back wall", Vec3::new(0.1, 0.3, -1.0), 1.0f32),
-        ("rough metal box", Vec3::new(-0.35, -0.4, -0.15), 0.4),
-        ("rough glass sphere", Vec3::new(0.4, -0.65, 0.3), 0.3),
-    ] {
-        let sp = scene
-            .intersect(&Ray::new(eye, (target - eye).normalize()))
-            .unwrap_or_else(|| panic!("{what}: missed"));
-        assert!(
-            !sp.bsdf.is_delta() && sp.bsdf.roughness() <= rough,
-            "{what}: hit the wrong surface"
-        );
-        let wo = (eye - sp.hit.p).normalize();
-        let mode = TransportMode::Radiance;
-        let name = format!("sdtree mixture at the {what}");
-        let report = chi2::spherical(
-            &name,
-            N,
-            &SphereDomain::full_around(sp.hit.ns),
-            |s: &mut dyn Sampler| {
-                let bs = mix.sample(&sp, wo, s)?;
-                let pdf = mix.pdf(sp.bsdf.pdf(&sp.frame, wo, bs.wi, mode), bs.wi);
-                assert!(
-                    (bs.pdf - pdf).abs() <= 1e-4 * pdf,
-                    "{name}: {} != {pdf}",
-                    bs.pdf
-                );
-                Some(bs.wi)
-            },
-            |wi| {
-                if sp.bsdf.eval(&sp.frame, wo, wi, mode) == Vec3::ZERO {
-                    0.0
-                } else {
-                    mix.pdf(sp.bsdf.pdf(&sp.frame, wo, wi, mode), wi) as f64
-                }
-            },
-        );
-        report.assert_ok();
-    }
+    let sp = scene
+        .intersect(&Ray::new(eye, (target - eye).normalize()))
+        .unwrap_or_else(|| panic!("{what}: missed"));
+    assert!(
+        !sp.bsdf.is_delta() && sp.bsdf.roughness() <= rough,
+        "{what}: hit the wrong surface"
+    );
+    let wo = (eye - sp.hit.p).normalize();
+    let mode = TransportMode::Radiance;
+    let name = format!("sdtree mixture at the {what}");
+    let report = chi2::spherical(
+        &name,
+        N,
+        &SphereDomain::full_around(sp.hit.ns),
+        |s: &mut dyn Sampler| {
+            let bs = mix.sample(&sp, wo, s)?;
+            let pdf = mix.pdf(sp.bsdf.pdf(&sp.frame, wo, bs.wi, mode), bs.wi);
+            assert!(
+                (bs.pdf - pdf).abs() <= 1e-4 * pdf,
+                "{name}: {} != {pdf}",
+                bs.pdf
+            );
+            Some(bs.wi)
+        },
+        |wi| {
+            if sp.bsdf.eval(&sp.frame, wo, wi, mode) == Vec3::ZERO {
+                0.0
+            } else {
+                mix.pdf(sp.bsdf.pdf(&sp.frame, wo, wi, mode), wi) as f64
+            }
+        },
+    );
+    report.assert_ok();
+}
+
+#[test]
+fn the_guided_continuation_matches_the_mixture_density_at_a_diffuse_wall() {
+    guided_continuation_matches_the_mixture_density("back wall", Vec3::new(0.1, 0.3, -1.0), 1.0);
+}
+
+#[test]
+fn the_guided_continuation_matches_the_mixture_density_at_rough_metal() {
+    guided_continuation_matches_the_mixture_density(
+        "rough metal box",
+        Vec3::new(-0.35, -0.4, -0.15),
+        0.4,
+    );
+}
+
+#[test]
+fn the_guided_continuation_matches_the_mixture_density_at_rough_glass() {
+    guided_continuation_matches_the_mixture_density(
+        "rough glass sphere",
+        Vec3::new(0.4, -0.65, 0.3),
+        0.3,
+    );
 }
 
 /// Guided pt converges to pt's image, tile by tile, in the Cornell box (diffuse walls, a

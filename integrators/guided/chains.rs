@@ -172,6 +172,8 @@ pub struct Mcmc {
 }
 
 impl Mcmc {
+    /// The chain seeder: outliers (`intake` per band of rows and iteration) plus chains with
+    /// `settings`.
     pub fn new(intake: usize, settings: ChainSettings) -> Mcmc {
         let mut outliers = Outliers::new(intake);
         outliers.chain_spread = settings.spread;

@@ -15,6 +15,7 @@ use glam::DVec3;
 
 /// Weighs U's paths for the mixture (a [`PathSink`]).
 pub struct Collector<'e, 'a, U: Unguided> {
+    /// The pass's estimator: cache, split and densities.
     pub est: &'e Estimator<'a, U>,
     /// This pixel's value (paths that land in it).
     pub sum: DVec3,
@@ -26,13 +27,18 @@ pub struct Collector<'e, 'a, U: Unguided> {
     /// This pixel's luminance by coverage class (`coverage.rs`), and the splats' in
     /// `out.class_splats`, kept when `classes` is set: in the render passes.
     pub class_sum: [f64; coverage::CLASSES],
+    /// Keep the luminance by coverage class (render passes).
     pub classes: bool,
+    /// Keep U's own estimate (learning passes).
     pub own_image: bool,
+    /// A learning pass: every path's densities are recorded and outlier candidates kept.
     pub learning: bool,
+    /// The share is being measured: keep each path's value under every ratio.
     pub measuring: bool,
     /// What made the sample being traced (the Markov-chain seeder starts chains at
     /// candidates whose unguided stream replays them).
     pub source: Source,
+    /// The row's output: splats, learning data, counters.
     pub out: &'e mut RowOutput,
 }
 

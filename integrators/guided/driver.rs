@@ -59,9 +59,13 @@ const RENDER_STREAMS: u64 = 1 << 40;
 
 /// The guided integrator over unguided estimator `U` and seeder `S`.
 pub struct Guided<U: Unguided, S: Seeder> {
+    /// Registry name (`guided-pt`, `guided-bdpt`, `guided-vcm`).
     pub name: &'static str,
+    /// The unguided estimator the guided technique is mixed with.
     pub unguided: U,
+    /// Where guide paths come from.
     pub seeder: S,
+    /// The guider's own settings.
     pub settings: GuidedSettings,
     /// A cache to render with instead of learning one (tests; `load_guides` sets it too).
     pub cache: Option<GuideCache>,

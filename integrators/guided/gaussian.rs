@@ -104,15 +104,19 @@ pub fn std_trunc_log_density(d: usize, z2: f64) -> LogDensity {
 /// takes one `exp` per candidate guide path instead of one per vertex.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LogDensity {
+    /// The factor outside the exponential.
     pub scale: f64,
+    /// The exponent.
     pub log: f64,
 }
 
 impl LogDensity {
+    /// The density 0.
     pub const ZERO: LogDensity = LogDensity {
         scale: 0.0,
         log: 0.0,
     };
+    /// The density 1 (the neutral factor of a product).
     pub const ONE: LogDensity = LogDensity {
         scale: 1.0,
         log: 0.0,
@@ -123,6 +127,7 @@ impl LogDensity {
         LogDensity { scale: p, log: 0.0 }
     }
 
+    /// The density as a number, `scale · e^log` (0 when `scale` is 0).
     pub fn value(self) -> f64 {
         if self.scale == 0.0 {
             0.0
@@ -131,10 +136,12 @@ impl LogDensity {
         }
     }
 
+    /// Whether the density is exactly 0.
     pub fn is_zero(self) -> bool {
         self.scale == 0.0
     }
 
+    /// The density times `k`.
     pub fn scaled(self, k: f64) -> LogDensity {
         LogDensity {
             scale: self.scale * k,
@@ -142,6 +149,7 @@ impl LogDensity {
         }
     }
 
+    /// The product of two densities.
     pub fn times(self, o: LogDensity) -> LogDensity {
         LogDensity {
             scale: self.scale * o.scale,
@@ -189,6 +197,8 @@ pub fn sample_std_trunc(d: usize, sampler: &mut impl Sampler) -> [f64; 3] {
     }
 }
 
+/// A 3 x 3 matrix, row-major (`m[row][column]`); the Gaussians of 1D and 2D targets use its
+/// leading block.
 pub type Mat3 = [[f64; 3]; 3];
 
 /// Cholesky factor L (lower, L Lᵀ = a) of the leading n×n block; None unless positive definite.

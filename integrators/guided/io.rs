@@ -22,6 +22,7 @@ use glam::Vec3;
 use std::path::Path;
 
 const MAGIC: &[u8; 8] = b"LSGUIDES";
+/// The file format version this build writes and reads.
 pub const VERSION: u32 = 5;
 
 /// A hash of what a cache depends on in the scene.
@@ -51,6 +52,7 @@ pub fn scene_fingerprint(scene: &Scene) -> u64 {
     h
 }
 
+/// Write `cache`, learned on `scene`, to `file` (atomically, in the module's layout).
 pub fn save(scene: &Scene, cache: &GuideCache, file: &Path) -> Result<()> {
     let mut b: Vec<u8> = Vec::new();
     b.extend_from_slice(MAGIC);
@@ -144,6 +146,8 @@ impl Reader<'_> {
     }
 }
 
+/// Read a cache saved for `scene` from `file` and rebuild its kernels, neighbours and BVHs;
+/// any fault of the file is an error naming it.
 pub fn load(scene: &Scene, file: &Path) -> Result<GuideCache> {
     let data = std::fs::read(file)
         .map_err(|e| Error::new(format!("{}: cannot read guide cache: {e}", file.display())))?;

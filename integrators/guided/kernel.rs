@@ -33,10 +33,15 @@ use glam::{DVec3, Vec3};
 /// covariance is stored as its eigenvectors `e` (columns) and standard deviations `s`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Kernel {
+    /// Mean of the target coordinates `y` over the neighbours.
     pub mu1: [f32; 3],
+    /// Mean of the conditioning coordinates `z` over the neighbours.
     pub mu2: [f32; 3],
+    /// Regression matrix `K = Σ12 Σ22⁻¹`.
     pub k: [[f32; 3]; 3],
+    /// Eigenvectors of the conditional covariance, as columns.
     pub e: [[f32; 3]; 3],
+    /// Standard deviations along the eigenvectors `e`.
     pub s: [f32; 3],
     /// Medium targets: std of the distance along a phase-sampled direction.
     pub sigma_dist: f32,
@@ -124,6 +129,7 @@ impl Kernel {
     }
 }
 
+/// `v` in f64, as the densities are computed.
 pub fn dvec(v: Vec3) -> DVec3 {
     v.as_dvec3()
 }
@@ -290,10 +296,12 @@ pub struct FirstKernel {
     g: DVec3,
     dist: f64,
     s2: f64,
+    /// Index of the guide path.
     pub guide: u32,
 }
 
 impl FirstKernel {
+    /// The kernel of std `sigma1` around guide `guide`'s first vertex `g1`.
     pub fn new(scene: &Scene, g1: &PathVertex, sigma1: f32, guide: u32) -> FirstKernel {
         let g = dvec(g1.p);
         FirstKernel {
@@ -319,6 +327,7 @@ pub struct FirstVertexQuery {
 }
 
 impl FirstVertexQuery {
+    /// The query of first path vertex `x1`.
     pub fn new(scene: &Scene, x1: &Vertex) -> FirstVertexQuery {
         FirstVertexQuery::at(scene, x1.p, x1.n, x1.is_medium())
     }
@@ -406,6 +415,7 @@ impl FirstVertexQuery {
 /// camera ray and the cosine there).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct FirstTest {
+    /// Index of the guide path.
     pub guide: u32,
     r2: f64,
     s2: f64,
@@ -475,6 +485,7 @@ impl Target {
 }
 
 impl SegmentTarget {
+    /// What the segment `y[v-1] -> y[v]` of path `y` gives every candidate guide.
     pub fn new(scene: &Scene, y: &[Vertex], v: usize) -> SegmentTarget {
         let (x, next) = (&y[v - 1], &y[v]);
         let target = if next.is_infinite_light(scene) {

@@ -17,6 +17,7 @@ pub const BLOCK: u32 = 4;
 /// Outliers have at most this many similar samples per iteration in their block.
 pub const TRUST_THRESHOLD: f64 = 0.25;
 
+/// Per block of the image and brightness level, the count of samples seen so far.
 pub struct OutlierCascade {
     width: u32,
     blocks_x: u32,
@@ -39,6 +40,7 @@ pub fn count_shares(c: f64) -> [(usize, f64); 2] {
 }
 
 impl OutlierCascade {
+    /// An empty cascade over an image of `width` x `height` pixels.
     pub fn new(width: u32, height: u32) -> OutlierCascade {
         let blocks_x = width.div_ceil(BLOCK);
         let blocks_y = height.div_ceil(BLOCK);
@@ -54,6 +56,8 @@ impl OutlierCascade {
         ((y / BLOCK) * self.blocks_x + x / BLOCK) as usize
     }
 
+    /// Count a sample of normalised brightness `c` in `pixel`'s block, split over the two
+    /// levels around it.
     pub fn add(&mut self, pixel: u32, c: f64) {
         let b = self.block(pixel) * LEVELS;
         for (level, share) in count_shares(c) {

@@ -9,22 +9,31 @@ use super::share;
 
 /// What the driver knows at the end of a render.
 pub struct Facts<'a> {
+    /// The cache rendered with.
     pub cache: &'a GuideCache,
+    /// Learning passes run.
     pub learn_passes: u64,
+    /// Seconds spent learning, rebuilds included.
     pub learn_seconds: f64,
+    /// Seconds of those spent rebuilding the cache.
     pub rebuild_seconds: f64,
+    /// Seconds spent in the render passes.
     pub render_seconds: f64,
     /// The unguided share the render used.
     pub alpha: f64,
+    /// What measuring the share decided (`None` when it was not measured).
     pub decision: Option<&'a share::Decision>,
-    /// Counters of the learning and of the render passes.
+    /// Counters of the learning passes.
     pub learning: &'a Stats,
+    /// Counters of the render passes.
     pub render: &'a Stats,
     /// Learning passes kept in the image.
     pub kept: u64,
+    /// The render passes' image variance by coverage class, plus the guided samples' share.
     pub class_var: Option<[f64; coverage::CLASSES + 1]>,
 }
 
+/// A statistic as a (key, value) pair of strings.
 pub fn stat(k: &str, v: impl ToString) -> (String, String) {
     (k.to_string(), v.to_string())
 }

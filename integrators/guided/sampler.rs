@@ -49,8 +49,11 @@ pub enum Failure {
     OtherChain,
 }
 
+/// A guided path drawn from a guide path, with what weighing it needs.
 pub struct GuidedSample {
+    /// The path, camera first; its pixel is where x_1 projects.
     pub path: Path,
+    /// The raster position of x_1.
     pub raster: Vec2,
     /// Guide path followed.
     pub guide: usize,
@@ -177,6 +180,7 @@ fn to_world(f: &Frame, origin: Vec3, c: [f64; 3]) -> Vec3 {
 /// Where a guided path was drawn from; its vertices are in the caller's buffer
 /// ([`sample_path_into`]).
 pub struct GuidedDraw {
+    /// The raster position of x_1.
     pub raster: Vec2,
     /// Guide path followed.
     pub guide: usize,

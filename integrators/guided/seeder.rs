@@ -23,6 +23,7 @@ pub const WORKERS: usize = 4;
 
 /// One candidate path of a learning pass.
 pub struct Candidate {
+    /// The path with its luminance, unguided density and C.
     pub record: Record,
     /// Pixel of x_1.
     pub pixel: u32,
@@ -31,6 +32,7 @@ pub struct Candidate {
     /// A guided sample of a guide path with fewer than `NEIGHBOURS` neighbours: recorded
     /// whatever its trust, to densify sparse regions of the cache (spec §6.3a).
     pub densify: bool,
+    /// Which sampling made the path.
     pub source: Source,
 }
 
@@ -38,7 +40,12 @@ pub struct Candidate {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Source {
     /// U's sample from stream (seed, pass, index) of a learning pass (which replays it).
-    Unguided { pass: u64, index: u64 },
+    Unguided {
+        /// The pass's stream index.
+        pass: u64,
+        /// The sample's index in the pass (its pixel).
+        index: u64,
+    },
     /// A guided sample.
     Guided,
     /// A state of a seeder's Markov chain.
@@ -49,6 +56,7 @@ pub enum Source {
 pub struct LearnRow {
     /// (pixel, luminance of the contribution) of every sample.
     pub samples: Vec<(u32, f32)>,
+    /// The row's brightest candidate paths (at most `ROW_CANDIDATES` once cut).
     pub candidates: Vec<Candidate>,
     /// Smallest value among the kept candidates once the list has been cut (a smaller one
     /// cannot enter it).
@@ -92,6 +100,7 @@ impl LearnRow {
 
 /// The end of one learning iteration, as a seeder sees it.
 pub struct LearnPass<'p> {
+    /// The scene rendered.
     pub scene: &'p Scene,
     /// Learning iteration (0: the first, pure unguided).
     pub iteration: u32,
@@ -103,6 +112,7 @@ pub struct LearnPass<'p> {
 
 /// What a seeder may use after a learning pass to make candidates of its own.
 pub struct Explore<'e, 'a, U: Unguided> {
+    /// The render's seed.
     pub seed: u64,
     /// Learning iteration (0: the first, pure unguided).
     pub iteration: u32,
@@ -112,6 +122,7 @@ pub struct Explore<'e, 'a, U: Unguided> {
 
 /// A source of guide paths.
 pub trait Seeder: Send + Sync {
+    /// The seeder's name (`outliers`, `mcmc`), as option `seeder` takes it.
     fn name(&self) -> &'static str;
     /// After a learning pass, before `harvest`: add candidates of the seeder's own making to
     /// `rows` (default: none).
@@ -127,6 +138,7 @@ pub trait Seeder: Send + Sync {
 /// Outlier selection (spec §6.3a): a candidate whose brightness few samples of its block
 /// share is recorded; per band of rows the `intake` largest C.
 pub struct Outliers {
+    /// Outliers kept per band of rows and learning iteration.
     pub intake: usize,
     /// Chain states kept per band lie at least this many pixels apart in x or y (0: any
     /// distance; see [`spread_out`]).
@@ -135,6 +147,7 @@ pub struct Outliers {
 }
 
 impl Outliers {
+    /// The outlier seeder keeping `intake` outliers per band and iteration.
     pub fn new(intake: usize) -> Outliers {
         Outliers {
             intake,

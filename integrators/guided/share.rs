@@ -32,6 +32,7 @@ use super::estimator::Stats;
 /// Ratios n_g / n_u the render may use (unguided share α = 1 / (1 + r): 1, 0.9, 0.8, 2/3,
 /// 0.5, 1/3, 0.25).
 pub const RATIOS: [f64; 7] = [0.0, 1.0 / 9.0, 0.25, 0.5, 1.0, 2.0, 3.0];
+/// Number of ratios in [`RATIOS`].
 pub const N: usize = RATIOS.len();
 
 /// Costs in units of one of U's rays (with its shading): one p_g evaluation (structure, path
@@ -41,7 +42,9 @@ pub const N: usize = RATIOS.len();
 /// gives the measured extra time of the guided passes to within 30 % in all six (the largest
 /// miss: dining with bdpt, 3.5M rays predicted against 2.7M measured).
 pub const PG_EVALUATION_RAYS: f64 = 2.0;
+/// Cost of one candidate term of a p_g evaluation, in U's rays (see above).
 pub const PG_CANDIDATE_RAYS: f64 = 0.05;
+/// Cost of one guided sample beyond its rays, in U's rays (see above).
 pub const GUIDED_SAMPLE_RAYS: f64 = 3.5;
 
 /// Guiding is turned on only for a predicted `V · cost` below this share of U's alone: the
@@ -92,7 +95,9 @@ pub struct ShareMeter {
 /// The ratio chosen and the relative inefficiency `V · cost` of every ratio (1 for r = 0).
 #[derive(Debug, Clone)]
 pub struct Decision {
+    /// The ratio n_g / n_u chosen (0: guiding off).
     pub ratio: f64,
+    /// Predicted `V · cost` of each ratio of [`RATIOS`] relative to U's alone.
     pub relative: [f64; N],
     /// The passes as a whole put a ratio with guided samples below [`MARGIN`], but one of
     /// their halves did not: guiding stays off on this evidence, and more learning passes

@@ -15,7 +15,9 @@ pub(super) const NON_FINITE: usize = 10;
 /// Counters of one or more passes.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct Stats {
+    /// Guided samples drawn.
     pub guided: u64,
+    /// Guided samples that failed (a sample of value zero that still counts).
     pub failed: u64,
     /// Failures by reason ([`FAILURE_REASONS`]): off the image, missed / wrong vertex,
     /// structure (mode), scatter, occluded medium target, emitter not reached by the step to
@@ -26,13 +28,16 @@ pub struct Stats {
     /// Failures of the walk ([`sampler::Failure`]) by the vertex it was drawing: x_1 ..
     /// x_6, then x_7 and later.
     pub failed_by_vertex: [u64; PG_ZERO_VERTICES],
+    /// Evaluations of p_g (paths of a held structure).
     pub pg_evaluations: u64,
+    /// Candidate guide paths whose terms those evaluations computed.
     pub pg_candidates: u64,
     /// Of `pg_evaluations` and `pg_candidates`, those of guided samples.
     pub pg_evaluations_guided: u64,
     /// Guided samples whose walk the specular-chain step completed (`manifold/`), before
     /// the basin check and the contribution.
     pub chain_steps: u64,
+    /// Of `pg_candidates`, those of guided samples.
     pub pg_candidates_guided: u64,
     /// Unguided paths dropped for a non-finite or negative value.
     pub invalid: u64,
@@ -42,14 +47,16 @@ pub struct Stats {
     pub pu_disagreements: u64,
     /// Queries of the first-vertex BVH (one per distinct x_1 with `X1Candidates::reuse`).
     pub bvh_queries: u64,
-    /// Rays traced by the unguided and the guided technique (the share's cost measure).
+    /// Rays traced by the unguided technique (the share's cost measure).
     pub rays_u: u64,
+    /// Rays traced by the guided technique.
     pub rays_g: u64,
     /// U's paths by what the cache offers them (in [`Coverage`](super::estimator::Coverage)
     /// order): how many, and the sum of their contributions' squared luminance (the second
     /// moment each class adds to the image, `f / (p_u + (n_g / n_u) p_g)` squared): where
     /// U's error sits that guiding does or cannot reduce.
     pub coverage_paths: [u64; 3],
+    /// Sum of squared luminance of U's paths by coverage class (see `coverage_paths`).
     pub coverage_m2: [f64; 3],
     /// The second moment of the `Zero` class by the vertex where p_g vanished
     /// ([`Densities::vanished_at`](super::estimator::Densities::vanished_at); index v - 1
@@ -64,6 +71,7 @@ pub const PG_ZERO_VERTICES: usize = 7;
 pub const COVERAGE_CLASSES: [&str; 3] = ["structure_not_held", "pg_zero", "covered"];
 
 impl Stats {
+    /// Add another's counters to these.
     pub fn add(&mut self, o: &Stats) {
         self.guided += o.guided;
         self.failed += o.failed;

@@ -91,6 +91,7 @@ pub struct ManifoldSettings {
     /// Jacobian determinant (1; 0 leaves it out of the density), and whether the basin
     /// indicator applies.
     pub jacobian: f64,
+    /// Whether the basin indicator applies (see `jacobian`).
     pub basin: bool,
 }
 
@@ -108,7 +109,10 @@ impl Default for ManifoldSettings {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Far {
     /// A direction towards a light at infinity (drawn by the light's own sampling).
-    Direction { light: u32 },
+    Direction {
+        /// Index into `Scene::lights`.
+        light: u32,
+    },
     /// A point on the plane of the kernel of guide segment `g_{b-1} → g_b`.
     Plane,
 }
@@ -116,8 +120,11 @@ pub enum Far {
 /// A chain of delta vertices `a+1 .. b-1` of a guide path, between `x_a` and the far end `x_b`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Chain {
+    /// Index of the rough vertex x_a the chain starts after.
     pub a: usize,
+    /// Index of the far end x_b (the sun's direction, or a rough vertex).
     pub b: usize,
+    /// What the far end is.
     pub far: Far,
     /// Whether the guide transmits at each chain vertex.
     transmit: [bool; MAX_CHAIN],
@@ -148,6 +155,7 @@ impl Chain {
         self.b - self.a - 1
     }
 
+    /// Whether the chain has no delta vertex.
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
@@ -229,13 +237,13 @@ fn seed_cell(scene: &Scene, cache: &GuideCache, l: usize, a: usize) -> (IVec3, f
     ((off / h).round().as_ivec3(), h)
 }
 
-/// The outcomes of the walks one path's p_g evaluation ran, by chain start and seed cell
-/// (for a chain ending on the sun the goal is the path's own direction whatever the guide, so
-/// guides with one seed share the walk).
 /// A walk of [`WalkMemo`]: the chain's start `a`, the seed's cell, and the walk's `x_{a+1}`
 /// and determinant where it converged.
 type MemoEntry = (usize, IVec3, Option<(DVec3, f64)>);
 
+/// The outcomes of the walks one path's p_g evaluation ran, by chain start and seed cell
+/// (for a chain ending on the sun the goal is the path's own direction whatever the guide, so
+/// guides with one seed share the walk).
 #[derive(Default)]
 pub struct WalkMemo {
     entries: [Option<MemoEntry>; WalkMemo::SIZE],
@@ -293,10 +301,13 @@ pub fn draw_goal(
 pub struct DrawnChains(Vec<(Chain, f64, bool)>);
 
 impl DrawnChains {
+    /// Note a chain met, with the density `usual` of its `x_{a+1}` under the usual mixture and
+    /// whether the step drew it.
     pub fn push(&mut self, chain: Chain, usual: f64, drawn: bool) {
         self.0.push((chain, usual, drawn));
     }
 
+    /// Whether no chain was met.
     pub fn is_empty(&self) -> bool {
         self.0.is_empty()
     }

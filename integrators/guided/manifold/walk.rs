@@ -36,12 +36,18 @@ pub(super) fn basis(n: DVec3) -> [DVec3; 3] {
 /// point `y` on the plane through `g` with basis (s, t, n).
 #[derive(Debug, Clone, Copy)]
 pub enum Goal {
+    /// The chain must leave along a direction.
     Direction {
+        /// Orthonormal basis (s, t, n), `n` the target direction.
         frame: [DVec3; 3],
     },
+    /// The chain must reach a point on a plane.
     Plane {
+        /// Orthonormal basis (s, t, n), `n` the plane's normal.
         frame: [DVec3; 3],
+        /// A point of the plane, the origin of `y`.
         g: DVec3,
+        /// The target point's coordinates along (s, t), relative to `g`.
         y: [f64; 2],
     },
 }
@@ -235,7 +241,9 @@ fn refract(
 /// The vertex the chain starts from: its position and geometric normal (zero in a medium).
 #[derive(Debug, Clone, Copy)]
 pub struct From {
+    /// Position of x_a.
     pub p: Vec3,
+    /// Geometric normal at x_a (zero in a medium).
     pub n: Vec3,
     /// The medium a ray from it towards the chain starts in (the sampler's; p_g passes None:
     /// only the geometry matters there).
@@ -342,10 +350,15 @@ fn trace_chain(
 /// tests): `x_{a+1}`, the tangent basis of its coordinates, the far end's residual against
 /// `goal` and its derivative in those coordinates, and `|det ∂T/∂x_{a+1}|`.
 pub struct ChainMap {
+    /// The chain's first vertex `x_{a+1}`.
     pub x1: DVec3,
+    /// Tangent basis of the coordinates of `x_{a+1}`.
     pub tangent: [DVec3; 2],
+    /// The far end's offset from the goal, in the goal's coordinates.
     pub residual: [f64; 2],
+    /// Derivative of `residual` in the tangent coordinates of `x_{a+1}`.
     pub jacobian: [[f64; 2]; 2],
+    /// `|det ∂T/∂x_{a+1}|`.
     pub det: f64,
 }
 
@@ -372,9 +385,13 @@ pub fn chain_map(
 /// The solved `x_{a+1}`: its surface point, the medium the ray reached it through, the
 /// direction from `x_a`, and `|det ∂T/∂x_{a+1}|`.
 pub struct Solution<'s> {
+    /// The surface point `x_{a+1}`.
     pub sp: SurfacePoint<'s>,
+    /// The medium the ray from `x_a` reached it through.
     pub medium: Option<u32>,
+    /// Unit direction from `x_a` to `x_{a+1}`.
     pub dir: Vec3,
+    /// `|det ∂T/∂x_{a+1}|`, the chain's Jacobian determinant.
     pub det: f64,
 }
 

@@ -80,7 +80,9 @@ impl Boundable for Bounds {
 /// What each shape is made of, for building the accelerator and filling in hits.
 #[derive(Debug, Clone)]
 pub enum ShapeGeometry {
+    /// A triangle mesh in world space.
     Mesh(TriangleMesh),
+    /// A sphere.
     Sphere(Sphere),
 }
 
@@ -91,6 +93,8 @@ pub(super) enum Index {
     Bvh(CwBvh),
 }
 
+/// The ray-intersection accelerator over a scene's shapes: a compressed-wide BVH (or a flat
+/// list for small scenes), with grid meshes walked cell by cell.
 pub struct Accel {
     pub(super) index: Index,
     pub(super) prims: Vec<Prim>,
@@ -107,6 +111,7 @@ pub struct Accel {
 }
 
 impl Accel {
+    /// The accelerator over `shapes`: a flat list for small scenes, else a BVH.
     pub fn build(shapes: &[ShapeGeometry]) -> Accel {
         Accel::build_with(shapes, FLAT_MAX_PRIMS, true)
     }
@@ -191,6 +196,7 @@ impl Accel {
         self
     }
 
+    /// Number of primitives (triangles and spheres), grid meshes' triangles included.
     pub fn primitive_count(&self) -> usize {
         self.prims.len()
             + self

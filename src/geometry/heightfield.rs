@@ -12,6 +12,7 @@ use glam::{Affine3A, UVec2, Vec2, Vec3};
 /// height in the same units as u.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct GridLayout {
+    /// Number of cells along u and v.
     pub cells: UVec2,
     /// World space to cell coordinates (kept up to date by [`TriangleMesh::transformed`]).
     pub to_cells: Affine3A,
@@ -20,7 +21,9 @@ pub struct GridLayout {
 /// One term `amplitude * sin(2 pi / wavelength * (direction . (x, z)) + phase)`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Wave {
+    /// Peak height of the wave.
     pub amplitude: f32,
+    /// Distance between crests.
     pub wavelength: f32,
     /// Unit direction of travel in the xz plane.
     pub direction: Vec2,

@@ -6,11 +6,16 @@ use super::heightfield::GridLayout;
 use crate::math::{Distribution1D, warp};
 use glam::{Vec2, Vec3};
 
+/// A triangle mesh in world space: vertex positions, optional shading normals and index
+/// triples.
 #[derive(Debug, Clone, Default)]
 pub struct TriangleMesh {
+    /// Vertex positions.
     pub positions: Vec<Vec3>,
     /// Per-vertex shading normals (optional; same length as `positions`).
     pub normals: Option<Vec<Vec3>>,
+    /// Vertex indices of each triangle (their winding gives the front side, see
+    /// [`Self::geometric_normal`]).
     pub indices: Vec<[u32; 3]>,
     /// How the triangles tile a regular grid, for meshes made as one (heightfields): the
     /// accelerator then walks the grid's cells instead of building a BVH over them.
@@ -18,6 +23,7 @@ pub struct TriangleMesh {
 }
 
 impl TriangleMesh {
+    /// The corner positions of triangle `i`.
     pub fn triangle(&self, i: usize) -> [Vec3; 3] {
         let [a, b, c] = self.indices[i];
         [
@@ -27,11 +33,13 @@ impl TriangleMesh {
         ]
     }
 
+    /// Area of triangle `i`.
     pub fn triangle_area(&self, i: usize) -> f32 {
         let [a, b, c] = self.triangle(i);
         0.5 * (b - a).cross(c - a).length()
     }
 
+    /// Total surface area.
     pub fn area(&self) -> f32 {
         (0..self.indices.len()).map(|i| self.triangle_area(i)).sum()
     }
@@ -65,6 +73,8 @@ impl TriangleMesh {
         (v != Vec3::ZERO).then_some(v)
     }
 
+    /// The mesh under `t`: positions, normals and grid mapped, winding flipped where `t`
+    /// flips handedness.
     pub fn transformed(mut self, t: &Transform) -> TriangleMesh {
         for p in &mut self.positions {
             *p = t.point(*p);
@@ -188,6 +198,7 @@ impl TriangleMesh {
         self
     }
 
+    /// Add `other`'s triangles (shading normals are kept only if neither mesh has any).
     pub fn append(&mut self, other: &TriangleMesh) {
         let base = self.positions.len() as u32;
         self.positions.extend_from_slice(&other.positions);
@@ -210,7 +221,9 @@ impl TriangleMesh {
 /// Uniform-by-area point sampling over a mesh.
 #[derive(Debug, Clone)]
 pub struct MeshSampler {
+    /// Triangles weighted by their area.
     pub tri_distribution: Distribution1D,
+    /// Total area of the mesh.
     pub area: f32,
     /// [`TriangleMesh::geometric_normal`] of every triangle (next-event estimation samples
     /// emitters once per vertex; recomputing cross products there was 3 % of pt's time).
@@ -262,6 +275,7 @@ impl Parallelogram {
 }
 
 impl MeshSampler {
+    /// The sampler of `mesh`.
     pub fn new(mesh: &TriangleMesh) -> MeshSampler {
         let areas: Vec<f32> = (0..mesh.indices.len())
             .map(|i| mesh.triangle_area(i))

@@ -3,9 +3,12 @@
 use super::{Ray, gamma};
 use glam::Vec3;
 
+/// A sphere; its outside is its front side.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Sphere {
+    /// Centre.
     pub center: Vec3,
+    /// Radius.
     pub radius: f32,
 }
 
@@ -45,6 +48,7 @@ impl Sphere {
         (p, n, err)
     }
 
+    /// Surface area, `4 pi r^2`.
     pub fn area(&self) -> f32 {
         4.0 * std::f32::consts::PI * self.radius * self.radius
     }

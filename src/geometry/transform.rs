@@ -3,8 +3,10 @@
 
 use glam::{Affine3A, Mat3, Mat4, Quat, Vec3, Vec4};
 
+/// An affine transform of points, vectors and normals.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Transform {
+    /// The affine map of points.
     pub m: Affine3A,
     /// Inverse transpose of the linear part, for normals.
     pub normal_m: Mat3,
@@ -17,6 +19,7 @@ impl Default for Transform {
 }
 
 impl Transform {
+    /// The transform that changes nothing.
     pub const IDENTITY: Transform = Transform {
         m: Affine3A::IDENTITY,
         normal_m: Mat3::IDENTITY,
@@ -50,14 +53,17 @@ impl Transform {
         normal_m.is_finite().then_some(Transform { m, normal_m })
     }
 
+    /// The point `p` transformed.
     pub fn point(&self, p: Vec3) -> Vec3 {
         self.m.transform_point3(p)
     }
 
+    /// The vector `v` transformed (no translation).
     pub fn vector(&self, v: Vec3) -> Vec3 {
         self.m.transform_vector3(v)
     }
 
+    /// The normal `n` transformed by the inverse transpose and normalised.
     pub fn normal(&self, n: Vec3) -> Vec3 {
         (self.normal_m * n).normalize()
     }

@@ -12,28 +12,36 @@ use crate::geometry::{Sphere, TriangleMesh, mesh::MeshSampler};
 use crate::math::{Frame, PI, Spectrum, luminance, warp};
 use glam::{Vec2, Vec3};
 
+/// The geometry an area light emits from, with what sampling it needs.
 #[derive(Debug, Clone)]
 pub enum AreaShape {
+    /// A triangle mesh, sampled uniformly by area.
     Mesh {
         /// Boxed: sampling reads only `sampler` when the mesh is a parallelogram.
         mesh: Box<TriangleMesh>,
+        /// The area-weighted triangle distribution (or the parallelogram) of the mesh.
         sampler: MeshSampler,
     },
+    /// A sphere, sampled by the cone of directions it subtends.
     Sphere(Sphere),
 }
 
+/// An emissive shape: constant radiance on its front side, optionally shaped by a spot
+/// profile.
 #[derive(Debug, Clone)]
 pub struct AreaLight {
     /// Scene shape that emits.
     pub shape: u32,
     /// Radiance along the normal (everywhere on the front side without a spot profile).
     pub radiance: Spectrum,
+    /// The emitting geometry.
     pub geometry: AreaShape,
     /// Angular profile around the geometric normal; `None` for a plain (Lambertian) emitter.
     pub spot: Option<SpotProfile>,
 }
 
 impl AreaLight {
+    /// A plain (Lambertian) emitter of shape `shape`.
     pub fn new(shape: u32, radiance: Spectrum, geometry: AreaShape) -> AreaLight {
         AreaLight {
             shape,
@@ -66,6 +74,7 @@ impl AreaLight {
         }
     }
 
+    /// Surface area of the emitting geometry.
     pub fn area(&self) -> f32 {
         match &self.geometry {
             AreaShape::Mesh { sampler, .. } => sampler.area,
@@ -83,6 +92,7 @@ impl AreaLight {
         }
     }
 
+    /// Radiance leaving a point of normal `n` along `w` (zero on the back side).
     pub fn le(&self, n: Vec3, w: Vec3) -> Spectrum {
         if n.dot(w) > 0.0 {
             match &self.spot {
@@ -94,6 +104,8 @@ impl AreaLight {
         }
     }
 
+    /// A point on the light seen from `p` (see [`super::Light::sample_li`]), with its
+    /// solid-angle density at `p`.
     pub fn sample_li(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
         let (p_l, n_l, pdf, v, dist) = match &self.geometry {
             AreaShape::Mesh { mesh, sampler } => {
@@ -137,6 +149,8 @@ impl AreaLight {
         })
     }
 
+    /// Solid-angle density at `p` of [`Self::sample_li`] choosing `p_l` (normal `n_l`) along
+    /// `wi`.
     pub fn pdf_li(&self, p: Vec3, p_l: Vec3, n_l: Vec3, wi: Vec3) -> f32 {
         match &self.geometry {
             AreaShape::Mesh { sampler, .. } => {
@@ -152,6 +166,8 @@ impl AreaLight {
         }
     }
 
+    /// An emitted ray: a point uniform by area (by `u_pos`), a cosine-weighted direction on
+    /// the front side (by `u_dir`; within the cone with a spot profile).
     pub fn sample_le(&self, u_pos: Vec2, u_dir: Vec2) -> Option<EmissionSample> {
         let (p, n, pdf_pos) = match &self.geometry {
             AreaShape::Mesh { mesh, sampler } => {

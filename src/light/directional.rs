@@ -8,6 +8,7 @@ use super::{EmissionSample, LightSample};
 use crate::math::{PI, Spectrum, luminance};
 use glam::{Vec2, Vec3};
 
+/// Parallel light from one direction at infinity.
 #[derive(Debug, Clone)]
 pub struct DirectionalLight {
     /// Irradiance on a surface perpendicular to the light (W/m^2 per RGB channel).
@@ -15,6 +16,7 @@ pub struct DirectionalLight {
     /// Bounding sphere of the scene (set when the scene is built, see
     /// [`super::Light::set_scene_bounds`]).
     pub center: Vec3,
+    /// Radius of the scene's bounding sphere.
     pub radius: f32,
     direction: Vec3,
 }
@@ -46,6 +48,8 @@ impl DirectionalLight {
         luminance(self.irradiance) * PI * self.radius * self.radius
     }
 
+    /// The one direction towards the light, with the irradiance as `li` and a discrete
+    /// density of 1.
     pub fn sample_li(&self) -> LightSample {
         LightSample {
             wi: -self.direction,

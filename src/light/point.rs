@@ -4,14 +4,18 @@ use super::{EmissionSample, LightSample};
 use crate::math::{Spectrum, warp};
 use glam::{Vec2, Vec3};
 
+/// A point emitting the same intensity in every direction.
 #[derive(Debug, Clone)]
 pub struct PointLight {
+    /// Position of the light.
     pub position: Vec3,
     /// Radiant intensity (W/sr per RGB channel).
     pub intensity: Spectrum,
 }
 
 impl PointLight {
+    /// The connection from `p` to the light: `intensity / d^2`, a discrete density of 1;
+    /// `None` at the light itself.
     pub fn sample_li(&self, p: Vec3) -> Option<LightSample> {
         let v = self.position - p;
         let d2 = v.length_squared();
@@ -30,6 +34,7 @@ impl PointLight {
         })
     }
 
+    /// An emitted ray from the light's position in a direction uniform on the sphere.
     pub fn sample_le(&self, u_dir: Vec2) -> EmissionSample {
         let dir = warp::square_to_uniform_sphere(u_dir);
         EmissionSample {

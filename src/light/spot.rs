@@ -190,6 +190,7 @@ impl SpotProfile {
 /// A point light whose intensity falls off around `direction` by a [`SpotProfile`].
 #[derive(Debug, Clone)]
 pub struct SpotLight {
+    /// Position of the light.
     pub position: Vec3,
     /// Intensity on the axis (W/sr per RGB channel).
     pub intensity: Spectrum,
@@ -225,6 +226,7 @@ impl SpotLight {
         self.direction
     }
 
+    /// The angular falloff around the axis.
     pub fn profile(&self) -> &SpotProfile {
         &self.profile
     }

@@ -12,6 +12,7 @@ use super::{EmissionSample, LightSample};
 use crate::math::{Frame, PI, Spectrum, luminance};
 use glam::{Vec2, Vec3};
 
+/// A disk of small angular radius and constant radiance at infinity.
 #[derive(Debug, Clone)]
 pub struct SunLight {
     /// Radiance of the disk (W/(m^2 sr) per RGB channel).
@@ -19,6 +20,7 @@ pub struct SunLight {
     /// Bounding sphere of the scene (set when the scene is built, see
     /// [`super::Light::set_scene_bounds`]).
     pub center: Vec3,
+    /// Radius of the scene's bounding sphere.
     pub radius: f32,
     direction_to_sun: Vec3,
     /// Angular radius (half-angle), degrees.

@@ -35,14 +35,17 @@ impl AliasTable {
         AliasTable { prob, alias, pmf }
     }
 
+    /// Number of items (0 for an empty table).
     pub fn len(&self) -> usize {
         self.pmf.len()
     }
 
+    /// Whether the table has no items (built from no weights or all-zero weights).
     pub fn is_empty(&self) -> bool {
         self.pmf.is_empty()
     }
 
+    /// Probability of item `i`.
     pub fn pmf(&self, i: usize) -> f64 {
         self.pmf[i]
     }

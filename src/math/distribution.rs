@@ -1,6 +1,7 @@
 //! Discrete distribution over `n` items proportional to non-negative weights (light power,
 //! triangle area), sampled by binary search over the CDF.
 
+/// A discrete distribution over `n` items, proportional to their weights.
 #[derive(Debug, Clone)]
 pub struct Distribution1D {
     /// cdf[i] = sum of pmf over items < i; cdf.len() == n + 1, cdf[n] == 1.
@@ -46,10 +47,12 @@ impl Distribution1D {
         }
     }
 
+    /// Number of items.
     pub fn len(&self) -> usize {
         self.pmf.len()
     }
 
+    /// Whether there are no items.
     pub fn is_empty(&self) -> bool {
         self.pmf.is_empty()
     }
@@ -59,6 +62,7 @@ impl Distribution1D {
         self.total
     }
 
+    /// Probability of item `i`.
     pub fn pmf(&self, i: usize) -> f32 {
         self.pmf[i]
     }

@@ -3,14 +3,19 @@
 
 use glam::Vec3;
 
+/// An orthonormal basis (s, t, n); local z is along `n`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Frame {
+    /// First tangent (local x).
     pub s: Vec3,
+    /// Second tangent (local y).
     pub t: Vec3,
+    /// Normal (local z).
     pub n: Vec3,
 }
 
 impl Frame {
+    /// The frame with unit `n` as its z axis.
     pub fn from_z(n: Vec3) -> Frame {
         let sign = 1.0f32.copysign(n.z);
         let a = -1.0 / (sign + n.z);
@@ -20,11 +25,13 @@ impl Frame {
         Frame { s, t, n }
     }
 
+    /// World direction `v` in the frame's coordinates.
     #[inline]
     pub fn to_local(&self, v: Vec3) -> Vec3 {
         Vec3::new(v.dot(self.s), v.dot(self.t), v.dot(self.n))
     }
 
+    /// Local direction `v` in world coordinates.
     #[inline]
     pub fn to_world(&self, v: Vec3) -> Vec3 {
         self.s * v.x + self.t * v.y + self.n * v.z

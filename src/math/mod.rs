@@ -19,8 +19,11 @@ use glam::Vec3;
 /// Linear RGB radiance / reflectance. Components are independent; no spectral upsampling.
 pub type Spectrum = Vec3;
 
+/// π in f32.
 pub const PI: f32 = std::f32::consts::PI;
+/// 1 / π in f32.
 pub const INV_PI: f32 = std::f32::consts::FRAC_1_PI;
+/// 1 / (4π) in f32: the uniform sphere density.
 pub const INV_4PI: f32 = 0.25 * std::f32::consts::FRAC_1_PI;
 
 /// Rec. 709 luminance of a linear RGB value.

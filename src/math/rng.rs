@@ -9,7 +9,9 @@ use rand_pcg::Pcg32;
 
 /// A source of uniform numbers in [0, 1).
 pub trait Sampler {
+    /// The next uniform number in [0, 1).
     fn next_1d(&mut self) -> f32;
+    /// The next two uniform numbers (one 2D point for stratified samplers).
     fn next_2d(&mut self) -> Vec2 {
         let x = self.next_1d();
         let y = self.next_1d();
@@ -32,6 +34,7 @@ pub trait Sampler {
 /// A sampler the pass driver builds for sample `pass` of pixel `pixel` (the pixel's own
 /// stream, so images do not depend on which thread drew which sample).
 pub trait PixelSampler: Sampler + Send {
+    /// The sampler of pass `pass` of pixel `pixel` under render seed `seed`.
     fn for_pixel(seed: u64, pass: u64, pixel: u64) -> Self;
 }
 
@@ -50,11 +53,14 @@ pub enum SamplerKind {
 /// The sampler [`SamplerKind`] names, chosen at run time (the guided driver's render passes,
 /// whose loop is not generic over the sampler): one predictable branch per draw.
 pub enum AnySampler {
+    /// Independent uniform numbers.
     Independent(IndependentSampler),
+    /// Owen-scrambled Sobol points.
     Sobol(super::sobol::SobolSampler),
 }
 
 impl AnySampler {
+    /// The sampler of kind `kind` for pass `pass` of pixel `pixel`.
     pub fn new(kind: SamplerKind, seed: u64, pass: u64, pixel: u64) -> Self {
         match kind {
             SamplerKind::Independent => {
@@ -117,6 +123,7 @@ pub struct IndependentSampler {
 }
 
 impl IndependentSampler {
+    /// The stream keyed by (seed, pass, index).
     pub fn new(seed: u64, pass: u64, index: u64) -> Self {
         let key = stream_seed(seed, pass, index);
         IndependentSampler {
@@ -124,6 +131,7 @@ impl IndependentSampler {
         }
     }
 
+    /// A stream seeded from one number (not keyed like the render's streams).
     pub fn from_u64(seed: u64) -> Self {
         IndependentSampler {
             rng: Pcg32::seed_from_u64(seed),

@@ -137,6 +137,7 @@ pub struct SobolSampler {
 }
 
 impl SobolSampler {
+    /// Sample `pass` of pixel `pixel`: the pass-th point of the pixel's scrambled sequence.
     pub fn new(seed: u64, pass: u64, pixel: u64) -> Self {
         SobolSampler {
             key: stream_seed(seed ^ 0x736f_626f_6c00, 0, pixel),

@@ -58,6 +58,8 @@ pub fn square_to_cosine_hemisphere(u: Vec2) -> Vec3 {
     Vec3::new(d.x, d.y, z)
 }
 
+/// Solid-angle density of [`square_to_cosine_hemisphere`] at a direction of cosine
+/// `cos_theta`: `cos / pi` (0 below the horizon).
 pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
     if cos_theta > 0.0 {
         cos_theta * INV_PI
@@ -66,6 +68,7 @@ pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
     }
 }
 
+/// A direction uniform on the unit sphere.
 pub fn square_to_uniform_sphere(u: Vec2) -> Vec3 {
     let z = 1.0 - 2.0 * u.x;
     let r = (1.0 - z * z).max(0.0).sqrt();
@@ -73,6 +76,7 @@ pub fn square_to_uniform_sphere(u: Vec2) -> Vec3 {
     Vec3::new(r * phi.cos(), r * phi.sin(), z)
 }
 
+/// Solid-angle density of [`square_to_uniform_sphere`]: `1 / (4 pi)`.
 pub const fn uniform_sphere_pdf() -> f32 {
     INV_4PI
 }
@@ -85,6 +89,7 @@ pub fn square_to_uniform_cone(u: Vec2, cos_max: f32) -> Vec3 {
     Vec3::new(sin_theta * phi.cos(), sin_theta * phi.sin(), cos_theta)
 }
 
+/// Solid-angle density of [`square_to_uniform_cone`]: `1 / (2 pi (1 - cos_max))`.
 pub fn uniform_cone_pdf(cos_max: f32) -> f32 {
     1.0 / (2.0 * PI * (1.0 - cos_max))
 }

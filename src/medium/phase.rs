@@ -7,6 +7,7 @@
 use crate::math::{Frame, INV_4PI, PI};
 use glam::{Vec2, Vec3};
 
+/// The Henyey-Greenstein phase function of asymmetry `g`.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HenyeyGreenstein {
     /// Mean cosine of the scattering angle, in (-1, 1).
@@ -14,6 +15,7 @@ pub struct HenyeyGreenstein {
 }
 
 impl HenyeyGreenstein {
+    /// The phase function of mean cosine `g`.
     pub fn new(g: f32) -> Self {
         HenyeyGreenstein { g }
     }

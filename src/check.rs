@@ -29,11 +29,14 @@ static VIOLATIONS: Mutex<BTreeMap<(Technique, Kind), Tally>> = Mutex::new(BTreeM
 /// has one.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
 pub struct Technique {
+    /// The integrator's or technique's name.
     pub name: &'static str,
+    /// BDPT's (s, t), where the technique has one.
     pub s: Option<(u32, u32)>,
 }
 
 impl Technique {
+    /// A technique known by name alone.
     pub const fn named(name: &'static str) -> Technique {
         Technique { name, s: None }
     }
@@ -56,10 +59,14 @@ impl fmt::Display for Technique {
     }
 }
 
+/// What a violation is about.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Kind {
+    /// A value that is not finite or has a negative channel.
     Value,
+    /// A density that is not finite or is negative.
     Density,
+    /// An MIS weight outside [0, 1].
     Weight,
 }
 
@@ -76,7 +83,9 @@ impl fmt::Display for Kind {
 /// Count and first offending value of one kind of violation.
 #[derive(Debug, Clone, Copy)]
 pub struct Tally {
+    /// Number of violations.
     pub count: u64,
+    /// The first offending value.
     pub first: f64,
 }
 
@@ -86,15 +95,18 @@ pub fn enable() {
     ENABLED.store(true, Ordering::Relaxed);
 }
 
+/// Turn checking off (tallies are kept).
 pub fn disable() {
     ENABLED.store(false, Ordering::Relaxed);
 }
 
+/// Whether checking is on.
 #[inline]
 pub fn enabled() -> bool {
     ENABLED.load(Ordering::Relaxed)
 }
 
+/// Clear the count of checked quantities and every tally.
 pub fn reset() {
     CHECKED.store(0, Ordering::Relaxed);
     VIOLATIONS.lock().unwrap_or_else(|e| e.into_inner()).clear();

@@ -16,15 +16,21 @@ use crate::film::Image;
 use crate::math::{Spectrum, luminance};
 use glam::{DVec3, Vec3};
 
+/// Number of layers of the cascade.
 pub const LAYERS: usize = 6;
+/// Ratio b of the scales of adjacent layers.
 pub const BASE: f64 = 8.0;
+/// Similar samples κ in a pixel's 3 x 3 neighbourhood for a layer's full trust.
 pub const KAPPA: f64 = 32.0;
 
 /// Per-pixel sums of the sample shares of each layer.
 #[derive(Debug, Clone)]
 pub struct Cascade {
+    /// Width in pixels.
     pub width: u32,
+    /// Height in pixels.
     pub height: u32,
+    /// Per pixel (row-major), the RGB sums of each layer.
     pub layers: Vec<[DVec3; LAYERS]>,
 }
 
@@ -44,6 +50,7 @@ pub fn value_shares(v: f64) -> [(usize, f64); 2] {
 }
 
 impl Cascade {
+    /// An empty cascade for an image of `width` x `height` pixels.
     pub fn new(width: u32, height: u32) -> Cascade {
         Cascade {
             width,
@@ -62,6 +69,7 @@ impl Cascade {
         }
     }
 
+    /// Add one sample's RGB value to pixel `pixel`'s layers.
     pub fn add(&mut self, pixel: u32, value: Spectrum) {
         Self::splat_into(&mut self.layers[pixel as usize], value);
     }

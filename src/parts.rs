@@ -28,7 +28,9 @@ use std::path::{Path, PathBuf};
 /// Slice `index` (1-based) of `count`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Part {
+    /// Which slice, from 1.
     pub index: u64,
+    /// Number of slices.
     pub count: u64,
 }
 
@@ -83,7 +85,9 @@ pub fn check_splittable(name: &str, has_loaded_cache: bool) -> Result<()> {
 /// What a `--part` render does: its global passes and the header fields that let `merge`
 /// check the parts belong together.
 pub struct Plan {
+    /// The global pass indices this part renders.
     pub passes: Range<u64>,
+    /// EXR header fields of the part: `part`, `first_pass`, `total_spp`, `scene_hash`.
     pub meta: Vec<(String, String)>,
 }
 
@@ -142,12 +146,16 @@ const SHARED: [&str; 5] = ["integrator", "settings", "seed", "scene_hash", "tota
 
 /// One part read back: its file, image and header.
 pub struct PartFile {
+    /// The EXR file.
     pub path: PathBuf,
+    /// Its image.
     pub image: Image,
+    /// Its header's text attributes.
     pub meta: Vec<(String, String)>,
 }
 
 impl PartFile {
+    /// Read a part's EXR with its header.
     pub fn read(path: &Path) -> Result<PartFile> {
         let (image, meta) = Image::read_exr(path)?;
         Ok(PartFile {

@@ -41,8 +41,11 @@ pub struct Snapshot<'a> {
     pub time: f64,
     /// Elapsed seconds on the render clock when the snapshot was taken (>= `time`).
     pub seconds: f64,
+    /// Passes in the snapshot image.
     pub passes: u64,
+    /// Samples per pixel in the snapshot image.
     pub spp: u64,
+    /// The image at that time.
     pub image: &'a Image,
 }
 

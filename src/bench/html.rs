@@ -12,13 +12,17 @@ use std::fmt::Write as _;
 
 /// What the page shows; paths are relative to the page.
 pub struct Page<'a> {
+    /// The scene file.
     pub scene: &'a str,
     /// Settings line (time, runs, seeds, threads, crop, reference).
     pub settings: &'a str,
+    /// One row of medians per integrator.
     pub medians: &'a [Row],
     /// Per-run rows (shown when there are several runs).
     pub runs: &'a [Row],
+    /// The error-against-time plot (SVG).
     pub plot: &'a str,
+    /// The reference image's PNG.
     pub reference_png: &'a str,
     /// (integrator, image PNG, error PNG, EXR) per integrator, in table order.
     pub images: &'a [(String, String, String, String)],

@@ -27,7 +27,9 @@ use std::path::{Path, PathBuf};
 /// One render of the bench: integrator (index into the list) and seed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub struct Job {
+    /// Index of the integrator in the bench's list.
     pub integrator: usize,
+    /// The render's seed.
     pub seed: u64,
 }
 

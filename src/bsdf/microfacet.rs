@@ -48,6 +48,7 @@ impl Ggx {
         }
     }
 
+    /// The roughness alpha, as clamped.
     pub fn alpha(&self) -> f32 {
         self.alpha
     }

@@ -150,11 +150,18 @@ def test_an_exception_in_the_progress_callback_stops_the_render():
 
 
 def test_ctrl_c_stops_a_render_cleanly():
+    # Python's own Ctrl-C handler, also where the test runner was started with SIGINT ignored
+    # (a background job of a non-interactive shell, as CI may be).
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     timer = threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT))
     timer.start()
     start = time.monotonic()
-    with pytest.raises(KeyboardInterrupt):
-        lodestar.render(TINY, "guided-pt", time=60.0)
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            lodestar.render(TINY, "guided-pt", time=60.0)
+    finally:
+        timer.cancel()
+        signal.signal(signal.SIGINT, previous)
     assert time.monotonic() - start < 30
     # The module is usable afterwards.
     image, _ = lodestar.render(TINY, spp=1)

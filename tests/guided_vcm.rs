@@ -575,6 +575,68 @@ fn guided_vcm_agrees_with_bdpt_on_the_cornell_box() {
     util::assert_same_mean(&guided.image, &reference.image, "guided-vcm vs bdpt");
 }
 
+/// Per tile (4 x 4 pixels of the caustic scene at 24 x 24, Welch's t over 24 renders a side,
+/// Bonferroni over tiles and channels, family-wise false-failure rate 1e-4), guided-vcm with a
+/// frozen cache that carries the caustic (one caustic path twice, weights 1/2; α = 0.05, so
+/// most samples are guided) renders bdpt's image (merging's bias at the default radius is
+/// below these renders' noise). p_g x 1.5 where paths are weighed fails the same test.
+#[test]
+fn guided_vcm_renders_bdpt_image_on_a_caustic_tile_by_tile() {
+    use lodestar::integrators::guided::cache::GuideCache;
+    use lodestar::integrators::guided::{Guided, GuidedSettings, Outliers};
+    use lodestar::render::{Budget, Integrator, RenderContext};
+    use util::guided::{installs_of, twin_caustic_cache};
+    const SEEDS: u64 = 24;
+    let scene = util::scene(&CAUSTIC.replace("resolution = [48, 48]", "resolution = [24, 24]"));
+    let twin = twin_caustic_cache(&scene, false);
+    let renders = |p_g_factor: f64| -> Vec<lodestar::film::Image> {
+        (0..SEEDS)
+            .map(|seed| {
+                let mut c = GuideCache::default();
+                c.install(&scene, installs_of(&scene, &twin), 10_000);
+                c.weight_faults.p_g = p_g_factor;
+                let settings = GuidedSettings {
+                    alpha: 0.05,
+                    learn_fraction: 0.0,
+                    ..GuidedSettings::default()
+                };
+                let mut g = Guided {
+                    name: "guided-vcm",
+                    seeder: Outliers::new(settings.intake),
+                    unguided: VcmUnguided {
+                        radius: None,
+                        ..unguided()
+                    },
+                    settings,
+                    cache: Some(c),
+                };
+                let pool = rayon::ThreadPoolBuilder::new()
+                    .num_threads(2)
+                    .build()
+                    .unwrap();
+                let r = pool.install(|| {
+                    g.render(&RenderContext::new(&scene, seed, false), Budget::Spp(16))
+                });
+                let guided: f64 = util::stat(&r, "guided_samples").unwrap().parse().unwrap();
+                assert!(guided > 0.0, "no guided samples");
+                r.image
+            })
+            .collect()
+    };
+    let reference: Vec<_> = (0..SEEDS)
+        .map(|s| util::render(&scene, "bdpt", MAX_DEPTH, &[], 64, 100 + s, 2).image)
+        .collect();
+    util::assert_same_image(&renders(1.0), &reference, 4, "guided-vcm");
+    let wrong = renders(1.5);
+    let caught = std::panic::catch_unwind(|| {
+        util::assert_same_image(&wrong, &reference, 4, "guided-vcm, p_g x 1.5 (control)")
+    });
+    assert!(
+        caught.is_err(),
+        "guided-vcm with p_g x 1.5 passed the per-tile test"
+    );
+}
+
 /// guided-vcm gives bit-identical images on 1 and 2 threads (light subpaths are traced from
 /// their own streams and laid out in path order, whatever thread traced them).
 #[test]

@@ -578,8 +578,9 @@ fn guided_vcm_agrees_with_bdpt_on_the_cornell_box() {
 /// Per tile (4 x 4 pixels of the caustic scene at 24 x 24, Welch's t over 24 renders a side,
 /// Bonferroni over tiles and channels, family-wise false-failure rate 1e-4), guided-vcm with a
 /// frozen cache that carries the caustic (one caustic path twice, weights 1/2; α = 0.05, so
-/// most samples are guided) renders bdpt's image (merging's bias at the default radius is
-/// below these renders' noise). p_g x 1.5 where paths are weighed fails the same test.
+/// most samples are guided) renders bdpt's image and vcm's (merging's bias at the default
+/// radius is below these renders' noise). p_g x 1.5 where paths are weighed fails the same
+/// test.
 #[test]
 fn guided_vcm_renders_bdpt_image_on_a_caustic_tile_by_tile() {
     use lodestar::integrators::guided::cache::GuideCache;
@@ -626,7 +627,13 @@ fn guided_vcm_renders_bdpt_image_on_a_caustic_tile_by_tile() {
     let reference: Vec<_> = (0..SEEDS)
         .map(|s| util::render(&scene, "bdpt", MAX_DEPTH, &[], 64, 100 + s, 2).image)
         .collect();
-    util::assert_same_image(&renders(1.0), &reference, 4, "guided-vcm");
+    let ok = renders(1.0);
+    util::assert_same_image(&ok, &reference, 4, "guided-vcm against bdpt");
+    // And against vcm itself at the same radius schedule.
+    let vcm: Vec<_> = (0..SEEDS)
+        .map(|s| util::render(&scene, "vcm", MAX_DEPTH, &[], 32, 200 + s, 2).image)
+        .collect();
+    util::assert_same_image(&ok, &vcm, 4, "guided-vcm against vcm");
     let wrong = renders(1.5);
     let caught = std::panic::catch_unwind(|| {
         util::assert_same_image(&wrong, &reference, 4, "guided-vcm, p_g x 1.5 (control)")

@@ -13,7 +13,7 @@
 //! - the estimate of a pixel sample is the sum over the walk's emitter hits of `beta Le`;
 //! - as an [`Unguided`] estimator it reports each such hit as a complete path with its
 //!   measurement contribution f(X) (`paths::contribution`) and its density `p_u(X)`, that of
-//!   technique s = 0 (`paths::path_terms`), and it evaluates that density for any path
+//!   technique s = 0 (`paths::path_terms_into`), and it evaluates that density for any path
 //!   (`pdf_unguided`). That is all `Guided<U, S>` needs: `guided-bsdf-pt` mixes guided
 //!   samples with these by the balance heuristic.
 //!
@@ -26,15 +26,14 @@
 
 use glam::{DVec3, Vec2};
 use lodestar::Result;
-use lodestar::integrators::bdpt::{Kind, Vertex, camera_subpath, path_terms, to_path};
+use lodestar::integrators::bdpt::{Kind, Vertex, camera_subpath, to_path};
 use lodestar::integrators::paths::contribution::contribution;
+use lodestar::integrators::paths::{PathTerms, path_terms_into};
 use lodestar::integrators::unguided::{PathSink, Unguided};
 use lodestar::integrators::{self, Entry, IntegratorParams, guided};
 use lodestar::math::{Sampler, SamplerKind, Spectrum};
 use lodestar::path::MAX_VERTICES;
-use lodestar::render::{
-    Budget, Integrator, PixelEstimator, RenderContext, RenderResult, render_pixel_estimator,
-};
+use lodestar::render::{Budget, Integrator, RenderContext, RenderResult, RowTracer, render_rows};
 use lodestar::scene::Scene;
 
 /// The guided integrators' option table (`integrators/guided/mod.rs`), which
@@ -148,30 +147,41 @@ impl BsdfPt {
         }
     }
 
-    fn estimate_with<'s>(
-        &self,
-        scene: &'s Scene,
-        raster: Vec2,
-        sampler: &mut impl Sampler,
-        walk: &mut Vec<Vertex<'s>>,
-    ) -> DVec3 {
-        self.walk(scene, raster, sampler, walk);
-        let mut hits = Vec::new();
+    /// The estimate of one pixel sample: the sum over the walk's emitter hits of `beta Le`.
+    fn estimate_with(&self, raster: Vec2, sampler: &mut impl Sampler, w: &mut Walker<'_>) -> DVec3 {
+        let scene = w.scene;
+        self.walk(scene, raster, sampler, &mut w.walk);
         let mut sum = DVec3::ZERO;
-        for t in 1..walk.len() {
-            Self::emitters(scene, &walk[t - 1], &walk[t], &mut hits);
-            for (_, le) in &hits {
-                sum += (walk[t].beta * *le).as_dvec3();
+        for t in 1..w.walk.len() {
+            Self::emitters(scene, &w.walk[t - 1], &w.walk[t], &mut w.hits);
+            for (_, le) in &w.hits {
+                sum += (w.walk[t].beta * *le).as_dvec3();
             }
         }
         if sum.is_finite() { sum } else { DVec3::ZERO }
     }
+
+    /// Buffers for the walks of one thread.
+    fn walker<'s>(&self, scene: &'s Scene) -> Walker<'s> {
+        Walker {
+            scene,
+            walk: Vec::with_capacity(16),
+            y: Vec::with_capacity(16),
+            hits: Vec::new(),
+        }
+    }
 }
 
-impl PixelEstimator for BsdfPt {
-    fn estimate<S: Sampler>(&self, scene: &Scene, raster: Vec2, sampler: &mut S) -> Spectrum {
-        let mut walk = Vec::with_capacity(16);
-        self.estimate_with(scene, raster, sampler, &mut walk)
+/// bsdf-pt's own render: a row's samples share one walker, so no sample allocates.
+struct Rows<'s> {
+    pt: &'s BsdfPt,
+    w: Walker<'s>,
+}
+
+impl RowTracer for Rows<'_> {
+    fn sample<S: Sampler>(&mut self, raster: Vec2, sampler: &mut S) -> Spectrum {
+        self.pt
+            .estimate_with(raster, sampler, &mut self.w)
             .as_vec3()
     }
 }
@@ -186,7 +196,11 @@ impl Integrator for BsdfPt {
     }
 
     fn render(&mut self, ctx: &RenderContext, budget: Budget) -> RenderResult {
-        render_pixel_estimator(ctx, budget, SamplerKind::Independent, self)
+        let pt = *self;
+        render_rows(ctx, budget, SamplerKind::Independent, || Rows {
+            pt: &pt,
+            w: pt.walker(ctx.scene),
+        })
     }
 }
 
@@ -214,12 +228,7 @@ impl Unguided for BsdfPt {
     fn begin_pass<'s>(&'s self, _: &'s Scene, _: u64, _: u64, _: u64) {}
 
     fn tracer<'s, 'p: 's>(&'s self, scene: &'s Scene, _: &'s ()) -> Walker<'s> {
-        Walker {
-            scene,
-            walk: Vec::with_capacity(16),
-            y: Vec::with_capacity(16),
-            hits: Vec::new(),
-        }
+        self.walker(scene)
     }
 
     /// Every emitter hit of the walk through `raster`, as a complete path with f(X) and
@@ -261,7 +270,7 @@ impl Unguided for BsdfPt {
         sampler: &mut impl Sampler,
         _: &mut Vec<(u32, DVec3)>,
     ) -> DVec3 {
-        self.estimate_with(w.scene, raster, sampler, &mut w.walk)
+        self.estimate_with(raster, sampler, w)
     }
 
     /// The density of technique s = 0 (the camera walk hits the emitter) for `y`, image-wide
@@ -272,7 +281,15 @@ impl Unguided for BsdfPt {
             return 0.0;
         }
         let mut p = [0.0f64; MAX_VERTICES];
-        path_terms(scene, y, self.rr_depth).technique_densities(&mut p);
+        TERMS.with_borrow_mut(|terms| {
+            path_terms_into(scene, y, self.rr_depth, terms);
+            terms.technique_densities(&mut p);
+        });
         p[0]
     }
+}
+
+thread_local! {
+    /// `pdf_unguided`'s scratch, so that evaluating a density allocates nothing.
+    static TERMS: std::cell::RefCell<PathTerms> = std::cell::RefCell::new(PathTerms::new(0));
 }

@@ -14,6 +14,7 @@ pub mod bsdf;
 pub mod camera;
 pub mod check;
 pub mod clock;
+pub mod control;
 pub mod dbor;
 pub mod error;
 pub mod film;

@@ -31,6 +31,7 @@
 //! splats are added in chain order, so the image is bit-identical for any thread count.
 //! The bootstrap counts against a time budget.
 
+pub use super::faults::Faults;
 use super::primary::{PrimarySampler, SmallStep};
 use crate::film::Image;
 use crate::math::{IndependentSampler, Sampler, luminance, stream_seed};
@@ -126,31 +127,6 @@ pub struct McmcSettings {
     /// Deliberate errors for the tests' negative controls (none by default; no option sets
     /// them).
     pub faults: Faults,
-}
-
-/// Deliberate errors of the chains, each of which a correct test must catch
-/// (`tests/mcmc_tiles.rs` runs them). All off by default.
-#[derive(Debug, Clone, Copy, Default, PartialEq)]
-pub struct Faults {
-    /// Accept every large step (a wrong acceptance: the chain no longer has the target's
-    /// distribution).
-    pub accept_large: bool,
-    /// Double the normalisation b of this group (for mmlt, one path length).
-    pub double_b: Option<usize>,
-    /// Splat every sample one pixel further along its row (wrapping into the next row).
-    pub shift_splats: bool,
-}
-
-impl Faults {
-    /// Where a splat to `pixel` of an image of `n` pixels lands.
-    fn pixel(&self, pixel: u32, n: usize) -> usize {
-        (pixel as usize + usize::from(self.shift_splats)) % n
-    }
-
-    /// The factor on group `g`'s normalisation.
-    fn b_factor(&self, g: usize) -> f64 {
-        if self.double_b == Some(g) { 2.0 } else { 1.0 }
-    }
 }
 
 impl Default for McmcSettings {

@@ -32,6 +32,7 @@
 //! ```
 
 pub mod driver;
+pub mod faults;
 pub mod mmlt;
 pub mod primary;
 pub mod pssmlt;

@@ -19,18 +19,23 @@
 //! subpath vertex's running sum holds the merges beside the connections (`cache::mis_sums`). At a merge the two vertices
 //! the kernel pairs stand for one: the camera side keeps its densities up to y_m, the light
 //! side its own from the photon on, and the densities across y_m are evaluated from the
-//! camera vertex's BSDF with the photon's incoming direction (as VCM's weights are).
+//! camera vertex's BSDF with the photon's incoming direction (as VCM's weights are). Those
+//! weigh the merge in U's own estimate; in recording mode a merged path goes to the sink with
+//! the densities of its vertices instead ([`densities_from_vertices`], `recording.rs`), the
+//! numbers `pdf_unguided` gives any other technique that forms the same vertices.
 //! Merging is consistent, not unbiased: the radius shrinks with the pass,
 //! r_i = r_0 (i + 1)^((alpha - 1) / 2), as in `vcm`.
 
 use super::cache::{Cached, cache_subpath, mis_sums};
 use super::walk::{light_subpath, roulette};
-use super::{BdptSettings, Kind, Tracer, Vertex, hittable, light_nee};
+use super::{BdptSettings, Kind, PathTerms, Tracer, Vertex, hittable, light_nee};
 use crate::bsdf::TransportMode;
 use crate::geometry::bvh::{count_ray_equivalents, rays_traced};
+use crate::integrators::paths::path_terms_into;
 use crate::integrators::unguided::PathSink;
 use crate::integrators::vcm::HashGrid;
 use crate::math::{IndependentSampler, PI, Spectrum};
+use crate::path::MAX_VERTICES;
 use crate::scene::Scene;
 use rayon::prelude::*;
 
@@ -43,7 +48,7 @@ const MERGE_RAYS_PER_PHOTON: f64 = 1.0;
 
 /// Stream index offset of the shared light subpaths (pixels use 0 .. N, guided samples
 /// N ..; the offset keeps the light subpaths apart from both).
-pub const LIGHT_STREAMS: u64 = 1 << 48;
+pub const LIGHT_STREAMS: u64 = crate::math::streams::LIGHT_STREAMS;
 
 /// What a merge needs of a stored light vertex before touching its subpath, kept in the grid
 /// beside its position (one run of memory per query).
@@ -94,6 +99,34 @@ struct LightRow<'a> {
 /// Whether a vertex can be merged at: a non-delta, non-black surface (not in media).
 pub fn mergeable(scene: &Scene, v: &Vertex) -> bool {
     matches!(v.kind, Kind::Surface { .. }) && v.connectible(scene)
+}
+
+/// Every technique's density for the path `y` (camera first, an emitter last) from its
+/// vertices alone, as `pdf_unguided` of vcm evaluates it for any path: bdpt's techniques by
+/// s in `vc[..=k]` and, with `eta = pi r^2 N > 0`, merging at each mergeable y_j in `vm[j]`;
+/// returns their sum, or `None` for a path of no segment or of more than `max_depth`.
+/// `terms` is scratch (no allocation once grown).
+pub fn densities_from_vertices(
+    scene: &Scene,
+    y: &[Vertex],
+    settings: &BdptSettings,
+    eta: f64,
+    terms: &mut PathTerms,
+    vc: &mut [f64; MAX_VERTICES],
+    vm: &mut [f64; MAX_VERTICES],
+) -> Option<f64> {
+    let k = y.len().saturating_sub(1);
+    if k == 0 || k > settings.max_depth as usize {
+        return None;
+    }
+    path_terms_into(scene, y, settings.rr_depth, terms);
+    terms.direct_by_camera &= !settings.direct_splats;
+    terms.eta = eta;
+    vc.fill(0.0);
+    vm.fill(0.0);
+    terms.technique_densities(vc);
+    let merge = terms.merge_densities(|j| mergeable(scene, &y[j]), vm);
+    Some(vc[..=k].iter().sum::<f64>() + merge)
 }
 
 impl<'a> SharedLights<'a> {

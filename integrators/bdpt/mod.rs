@@ -64,7 +64,7 @@ use crate::render::{Budget, Integrator, RenderContext, RenderResult, RowTracer, 
 use crate::scene::{Endpoint, Scene};
 use cache::{Cached, cache_subpath, mis_sums};
 use glam::{Vec2, Vec3};
-pub use merging::{LIGHT_STREAMS, SharedLights, mergeable};
+pub use merging::{LIGHT_STREAMS, SharedLights, densities_from_vertices, mergeable};
 use settings::settings;
 pub use settings::{BdptSettings, RR_DEPTH, TechniqueFilter};
 pub use technique::TECHNIQUE_STREAMS;
@@ -185,6 +185,11 @@ pub struct Tracer<'a> {
     photons: Vec<merging::Photon>,
     /// Recording mode: the light vertex of the last next-event estimation (for `deliver`).
     nee_vertex: Vertex<'a>,
+    /// Recording mode, scratch: a merged path's terms from its vertices (`deliver`).
+    vertex_terms: PathTerms,
+    /// Recording mode: hand merged paths over with the merge's own densities (across the
+    /// photon) instead of their vertices' (a deliberate error for the tests' controls).
+    pub merges_as_weighed: bool,
 }
 
 impl<'a> Tracer<'a> {
@@ -215,6 +220,8 @@ impl<'a> Tracer<'a> {
             shared: None,
             photons: Vec::new(),
             nee_vertex: Vertex::new(Kind::Camera, Vec3::ZERO, Vec3::ZERO),
+            vertex_terms: PathTerms::new(0),
+            merges_as_weighed: false,
         }
     }
 

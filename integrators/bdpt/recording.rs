@@ -5,14 +5,15 @@
 use super::{Tracer, Vertex, to_path_into};
 use crate::integrators::unguided::PathSink;
 use crate::math::{Sampler, Spectrum};
+use crate::path::MAX_VERTICES;
 use glam::Vec2;
 
 /// What the last weight function left for [`Tracer::deliver`] in recording mode.
 #[derive(Clone, Copy)]
 pub(super) enum Pending {
-    /// The path's densities, assembled: its own technique's and the sum over every
+    /// The path's densities, assembled: its own technique's (`own`) and the sum over every
     /// technique (`pdf_unguided` of the path).
-    Explicit { p_s: f64, p_u: f64 },
+    Explicit { p_s: f64, p_u: f64, own: usize },
     /// The recursive weight `w` of technique `own`; `Tracer::terms` holds the path's inputs
     /// should the sink ask for its densities.
     Recursive { w: f64, own: usize },
@@ -77,7 +78,7 @@ impl<'a> Tracer<'a> {
         if !self.recording {
             return (p_s / p_u).min(1.0);
         }
-        self.pending = Some(Pending::Explicit { p_s, p_u });
+        self.pending = Some(Pending::Explicit { p_s, p_u, own });
         1.0
     }
 
@@ -109,25 +110,61 @@ impl<'a> Tracer<'a> {
         if value == Spectrum::ZERO {
             return;
         }
-        let (p_s, p_u) = match pending {
-            Pending::Explicit { p_s, p_u } => (p_s, p_u),
+        let pixel_of_x1 = pixel.unwrap_or(self.pixel);
+        let (p_s, p_u, own) = match pending {
+            Pending::Explicit { p_s, p_u, own } => (p_s, p_u, own),
             Pending::Recursive { w, own } => {
                 if !sink.needs_densities(c, lp) {
-                    let pixel_of_x1 = pixel.unwrap_or(self.pixel);
                     sink.record_weighted(pixel_of_x1, value.as_dvec3() * w, pixel.is_some());
                     return;
                 }
                 match self.densities_of(c, lp, own) {
-                    Some(d) => d,
+                    Some((p_s, p_u)) => (p_s, p_u, own),
                     None => return,
                 }
             }
         };
-        let f = value.as_dvec3() * p_s;
-        let pixel_of_x1 = pixel.unwrap_or(self.pixel);
         self.joined.clear();
         self.joined.extend(c.iter().chain(lp.iter().rev()));
+        let k = self.joined.len() - 1;
+        if own <= k || self.merges_as_weighed {
+            // A connection joins two traced subpaths: its densities are the path's own.
+            let f = value.as_dvec3() * p_s;
+            to_path_into(&self.joined, f.as_vec3(), pixel_of_x1, &mut self.path_buf);
+            sink.record(&self.path_buf, Some(&self.joined), f, p_u, pixel.is_some());
+            return;
+        }
+        // A merge: the camera vertex y_m stands in for the photon, so the merged path's
+        // densities as the merge weighed it (across y_m, the photon's own) are not those of
+        // its vertices, by orders of magnitude where the photon's neighbour is about as near
+        // as the radius. The sink gets the densities of the vertices instead, as `pdf_unguided`
+        // evaluates them for every other path (and as vcm's tracer delivers merges in render
+        // passes), so that every technique that can form this vertex path weighs it with the
+        // same numbers: f = (the merge's raw estimate) x (merging's density at y_m).
+        let eta = self.shared.map_or(0.0, |s| s.eta);
+        let (mut vc, mut vm) = ([0.0f64; MAX_VERTICES], [0.0f64; MAX_VERTICES]);
+        let from_vertices = super::densities_from_vertices(
+            self.scene,
+            &self.joined,
+            self.settings,
+            eta,
+            &mut self.vertex_terms,
+            &mut vc,
+            &mut vm,
+        )
+        .map(|sum| (vm[own - k - 1], sum))
+        .filter(|&(p_s, p_u)| p_s > 0.0 && p_s.is_finite() && p_u.is_finite());
+        let Some((p_s_vertices, p_u_vertices)) = from_vertices else {
+            // The vertices give the merge no density (a segment the merge never traced is
+            // blocked for them): the merge's own densities go to the sink as for a connection.
+            let f = value.as_dvec3() * p_s;
+            to_path_into(&self.joined, f.as_vec3(), pixel_of_x1, &mut self.path_buf);
+            sink.record(&self.path_buf, Some(&self.joined), f, p_u, pixel.is_some());
+            return;
+        };
+        let (p_s, p_u) = (p_s_vertices, p_u_vertices);
+        let f = value.as_dvec3() * p_s;
         to_path_into(&self.joined, f.as_vec3(), pixel_of_x1, &mut self.path_buf);
-        sink.record(&self.path_buf, Some(&self.joined), f, p_u, pixel.is_some());
+        sink.record_from_vertices(&self.path_buf, &self.joined, f, p_u, pixel.is_some());
     }
 }

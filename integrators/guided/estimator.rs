@@ -18,17 +18,16 @@
 //! techniques that can form X come from the same numbers and sum to one. The recomputation
 //! re-traces every segment, and f32 visibility is not exactly symmetric (a ray grazing an open
 //! mesh rim can hit it in one direction and pass in the other), so it can return 0 for a path
-//! U has just formed; and a path vcm merged is not a traced path (the camera vertex stands in
-//! for the photon within the radius; in a corner, where the next vertex is about as near as
-//! the radius, its densities recomputed from the vertices can differ from the merge's by
-//! orders of magnitude). Where the recomputation is not within a factor 2 of U's own density,
+//! U has just formed. Where the recomputation is not within a factor 2 of U's own density,
 //! the path keeps U's own (counted as `unguided_density_disagreements`), which bounds its
 //! value by U's own `f / p_u`. The guided technique cannot know that density for the same
 //! path (it has only the recomputation), so on that set the two weights do not sum to one:
 //! a bias confined to paths whose visibility f32 rounding decides (on fog-dragon: the bunny's
-//! rim), and for guided-vcm to merges near corners, a region that shrinks with the radius.
-//! (guided-vcm's render passes weigh the held paths from their vertices in the first place,
-//! `PathSink::record_from_vertices`: their `p_u` is that function's, and is not recomputed.)
+//! rim). Paths whose `p_u` U computed from their vertices with `pdf_unguided` itself
+//! (`PathSink::record_from_vertices`) are not recomputed: vcm's merged paths (in learning
+//! passes and render passes alike; a merge's camera vertex stands in for the photon, so the
+//! merge's own densities across the photon are not the path's) and every path guided-vcm's
+//! render passes hand over.
 
 use super::cache::{GuideCache, Record};
 pub use super::collector::Collector;

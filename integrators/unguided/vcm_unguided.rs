@@ -96,18 +96,17 @@ impl VcmUnguided {
         eta: f64,
         y: &[Vertex],
     ) -> Option<([f64; MAX_VERTICES], [f64; MAX_VERTICES], f64)> {
-        let s = &self.settings;
-        let k = y.len().saturating_sub(1);
-        if k == 0 || k > s.max_depth as usize {
-            return None;
-        }
-        let mut terms = bdpt::path_terms(scene, y, s.rr_depth);
-        terms.direct_by_camera &= !s.direct_splats;
-        terms.eta = eta;
+        let mut terms = bdpt::PathTerms::new(0);
         let (mut vc, mut vm) = ([0.0f64; MAX_VERTICES], [0.0f64; MAX_VERTICES]);
-        terms.technique_densities(&mut vc);
-        let merge = terms.merge_densities(|j| bdpt::mergeable(scene, &y[j]), &mut vm);
-        let sum = vc[..=k].iter().sum::<f64>() + merge;
+        let sum = bdpt::densities_from_vertices(
+            scene,
+            y,
+            &self.settings,
+            eta,
+            &mut terms,
+            &mut vc,
+            &mut vm,
+        )?;
         Some((vc, vm, sum))
     }
 

@@ -361,6 +361,21 @@ impl Film {
         }
     }
 
+    /// Add another film of the same size, sums to sums and splats to splats.
+    pub fn add(&mut self, other: &Film) {
+        assert_eq!(
+            (self.width, self.height),
+            (other.width, other.height),
+            "films of different sizes"
+        );
+        for (a, b) in self.sum.iter_mut().zip(&other.sum) {
+            *a += *b;
+        }
+        for (a, b) in self.splat.iter_mut().zip(&other.splat) {
+            *a += *b;
+        }
+    }
+
     /// Set every pixel sum and splat back to zero.
     pub fn clear(&mut self) {
         self.sum.fill(DVec3::ZERO);

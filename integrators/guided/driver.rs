@@ -10,13 +10,15 @@
 //! unguided samples is chosen at the end of learning from what the learning passes measured
 //! (`share.rs`). The learning passes stay in the image, averaged with the render passes by
 //! pass count (unless `--dbor` asked for the re-weighted image of the render passes or
-//! `keep_learning = false`; the choice below says why that is consistent, not unbiased, and
-//! bounds it): when guiding is on, each pass's mixed estimate (its unguided and guided
-//! samples weighed with the cache it ran with); when the share is 0 (guiding does not pay, or
-//! the cache is empty), U's own estimate of its unguided samples (each path weighted
-//! `f / p_u`, the guided samples left out: U's image from the same samples, which a learning
-//! pass accumulates beside its mixed one), and the render passes then
-//! continue U's streams, so the image is U's own image of as many passes. When in three
+//! `keep_learning = false`). Each adds one of two estimates, fixed before its samples are
+//! drawn: its mixed estimate (its unguided and guided samples weighed with the cache it ran
+//! with) where the learning passes before it chose guiding (or `share = fixed`), else U's own
+//! estimate of its unguided samples (each path weighted `f / p_u`, the guided samples left
+//! out; a learning pass accumulates both). Every pass is then unbiased given the passes
+//! before it, and so is their average over a fixed number of passes. When the share is 0
+//! (guiding does not pay, or the cache is empty) the render passes continue U's streams: where
+//! every learning pass kept U's own estimate, the image is U's own image of as many passes,
+//! sample for sample. When in three
 //! learning iterations running every ratio with guided samples loses to U alone by more than
 //! 25 % and the cache has stopped growing (by more than 10 % an iteration), learning stops
 //! there (unless a cache is to be saved): a scene with nothing to guide costs a few passes,
@@ -54,8 +56,8 @@ use std::sync::Arc;
 /// render passes go on from the last learning pass's streams instead, (seed, learning
 /// passes + pass, ...), so the image is U's own image of the same number of passes, sample
 /// for sample: the equal-time comparison with U then differs only in the passes the
-/// learning cost.
-const RENDER_STREAMS: u64 = 1 << 40;
+/// learning cost. (`math::streams` has the whole layout.)
+const RENDER_STREAMS: u64 = crate::math::streams::GUIDED_RENDER_PASSES;
 
 /// The guided integrator over unguided estimator `U` and seeder `S`.
 pub struct Guided<U: Unguided, S: Seeder> {
@@ -320,8 +322,12 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
         let mut rebuild_seconds = 0.0;
         let mut meter = share::ShareMeter::default();
         let mut early_stop = share::EarlyStop::default();
-        // U's own estimate from the learning passes' unguided samples (see `keep_learning`).
-        let mut own_film = Film::new(w, h);
+        // Per learning pass: its mixed estimate and U's own estimate of its unguided samples,
+        // and the kept image, which adds one of the two per pass (see `keep_learning`).
+        let mut pass_film = Film::new(w, h);
+        let mut pass_own = Film::new(w, h);
+        let mut kept_film = Film::new(w, h);
+        let mut kept_guided = 0u64;
         // ---- Learning (skipped with a loaded cache) ----
         let learning = !loaded && st.learn_fraction > 0.0;
         if learning {
@@ -338,17 +344,30 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
                     let shared = self.unguided.begin_pass(scene, ctx.seed, k, k);
                     let est = Estimator::new(scene, &self.unguided, shared, &cache, st.alpha);
                     let measure = st.share == Share::Auto && est.n_g > 0.0;
-                    // The learning film averages the learning passes (each an unbiased
-                    // estimate); it is what snapshots during learning show.
+                    // Which estimate of this pass the image keeps, fixed before its samples
+                    // are drawn: the mixture where the passes so far chose guiding (or the
+                    // share is fixed), else U's own.
+                    let keep_guided = est.n_g > 0.0
+                        && match st.share {
+                            Share::Fixed => true,
+                            Share::Auto => meter.decide().is_some_and(|d| d.ratio > 0.0),
+                        };
+                    pass_film.clear();
+                    pass_own.clear();
                     let (rows, measured) = self.pass(
                         ctx,
                         &est,
-                        &mut film,
-                        Some(&mut own_film),
+                        &mut pass_film,
+                        Some(&mut pass_own),
                         &mut None,
                         k,
                         measure,
                     );
+                    // The learning film averages the mixed estimates of the learning passes;
+                    // it is what snapshots during learning show.
+                    film.add(&pass_film);
+                    kept_film.add(if keep_guided { &pass_film } else { &pass_own });
+                    kept_guided += u64::from(keep_guided);
                     let mut pass_stats = Stats::default();
                     for r in &rows {
                         pass_stats.add(&r.stats);
@@ -447,29 +466,25 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
         let (alpha, _, n_g) = Estimator::split(scene, &self.unguided, &cache, alpha);
         // The learning passes stay in the image (averaged with the render passes by pass
         // count) unless the DBOR image of the render passes was asked for or
-        // `keep_learning = false`. Each is an unbiased estimate on its own: U's own estimate
-        // of its unguided samples when guiding is off (the guided samples, which cost more
-        // than they bring, are left out; the render passes then continue U's streams), the
-        // mixture's (unguided and guided samples weighed with the cache the pass ran with)
-        // when it is on (the render passes keep their own streams, so a run from a saved
-        // cache repeats them). Which of the two a pass contributes was chosen from the same
-        // samples (their outliers seed the cache, their variance enters the share's choice),
-        // so the kept image is consistent, not unbiased: with L learning passes of N and the
-        // choice a coin flip with P(on) = q, a pixel's mean moves by at most
-        // (L / N) sd(difference of the two L-pass means) sqrt(q (1 − q)), and by nothing where
-        // the choice is certain (or fixed: `share = fixed`). `keep_learning = false` renders
-        // every pixel from the render passes alone, independent of the choice (unbiased, at
-        // the price of those passes).
+        // `keep_learning = false`. Each pass adds one of two estimates, chosen before its
+        // samples were drawn: the mixture's (unguided and guided samples weighed with the cache
+        // the pass ran with) where the passes before it chose guiding, else U's own estimate
+        // of its unguided samples (the guided samples left out). Every pass, learning or
+        // render, is thus unbiased given all that came before it (its streams are its own, its
+        // estimator was fixed by earlier passes), so the average of a fixed number of passes
+        // is unbiased, however the share and the cache were chosen. Where guiding stays off
+        // throughout, the kept passes are U's own image and the render passes continue U's
+        // streams: the image is U's own image of as many passes, sample for sample.
         let keep_learning = st.keep_learning && !ctx.dbor && learn_passes > 0;
         let (kept, first_stream) = match (keep_learning, n_g == 0.0) {
             (true, true) => (learn_passes, learn_passes),
             (true, false) => (learn_passes, RENDER_STREAMS),
             (false, _) => (0, RENDER_STREAMS),
         };
-        if !keep_learning {
+        if keep_learning {
+            film = kept_film;
+        } else {
             film.clear();
-        } else if n_g == 0.0 {
-            film = own_film;
         }
         // ---- Rendering with the frozen cache ----
         let render_stats = std::cell::RefCell::new(Stats::default());
@@ -552,6 +567,7 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
             learning: &stats,
             render: &rs,
             kept,
+            kept_guided: if keep_learning { kept_guided } else { 0 },
             class_var,
         });
         out_stats.push(stat("seeder", self.seeder.name()));

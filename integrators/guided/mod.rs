@@ -50,7 +50,7 @@
 //! | chain_spread    | integer >= 0  | 7       | `mcmc`: chain states kept as guide paths lie at least this many pixels apart in x or y, per band of rows and iteration (0: any distance; `seeder.rs`) |
 //! | sampler         | `independent` / `sobol` | `independent` | U's numbers in the render passes (for guided-vcm: its camera subpaths'), as `pt -O sampler` (learning passes, guided samples and chains stay independent: outliers and chain states are replayed from their independent streams) |
 //! | manifold        | [0, 1]        | 0       | probability of the specular-chain step where the guide has a chain of 1-4 delta vertices after a non-delta vertex (`manifold/`; 0: off) |
-//! | keep_learning   | `true` / `false` | `true` | keep the learning passes in the image: their mixed estimate with guiding on, U's own with it off (`false`: strictly unbiased, see `driver.rs`) |
+//! | keep_learning   | `true` / `false` | `true` | keep the learning passes in the image: each its mixed estimate where the passes before it chose guiding, else U's own (chosen before the pass, so unbiased; see `driver.rs`) |
 //! | save_guides     | path          | —       | write the learned cache (`--save-guides`) |
 //! | load_guides     | path          | —       | start from a saved cache and skip learning (`--load-guides`) |
 //!
@@ -178,8 +178,8 @@ pub struct GuidedSettings {
     /// Where guide paths come from: `None` the outliers of the passes, else also the
     /// Markov chains of `chains.rs` with these settings.
     pub chains: Option<ChainSettings>,
-    /// With guiding off, keep the learning passes' unguided samples in the image
-    /// (`driver.rs` says what that trades).
+    /// Keep the learning passes in the image, each with the estimate the passes before it
+    /// chose (`driver.rs`).
     pub keep_learning: bool,
     /// U's sampler in the render passes (option `sampler`).
     pub sampler: SamplerKind,

@@ -29,6 +29,8 @@ pub struct Facts<'a> {
     pub render: &'a Stats,
     /// Learning passes kept in the image.
     pub kept: u64,
+    /// Of those, the passes that kept their mixed estimate (the rest kept U's own).
+    pub kept_guided: u64,
     /// The render passes' image variance by coverage class, plus the guided samples' share.
     pub class_var: Option<[f64; coverage::CLASSES + 1]>,
 }
@@ -71,6 +73,7 @@ pub fn stats(f: &Facts) -> Vec<(String, String)> {
         stat("rays_guided", rs.rays_g),
         stat("pg_candidates", rs.pg_candidates),
         stat("learning_passes_kept", kept),
+        stat("learning_passes_kept_guided", f.kept_guided),
         stat("guided_samples", rs.guided),
         stat("chain_step_samples", rs.chain_steps),
         stat(

@@ -163,7 +163,6 @@ fn every_proposal_and_state_replays_exactly() {
     let mmlt = MmltTarget {
         bdpt: &bdpt,
         scene: &scene,
-        separate_specular: true,
     };
     for small in [SmallStep::default(), SmallStep::Gaussian { sigma: 0.01 }] {
         let mut runs = vec![("pssmlt".to_string(), replay_check(&pss, 0, 1, STEPS, small))];
@@ -292,7 +291,6 @@ fn the_replay_check_catches_targets_that_are_not_functions_of_their_samples() {
     let mmlt = || MmltTarget {
         bdpt: &bdpt,
         scene: &scene,
-        separate_specular: true,
     };
     let calls = || AtomicU64::new(0);
     let small = SmallStep::default();
@@ -391,6 +389,7 @@ impl Target for TwoRegions {
             return Contribution {
                 pixel: 0,
                 value: DVec3::ONE,
+                direct: false,
             };
         }
         let f = if (sampler.next_1d() - 0.5).abs() < 0.01 {
@@ -401,6 +400,7 @@ impl Target for TwoRegions {
         Contribution {
             pixel: 1,
             value: DVec3::splat(f),
+            direct: false,
         }
     }
 }
@@ -420,7 +420,7 @@ fn two_region_share(small: SmallStep, large_step: f64, faults: Faults) -> (f64, 
         ..McmcSettings::default()
     };
     let boot = bootstrap(&TwoRegions, 1, s.bootstrap, &s);
-    let mut chains = start_chains(&TwoRegions, &boot, 1, 256 * 1000, 1.0, &s);
+    let mut chains = start_chains(&TwoRegions, &boot, 1, 256 * 1000, 1.0, &s, false);
     assert_eq!(chains.len(), 256);
     let mut counters = Counters::default();
     let mut splats = Vec::new();
@@ -436,7 +436,7 @@ fn two_region_share(small: SmallStep, large_step: f64, faults: Faults) -> (f64, 
                     chain,
                     &mut splats,
                     &mut counters,
-                    &faults,
+                    (false, &faults),
                 );
                 for (pixel, v) in &splats {
                     sums[*pixel as usize] += v.x;
@@ -618,12 +618,10 @@ fn mmlt_specular_split_adds_up() {
     let (w, h, spp, depth) = (80u32, 60u32, 192u32, 8u32);
     let scene = scene_file("pool.toml", w, h);
     let bdpt = mmlt_bdpt_settings(depth, Heuristic::Balance);
-    let target = |separate_specular| MmltTarget {
+    let split = MmltTarget {
         bdpt: &bdpt,
         scene: &scene,
-        separate_specular,
     };
-    let split = target(true);
     let mut tracer = split.scratch();
     let raster = |i: u32, sampler: &mut IndependentSampler| {
         let pixel = i % (w * h);
@@ -666,10 +664,9 @@ fn mmlt_specular_split_adds_up() {
 
     let settings = McmcSettings::default();
     let n = 100_000;
-    let (all, chains) = (
-        bootstrap(&target(false), 7, n, &settings),
-        bootstrap(&target(true), 7, n, &settings),
-    );
+    let all = bootstrap(&split, 7, n, &settings);
+    let mut chains = bootstrap(&split, 7, n, &settings);
+    chains.iter_mut().for_each(|g| g.without_direct());
     let mut lost = vec![0.0; n as usize];
     for (a, c) in all.iter().zip(&chains) {
         for (i, (&a, &c)) in a.importance.iter().zip(&c.importance).enumerate() {

@@ -72,7 +72,6 @@ fn mmlt(faults: Faults) -> Box<dyn Integrator> {
     Box::new(Mmlt {
         bdpt: mmlt_bdpt_settings(MAX_DEPTH, Heuristic::Balance),
         settings: settings(faults),
-        separate_specular: false,
     })
 }
 

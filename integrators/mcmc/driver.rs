@@ -17,9 +17,11 @@
 //!    (or NaN), so a state of zero importance does not occur; nothing is clamped.
 //!
 //! 4. **direct** (targets with [`Target::has_direct`], `mmlt`'s lights seen through specular
-//!    chains): paths the target leaves out of its contributions are estimated per pixel,
-//!    every pixel in pass 0 and then each pixel every `direct_every`-th pass (interleaved, on
-//!    its own stream); the image adds their per-pixel mean.
+//!    chains): when asked ([`Split`]), the paths the target flags
+//!    [`Contribution::direct`] leave the chains (their importance is 0 there, in the
+//!    bootstrap too) and are estimated per pixel, every pixel in pass 0 and then each pixel
+//!    every `direct_every`-th pass (interleaved, on its own stream); the image adds their
+//!    per-pixel mean.
 //!
 //! A group whose bootstrap found no contribution (`b_g = 0`, e.g. a path length the 100k
 //! samples never lit) gets no chains and adds nothing to the image: the estimator is
@@ -42,11 +44,11 @@ use rand::RngExt;
 use rayon::prelude::*;
 use std::time::Instant;
 
-/// Stream keys of the bootstrap, the chain starts and the chains (far from render passes).
-const BOOTSTRAP_KEY: u64 = 0x4d43_4d43_0000_0000;
-const START_KEY: u64 = 0x4d43_4d43_1000_0000;
-const CHAIN_KEY: u64 = 0x4d43_4d43_2000_0000;
-const DIRECT_KEY: u64 = 0x4d43_4d43_3000_0000;
+// Stream keys of the bootstrap, the chain starts and the chains (far from render passes).
+use crate::math::streams::{
+    MCMC_BOOTSTRAP as BOOTSTRAP_KEY, MCMC_CHAINS as CHAIN_KEY, MCMC_DIRECT as DIRECT_KEY,
+    MCMC_START as START_KEY,
+};
 
 /// A contribution to the image: the pixel it lands in and its RGB value.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -55,6 +57,9 @@ pub struct Contribution {
     pub pixel: u32,
     /// The path's contribution f / p to that pixel, in pixel units.
     pub value: DVec3,
+    /// The path is one [`Target::direct`] estimates per pixel when the driver splits them
+    /// off ([`Split`]).
+    pub direct: bool,
 }
 
 impl Contribution {
@@ -62,6 +67,7 @@ impl Contribution {
     pub const ZERO: Contribution = Contribution {
         pixel: 0,
         value: DVec3::ZERO,
+        direct: false,
     };
 
     /// The chain's target density (up to b): luminance, 0 for invalid values.
@@ -94,12 +100,12 @@ pub trait Target: Sync {
         group: usize,
         sampler: &mut S,
     ) -> Contribution;
-    /// Whether some paths are left out of the chains' contributions and estimated per pixel
-    /// by [`Target::direct`] instead.
+    /// Whether [`Target::direct`] can estimate the paths flagged
+    /// [`Contribution::direct`] per pixel, so the driver may leave them out of the chains.
     fn has_direct(&self) -> bool {
         false
     }
-    /// One sample at `raster` of what the chains leave out (pixel units).
+    /// One sample at `raster` of the paths flagged [`Contribution::direct`] (pixel units).
     fn direct<S: Sampler>(
         &self,
         _scratch: &mut Self::Scratch<'_>,
@@ -121,6 +127,10 @@ pub struct McmcSettings {
     pub large_step: f64,
     /// The kernel of small steps (default Kelemen's, sizes 1/1024 to 1/64).
     pub small_step: SmallStep,
+    /// Whether the paths a target flags [`Contribution::direct`] leave the chains for a
+    /// per-pixel estimate (default [`Split::Never`]; only for targets with
+    /// [`Target::has_direct`]).
+    pub split: Split,
     /// A pixel's samples of [`Target::direct`] come every this many passes, after pass 0
     /// which samples every pixel (default 4).
     pub direct_every: u64,
@@ -136,9 +146,68 @@ impl Default for McmcSettings {
             chains: 1024,
             large_step: 0.3,
             small_step: SmallStep::default(),
+            split: Split::Never,
             direct_every: 4,
             faults: Faults::default(),
         }
+    }
+}
+
+/// Whether the paths a target flags [`Contribution::direct`] are estimated per pixel
+/// ([`Target::direct`]) instead of by the chains.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Split {
+    /// Never: the chains explore every path.
+    Never,
+    /// Always (for targets with [`Target::has_direct`]).
+    Always,
+}
+
+/// What the bootstrap holds of the flagged paths (a statistic of the render,
+/// `mcmc_direct_split`). Chains start at bootstrap samples drawn by importance, so a region of
+/// the image that the bootstrap holds on a handful of samples (or on none) starts a number of
+/// chains far from its share, which large steps correct only slowly.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct SplitEvidence {
+    /// Their share of the bootstrap's total importance.
+    pub share: f64,
+    /// The effective number of bootstrap samples their importance rests on (`(Σ I)² / Σ I²`).
+    pub samples: f64,
+}
+
+impl SplitEvidence {
+    /// The evidence of every group's bootstrap.
+    pub fn of(boot: &[Bootstrap]) -> SplitEvidence {
+        let (mut all, mut sum, mut sum2) = (0.0, 0.0, 0.0);
+        for g in boot {
+            for (&x, &d) in g.importance.iter().zip(&g.direct) {
+                all += x;
+                if d {
+                    sum += x;
+                    sum2 += x * x;
+                }
+            }
+        }
+        SplitEvidence {
+            share: if all > 0.0 { sum / all } else { 0.0 },
+            samples: if sum2 > 0.0 { sum * sum / sum2 } else { 0.0 },
+        }
+    }
+}
+
+/// `target`'s contribution, with the flagged paths left out when they are split off.
+fn eval_split<T: Target, S: Sampler>(
+    target: &T,
+    scratch: &mut T::Scratch<'_>,
+    group: usize,
+    sampler: &mut S,
+    split: bool,
+) -> Contribution {
+    let c = target.eval(scratch, group, sampler);
+    if split && c.direct {
+        Contribution::ZERO
+    } else {
+        c
     }
 }
 
@@ -192,6 +261,21 @@ pub struct Bootstrap {
     pub b: f64,
     /// Importance of each bootstrap sample, by sample index (chain starts are drawn from it).
     pub importance: Vec<f64>,
+    /// Whether each sample's path is flagged [`Contribution::direct`].
+    pub direct: Vec<bool>,
+}
+
+impl Bootstrap {
+    /// Leave the flagged samples out (they are estimated per pixel): their importance is 0
+    /// and `b` the mean of the rest (over every sample).
+    pub fn without_direct(&mut self) {
+        for (x, &d) in self.importance.iter_mut().zip(&self.direct) {
+            if d {
+                *x = 0.0;
+            }
+        }
+        self.b = self.importance.iter().sum::<f64>() / self.importance.len().max(1) as f64;
+    }
 }
 
 /// The key of bootstrap sample `i` of group `g`.
@@ -203,7 +287,7 @@ pub fn bootstrap_key(seed: u64, group: usize, i: u64) -> u64 {
 pub fn bootstrap<T: Target>(target: &T, seed: u64, n: u64, s: &McmcSettings) -> Vec<Bootstrap> {
     (0..target.groups())
         .map(|g| {
-            let importance: Vec<f64> = (0..n)
+            let (importance, direct): (Vec<f64>, Vec<bool>) = (0..n)
                 .into_par_iter()
                 .map_init(
                     || {
@@ -213,18 +297,24 @@ pub fn bootstrap<T: Target>(target: &T, seed: u64, n: u64, s: &McmcSettings) -> 
                     },
                     |(scratch, sampler), i| {
                         sampler.reset(bootstrap_key(seed, g, i));
-                        target.eval(scratch, g, sampler).importance()
+                        let c = target.eval(scratch, g, sampler);
+                        (c.importance(), c.direct)
                     },
                 )
-                .collect();
+                .unzip();
             let b = importance.iter().sum::<f64>() / n.max(1) as f64;
-            Bootstrap { b, importance }
+            Bootstrap {
+                b,
+                importance,
+                direct,
+            }
         })
         .collect()
 }
 
 /// Chains over all groups after the bootstrap: group g gets `m_g` mutations per pass (of
 /// `per_pass`) and `c_g` chains, each started at a bootstrap sample chosen by importance.
+#[allow(clippy::too_many_arguments)]
 pub fn start_chains<T: Target>(
     target: &T,
     boot: &[Bootstrap],
@@ -232,6 +322,7 @@ pub fn start_chains<T: Target>(
     per_pass: u64,
     pixels: f64,
     s: &McmcSettings,
+    split: bool,
 ) -> Vec<Chain> {
     let b: f64 = boot.iter().map(|g| g.b).sum();
     if b <= 0.0 || !b.is_finite() {
@@ -263,7 +354,7 @@ pub fn start_chains<T: Target>(
                     s.small_step,
                     s.large_step,
                 );
-                let current = target.eval(scratch, g, &mut sampler);
+                let current = eval_split(target, scratch, g, &mut sampler, split);
                 sampler.accept();
                 sampler.reseed(stream_seed(seed, CHAIN_KEY, id as u64));
                 Chain {
@@ -296,21 +387,22 @@ pub fn pick_by_importance(w: &[f64], total: f64, u: f64) -> usize {
     last
 }
 
-/// `chain.mutations` Metropolis steps; splats go to `splats` (pixel, value). `faults` are
-/// the tests' deliberate errors ([`Faults`]; none in a render).
+/// `chain.mutations` Metropolis steps; splats go to `splats` (pixel, value). `split`: the
+/// flagged paths are left out ([`Split`]). `faults` are the tests' deliberate errors
+/// ([`Faults`]; none in a render).
 pub fn advance<T: Target>(
     target: &T,
     scratch: &mut T::Scratch<'_>,
     chain: &mut Chain,
     splats: &mut Vec<(u32, DVec3)>,
     counters: &mut Counters,
-    faults: &Faults,
+    (split, faults): (bool, &Faults),
 ) {
     for _ in 0..chain.mutations {
         let sampler = &mut chain.sampler;
         sampler.start_iteration();
         let large = sampler.is_large_step();
-        let proposal = target.eval(scratch, chain.group, sampler);
+        let proposal = eval_split(target, scratch, chain.group, sampler, split);
         let ip = proposal.importance();
         let ix = chain.importance;
         // The acceptance and the chain's move (the splats below use `a` either way).
@@ -432,8 +524,21 @@ pub fn render<T: Target>(
     let (w, h) = (scene.camera.resolution.x, scene.camera.resolution.y);
     let pixels = scene.camera.pixel_count() as f64;
     let t0 = ctx.clock.now();
-    let boot = bootstrap(target, ctx.seed, settings.bootstrap, settings);
-    let mut chains = start_chains(target, &boot, ctx.seed, pixels as u64, pixels, settings);
+    let mut boot = bootstrap(target, ctx.seed, settings.bootstrap, settings);
+    let evidence = SplitEvidence::of(&boot);
+    let split = target.has_direct() && settings.split == Split::Always;
+    if split {
+        boot.iter_mut().for_each(Bootstrap::without_direct);
+    }
+    let mut chains = start_chains(
+        target,
+        &boot,
+        ctx.seed,
+        pixels as u64,
+        pixels,
+        settings,
+        split,
+    );
     let boot_seconds = (ctx.clock.now() - t0).as_secs_f64();
     let budget = match budget {
         Budget::Seconds(s) => Budget::Seconds((s - boot_seconds).max(0.0)),
@@ -451,12 +556,12 @@ pub fn render<T: Target>(
             })
             .collect(),
         per_group: vec![Counters::default(); groups],
-        direct: if target.has_direct() {
+        direct: if split {
             vec![DVec3::ZERO; (w * h) as usize]
         } else {
             Vec::new()
         },
-        direct_samples: if target.has_direct() {
+        direct_samples: if split {
             vec![0; (w * h) as usize]
         } else {
             Vec::new()
@@ -489,7 +594,7 @@ pub fn render<T: Target>(
                         chain,
                         &mut splats,
                         &mut c,
-                        &settings.faults,
+                        (split, &settings.faults),
                     );
                     (splats, c)
                 },
@@ -537,6 +642,19 @@ pub fn render<T: Target>(
             format!("{boot_seconds:.3}"),
         ),
         ("mcmc_chains".to_string(), chains.len().to_string()),
+        (
+            "mcmc_direct_split".to_string(),
+            if !target.has_direct() {
+                "none".to_string()
+            } else {
+                format!(
+                    "{} (bootstrap share {:.3e} on {:.1} samples' worth)",
+                    if split { "per pixel" } else { "chains" },
+                    evidence.share,
+                    evidence.samples
+                )
+            },
+        ),
         ("mcmc_mutations".to_string(), c.mutations.to_string()),
         (
             "mcmc_acceptance".to_string(),

@@ -6,9 +6,9 @@
 //! contribution is the technique's estimate times its MIS weight among the k + 1 techniques,
 //! times k + 1. Subpaths have fixed lengths, so no roulette is played.
 //!
-//! **Lights seen through specular chains** (`-O separate_specular=true`; off by default).
-//! The s = 0 technique on paths E S* L (a light seen from the camera directly or through
-//! mirrors and glass) is left out of the chains and estimated per pixel instead
+//! **Lights seen through specular chains** (`-O separate_specular=true`; off by default). The
+//! s = 0 technique on paths E S* L (a light seen from the camera directly or
+//! through mirrors and glass) can leave the chains and be estimated per pixel instead
 //! ([`Tracer::specular_emission`]: one camera walk up to its first non-specular vertex, every
 //! length at once), as Veach's MLT renders what the camera sees of the lights on its own.
 //! Every pixel gets a sample in the first pass and then one every `specular_every` passes
@@ -16,18 +16,21 @@
 //! about 5 % of the render where the camera sees much glass (one sample per pixel and pass
 //! cost 16 % on `fog-dragon` at 80 x 60).
 //!
-//! When it pays: these paths can make small, very bright regions of the image. The chains'
-//! normalisation b_k comes from independent samples that reach such a region with
-//! probability (its area) / (k + 1), so b_k's estimate is heavy-tailed where the region is
-//! tiny: on `fog-dragon` a bootstrap sample of the light seen through the glass bunny has
-//! 8000 times the mean importance, and 240 s renders without the split are 5 % dark; with
-//! it the image is right. Where the regions are many sub-pixel glints (`pool`'s light in the
-//! rippled water), the chains, which find a glint and stay on it, beat one sample per pixel
-//! every few passes by far (240 s: 4.4 times the MSE with the split), hence the default.
+//! When it pays: these paths can make small, very bright regions of the image. Chains start
+//! at bootstrap samples drawn by importance, so a region that a handful of the bootstrap's
+//! samples stand for starts far too few or far too many chains, and large steps reach it too
+//! rarely to correct that within a render: on `fog-dragon` a bootstrap sample of the light
+//! seen through the glass bunny has 8000 times the mean importance, and 240 s renders with
+//! these paths in the chains are 5 % dark. Where the regions are many sub-pixel glints
+//! (`pool`'s light in the rippled water), the chains, which find a glint and stay on it, beat
+//! one sample per pixel every few passes by far (240 s: 4.4 times the MSE with the split),
+//! hence the default. The bootstrap cannot tell the two apart: `fog-dragon`'s (100 000
+//! samples per length, seed 0) holds no such path at all, `pool`'s holds 8 % of its importance
+//! on them, on 6 samples' worth; the statistic `mcmc_direct_split` reports both figures.
 //! Caveat (as for every length): a length whose remaining techniques the bootstrap never
 //! lights gets no chains.
 
-use super::driver::{self, Contribution, McmcSettings, Target};
+use super::driver::{self, Contribution, McmcSettings, Split, Target};
 use super::pssmlt::raster_of;
 use crate::error::{Error, Result};
 use crate::integrators::IntegratorParams;
@@ -53,10 +56,14 @@ pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
             "option 'specular_every': expected an integer >= 1, got 0",
         ));
     }
+    settings.split = if o.get("separate_specular", false, "true or false")? {
+        Split::Always
+    } else {
+        Split::Never
+    };
     Ok(Box::new(Mmlt {
         bdpt: mmlt_bdpt_settings(params.max_depth, heuristic),
         settings,
-        separate_specular: o.get("separate_specular", false, "true or false")?,
     }))
 }
 
@@ -76,10 +83,9 @@ pub fn mmlt_bdpt_settings(max_depth: u32, heuristic: Heuristic) -> BdptSettings 
 pub struct Mmlt {
     /// BDPT's settings for the techniques the chains pick among.
     pub bdpt: BdptSettings,
-    /// Bootstrap, chains and mutation settings.
+    /// Bootstrap, chains and mutation settings (`split`: whether s = 0 on paths E S* L is
+    /// estimated per pixel, not with the chains).
     pub settings: McmcSettings,
-    /// Estimate s = 0 on paths E S* L per pixel, not with the chains (default false).
-    pub separate_specular: bool,
 }
 
 /// One BDPT technique per state, grouped by path length.
@@ -88,8 +94,6 @@ pub struct MmltTarget<'a> {
     pub bdpt: &'a BdptSettings,
     /// The scene rendered.
     pub scene: &'a Scene,
-    /// Leave s = 0 on paths E S* L out of the chains ([`Target::direct`] gives them).
-    pub separate_specular: bool,
 }
 
 impl Target for MmltTarget<'_> {
@@ -123,25 +127,21 @@ impl Target for MmltTarget<'_> {
         let t = k + 1 - s;
         let raster = raster_of(self.scene, sampler.next_2d());
         match tracer.sample_technique(raster, s, t, sampler) {
-            Some(_) if s == 0 && self.separate_specular && tracer.camera_inner_specular() => {
-                Contribution::ZERO
-            }
+            // s = 0 on E S* L: what `direct` estimates when the driver splits it off.
             Some((r, c)) => Contribution {
                 pixel: self.scene.camera.pixel_index(r) as u32,
                 value: c.as_dvec3() * n as f64,
+                direct: s == 0 && tracer.camera_inner_specular(),
             },
             None => Contribution::ZERO,
         }
     }
 
     fn has_direct(&self) -> bool {
-        self.separate_specular
+        true
     }
 
     fn direct<S: Sampler>(&self, tracer: &mut Tracer<'_>, raster: Vec2, sampler: &mut S) -> DVec3 {
-        if !self.separate_specular {
-            return DVec3::ZERO;
-        }
         tracer.specular_emission(raster, sampler).as_dvec3()
     }
 }
@@ -152,17 +152,13 @@ impl Integrator for Mmlt {
     }
 
     fn settings(&self) -> String {
-        format!(
-            "{:?} {:?} separate_specular: {}",
-            self.bdpt, self.settings, self.separate_specular
-        )
+        format!("{:?} {:?}", self.bdpt, self.settings)
     }
 
     fn render(&mut self, ctx: &RenderContext, budget: Budget) -> RenderResult {
         let target = MmltTarget {
             bdpt: &self.bdpt,
             scene: ctx.scene,
-            separate_specular: self.separate_specular,
         };
         driver::render(&target, &self.settings, ctx, budget)
     }

@@ -37,7 +37,7 @@ pub mod mmlt;
 pub mod primary;
 pub mod pssmlt;
 
-pub use driver::{Contribution, McmcSettings, Target};
+pub use driver::{Contribution, McmcSettings, Split, Target};
 pub use mmlt::{Mmlt, MmltTarget};
 pub use primary::{PrimarySampler, ReplaySampler, SmallStep};
 pub use pssmlt::{PssTarget, Pssmlt};
@@ -92,6 +92,7 @@ pub fn settings(o: &Options) -> Result<McmcSettings> {
         chains,
         large_step,
         small_step,
+        split: d.split,
         direct_every: d.direct_every,
         faults: d.faults,
     })

@@ -61,9 +61,8 @@ impl Default for SmallStep {
     }
 }
 
-/// PCG stream selectors of a chain's initial state and of its continuation (`reseed`).
-const INITIAL_STREAM: u64 = 0x0a02_bdbf_7bb3_c0a7;
-const CHAIN_STREAM: u64 = 0x5851_f42d_4c95_7f2d;
+// PCG stream selectors of a chain's initial state and of its continuation (`reseed`).
+use crate::math::streams::{PCG_CHAIN as CHAIN_STREAM, PCG_INITIAL as INITIAL_STREAM};
 
 #[derive(Debug, Clone, Copy, Default)]
 struct Dim {

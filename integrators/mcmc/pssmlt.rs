@@ -65,6 +65,7 @@ impl Target for PssTarget<'_> {
         Contribution {
             pixel: self.scene.camera.pixel_index(raster) as u32,
             value: l.as_dvec3(),
+            direct: false,
         }
     }
 }

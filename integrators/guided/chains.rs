@@ -71,8 +71,8 @@ pub const CHAINS: usize = 32;
 const PREFIX: usize = 1024;
 /// Unguided outliers kept as chain starts (the most recent).
 const POOL: usize = 8192;
-/// Stream keys of the seeder's chains.
-const CHAIN_KEY: u64 = 0x5345_4544_0000_0000;
+/// Stream keys of the seeder's chains (`math::streams`).
+const CHAIN_KEY: u64 = crate::math::streams::SEEDER_CHAINS;
 
 /// What a chain state's importance counts.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -41,8 +41,8 @@ use crate::scene::{Scene, SurfacePoint};
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
-/// Stream key of the learning passes (apart from the render's passes).
-const LEARN_KEY: u64 = 0x5344_5452_4545_0000;
+/// Stream key of the learning passes (apart from the render's passes; `math::streams`).
+const LEARN_KEY: u64 = crate::math::streams::SDTREE_LEARNING;
 
 /// Options of pt's SD-tree guiding (`guiding=sdtree`).
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -6,6 +6,7 @@ pub mod distribution;
 pub mod frame;
 pub mod rng;
 pub mod sobol;
+pub mod streams;
 pub mod warp;
 
 pub use alias::AliasTable;

@@ -293,6 +293,96 @@ fn parse_defines(args: &[String]) -> Result<Vec<(String, String)>> {
 }
 
 fn render(args: RenderArgs) -> Result<()> {
+    let (max_depth, snapshot_times) = check_render_args(&args)?;
+    let output = output_path(&args);
+    // Fail before a long render, not after it.
+    for path in std::iter::once(&output).chain(&args.png) {
+        lodestar::film::output_dir(path)?;
+    }
+    let defines = parse_defines(&args.defines)?;
+    let scene = load_scene(args.scene.as_deref(), &defines)?;
+    let name = args
+        .integrator
+        .clone()
+        .unwrap_or_else(|| scene.render.integrator.clone());
+    let params = IntegratorParams {
+        max_depth: max_depth.unwrap_or(scene.render.max_depth),
+        options: Options::parse(&args.all_options())?,
+    };
+    let budget = match (args.spp, args.time) {
+        (_, Some(t)) => Budget::Seconds(t),
+        (Some(n), None) => Budget::Spp(n),
+        (None, None) => Budget::Spp(scene.render.spp as u64),
+    };
+    let part = match &args.part {
+        Some(text) => Some(part_plan(&args, text, &name, &params, &defines, budget)?),
+        None => None,
+    };
+    let (budget, first_pass) = match &part {
+        Some(plan) => (
+            Budget::Spp(plan.passes.end - plan.passes.start),
+            plan.passes.start,
+        ),
+        None => (budget, 0),
+    };
+    let threads = args
+        .threads
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let base_meta = |name: &str| {
+        vec![
+            ("integrator".to_string(), name.to_string()),
+            ("scene".to_string(), scene.source.clone()),
+            ("seed".to_string(), args.seed.to_string()),
+            ("threads".to_string(), threads.to_string()),
+        ]
+    };
+    let sink = |s: &Snapshot| write_snapshot(&args, &output, base_meta(&name), s);
+    let snapshots = Snapshots::new(&snapshot_times, &sink)?;
+    let run_settings = RunSettings {
+        dbor: args.dbor,
+        seed: args.seed,
+        threads,
+        progress: !args.quiet,
+        snapshots: (!snapshot_times.is_empty()).then_some(&snapshots),
+        first_pass,
+        control: None,
+        clock: None,
+    };
+    if args.check {
+        lodestar::check::enable();
+    }
+    let run = integrators::render_named_with(&scene, &name, &params, budget, &run_settings)?;
+    let missed = snapshots.finish()?;
+    let result = &run.result;
+    let mut meta = base_meta(run.name);
+    meta.extend([
+        ("settings".to_string(), run.settings.clone()),
+        ("spp".to_string(), result.spp.to_string()),
+        ("passes".to_string(), result.passes.to_string()),
+        ("seconds".to_string(), format!("{:.3}", result.seconds)),
+    ]);
+    meta.extend(result.stats.iter().cloned());
+    meta.extend(part.map(|p| p.meta).unwrap_or_default());
+    write_render(&args, &output, &run, &meta)?;
+    let m = result.image.mean();
+    let summary = format!(
+        "{}: {} spp in {:.2} s with {} ({} threads) -> {}; mean rgb ({:.5}, {:.5}, {:.5})",
+        scene.source,
+        result.spp,
+        result.seconds,
+        run.name,
+        threads,
+        output.display(),
+        m.x,
+        m.y,
+        m.z
+    );
+    report_render(&args, &run, &summary, &missed)
+}
+
+/// `render`'s arguments checked on their own: the depth limit asked for and the snapshot
+/// times.
+fn check_render_args(args: &RenderArgs) -> Result<(Option<u32>, Vec<f64>)> {
     if let Some(t) = args.time
         && !(t.is_finite() && t > 0.0)
     {
@@ -321,131 +411,95 @@ fn render(args: RenderArgs) -> Result<()> {
             "--snapshots: {last} s is beyond --time {t}"
         )));
     }
-    let output = args.output.clone().unwrap_or_else(|| {
+    Ok((max_depth, snapshot_times))
+}
+
+/// `--output`, or the scene's file stem (`cornell-box` for the built-in scene) with `.exr`.
+fn output_path(args: &RenderArgs) -> PathBuf {
+    args.output.clone().unwrap_or_else(|| {
         let stem = args
             .scene
             .as_ref()
             .and_then(|p| p.file_stem())
             .map_or("cornell-box".into(), |s| s.to_string_lossy().into_owned());
         PathBuf::from(format!("{stem}.exr"))
-    });
-    // Fail before a long render, not after it.
-    for path in std::iter::once(&output).chain(&args.png) {
-        lodestar::film::output_dir(path)?;
-    }
-    let defines = parse_defines(&args.defines)?;
-    let scene = load_scene(args.scene.as_deref(), &defines)?;
-    let name = args
-        .integrator
-        .clone()
-        .unwrap_or_else(|| scene.render.integrator.clone());
-    let params = IntegratorParams {
-        max_depth: max_depth.unwrap_or(scene.render.max_depth),
-        options: Options::parse(&args.all_options())?,
-    };
-    let mut budget = match (args.spp, args.time) {
-        (_, Some(t)) => Budget::Seconds(t),
-        (Some(n), None) => Budget::Spp(n),
-        (None, None) => Budget::Spp(scene.render.spp as u64),
-    };
-    // A slice of the passes (`--part`): what it renders and what its header must record.
-    let mut part_meta = Vec::new();
-    let mut first_pass = 0;
-    if let Some(text) = &args.part {
-        if name == "pt"
-            && params
-                .options
-                .get("guiding", String::from("none"), "a word")?
-                == "sdtree"
-        {
-            return Err(Error::new(
-                "--part with pt -O guiding=sdtree: each part would learn its own tree from its \
-                 own passes, so the parts would not be slices of one render",
-            ));
-        }
-        let total = match budget {
-            Budget::Spp(n) => Some(n),
-            Budget::Seconds(_) => None,
-        };
-        let mut scene_bytes = match &args.scene {
-            Some(p) => std::fs::read(p)
-                .map_err(|e| Error::new(format!("{}: cannot read: {e}", p.display())))?,
-            None => lodestar::scene::CORNELL_BOX_TOML.as_bytes().to_vec(),
-        };
-        // Parameters change the scene as much as its text does.
-        for (k, v) in &defines {
-            scene_bytes.extend(format!("\0-D {k}={v}").bytes());
-        }
-        let plan = lodestar::parts::plan(
-            text,
-            total,
-            &name,
-            params.options.has("load_guides"),
-            args.dbor || args.snapshots.is_some(),
-            &scene_bytes,
-        )?;
-        first_pass = plan.passes.start;
-        budget = Budget::Spp(plan.passes.end - plan.passes.start);
-        part_meta = plan.meta;
-    }
-    let threads = args
-        .threads
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
-    let scene_source = scene.source.clone();
-    let base_meta = |name: &str| {
-        vec![
-            ("integrator".to_string(), name.to_string()),
-            ("scene".to_string(), scene_source.clone()),
-            ("seed".to_string(), args.seed.to_string()),
-            ("threads".to_string(), threads.to_string()),
-        ]
-    };
-    let sink = |s: &Snapshot| {
-        // The registry has accepted `name` by the time a snapshot is taken; the settings are
-        // in the final image's header.
-        let mut meta = base_meta(&name);
-        meta.extend([
-            ("spp".to_string(), s.spp.to_string()),
-            ("passes".to_string(), s.passes.to_string()),
-            ("seconds".to_string(), format!("{:.3}", s.seconds)),
-            ("snapshot_time".to_string(), s.time.to_string()),
-        ]);
-        s.image
-            .write_exr(&snapshot::snapshot_path(&output, s.time), &meta)?;
-        if let Some(png) = &args.png {
-            s.image
-                .write_png(&snapshot::snapshot_path(png, s.time), args.exposure)?;
-        }
-        Ok(())
-    };
-    let snapshots = Snapshots::new(&snapshot_times, &sink)?;
-    let run_settings = RunSettings {
-        dbor: args.dbor,
-        seed: args.seed,
-        threads,
-        progress: !args.quiet,
-        snapshots: (!snapshot_times.is_empty()).then_some(&snapshots),
-        first_pass,
-        control: None,
-        clock: None,
-    };
-    if args.check {
-        lodestar::check::enable();
-    }
-    let run = integrators::render_named_with(&scene, &name, &params, budget, &run_settings)?;
-    let missed = snapshots.finish()?;
-    let result = &run.result;
+    })
+}
 
-    let mut meta = base_meta(run.name);
+/// The slice of the passes `--part` asks for, and what its header must record.
+fn part_plan(
+    args: &RenderArgs,
+    text: &str,
+    name: &str,
+    params: &IntegratorParams,
+    defines: &[(String, String)],
+    budget: Budget,
+) -> Result<lodestar::parts::Plan> {
+    if name == "pt"
+        && params
+            .options
+            .get("guiding", String::from("none"), "a word")?
+            == "sdtree"
+    {
+        return Err(Error::new(
+            "--part with pt -O guiding=sdtree: each part would learn its own tree from its \
+             own passes, so the parts would not be slices of one render",
+        ));
+    }
+    let total = match budget {
+        Budget::Spp(n) => Some(n),
+        Budget::Seconds(_) => None,
+    };
+    let mut scene_bytes = match &args.scene {
+        Some(p) => std::fs::read(p)
+            .map_err(|e| Error::new(format!("{}: cannot read: {e}", p.display())))?,
+        None => lodestar::scene::CORNELL_BOX_TOML.as_bytes().to_vec(),
+    };
+    // Parameters change the scene as much as its text does.
+    for (k, v) in defines {
+        scene_bytes.extend(format!("\0-D {k}={v}").bytes());
+    }
+    lodestar::parts::plan(
+        text,
+        total,
+        name,
+        params.options.has("load_guides"),
+        args.dbor || args.snapshots.is_some(),
+        &scene_bytes,
+    )
+}
+
+/// One snapshot's EXR (and PNG) beside the output, its header `meta` and the snapshot's own.
+fn write_snapshot(
+    args: &RenderArgs,
+    output: &Path,
+    mut meta: Vec<(String, String)>,
+    s: &Snapshot,
+) -> Result<()> {
     meta.extend([
-        ("settings".to_string(), run.settings.clone()),
-        ("spp".to_string(), result.spp.to_string()),
-        ("passes".to_string(), result.passes.to_string()),
-        ("seconds".to_string(), format!("{:.3}", result.seconds)),
+        ("spp".to_string(), s.spp.to_string()),
+        ("passes".to_string(), s.passes.to_string()),
+        ("seconds".to_string(), format!("{:.3}", s.seconds)),
+        ("snapshot_time".to_string(), s.time.to_string()),
     ]);
-    meta.extend(result.stats.iter().cloned());
-    meta.extend(part_meta);
-    result.image.write_exr(&output, &meta)?;
+    s.image
+        .write_exr(&snapshot::snapshot_path(output, s.time), &meta)?;
+    if let Some(png) = &args.png {
+        s.image
+            .write_png(&snapshot::snapshot_path(png, s.time), args.exposure)?;
+    }
+    Ok(())
+}
+
+/// The render's EXR with header `meta`, its DBOR image (`--dbor`) and PNG (`--png`).
+fn write_render(
+    args: &RenderArgs,
+    output: &Path,
+    run: &integrators::NamedRender,
+    meta: &[(String, String)],
+) -> Result<()> {
+    let result = &run.result;
+    result.image.write_exr(output, meta)?;
     if args.dbor {
         let Some(dbor) = &result.dbor else {
             return Err(Error::new(format!(
@@ -453,13 +507,28 @@ fn render(args: RenderArgs) -> Result<()> {
                 run.name
             )));
         };
-        let mut m = meta.clone();
+        let mut m = meta.to_vec();
         m.push((
             "dbor".to_string(),
             "Zirr et al. 2018, b = 8, kappa = 32".to_string(),
         ));
         dbor.write_exr(&output.with_extension("dbor.exr"), &m)?;
     }
+    if let Some(png) = &args.png {
+        result.image.write_png(png, args.exposure)?;
+    }
+    Ok(())
+}
+
+/// What the user reads after a render: its statistics, the `summary` line, snapshots it
+/// ended before, samples left out, and `--check`'s report.
+fn report_render(
+    args: &RenderArgs,
+    run: &integrators::NamedRender,
+    summary: &str,
+    missed: &[f64],
+) -> Result<()> {
+    let result = &run.result;
     if !result.stats.is_empty() && !args.quiet {
         let s: Vec<String> = result
             .stats
@@ -468,22 +537,7 @@ fn render(args: RenderArgs) -> Result<()> {
             .collect();
         eprintln!("stats: {}", s.join(", "));
     }
-    if let Some(png) = &args.png {
-        result.image.write_png(png, args.exposure)?;
-    }
-    let m = result.image.mean();
-    eprintln!(
-        "{}: {} spp in {:.2} s with {} ({} threads) -> {}; mean rgb ({:.5}, {:.5}, {:.5})",
-        scene.source,
-        result.spp,
-        result.seconds,
-        run.name,
-        threads,
-        output.display(),
-        m.x,
-        m.y,
-        m.z
-    );
+    eprintln!("{summary}");
     if !missed.is_empty() {
         let list: Vec<String> = missed.iter().map(|t| t.to_string()).collect();
         eprintln!(

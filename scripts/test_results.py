@@ -37,6 +37,61 @@ def test_grid_rows_cells_and_the_lowest_in_bold(tmp_path):
     ]
 
 
+def test_ratios_of_medians_and_the_seeds_each_wins(tmp_path):
+    d = tmp_path / "a"
+    d.mkdir()
+    rows = [HEADER]
+    for name, per_seed, median in [("pt", [4.0, 2.0, 3.0], 3.0), ("guided-pt", [1.0, 2.5, 1.5], 1.5)]:
+        for seed, mse in enumerate(per_seed):
+            rows.append(f"s.toml,{name},{seed},{seed},1.0,10,10,{mse},0,0,1,0,1\n")
+        rows.append(f"s.toml,{name},median,0,1.0,10,10,{median},0,0,1,0,1\n")
+    (d / "report.csv").write_text("".join(rows))
+    extra = []
+    assert results.parse_columns(["pool=a", "T=60", "pt:x=1/pt", "guided-pt/pt"], "w", extra) == [
+        ("pool", "a")
+    ]
+    assert extra == ["pt:x=1/pt", "guided-pt/pt"]
+    table = results.ratios([("pool", str(d))], ["guided-pt/pt", "pt/guided-pt", "vcm/pt"])
+    assert table.split("\n") == [
+        "| bench | guided-pt / pt | pt / guided-pt | vcm / pt |",
+        "|---|---|---|---|",
+        "| pool | 0.500x (2/3) | 2.000x (1/3) | — |",
+    ]
+    with pytest.raises(results.ResultsError, match="not a pair"):
+        results.ratios([("pool", str(d))], ["guided-pt"])
+    text = "<!-- results: ratios pool=a guided-pt/pt -->\n<!-- /results -->\n"
+    assert "| pool | 0.500x (2/3) |" in results.update_text(text, "f.md", str(tmp_path))
+    with pytest.raises(results.ResultsError, match="f.md:1: no bench ran 'guided-pt/pt'"):
+        results.update_text(text.replace("ratios", "grid"), "f.md", str(tmp_path))
+
+
+def test_stat_tables_take_the_median_over_runs(tmp_path):
+    d = tmp_path / "a"
+    d.mkdir()
+    rows = ["scene,integrator,run,seed,key,value\n"]
+    for run, v in enumerate([0.5, 0.9, 0.7]):
+        rows.append(f"s.toml,guided-pt,{run},{run},failed_guided_share,{v}\n")
+        rows.append(f"s.toml,guided-pt,{run},{run},seeder,outliers\n")
+        rows.append(f"s.toml,pt,{run},{run},rays,{run}\n")
+    (d / "stats.csv").write_text("".join(rows))
+    table = results.stat([("pool", str(d))], ["failed_guided_share"])
+    assert table.split("\n") == ["| integrator | pool |", "|---|---|", "| guided-pt | 0.7 |"]
+    with pytest.raises(results.ResultsError, match="not a number"):
+        results.stat([("pool", str(d))], ["seeder"])
+    with pytest.raises(results.ResultsError, match="no run reports"):
+        results.stat([("pool", str(d))], ["nothing"])
+    with pytest.raises(results.ResultsError, match="one statistic"):
+        results.stat([("pool", str(d))], [])
+
+
+def test_grid_keeps_the_integrators_named_in_their_order(tmp_path):
+    report(tmp_path / "a", [("bdpt", 4e-2, 1.0, 100), ("vcm", 1e-2, 4.0, 80)])
+    table = results.grid([("A", str(tmp_path / "a"))], ["vcm"])
+    assert table.split("\n")[2:] == ["| vcm | **1.00e-02 (4.00) [80]** |"]
+    with pytest.raises(results.ResultsError, match="no bench ran 'pt'"):
+        results.grid([("A", str(tmp_path / "a"))], ["pt"])
+
+
 def test_update_replaces_marked_tables_only(tmp_path):
     report(tmp_path / "a", [("pt", 1e-3, 1.0, 10)])
     text = "intro\n<!-- results: grid T=60 x=a -->\nold\nold\n<!-- /results -->\n| untouched |\n"

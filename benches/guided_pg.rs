@@ -21,13 +21,13 @@
 //! ```
 //! Environment: `LODESTAR_BENCH_SCENE` (default scenes/pool.toml).
 
-use lodestar::integrators::bdpt::{self, BdptSettings, Heuristic, Tracer};
+use lodestar::integrators::bdpt::{BdptSettings, BdptUnguided, Tracer};
 use lodestar::integrators::guided::Estimator;
 use lodestar::integrators::guided::cache::{GuideCache, Install};
 use lodestar::integrators::guided::estimator::{Collector, RowOutput};
 use lodestar::integrators::guided::kernel;
+use lodestar::integrators::paths::{self, Heuristic};
 use lodestar::integrators::pt::{PathRecorder, PathTracer, PtSettings};
-use lodestar::integrators::unguided::BdptUnguided;
 use lodestar::math::{IndependentSampler, Sampler, luminance};
 use lodestar::path::{MAX_VERTICES, Path};
 use lodestar::render::process_cpu_seconds;
@@ -88,7 +88,7 @@ fn main() {
     let prepared: Vec<_> = queries
         .iter()
         .filter_map(|p| {
-            let y = bdpt::from_path(&scene, p)?;
+            let y = paths::from_path(&scene, p)?;
             let (sig, nodes) = kernel::structure(&scene, p, MAX_VERTICES)?;
             Some((y, sig, nodes))
         })

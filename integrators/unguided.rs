@@ -11,7 +11,7 @@
 //! | estimator | techniques summed in `p_u` |
 //! |-----------|----------------------------|
 //! | `pt`      | the continuation hitting the emitter (s = 0) and next-event estimation (s = 1) |
-//! | `bdpt`    | every (s, t) split (`bdpt::path_terms`) |
+//! | `bdpt`    | every (s, t) split (`paths::path_terms`) |
 //! | `vcm`     | every (s, t) split, and merging at every non-delta surface vertex with the pass's radius (`bdpt/merging.rs`) |
 //!
 //! Samples of pt and bdpt are independent; vcm's share the light subpaths of their pass
@@ -24,21 +24,20 @@
 //! (`Unguided::renew_render_pass`): vcm uses its own integrator's tracer there (`vcm/`,
 //! recursive weights, no per-path bookkeeping), and bdpt's recording tracer in learning passes,
 //! where every path is reported with its densities.
+//!
+//! This module holds the traits and what any estimator or the guider uses with them alone
+//! ([`own_row`], `finite`); it stands on the path algebra (`integrators/paths/`) only. Each
+//! estimator implements the traits in its own folder: `pt/unguided.rs` (on `PathTracer`),
+//! `bdpt/unguided.rs` (`bdpt::BdptUnguided`) and `vcm/unguided.rs` (`vcm::VcmUnguided`).
 
-use super::bdpt::{self, BdptSettings, Vertex};
-use super::pt::batch::{BatchMode, Batched, Tracing};
-use super::pt::{PathRecorder, PathTracer, PtSettings};
+use super::paths::Vertex;
 use crate::camera::Camera;
 use crate::math::sobol::SobolSampler;
-use crate::math::{IndependentSampler, Sampler, SamplerKind, Spectrum};
-use crate::path::{MAX_VERTICES, Path, Vertex as PathVertex};
-use crate::render::PixelEstimator;
+use crate::math::{IndependentSampler, Sampler, SamplerKind};
+use crate::path::{Path, Vertex as PathVertex};
 use crate::scene::Scene;
 use glam::{DVec3, Vec2};
 use std::sync::Arc;
-
-mod vcm_unguided;
-pub use vcm_unguided::{FastPass, VcmPass, VcmTracer, VcmUnguided};
 
 /// Which paths a sink needs the densities of, beyond those of learning (the guider's render
 /// passes: the paths whose structure its cache holds, which the guided technique could make
@@ -219,197 +218,13 @@ pub trait Unguided: Sync + Send {
     }
 }
 
-/// The technique densities of `y` by BDPT's strategy index s, and k; `None` past `max_depth`.
-/// With `direct_splats` (`BdptSettings::direct_splats`) a directly seen emitter keeps (1, 1).
-fn densities(
-    y: &[Vertex],
-    scene: &Scene,
-    max_depth: u32,
-    rr_depth: u32,
-    direct_splats: bool,
-) -> Option<[f64; MAX_VERTICES]> {
-    let k = y.len().checked_sub(1)?;
-    if k == 0 || k > max_depth as usize {
-        return None;
-    }
-    let mut p = [0.0f64; MAX_VERTICES];
-    TERMS.with_borrow_mut(|terms| {
-        crate::integrators::paths::path_terms_into(scene, y, rr_depth, terms);
-        terms.direct_by_camera &= !direct_splats;
-        terms.technique_densities(&mut p);
-    });
-    Some(p)
-}
-
-thread_local! {
-    /// [`densities`]' scratch: the guided estimators ask for the densities of every path U
-    /// forms, and a fresh `PathTerms` per path was three allocations.
-    static TERMS: std::cell::RefCell<crate::integrators::paths::PathTerms> =
-        std::cell::RefCell::new(crate::integrators::paths::PathTerms::new(0));
-}
-
-impl Unguided for PathTracer {
-    type Tracer<'s> = ();
-    type Pass<'s> = ();
-
-    fn name(&self) -> &'static str {
-        "pt"
-    }
-
-    fn max_depth(&self) -> u32 {
-        self.settings.max_depth
-    }
-
-    fn begin_pass<'s>(&'s self, _: &'s Scene, _: u64, _: u64, _: u64) {}
-
-    fn tracer<'s, 'p: 's>(&'s self, _: &'s Scene, _: &'s ()) {}
-
-    fn trace(
-        &self,
-        _: &mut (),
-        scene: &Scene,
-        raster: Vec2,
-        sampler: &mut impl Sampler,
-        sink: &mut dyn PathSink,
-    ) {
-        /// pt's recorder hands over each path with `density + other` = its `pdf_unguided`.
-        struct Forward<'k>(&'k mut dyn PathSink);
-        impl PathRecorder for Forward<'_> {
-            fn record(&mut self, path: &Path, f: DVec3, _: usize, density: f64, other: f64) {
-                self.0.record(path, None, f, density + other, false);
-            }
-        }
-        self.li_recorded(scene, raster, sampler, Some(&mut Forward(sink)));
-    }
-
-    fn estimate(
-        &self,
-        _: &mut (),
-        scene: &Scene,
-        raster: Vec2,
-        sampler: &mut impl Sampler,
-        _: &mut Vec<(u32, DVec3)>,
-    ) -> DVec3 {
-        finite(self.li(scene, raster, sampler).as_dvec3())
-    }
-
-    /// A row as pt renders it at `batch = auto`: as a wavefront, batched or one path after
-    /// the other (`pt::batch`), each value `estimate`'s bit for bit.
-    fn estimate_row<S: Sampler>(
-        &self,
-        _: &mut (),
-        scene: &Scene,
-        rasters: &[Vec2],
-        samplers: &mut [S],
-        _: &mut Vec<(u32, DVec3)>,
-        out: &mut [DVec3],
-    ) {
-        let mut values = vec![Spectrum::ZERO; rasters.len()];
-        // The row tracers of pt's own driver (`pt::batch`).
-        match BatchMode::Auto.tracing(self, scene) {
-            Tracing::Wavefront(isa) => {
-                Batched(self, Some(isa)).estimate_row(scene, rasters, samplers, &mut values)
-            }
-            Tracing::Batched => {
-                Batched(self, None).estimate_row(scene, rasters, samplers, &mut values)
-            }
-            Tracing::Single => {
-                PixelEstimator::estimate_row(self, scene, rasters, samplers, &mut values)
-            }
-        }
-        for (o, v) in out.iter_mut().zip(values) {
-            *o = finite(v.as_dvec3());
-        }
-    }
-
-    /// pt's techniques are BDPT's s = 0 and (two or more segments) s = 1.
-    fn pdf_unguided(&self, scene: &Scene, _: &(), y: &[Vertex]) -> f64 {
-        let s: &PtSettings = &self.settings;
-        densities(y, scene, s.max_depth, s.rr_depth, false)
-            .map_or(0.0, |p| p[0] + if y.len() >= 3 { p[1] } else { 0.0 })
-    }
-}
-
-/// BDPT as an unguided estimator: balance heuristic over all its techniques (the power
-/// heuristic does not mix with a further technique by adding its density).
-pub struct BdptUnguided {
-    /// BDPT's depth limit and Russian roulette; the heuristic must be the balance one, with
-    /// all techniques and no light tracing alone.
-    pub settings: BdptSettings,
-}
-
-impl Unguided for BdptUnguided {
-    type Tracer<'s> = bdpt::Tracer<'s>;
-    type Pass<'s> = ();
-
-    fn name(&self) -> &'static str {
-        "bdpt"
-    }
-
-    fn max_depth(&self) -> u32 {
-        self.settings.max_depth
-    }
-
-    fn begin_pass<'s>(&'s self, _: &'s Scene, _: u64, _: u64, _: u64) {}
-
-    fn tracer<'s, 'p: 's>(&'s self, scene: &'s Scene, _: &'s ()) -> bdpt::Tracer<'s> {
-        bdpt::Tracer::new(scene, &self.settings)
-    }
-
-    fn trace(
-        &self,
-        tracer: &mut bdpt::Tracer<'_>,
-        _: &Scene,
-        raster: Vec2,
-        sampler: &mut impl Sampler,
-        sink: &mut dyn PathSink,
-    ) {
-        tracer.sample_recorded(raster, sampler, sink);
-    }
-
-    fn estimate(
-        &self,
-        tracer: &mut bdpt::Tracer<'_>,
-        _: &Scene,
-        raster: Vec2,
-        sampler: &mut impl Sampler,
-        splats: &mut Vec<(u32, DVec3)>,
-    ) -> DVec3 {
-        bdpt_estimate(tracer, raster, sampler, splats)
-    }
-
-    fn pdf_unguided(&self, scene: &Scene, _: &(), y: &[Vertex]) -> f64 {
-        let s = &self.settings;
-        densities(y, scene, s.max_depth, s.rr_depth, s.direct_splats)
-            .map_or(0.0, |p| p[..y.len()].iter().sum())
-    }
-}
-
 /// `v` if finite and non-negative, else 0 (as the pass drivers drop invalid samples).
-fn finite(v: DVec3) -> DVec3 {
+pub(crate) fn finite(v: DVec3) -> DVec3 {
     if v.is_finite() && v.min_element() >= 0.0 {
         v
     } else {
         DVec3::ZERO
     }
-}
-
-/// bdpt's tracer's own estimate of one sample (its weights), its splats moved to `splats`
-/// (BDPT's and vcm's `Unguided::estimate`).
-fn bdpt_estimate(
-    tracer: &mut bdpt::Tracer<'_>,
-    raster: Vec2,
-    sampler: &mut impl Sampler,
-    splats: &mut Vec<(u32, DVec3)>,
-) -> DVec3 {
-    let v = tracer.sample(raster, sampler);
-    for (p, c) in tracer.splats.drain(..) {
-        let c = finite(c.as_dvec3());
-        if c != DVec3::ZERO {
-            splats.push((p, c));
-        }
-    }
-    finite(v.as_dvec3())
 }
 
 /// U's own estimates of row `y`, pixel i's sample drawn from the stream (seed, pass, i) of

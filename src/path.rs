@@ -3,7 +3,7 @@
 //! A path runs from the camera `x_0` to an emitter `x_k`; it has `k` segments. Vertices are
 //! stored inline (at most [`MAX_VERTICES`]), so building a path never allocates. Directions
 //! and densities are not stored: any technique recomputes them from the positions, normals and
-//! vertex kinds (DESIGN.md §2-3); `bdpt::path_terms` does, for `pdf_unguided`. Beyond
+//! vertex kinds (DESIGN.md §2-3); `paths::path_terms` does, for `pdf_unguided`. Beyond
 //! DESIGN.md, surface vertices also keep their shading normal and shape (BSDF densities and
 //! medium interfaces need them).
 

@@ -8,7 +8,8 @@
 mod util;
 
 use glam::Vec2;
-use lodestar::integrators::bdpt::{BdptSettings, Heuristic, PathTerms, Tracer, path_terms};
+use lodestar::integrators::bdpt::{BdptSettings, Tracer};
+use lodestar::integrators::paths::{Heuristic, PathTerms, path_terms};
 use lodestar::math::{IndependentSampler, Sampler, luminance};
 use lodestar::path::MAX_VERTICES;
 use lodestar::scene::Scene;

@@ -4,13 +4,13 @@ mod util;
 
 use util::guided::{CAUSTIC, installs_of, trace_pt, twin_caustic_cache};
 
-use lodestar::integrators::bdpt;
 use lodestar::integrators::guided::cache::{self, GuideCache, Install};
 use lodestar::integrators::guided::{
     GuidedBdpt, GuidedPt, GuidedSettings, contribution, kernel, sampler,
 };
 use lodestar::integrators::pt::PtSettings;
 use lodestar::integrators::pt::{PathRecorder, PathTracer};
+use lodestar::integrators::{bdpt, paths};
 use lodestar::math::IndependentSampler;
 use lodestar::math::Sampler;
 use lodestar::path::MAX_VERTICES;
@@ -99,7 +99,7 @@ fn check_cache_sampling(name: &str, scene: &Scene, cache: &GuideCache) {
                 continue;
             }
         };
-        let y = bdpt::from_path(scene, &g.path).expect("a complete path");
+        let y = paths::from_path(scene, &g.path).expect("a complete path");
         let (sig, nodes) = kernel::structure(scene, &g.path, MAX_VERTICES).expect("structure");
         assert_eq!(
             sig, cache.guides[g.guide].sig,
@@ -244,7 +244,7 @@ fn guided_caustic_renders(
                 let b = bdpt::BdptSettings {
                     max_depth: 6,
                     rr_depth: 5,
-                    heuristic: bdpt::Heuristic::Balance,
+                    heuristic: paths::Heuristic::Balance,
                     light_tracing: false,
                     techniques: Default::default(),
                     direct_splats: false,
@@ -314,7 +314,7 @@ fn contribution_matches_pt() {
             if f_pt == glam::DVec3::ZERO {
                 return;
             }
-            let y = bdpt::from_path(self.scene, path).unwrap();
+            let y = paths::from_path(self.scene, path).unwrap();
             let f = contribution::contribution(self.scene, &y, 0);
             let rel = ((f - f_pt).abs() / f_pt.abs().max(glam::DVec3::splat(1e-300))).max_element();
             self.n += 1;
@@ -622,7 +622,7 @@ fn guided_densities_match_their_evaluation_far_from_the_origin() {
         .filter_map(|i| {
             let mut s = IndependentSampler::new(11, 0, i);
             let g = sampler::sample_path(&far, &cache, &mut s).ok()?;
-            let y = bdpt::from_path(&far, &g.path).expect("a complete path");
+            let y = paths::from_path(&far, &g.path).expect("a complete path");
             let term = cache.pdf_given(&far, g.guide, &y);
             assert!(term.is_finite() && g.density.is_finite());
             Some((term - g.density).abs() / term.max(1e-300))

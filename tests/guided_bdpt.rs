@@ -6,11 +6,12 @@ mod util;
 
 use glam::DVec3;
 use lodestar::bsdf::Bsdf;
-use lodestar::integrators::bdpt::{self, BdptSettings, Heuristic, Tracer, Vertex};
+use lodestar::integrators::bdpt::{BdptSettings, BdptUnguided, Tracer};
 use lodestar::integrators::guided::cache::{GuideCache, Install};
 use lodestar::integrators::guided::estimator::X1Candidates;
 use lodestar::integrators::guided::{Estimator, GuidedBdpt, GuidedSettings, Stats, contribution};
-use lodestar::integrators::unguided::{BdptUnguided, PathSink, Unguided};
+use lodestar::integrators::paths::{self, Heuristic, Vertex};
+use lodestar::integrators::unguided::{PathSink, Unguided};
 use lodestar::math::luminance;
 use lodestar::path::{MAX_VERTICES, Path};
 use lodestar::render::{Budget, Integrator, RenderContext};
@@ -122,7 +123,7 @@ fn check_weights(name: &str, scene: &Scene) {
             // Such ill-conditioned paths get 5e-2 and must stay a small minority.
             let short = y.windows(2).any(|w| (w[1].p - w[0].p).length() < 0.05);
             let rough_glass = |v: &Vertex| {
-                matches!(v.kind, bdpt::Kind::Surface { bsdf, .. }
+                matches!(v.kind, paths::Kind::Surface { bsdf, .. }
                     if matches!(bsdf, Bsdf::RoughDielectric { .. }))
             };
             let through_glass = y
@@ -141,7 +142,7 @@ fn check_weights(name: &str, scene: &Scene) {
             let d = est.densities(path, Some(y), p_u, &mut self.stats, &mut self.candidates);
             let (p_u_mix, p_g) = (d.p_u, d.p_g);
             let mut p = [0.0f64; MAX_VERTICES];
-            bdpt::path_terms(scene, y, 5).technique_densities(&mut p);
+            paths::path_terms(scene, y, 5).technique_densities(&mut p);
             let bdpt_weights: f64 = p[..=k].iter().sum::<f64>() / est.mix(p_u_mix, p_g);
             let p_u_guided = est.unguided.pdf_unguided(scene, &(), y);
             let r = est.n_g / est.n_u;

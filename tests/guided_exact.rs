@@ -5,10 +5,10 @@
 mod util;
 
 use glam::DVec3;
-use lodestar::integrators::bdpt::{self, Vertex};
 use lodestar::integrators::guided::cache::{GuideCache, Install};
 use lodestar::integrators::guided::estimator::X1Candidates;
 use lodestar::integrators::guided::{Estimator, Stats, contribution};
+use lodestar::integrators::paths::{self, Vertex};
 use lodestar::integrators::pt::{PathRecorder, PathTracer, PtSettings};
 use lodestar::integrators::unguided::Unguided;
 use lodestar::math::alias::AliasTable;
@@ -177,7 +177,7 @@ emission = [1e6, 1e6, 1e6]
             if f.max_element() < 1e-38 {
                 self.tiny += 1;
             }
-            let y = bdpt::from_path(self.scene, path).unwrap();
+            let y = paths::from_path(self.scene, path).unwrap();
             let fx = contribution::contribution(self.scene, &y, 0);
             let rel = ((f - fx).abs() / f.abs()).max_element();
             // Hit points are f32: at 1000 units from the origin they are rounded by 6e-5, which
@@ -256,7 +256,7 @@ fn p_u_has_one_source_where_guiding_can_make_the_path() {
             let (p_u, p_g) = (d.p_u, d.p_g);
             if p_g > 0.0 {
                 self.with_pg += 1;
-                let y: Vec<Vertex> = bdpt::from_path(self.scene, path).unwrap();
+                let y: Vec<Vertex> = paths::from_path(self.scene, path).unwrap();
                 let reference = Unguided::pdf_unguided(self.est.unguided, self.scene, &(), &y);
                 self.differs += (recorded != reference) as usize;
                 if p_u != reference && self.bad.len() < 4 {

@@ -7,9 +7,10 @@ mod util;
 
 use lodestar::film::Image;
 
-use lodestar::integrators::bdpt::{BdptSettings, Heuristic};
+use lodestar::integrators::bdpt::BdptSettings;
 use lodestar::integrators::guided::cache::GuideCache;
 use lodestar::integrators::guided::{ChainSettings, Guided, GuidedSettings, Mcmc, Seeder};
+use lodestar::integrators::paths::Heuristic;
 use lodestar::integrators::pt::PtSettings;
 use lodestar::render::{Budget, Integrator, RenderContext, RenderResult};
 use lodestar::scene::Scene;
@@ -292,9 +293,10 @@ fn a_chain_replays_the_sample_it_starts_at() {
 /// f / p_u by 1.05 (bdpt: every sample differs; pt alone: z = 88).
 #[test]
 fn the_unguided_chain_target_is_us_own_estimate() {
+    use lodestar::integrators::bdpt::BdptUnguided;
     use lodestar::integrators::guided::chains::own_estimate;
     use lodestar::integrators::pt::PathTracer;
-    use lodestar::integrators::unguided::{BdptUnguided, Unguided};
+    use lodestar::integrators::unguided::Unguided;
     use lodestar::math::{IndependentSampler, Sampler, luminance64};
 
     /// (U's estimate, the target) of every sample of `passes` passes.

@@ -27,7 +27,6 @@ mod common;
 use common::chi2::{self, SphereDomain};
 use glam::{DVec3, Vec2, Vec3};
 use lodestar::geometry::Ray;
-use lodestar::integrators::bdpt::{Kind, Vertex};
 use lodestar::integrators::guided::cache::regression_kernel;
 use lodestar::integrators::guided::gaussian::{
     Mat3, R, cholesky, cholesky_solve, direction_density_3d, sample_std_trunc, trunc_mass,
@@ -36,6 +35,7 @@ use lodestar::integrators::guided::kernel::{
     Kernel, coords, distance_density, dvec, gaussian_branch_density, plane_direction_density,
     segment_frame,
 };
+use lodestar::integrators::paths::{Kind, Vertex};
 use lodestar::light::Light;
 use lodestar::math::{Frame, IndependentSampler, Sampler};
 use lodestar::path::{Vertex as PathVertex, VertexKind};

@@ -9,9 +9,10 @@
 mod util;
 
 use glam::DVec3;
-use lodestar::integrators::bdpt::{self, BdptSettings, Heuristic, Vertex};
-use lodestar::integrators::unguided::{HeldPaths, PathSink, Unguided, VcmPass, VcmUnguided};
-use lodestar::integrators::vcm::{self, Record, Technique, VcmSettings};
+use lodestar::integrators::bdpt::{self, BdptSettings};
+use lodestar::integrators::paths::{self, Heuristic, Vertex};
+use lodestar::integrators::unguided::{HeldPaths, PathSink, Unguided};
+use lodestar::integrators::vcm::{self, Record, Technique, VcmPass, VcmSettings, VcmUnguided};
 use lodestar::path::{Path, Vertex as PathVertex};
 use lodestar::scene::Scene;
 use std::sync::Arc;
@@ -71,12 +72,12 @@ fn p_u_is_the_denominator_of_vcms_weights() {
                 let Technique::Connect { s } = r.technique else {
                     return;
                 };
-                let Some(y) = bdpt::from_path(&scene, &r.path) else {
+                let Some(y) = paths::from_path(&scene, &r.path) else {
                     return;
                 };
                 let k = y.len() - 1;
                 let mut p = [0.0f64; lodestar::path::MAX_VERTICES];
-                bdpt::path_terms(&scene, &y, 1).technique_densities(&mut p);
+                paths::path_terms(&scene, &y, 1).technique_densities(&mut p);
                 let p_u = u.pdf_unguided(&scene, &shared, &y);
                 if p_u.is_nan() || p_u <= 0.0 || p[s] == 0.0 {
                     return;
@@ -829,7 +830,7 @@ fn recursive_weights_give_the_explicit_values() {
     ] {
         let scene = box_scene(name, 16);
         let vcm = unguided();
-        let bdpt_u = lodestar::integrators::unguided::BdptUnguided {
+        let bdpt_u = bdpt::BdptUnguided {
             settings: vcm.settings.clone(),
         };
         let VcmPass::Recording(shared) = vcm.begin_pass(&scene, 9, 0, 0) else {
@@ -929,7 +930,7 @@ fn held_paths_no_guide_reaches_keep_vcms_weight() {
                 self.counts.own += 1;
                 let (sig, nodes) = kernel::structure(self.scene, path, MAX_VERTICES)
                     .expect("a held path has a structure");
-                let y = bdpt::from_path(self.scene, path).expect("a path of vertices");
+                let y = paths::from_path(self.scene, path).expect("a path of vertices");
                 let p_g = (self.cache)
                     .terms_brute_force(self.scene, &y, sig, &nodes)
                     .sum;

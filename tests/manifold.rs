@@ -8,10 +8,10 @@
 mod util;
 
 use glam::{DVec3, Vec3};
-use lodestar::integrators::bdpt::{Kind, Vertex};
 use lodestar::integrators::guided::cache::GuideCache;
 use lodestar::integrators::guided::manifold::{self, Chain, Far, From, Goal, ManifoldSettings};
 use lodestar::integrators::guided::sampler;
+use lodestar::integrators::paths::{Kind, Vertex};
 use lodestar::math::{IndependentSampler, Sampler};
 use lodestar::path::{Vertex as PathVertex, VertexKind};
 use lodestar::scene::Scene;
@@ -510,7 +510,7 @@ fn sampled_density_equals_evaluated_density() {
         let Ok(g) = sampler::sample_path(&scene, &cache, &mut s) else {
             continue;
         };
-        let y = lodestar::integrators::bdpt::from_path(&scene, &g.path).unwrap();
+        let y = lodestar::integrators::paths::from_path(&scene, &g.path).unwrap();
         let term = cache.pdf_given(&scene, g.guide, &y);
         if term > 0.0 {
             ok += 1;

@@ -10,10 +10,11 @@
 mod util;
 
 use lodestar::film::Image;
-use lodestar::integrators::bdpt::{BdptSettings, Heuristic, RR_DEPTH};
+use lodestar::integrators::bdpt::{BdptSettings, RR_DEPTH};
 use lodestar::integrators::guided::cache::GuideCache;
 use lodestar::integrators::guided::manifold::ManifoldSettings;
 use lodestar::integrators::guided::{GuidedBdpt, GuidedPt, GuidedSettings, Share, io};
+use lodestar::integrators::paths::Heuristic;
 use lodestar::integrators::pt::PtSettings;
 use lodestar::render::{Budget, Integrator, RenderContext};
 use lodestar::scene::Scene;

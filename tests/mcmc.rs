@@ -23,7 +23,6 @@ mod util;
 use glam::DVec3;
 use glam::Vec2;
 use lodestar::film::Image;
-use lodestar::integrators::bdpt::Heuristic;
 use lodestar::integrators::mcmc::driver::{
     Counters, Faults, advance, bootstrap, bootstrap_key, start_chains,
 };
@@ -32,6 +31,7 @@ use lodestar::integrators::mcmc::{
     Contribution, McmcSettings, MmltTarget, PrimarySampler, PssTarget, ReplaySampler, SmallStep,
     Target,
 };
+use lodestar::integrators::paths::Heuristic;
 use lodestar::integrators::pt::{PathTracer, PtSettings};
 use lodestar::integrators::{self, IntegratorParams, Options};
 use lodestar::math::{IndependentSampler, Sampler, luminance, stream_seed};

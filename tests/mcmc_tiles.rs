@@ -14,10 +14,10 @@
 mod util;
 
 use lodestar::film::Image;
-use lodestar::integrators::bdpt::Heuristic;
 use lodestar::integrators::mcmc::driver::Faults;
 use lodestar::integrators::mcmc::mmlt::mmlt_bdpt_settings;
 use lodestar::integrators::mcmc::{McmcSettings, Mmlt, Pssmlt};
+use lodestar::integrators::paths::Heuristic;
 use lodestar::integrators::pt::{PathTracer, PtSettings};
 use lodestar::render::{Budget, Integrator, RenderContext};
 use lodestar::scene::Scene;

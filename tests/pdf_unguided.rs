@@ -9,7 +9,8 @@
 mod util;
 
 use glam::Vec2;
-use lodestar::integrators::bdpt::{self, BdptSettings, Heuristic, PathTerms, Tracer};
+use lodestar::integrators::bdpt::{BdptSettings, Tracer};
+use lodestar::integrators::paths::{self, Heuristic, PathTerms};
 use lodestar::integrators::pt::{PathRecorder, PathTracer, PtSettings};
 use lodestar::math::{IndependentSampler, Sampler};
 use lodestar::path::{MAX_VERTICES, Path};
@@ -54,7 +55,7 @@ struct Collect<'a> {
 impl PathRecorder for Collect<'_> {
     fn record(&mut self, path: &Path, _f: glam::DVec3, technique: usize, density: f64, other: f64) {
         let s = &self.pt.settings;
-        let (p, k) = bdpt::technique_densities_of(self.scene, path, s.max_depth, s.rr_depth)
+        let (p, k) = paths::technique_densities_of(self.scene, path, s.max_depth, s.rr_depth)
             .expect("a complete path within max_depth");
         let rel = (p[technique] - density).abs() / density.max(1e-300);
         self.checked += 1;
@@ -204,12 +205,12 @@ fn bdpt_paths_round_trip_through_path() {
         let mut tracer = Tracer::new(sc, &settings);
         tracer.inspector = Some(RefCell::new(Box::new(
             move |vertices: &[_], s: usize, terms: &PathTerms| {
-                let path = bdpt::to_path(vertices, glam::Vec3::ONE, 0);
+                let path = paths::to_path(vertices, glam::Vec3::ONE, 0);
                 let mut own = [0.0f64; MAX_VERTICES];
                 terms.technique_densities(&mut own);
-                let (p, k) = bdpt::technique_densities_of(sc, &path, 6, 3).expect("complete path");
+                let (p, k) = paths::technique_densities_of(sc, &path, 6, 3).expect("complete path");
                 let total: f64 = own[..=k].iter().sum();
-                let pu = bdpt::pdf_unguided(sc, &path, 6, 3);
+                let pu = paths::pdf_unguided(sc, &path, 6, 3);
                 let mut f = sink.borrow_mut();
                 f.0 += 1;
                 if ((pu - total).abs() > 1e-4 * total || (p[s] - own[s]).abs() > 1e-4 * own[s])

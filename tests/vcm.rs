@@ -1,5 +1,5 @@
 //! Vertex connection and merging: its MIS weights, path by path, against densities computed
-//! from scratch by `bdpt::path_terms` (with merging off they are BDPT's weights exactly; with
+//! from scratch by `paths::path_terms` (with merging off they are BDPT's weights exactly; with
 //! merging on, connections are weighed against every merge too), and its images against
 //! bdpt's and pt's.
 //!
@@ -10,7 +10,7 @@
 mod util;
 
 use lodestar::film::Image;
-use lodestar::integrators::bdpt::{self, Kind};
+use lodestar::integrators::paths::{self, Kind};
 use lodestar::integrators::vcm::{self, PassConstants, Record, Technique, VcmSettings};
 use lodestar::path::MAX_VERTICES;
 use lodestar::scene::Scene;
@@ -50,9 +50,9 @@ fn settings(merge: bool, radius: f32) -> VcmSettings {
 /// `eta > 0`, a merge at every interior non-delta surface vertex x_m with density
 /// `eta * prod_{j <= m} pc[j] * prod_{j >= m} pl[j]` (both sides sample x_m).
 fn reference_weight(scene: &Scene, record: &Record, eta: f64) -> Option<f64> {
-    let y = bdpt::from_path(scene, &record.path)?;
+    let y = paths::from_path(scene, &record.path)?;
     let k = y.len() - 1;
-    let terms = bdpt::path_terms(scene, &y, 1);
+    let terms = paths::path_terms(scene, &y, 1);
     let mut p = [0.0f64; MAX_VERTICES];
     terms.technique_densities(&mut p);
     let mut merges = [0.0f64; MAX_VERTICES];

@@ -26,9 +26,9 @@
 
 use glam::{DVec3, Vec2};
 use lodestar::Result;
-use lodestar::integrators::bdpt::{Kind, Vertex, camera_subpath, to_path};
+use lodestar::integrators::bdpt::camera_subpath;
 use lodestar::integrators::paths::contribution::contribution;
-use lodestar::integrators::paths::{PathTerms, path_terms_into};
+use lodestar::integrators::paths::{Kind, PathTerms, Vertex, path_terms_into, to_path};
 use lodestar::integrators::unguided::{PathSink, Unguided};
 use lodestar::integrators::{self, Entry, IntegratorParams, guided};
 use lodestar::math::{Sampler, SamplerKind, Spectrum};

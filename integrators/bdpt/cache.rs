@@ -5,9 +5,9 @@
 //! (`weights.rs`), each vertex's share of the techniques that sample more of a path from the
 //! other side.
 
-use super::vertex::{Kind, Vertex, to_measure};
 use super::walk::{local_continuation, roulette};
-use super::{Heuristic, hittable, origin_density};
+use crate::integrators::paths::vertex::{Kind, Vertex, to_measure};
+use crate::integrators::paths::{Heuristic, hittable, origin_density};
 use crate::scene::Scene;
 use glam::Vec3;
 

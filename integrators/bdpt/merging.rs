@@ -28,12 +28,12 @@
 
 use super::cache::{Cached, cache_subpath, mis_sums};
 use super::walk::{light_subpath, roulette};
-use super::{BdptSettings, Kind, PathTerms, Tracer, Vertex, hittable, light_nee};
+use super::{BdptSettings, Tracer, light_nee};
 use crate::bsdf::TransportMode;
+use crate::geometry::HashGrid;
 use crate::geometry::bvh::{count_ray_equivalents, rays_traced};
-use crate::integrators::paths::path_terms_into;
+use crate::integrators::paths::{Kind, PathTerms, Vertex, hittable, path_terms_into};
 use crate::integrators::unguided::PathSink;
-use crate::integrators::vcm::HashGrid;
 use crate::math::{IndependentSampler, PI, Spectrum};
 use crate::path::MAX_VERTICES;
 use crate::scene::Scene;
@@ -380,7 +380,7 @@ fn weight_merge_recursive(
     pc_next: f64,
     pl_prev: f64,
     eta: f64,
-    h: super::Heuristic,
+    h: crate::integrators::paths::Heuristic,
 ) -> f64 {
     use super::cache::heuristic;
     let (m, i) = (cc.len() - 1, lc.len() - 1);

@@ -43,17 +43,18 @@ mod merging;
 mod recording;
 mod settings;
 mod technique;
+mod unguided;
 mod walk;
 mod weights;
 
-pub use super::paths::vertex;
-pub use super::paths::{
-    Heuristic, Kind, PathTerms, Vertex, endpoint, from_path, medium_towards, path_terms,
-    pdf_unguided, technique_densities_of, to_path, to_path_into,
-};
-use super::paths::{direct_to_camera, emission, hittable, nee_density, origin_density};
-
 use super::IntegratorParams;
+use super::paths::vertex::{
+    ConnectionEnd, Edge, connection_end, measure_factor, pdf, scaled, to_measure_factor,
+};
+use super::paths::{
+    Heuristic, Kind, PathTerms, Vertex, direct_to_camera, emission, endpoint, hittable,
+    medium_towards, nee_density, origin_density,
+};
 use super::unguided::PathSink;
 use crate::bsdf::TransportMode;
 use crate::error::Result;
@@ -68,7 +69,8 @@ pub use merging::{LIGHT_STREAMS, SharedLights, densities_from_vertices, mergeabl
 use settings::settings;
 pub use settings::{BdptSettings, RR_DEPTH, TechniqueFilter};
 pub use technique::TECHNIQUE_STREAMS;
-use vertex::{ConnectionEnd, Edge, connection_end, measure_factor, pdf, scaled, to_measure_factor};
+pub use unguided::BdptUnguided;
+pub(crate) use unguided::bdpt_estimate;
 pub use walk::camera_subpath;
 use walk::roulette;
 use weights::Bridge;

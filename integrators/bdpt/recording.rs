@@ -2,7 +2,8 @@
 //! forms is handed to a [`PathSink`] with f(X) and the sum of all techniques' densities, so a
 //! caller (the guider, `integrators::unguided`) can form its own weights.
 
-use super::{Tracer, Vertex, to_path_into};
+use super::Tracer;
+use crate::integrators::paths::{Vertex, to_path_into};
 use crate::integrators::unguided::PathSink;
 use crate::math::{Sampler, Spectrum};
 use crate::path::MAX_VERTICES;

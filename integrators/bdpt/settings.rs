@@ -1,9 +1,9 @@
 //! bdpt's and lt's settings: the options of the table in the module doc of `bdpt`, parsed and
 //! checked.
 
-use super::Heuristic;
 use crate::error::{Error, Result};
 use crate::integrators::IntegratorParams;
+use crate::integrators::paths::Heuristic;
 
 /// Options of bdpt and lt (and of U in guided-bdpt and guided-vcm).
 #[derive(Debug, Clone, PartialEq)]

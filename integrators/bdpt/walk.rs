@@ -5,9 +5,9 @@
 //! its predecessor), scatters by BSDF or phase sampling, and plays Russian roulette with the
 //! local continuation probability (`Bsdf::continuation`) once it has `rr_depth` segments.
 
-use super::vertex::{Edge, Kind, Vertex, pdf_both};
 use crate::bsdf::TransportMode;
 use crate::geometry::{Ray, offset_origin};
+use crate::integrators::paths::vertex::{Edge, Kind, Vertex, pdf_both};
 pub use crate::integrators::paths::{continuation, local_continuation, roulette};
 use crate::math::{Sampler, Spectrum};
 use crate::scene::Scene;

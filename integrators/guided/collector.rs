@@ -7,7 +7,7 @@ use super::cache::Record;
 use super::estimator::{Coverage, Estimator, PG_ZERO_VERTICES, RowOutput};
 use super::seeder::{Candidate, Source};
 use super::{coverage, kernel, share};
-use crate::integrators::bdpt::{Kind, Vertex};
+use crate::integrators::paths::{Kind, Vertex};
 use crate::integrators::unguided::{PathSink, Unguided};
 use crate::math::{luminance, luminance64};
 use crate::path::{MAX_VERTICES, Path, VertexKind};

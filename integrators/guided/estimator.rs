@@ -38,7 +38,7 @@ use super::share;
 pub use super::stats::{COVERAGE_CLASSES, FAILURE_REASONS, PG_ZERO_VERTICES, Stats};
 use super::stats::{EDGE, NON_FINITE, ZERO};
 use super::{contribution, coverage, kernel, sampler};
-use crate::integrators::bdpt::{self, Vertex};
+use crate::integrators::paths::{self, Vertex};
 use crate::integrators::unguided::Unguided;
 use crate::math::{Sampler, luminance64};
 use crate::path::{MAX_VERTICES, Path};
@@ -235,7 +235,7 @@ impl<'a, U: Unguided> Estimator<'a, U> {
         let owned;
         let y = match y {
             Some(y) => y,
-            None => match bdpt::from_path(self.scene, path) {
+            None => match paths::from_path(self.scene, path) {
                 Some(v) => {
                     owned = v;
                     &owned
@@ -370,14 +370,14 @@ impl<'a, U: Unguided> Estimator<'a, U> {
             stats.chain_steps += 1;
         }
         let path = &*path;
-        let Some(y) = bdpt::from_path(self.scene, path) else {
+        let Some(y) = paths::from_path(self.scene, path) else {
             stats.fail(sampler::Failure::Structure as usize);
             return None;
         };
         let k = y.len() - 1;
         let last_delta = matches!(
             y[k].kind,
-            bdpt::Kind::Light { light } if self.scene.lights[light].is_delta()
+            paths::Kind::Light { light } if self.scene.lights[light].is_delta()
         );
         let visible = if last_delta {
             (1u64 << (k - 1)) - 1

@@ -15,11 +15,10 @@
 
 use super::gaussian::{LogDensity, R, std_trunc_density, std_trunc_log_density};
 use crate::bsdf::TransportMode;
-use crate::integrators::bdpt::{Kind, Vertex, vertex::to_measure};
-use crate::integrators::paths::area_factor;
 pub use crate::integrators::paths::structure::{
     Node, Reach, hash_nodes, reach, signature, signature_of_split, structure,
 };
+use crate::integrators::paths::{Kind, Vertex, area_factor, vertex::to_measure};
 use crate::math::Frame;
 use crate::path::{Vertex as PathVertex, VertexKind};
 use crate::scene::Scene;

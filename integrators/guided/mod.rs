@@ -127,9 +127,10 @@ pub use estimator::{Estimator, Stats};
 pub use seeder::{Outliers, Seeder};
 
 use super::IntegratorParams;
-use super::bdpt::{BdptSettings, Heuristic};
+use super::bdpt::{BdptSettings, BdptUnguided};
+use super::paths::Heuristic;
 use super::pt::{PathTracer, PtSettings};
-use super::unguided::{BdptUnguided, VcmUnguided};
+use super::vcm::VcmUnguided;
 use crate::error::{Error, Result};
 use crate::math::SamplerKind;
 use crate::render::Integrator;

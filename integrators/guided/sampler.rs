@@ -18,8 +18,7 @@ use super::kernel::{
 use super::manifold;
 use crate::bsdf::TransportMode;
 use crate::geometry::Ray;
-use crate::integrators::bdpt::{Kind, Vertex};
-use crate::integrators::paths::area_factor;
+use crate::integrators::paths::{Kind, Vertex, area_factor};
 use crate::math::{Frame, Sampler};
 use crate::path::{Path, Vertex as PathVertex, VertexKind};
 use crate::scene::{Endpoint, Scene, SurfacePoint};
@@ -214,7 +213,7 @@ impl GuidedDraw {
         if self.deferred.is_empty() {
             return self.partial_density;
         }
-        crate::integrators::bdpt::from_path(scene, path).map_or(0.0, |y| {
+        crate::integrators::paths::from_path(scene, path).map_or(0.0, |y| {
             self.partial_density * self.deferred.density(scene, cache, self.guide, &y)
         })
     }
@@ -229,7 +228,7 @@ pub fn sample_path(
     let mut path = Path::default();
     let d = sample_path_into(scene, cache, sampler, &mut path)?;
     if d.used_chain_step() {
-        let y = crate::integrators::bdpt::from_path(scene, &path).ok_or(Failure::Structure)?;
+        let y = crate::integrators::paths::from_path(scene, &path).ok_or(Failure::Structure)?;
         d.check_chains(scene, cache, &y, &manifold::WalkMemo::default())?;
     }
     let density = d.density(scene, cache, &path);

@@ -182,6 +182,35 @@ pub fn technique_densities_of(
     Some((p, k))
 }
 
+/// The technique densities of `y` (camera first, a light last) by BDPT's strategy index s;
+/// `None` past `max_depth`. With `direct_splats` (`BdptSettings::direct_splats`) a directly
+/// seen emitter keeps (1, 1). pt's and bdpt's `Unguided::pdf_unguided` sum them.
+pub(crate) fn technique_densities_of_vertices(
+    y: &[Vertex],
+    scene: &Scene,
+    max_depth: u32,
+    rr_depth: u32,
+    direct_splats: bool,
+) -> Option<[f64; MAX_VERTICES]> {
+    let k = y.len().checked_sub(1)?;
+    if k == 0 || k > max_depth as usize {
+        return None;
+    }
+    let mut p = [0.0f64; MAX_VERTICES];
+    TERMS.with_borrow_mut(|terms| {
+        path_terms_into(scene, y, rr_depth, terms);
+        terms.direct_by_camera &= !direct_splats;
+        terms.technique_densities(&mut p);
+    });
+    Some(p)
+}
+
+thread_local! {
+    /// [`technique_densities_of_vertices`]' scratch: the guided estimators ask for the
+    /// densities of every path U forms, and a fresh `PathTerms` per path was three allocations.
+    static TERMS: std::cell::RefCell<PathTerms> = std::cell::RefCell::new(PathTerms::new(0));
+}
+
 /// The vertices of a `Path` as BDPT vertices (scene references, shading frames, and the
 /// medium each was reached in, tracked from the camera). `None` if it does not end on a light.
 pub fn from_path<'a>(scene: &'a Scene, path: &Path) -> Option<Vec<Vertex<'a>>> {

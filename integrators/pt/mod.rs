@@ -55,6 +55,7 @@ mod emission;
 pub mod guiding;
 mod recording;
 pub mod sdtree;
+mod unguided;
 pub mod wavefront;
 
 /// How emitters are reached.
@@ -167,7 +168,7 @@ impl PathTracer {
     /// densities come from the same code; a one-segment path is only found by the camera ray.
     pub fn pdf_unguided(&self, scene: &Scene, path: &Path) -> f64 {
         let s = &self.settings;
-        super::bdpt::technique_densities_of(scene, path, s.max_depth, s.rr_depth)
+        super::paths::technique_densities_of(scene, path, s.max_depth, s.rr_depth)
             .map_or(0.0, |(p, k)| p[0] + if k >= 2 { p[1] } else { 0.0 })
     }
 

@@ -13,7 +13,6 @@
 //! [`HeldKey`] kept with each light vertex and photon (`paths::structure`), so a merge reads
 //! its photon's subpath only when the cache may hold the path.
 
-use super::hash_grid::HashGrid;
 use super::light::{LightPaths, Photon};
 use super::vertex::{
     Edge, Mis, Scatter, Vertex, connectible_light, emission_densities, hittable, nee_density,
@@ -21,7 +20,7 @@ use super::vertex::{
 use super::walk::{Step, Walk};
 use super::{Claims, Inspector, PassConstants, Record, Technique, VcmSettings, joined};
 use crate::bsdf::TransportMode;
-use crate::geometry::gamma;
+use crate::geometry::{HashGrid, gamma};
 use crate::integrators::paths::structure::{CameraSideHash, HeldKey, emitter_hash};
 use crate::integrators::unguided::HeldPaths;
 use crate::math::{Sampler, Spectrum};

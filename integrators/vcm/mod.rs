@@ -9,7 +9,7 @@
 //! 1. N light subpaths (`light.rs`), one light chosen by power each, random walks with media
 //!    and Russian roulette from the first bounce; their connectible vertices are stored, and
 //!    each is connected to the pinhole (light tracing, splatted);
-//! 2. a hash grid (`hash_grid.rs`) over the stored surface vertices, cells of 4 r_i, each
+//! 2. a hash grid (`geometry/hash_grid.rs`) over the stored surface vertices, cells of 4 r_i, each
 //!    vertex stored in every cell its r_i-ball reaches, so a query reads one bucket;
 //! 3. one camera subpath per pixel (`camera.rs`): at every vertex, emitter hits (s = 0),
 //!    next-event estimation (s = 1), connections to every vertex of the light subpath with
@@ -45,18 +45,19 @@
 //! ```
 
 mod camera;
-mod hash_grid;
 mod light;
+mod unguided;
 mod vertex;
 mod walk;
 
 pub use camera::CameraTracer;
-pub use hash_grid::HashGrid;
 pub use light::{LightPaths, Photon};
+pub use unguided::{FastPass, VcmPass, VcmTracer, VcmUnguided};
 
 use super::IntegratorParams;
 use crate::error::{Error, Result};
 use crate::film::Film;
+use crate::geometry::HashGrid;
 use crate::math::{
     IndependentSampler, PI, PixelSampler, SamplerKind, SobolSampler, Spectrum, is_finite3,
 };

@@ -32,7 +32,7 @@ pub struct Mis {
 
 /// Free flight along an edge: bdpt's, shared (pass probabilities, first and last medium
 /// segment, and the free-flight factor of reaching either end).
-pub use crate::integrators::bdpt::vertex::Edge;
+pub use crate::integrators::paths::vertex::Edge;
 
 /// What scatters at a vertex.
 #[derive(Clone, Copy)]

@@ -6,7 +6,9 @@
 //! (`flat.rs`, `flat/packet.rs`); heightfields are walked cell by cell instead
 //! (`grid.rs`), with the same hits. A hit reports the geometric normal `ng` (the
 //! shape's front side: triangle winding, or authored vertex normals when present; outward for
-//! spheres and cubes) and a shading normal `ns` on the same side as `ng`.
+//! spheres and cubes) and a shading normal `ns` on the same side as `ng`. Points queried
+//! within a fixed radius (the photons merging looks up: vcm, guided-vcm) go into a hash grid
+//! ([`HashGrid`], `hash_grid.rs`).
 //!
 //! Self-intersection is avoided without a scene-dependent epsilon: each hit carries a bound on
 //! the floating-point error of its position (`p_err`, in the style of pbrt's error analysis),
@@ -16,6 +18,7 @@
 pub mod bvh;
 mod flat;
 mod grid;
+pub mod hash_grid;
 pub mod heightfield;
 pub mod interleaved;
 pub mod mesh;
@@ -24,6 +27,7 @@ pub mod sphere;
 pub mod transform;
 
 pub use bvh::Accel;
+pub use hash_grid::HashGrid;
 pub use interleaved::LANES as INTERLEAVED_LANES;
 pub use mesh::TriangleMesh;
 pub use sphere::Sphere;

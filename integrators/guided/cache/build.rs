@@ -45,7 +45,7 @@ impl GuideCache {
                 for v in self.path_vertices(scene, l) {
                     path.push(v);
                 }
-                let Some(y) = crate::integrators::bdpt::from_path(scene, &path) else {
+                let Some(y) = crate::integrators::paths::from_path(scene, &path) else {
                     return 0.0;
                 };
                 let mut scratch = Vec::new();

@@ -7,9 +7,9 @@
 //! waiting for its data (`docs/results.md`, "The cost of p_g").
 
 use super::GuideCache;
-use crate::integrators::bdpt::Vertex;
 use crate::integrators::guided::gaussian::LogDensity;
 use crate::integrators::guided::manifold::{self, Chain};
+use crate::integrators::paths::Vertex;
 
 /// Chains whose step density [`GuideCache::pdf_given`] evaluates last (further ones at once).
 const DEFERRED: usize = 4;

@@ -65,7 +65,7 @@ use super::cache::GuideCache;
 use super::gaussian::sample_std_trunc;
 use super::kernel::{Node, Reach, dvec};
 use super::sampler::Failure;
-use crate::integrators::bdpt::Vertex;
+use crate::integrators::paths::Vertex;
 use crate::light::Light;
 use crate::math::Sampler;
 use crate::scene::Scene;

@@ -1,11 +1,11 @@
 //! `vcm` as the guider's unguided estimator: bdpt's recording tracer with merging in
 //! learning passes, vcm's own tracer with claimed held paths in render passes.
 
-use super::{HeldPaths, PathSink, Unguided, bdpt_estimate, finite};
-use crate::integrators::bdpt::{self, BdptSettings, SharedLights, Vertex};
-use crate::integrators::vcm::{
-    self, CameraTracer, Claimed, HashGrid, LightPaths, Photon, Technique,
-};
+use crate::geometry::HashGrid;
+use crate::integrators::bdpt::{self, BdptSettings, SharedLights, bdpt_estimate};
+use crate::integrators::paths::{self, Vertex};
+use crate::integrators::unguided::{HeldPaths, PathSink, Unguided, finite};
+use crate::integrators::vcm::{self, CameraTracer, Claimed, LightPaths, Photon, Technique};
 use crate::math::{PI, Sampler};
 use crate::path::MAX_VERTICES;
 use crate::scene::Scene;
@@ -96,7 +96,7 @@ impl VcmUnguided {
         eta: f64,
         y: &[Vertex],
     ) -> Option<([f64; MAX_VERTICES], [f64; MAX_VERTICES], f64)> {
-        let mut terms = bdpt::PathTerms::new(0);
+        let mut terms = paths::PathTerms::new(0);
         let (mut vc, mut vm) = ([0.0f64; MAX_VERTICES], [0.0f64; MAX_VERTICES]);
         let sum = bdpt::densities_from_vertices(
             scene,
@@ -122,7 +122,7 @@ impl VcmUnguided {
         if sink.record_if_own_weight(&c.path, own, c.splat) {
             return;
         }
-        let Some(y) = bdpt::from_path(scene, &c.path) else {
+        let Some(y) = paths::from_path(scene, &c.path) else {
             return weighted(sink);
         };
         let Some((vc, vm, p_u)) = self.technique_densities(scene, eta, &y) else {

@@ -1,5 +1,5 @@
 //! Vertex merging inside bdpt's tracer: the unguided estimator of `guided-vcm`
-//! (`integrators::unguided::VcmUnguided`).
+//! (`integrators::vcm::VcmUnguided`).
 //!
 //! A pass first traces N light subpaths (one per pixel, N = the pixel count) into
 //! [`SharedLights`], with a hash grid over their non-delta surface vertices. The tracer of

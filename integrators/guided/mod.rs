@@ -24,7 +24,8 @@
 //! Gaussians), `sampler.rs`
 //! (building a guided path), `integrators/paths/contribution.rs` (f(X) from vertices), `io.rs`
 //! (saved caches);
-//! U's side is `integrators/unguided.rs`.
+//! U's side is `integrators/unguided.rs` (the traits) and each estimator's own `unguided.rs`
+//! (`pt/`, `bdpt/`, `vcm/`).
 //!
 //! | option          | type          | default | meaning |
 //! |-----------------|---------------|---------|---------|

@@ -147,17 +147,18 @@ fn reported_densities_match_the_recomputation() {
     let VcmPass::Recording(lights) = &shared else {
         unreachable!("a learning pass is bdpt's")
     };
+    let fresh = || Check {
+        scene: &scene,
+        u: &u,
+        shared: &shared,
+        connections: Vec::new(),
+        merges: Vec::new(),
+        sum: DVec3::ZERO,
+    };
     let run = |merges_as_weighed: bool| {
         let mut tracer = bdpt::Tracer::merging(&scene, &u.settings, lights);
         tracer.merges_as_weighed = merges_as_weighed;
-        let mut check = Check {
-            scene: &scene,
-            u: &u,
-            shared: &shared,
-            connections: Vec::new(),
-            merges: Vec::new(),
-            sum: DVec3::ZERO,
-        };
+        let mut check = fresh();
         for i in 0..1024u64 {
             let (raster, mut a) = sample_stream(&scene, 11, i);
             tracer.sample_recorded(raster, &mut a, &mut check);
@@ -187,14 +188,7 @@ fn reported_densities_match_the_recomputation() {
     // own estimate of the same samples.
     let lights = bdpt::SharedLights::trace(&scene, &u.settings, 3, 0, 1e-9);
     let mut tracer = bdpt::Tracer::merging(&scene, &u.settings, &lights);
-    let mut check = Check {
-        scene: &scene,
-        u: &u,
-        shared: &shared,
-        connections: Vec::new(),
-        merges: Vec::new(),
-        sum: DVec3::ZERO,
-    };
+    let mut check = fresh();
     let (mut own, mut recorded) = (DVec3::ZERO, DVec3::ZERO);
     for i in 0..1024u64 {
         let (raster, mut a) = sample_stream(&scene, 11, i);

@@ -23,9 +23,9 @@ mod util;
 use glam::DVec3;
 use glam::Vec2;
 use lodestar::film::Image;
-use lodestar::integrators::mcmc::driver::{
-    Counters, Faults, advance, bootstrap, bootstrap_key, start_chains,
-};
+use lodestar::integrators::mcmc::bootstrap::{bootstrap, bootstrap_key};
+use lodestar::integrators::mcmc::chains::{Counters, advance, start_chains};
+use lodestar::integrators::mcmc::faults::Faults;
 use lodestar::integrators::mcmc::mmlt::mmlt_bdpt_settings;
 use lodestar::integrators::mcmc::{
     Contribution, McmcSettings, MmltTarget, PrimarySampler, PssTarget, ReplaySampler, SmallStep,

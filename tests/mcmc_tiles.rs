@@ -1,5 +1,5 @@
 //! pssmlt and mmlt render pt's image tile by tile, and three deliberate errors of the chains
-//! (`mcmc::driver::Faults`) fail the same test:
+//! (`mcmc::faults::Faults`) fail the same test:
 //! - every large step accepted (a wrong acceptance),
 //! - mmlt's normalisation b of one path length doubled,
 //! - every splat landing one pixel further along its row.
@@ -14,7 +14,7 @@
 mod util;
 
 use lodestar::film::Image;
-use lodestar::integrators::mcmc::driver::Faults;
+use lodestar::integrators::mcmc::faults::Faults;
 use lodestar::integrators::mcmc::mmlt::mmlt_bdpt_settings;
 use lodestar::integrators::mcmc::{McmcSettings, Mmlt, Pssmlt};
 use lodestar::integrators::paths::Heuristic;

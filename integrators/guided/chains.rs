@@ -53,7 +53,7 @@ use super::cache::Record;
 use super::estimator::{Collector, RowOutput};
 use super::seeder::{Explore, LearnPass, LearnRow, Outliers, Seeder, Source};
 use super::share;
-use crate::integrators::mcmc::driver::pick_by_importance;
+use crate::integrators::mcmc::bootstrap::pick_by_importance;
 use crate::integrators::mcmc::primary::ReplaySampler;
 use crate::integrators::mcmc::{PrimarySampler, SmallStep};
 use crate::integrators::paths::Vertex;

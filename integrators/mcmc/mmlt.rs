@@ -30,8 +30,9 @@
 //! Caveat (as for every length): a length whose remaining techniques the bootstrap never
 //! lights gets no chains.
 
-use super::driver::{self, Contribution, McmcSettings, Split, Target};
+use super::driver;
 use super::pssmlt::raster_of;
+use super::target::{Contribution, McmcSettings, Split, Target};
 use crate::error::{Error, Result};
 use crate::integrators::IntegratorParams;
 use crate::integrators::bdpt::{BdptSettings, TECHNIQUE_STREAMS, Tracer};

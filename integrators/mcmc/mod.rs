@@ -31,16 +31,19 @@
 //! lodestar render scenes/cornell-glossy.toml --integrator pssmlt --spp 64 -O small_step=gaussian
 //! ```
 
+pub mod bootstrap;
+pub mod chains;
 pub mod driver;
 pub mod faults;
 pub mod mmlt;
 pub mod primary;
 pub mod pssmlt;
+pub mod target;
 
-pub use driver::{Contribution, McmcSettings, Split, Target};
 pub use mmlt::{Mmlt, MmltTarget};
 pub use primary::{PrimarySampler, ReplaySampler, SmallStep};
 pub use pssmlt::{PssTarget, Pssmlt};
+pub use target::{Contribution, McmcSettings, Split, Target};
 
 use super::{IntegratorParams, Options};
 use crate::error::{Error, Result};
@@ -96,6 +99,14 @@ pub fn settings(o: &Options) -> Result<McmcSettings> {
         direct_every: d.direct_every,
         faults: d.faults,
     })
+}
+
+/// `--part` (`Entry::parts`): the Markov-chain integrators cannot be split.
+pub fn check_parts(name: &str, _: &Options) -> Result<()> {
+    Err(Error::new(format!(
+        "--part: {name} cannot be split; its chains depend on all their earlier mutations \
+         and each render normalises by its own bootstrap, so render independent seeds instead"
+    )))
 }
 
 /// Build pssmlt (Metropolis over pt's primary samples) from its parameters.

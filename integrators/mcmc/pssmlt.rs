@@ -3,7 +3,8 @@
 //! drive `PathTracer::li`. Options: the chain options of the module above and pt's own
 //! (`rr_depth`, `strategy`).
 
-use super::driver::{self, Contribution, McmcSettings, Target};
+use super::driver;
+use super::target::{Contribution, McmcSettings, Target};
 use crate::error::Result;
 use crate::integrators::IntegratorParams;
 use crate::integrators::pt::PathTracer;

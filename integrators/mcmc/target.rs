@@ -1,0 +1,121 @@
+//! What the Markov-chain integrators explore and how: a [`Target`] maps primary samples to a
+//! [`Contribution`] on the image, in one or more chain groups; [`McmcSettings`] are the
+//! chains' options, shared by `pssmlt` and `mmlt` (`driver.rs` runs them).
+
+pub use super::faults::Faults;
+use super::primary::SmallStep;
+use crate::math::{Sampler, luminance};
+use glam::{DVec3, Vec2};
+
+/// A contribution to the image: the pixel it lands in and its RGB value.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Contribution {
+    /// Row-major index of the pixel.
+    pub pixel: u32,
+    /// The path's contribution f / p to that pixel, in pixel units.
+    pub value: DVec3,
+    /// The path is one [`Target::direct`] estimates per pixel when the driver splits them
+    /// off ([`Split`]).
+    pub direct: bool,
+}
+
+impl Contribution {
+    /// Nothing: zero value (importance 0) in pixel 0.
+    pub const ZERO: Contribution = Contribution {
+        pixel: 0,
+        value: DVec3::ZERO,
+        direct: false,
+    };
+
+    /// The chain's target density (up to b): luminance, 0 for invalid values.
+    pub fn importance(&self) -> f64 {
+        let v = self.value;
+        if v.is_finite() && v.min_element() >= 0.0 {
+            luminance(v.as_vec3()) as f64
+        } else {
+            0.0
+        }
+    }
+}
+
+/// What a chain explores: a deterministic function of the primary samples.
+pub trait Target: Sync {
+    /// Per-thread scratch (subpath buffers).
+    type Scratch<'s>
+    where
+        Self: 's;
+    /// Fresh scratch for one thread.
+    fn scratch(&self) -> Self::Scratch<'_>;
+    /// Sampler streams the target reads (`Sampler::start_stream`).
+    fn streams(&self) -> u32;
+    /// Number of chain groups, each with its own normalisation.
+    fn groups(&self) -> usize;
+    /// Group `group`'s contribution for the sampler's numbers (read from the start).
+    fn eval<S: Sampler>(
+        &self,
+        scratch: &mut Self::Scratch<'_>,
+        group: usize,
+        sampler: &mut S,
+    ) -> Contribution;
+    /// Whether [`Target::direct`] can estimate the paths flagged
+    /// [`Contribution::direct`] per pixel, so the driver may leave them out of the chains.
+    fn has_direct(&self) -> bool {
+        false
+    }
+    /// One sample at `raster` of the paths flagged [`Contribution::direct`] (pixel units).
+    fn direct<S: Sampler>(
+        &self,
+        _scratch: &mut Self::Scratch<'_>,
+        _raster: Vec2,
+        _sampler: &mut S,
+    ) -> DVec3 {
+        DVec3::ZERO
+    }
+}
+
+/// Options of the Metropolis integrators.
+#[derive(Debug, Clone, PartialEq)]
+pub struct McmcSettings {
+    /// Bootstrap samples per group (default 100 000).
+    pub bootstrap: u64,
+    /// Number of chains over all groups (default 1024).
+    pub chains: u64,
+    /// Probability of a large step (default 0.3).
+    pub large_step: f64,
+    /// The kernel of small steps (default Kelemen's, sizes 1/1024 to 1/64).
+    pub small_step: SmallStep,
+    /// Whether the paths a target flags [`Contribution::direct`] leave the chains for a
+    /// per-pixel estimate (default [`Split::Never`]; only for targets with
+    /// [`Target::has_direct`]).
+    pub split: Split,
+    /// A pixel's samples of [`Target::direct`] come every this many passes, after pass 0
+    /// which samples every pixel (default 4).
+    pub direct_every: u64,
+    /// Deliberate errors for the tests' negative controls (none by default; no option sets
+    /// them).
+    pub faults: Faults,
+}
+
+impl Default for McmcSettings {
+    fn default() -> Self {
+        McmcSettings {
+            bootstrap: 100_000,
+            chains: 1024,
+            large_step: 0.3,
+            small_step: SmallStep::default(),
+            split: Split::Never,
+            direct_every: 4,
+            faults: Faults::default(),
+        }
+    }
+}
+
+/// Whether the paths a target flags [`Contribution::direct`] are estimated per pixel
+/// ([`Target::direct`]) instead of by the chains.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Split {
+    /// Never: the chains explore every path.
+    Never,
+    /// Always (for targets with [`Target::has_direct`]).
+    Always,
+}

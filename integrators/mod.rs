@@ -52,6 +52,41 @@ pub struct Entry {
     /// The sources (`include_str!` of module files) whose module documentation holds the
     /// integrator's option tables (`option_docs`).
     pub options: &'static [&'static str],
+    /// Whether the integrator (its name, with these options) can render one `--part` slice of
+    /// a render (`crate::parts`); the error says why not. [`splittable`] and
+    /// [`not_splittable`] serve most.
+    pub parts: fn(&str, &Options) -> Result<()>,
+}
+
+/// [`Entry::parts`] of an integrator whose passes depend on the seed and the global pass
+/// index alone: any slice of the passes can be rendered on its own.
+pub fn splittable(_: &str, _: &Options) -> Result<()> {
+    Ok(())
+}
+
+/// [`Entry::parts`] of an integrator that cannot render a slice of the passes on its own.
+pub fn not_splittable(name: &str, _: &Options) -> Result<()> {
+    Err(Error::new(format!(
+        "--part: integrator '{name}' cannot be split"
+    )))
+}
+
+/// Whether integrator `name` with `options` can render a `--part` slice (its
+/// [`Entry::parts`]); an unknown name is an error as in [`build`].
+pub fn check_parts(name: &str, options: &Options) -> Result<()> {
+    (entry(name)?.parts)(name, options)
+}
+
+/// The entry named `name`; an unknown name is an error that lists the valid ones.
+fn entry(name: &str) -> Result<Entry> {
+    let all = entries();
+    all.iter().find(|e| e.name == name).copied().ok_or_else(|| {
+        let names: Vec<&str> = all.iter().map(|e| e.name).collect();
+        Error::new(format!(
+            "unknown integrator '{name}' (available: {})",
+            names.join(", ")
+        ))
+    })
 }
 
 const PT_DOCS: &[&str] = &[include_str!("pt/mod.rs"), include_str!("pt/guiding.rs")];
@@ -95,75 +130,77 @@ pub static REGISTRY: &[Entry] = &[
         summary: "path tracing: next-event estimation and BSDF sampling combined by MIS, Russian roulette",
         build: pt::build,
         options: PT_DOCS,
+        parts: pt::check_parts,
     },
     Entry {
         name: "lt",
         summary: "light tracing: light subpaths connected to the camera and splatted",
         build: bdpt::build_lt,
         options: BDPT_DOCS,
+        parts: splittable,
     },
     Entry {
         name: "guided-pt",
         summary: "selective guided sampling with complete guide paths (Reibold et al. 2018), mixed with pt",
         build: guided::build_pt,
         options: GUIDED_DOCS,
+        parts: guided::check_parts,
     },
     Entry {
         name: "guided-bdpt",
         summary: "selective guided sampling with complete guide paths, mixed with bdpt (balance heuristic over all techniques)",
         build: guided::build_bdpt,
         options: GUIDED_DOCS,
+        parts: guided::check_parts,
     },
     Entry {
         name: "guided-vcm",
         summary: "selective guided sampling with complete guide paths, mixed with vcm (bdpt's techniques and merging, explicit balance weights; consistent)",
         build: guided::build_vcm,
         options: GUIDED_DOCS,
+        parts: not_splittable,
     },
     Entry {
         name: "bdpt",
         summary: "bidirectional path tracing: all (s, t) techniques, full MIS, media",
         build: bdpt::build,
         options: BDPT_DOCS,
+        parts: splittable,
     },
     Entry {
         name: "pssmlt",
         summary: "primary-sample-space Metropolis light transport over pt (Kelemen et al. 2002)",
         build: mcmc::build_pssmlt,
         options: MCMC_DOCS,
+        parts: mcmc::check_parts,
     },
     Entry {
         name: "mmlt",
         summary: "multiplexed Metropolis light transport over bdpt's techniques (Hachisuka et al. 2014)",
         build: mcmc::build_mmlt,
         options: MCMC_DOCS,
+        parts: mcmc::check_parts,
     },
     Entry {
         name: "vcm",
         summary: "vertex connection and merging: BDPT's techniques plus photon merging, MIS, shrinking radius",
         build: vcm::build,
         options: VCM_DOCS,
+        parts: splittable,
     },
     Entry {
         name: "bpm",
         summary: "bidirectional photon mapping: vcm's merging techniques alone, MIS, shrinking radius",
         build: vcm::build_bpm,
         options: VCM_DOCS,
+        parts: splittable,
     },
 ];
 
 /// Build an integrator by name; an unknown name lists the valid ones, and an option that
 /// the integrator does not read is an error.
 pub fn build(name: &str, params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
-    let all = entries();
-    let Some(entry) = all.iter().find(|e| e.name == name) else {
-        let names: Vec<&str> = all.iter().map(|e| e.name).collect();
-        return Err(Error::new(format!(
-            "unknown integrator '{name}' (available: {})",
-            names.join(", ")
-        )));
-    };
-    let integrator = (entry.build)(params)?;
+    let integrator = (entry(name)?.build)(params)?;
     params.options.check_all_used(name)?;
     Ok(integrator)
 }

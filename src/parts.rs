@@ -7,7 +7,8 @@
 //! the whole render would have made. `lodestar merge PARTS... -o out.exr` weights each part's
 //! image by its pass count: the merged image is the whole render's, to f32 rounding.
 //!
-//! What can be split: pt, lt, bdpt, vcm and bpm, and guided-pt and guided-bdpt when every part
+//! What can be split (each integrator's registry entry says, `Entry::parts`): pt, lt, bdpt,
+//! vcm and bpm, and guided-pt and guided-bdpt when every part
 //! renders with one saved guide cache (`-O load_guides=...`; parts that learn their own caches
 //! would each render a different estimator). The Markov-chain integrators cannot: a chain's
 //! states depend on all its earlier mutations and each render normalises by its own bootstrap,
@@ -63,25 +64,6 @@ impl std::fmt::Display for Part {
     }
 }
 
-/// Whether integrator `name` can render a part (see the module header).
-pub fn check_splittable(name: &str, has_loaded_cache: bool) -> Result<()> {
-    match name {
-        "pt" | "lt" | "bdpt" | "vcm" | "bpm" => Ok(()),
-        "guided-pt" | "guided-bdpt" if has_loaded_cache => Ok(()),
-        "guided-pt" | "guided-bdpt" => Err(Error::new(format!(
-            "--part with {name}: every part must render with the same saved guide cache \
-             (learn it once with --save-guides, then give each part --load-guides)"
-        ))),
-        "pssmlt" | "mmlt" => Err(Error::new(format!(
-            "--part: {name} cannot be split; its chains depend on all their earlier mutations \
-             and each render normalises by its own bootstrap, so render independent seeds instead"
-        ))),
-        other => Err(Error::new(format!(
-            "--part: integrator '{other}' cannot be split"
-        ))),
-    }
-}
-
 /// What a `--part` render does: its global passes and the header fields that let `merge`
 /// check the parts belong together.
 pub struct Plan {
@@ -91,24 +73,17 @@ pub struct Plan {
     pub meta: Vec<(String, String)>,
 }
 
-/// Plan part `text` (`I/N`) of a render of `total` passes (`None`: a time budget) with
-/// `integrator`, refusing what cannot be split (see the module header). `scene` is the scene
-/// file's bytes, for its fingerprint.
-pub fn plan(
-    text: &str,
-    total: Option<u64>,
-    integrator: &str,
-    has_loaded_cache: bool,
-    dbor_or_snapshots: bool,
-    scene: &[u8],
-) -> Result<Plan> {
+/// Plan part `text` (`I/N`) of a render of `total` passes (`None`: a time budget), refusing
+/// what cannot be split (see the module header; whether the integrator can is its registry
+/// entry's `parts`, `integrators::check_parts`). `scene` is the scene file's bytes, for its
+/// fingerprint.
+pub fn plan(text: &str, total: Option<u64>, dbor_or_snapshots: bool, scene: &[u8]) -> Result<Plan> {
     let part = Part::parse(text)?;
     let Some(total) = total else {
         return Err(Error::new(
             "--part needs --spp (a time budget's pass count depends on the machine)",
         ));
     };
-    check_splittable(integrator, has_loaded_cache)?;
     if dbor_or_snapshots {
         return Err(Error::new(
             "--part cannot be combined with --dbor or --snapshots (neither merges linearly)",

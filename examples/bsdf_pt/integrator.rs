@@ -57,12 +57,14 @@ pub fn register() -> Result<()> {
         summary: "path tracing by BSDF sampling alone (an integrator from examples/bsdf_pt)",
         build,
         options: &[include_str!("integrator.rs")],
+        parts: integrators::not_splittable,
     })?;
     integrators::register(Entry {
         name: "guided-bsdf-pt",
         summary: "selective guided sampling mixed with bsdf-pt (examples/bsdf_pt)",
         build: build_guided,
         options: &[include_str!("integrator.rs"), GUIDED_OPTIONS],
+        parts: integrators::not_splittable,
     })
 }
 

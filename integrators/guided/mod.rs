@@ -443,6 +443,18 @@ fn options(params: &IntegratorParams, default_rr: u32) -> Result<(GuidedSettings
     Ok((settings, rr_depth))
 }
 
+/// `--part` (`Entry::parts`) of guided-pt and guided-bdpt: only with a saved guide cache,
+/// so that every part renders the same estimator.
+pub fn check_parts(name: &str, o: &super::Options) -> Result<()> {
+    if o.has("load_guides") {
+        return Ok(());
+    }
+    Err(Error::new(format!(
+        "--part with {name}: every part must render with the same saved guide cache \
+         (learn it once with --save-guides, then give each part --load-guides)"
+    )))
+}
+
 /// Build guided-pt (with the chain seeder under `-O seeder=mcmc`) from its parameters.
 pub fn build_pt(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     let (settings, rr_depth) = options(params, PtSettings::default().rr_depth)?;

@@ -90,6 +90,18 @@ impl Default for PtSettings {
     }
 }
 
+/// `--part` (`Entry::parts`): pt's passes are independent, except with `guiding=sdtree`,
+/// whose tree each part would learn from its own passes.
+pub fn check_parts(_: &str, o: &super::Options) -> Result<()> {
+    if o.get("guiding", String::from("none"), "a word")? == "sdtree" {
+        return Err(Error::new(
+            "--part with pt -O guiding=sdtree: each part would learn its own tree from its \
+             own passes, so the parts would not be slices of one render",
+        ));
+    }
+    Ok(())
+}
+
 /// Build pt (batched, wavefront or SD-tree guided as its options say) from its parameters.
 pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     let pt = PathTracer {

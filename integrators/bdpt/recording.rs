@@ -112,29 +112,19 @@ impl<'a> Tracer<'a> {
             return;
         }
         let pixel_of_x1 = pixel.unwrap_or(self.pixel);
-        let (p_s, p_u, own) = match pending {
-            Pending::Explicit { p_s, p_u, own } => (p_s, p_u, own),
+        let own = match pending {
+            Pending::Explicit { own, .. } => own,
             Pending::Recursive { w, own } => {
                 if !sink.needs_densities(c, lp) {
                     sink.record_weighted(pixel_of_x1, value.as_dvec3() * w, pixel.is_some());
                     return;
                 }
-                match self.densities_of(c, lp, own) {
-                    Some((p_s, p_u)) => (p_s, p_u, own),
-                    None => return,
-                }
+                own
             }
         };
         self.joined.clear();
         self.joined.extend(c.iter().chain(lp.iter().rev()));
         let k = self.joined.len() - 1;
-        if own <= k || self.merges_as_weighed {
-            // A connection joins two traced subpaths: its densities are the path's own.
-            let f = value.as_dvec3() * p_s;
-            to_path_into(&self.joined, f.as_vec3(), pixel_of_x1, &mut self.path_buf);
-            sink.record(&self.path_buf, Some(&self.joined), f, p_u, pixel.is_some());
-            return;
-        }
         // A merge: the camera vertex y_m stands in for the photon, so the merged path's
         // densities as the merge weighed it (across y_m, the photon's own) are not those of
         // its vertices, by orders of magnitude where the photon's neighbour is about as near
@@ -142,30 +132,39 @@ impl<'a> Tracer<'a> {
         // evaluates them for every other path (and as vcm's tracer delivers merges in render
         // passes), so that every technique that can form this vertex path weighs it with the
         // same numbers: f = (the merge's raw estimate) x (merging's density at y_m).
-        let eta = self.shared.map_or(0.0, |s| s.eta);
-        let (mut vc, mut vm) = ([0.0f64; MAX_VERTICES], [0.0f64; MAX_VERTICES]);
-        let from_vertices = super::densities_from_vertices(
-            self.scene,
-            &self.joined,
-            self.settings,
-            eta,
-            &mut self.vertex_terms,
-            &mut vc,
-            &mut vm,
-        )
-        .map(|sum| (vm[own - k - 1], sum))
-        .filter(|&(p_s, p_u)| p_s > 0.0 && p_s.is_finite() && p_u.is_finite());
-        let Some((p_s_vertices, p_u_vertices)) = from_vertices else {
+        if own > k && !self.merges_as_weighed {
+            let eta = self.shared.map_or(0.0, |s| s.eta);
+            let (mut vc, mut vm) = ([0.0f64; MAX_VERTICES], [0.0f64; MAX_VERTICES]);
+            let from_vertices = super::densities_from_vertices(
+                self.scene,
+                &self.joined,
+                self.settings,
+                eta,
+                &mut self.vertex_terms,
+                &mut vc,
+                &mut vm,
+            )
+            .map(|sum| (vm[own - k - 1], sum))
+            .filter(|&(p_s, p_u)| p_s > 0.0 && p_s.is_finite() && p_u.is_finite());
+            if let Some((p_s, p_u)) = from_vertices {
+                let f = value.as_dvec3() * p_s;
+                to_path_into(&self.joined, f.as_vec3(), pixel_of_x1, &mut self.path_buf);
+                sink.record_from_vertices(&self.path_buf, &self.joined, f, p_u, pixel.is_some());
+                return;
+            }
             // The vertices give the merge no density (a segment the merge never traced is
-            // blocked for them): the merge's own densities go to the sink as for a connection.
-            let f = value.as_dvec3() * p_s;
-            to_path_into(&self.joined, f.as_vec3(), pixel_of_x1, &mut self.path_buf);
-            sink.record(&self.path_buf, Some(&self.joined), f, p_u, pixel.is_some());
-            return;
+            // blocked for them): its own densities go to the sink as a connection's do.
+        }
+        // A connection joins two traced subpaths: its densities are the path's own.
+        let (p_s, p_u) = match pending {
+            Pending::Explicit { p_s, p_u, .. } => (p_s, p_u),
+            Pending::Recursive { .. } => match self.densities_of(c, lp, own) {
+                Some(d) => d,
+                None => return,
+            },
         };
-        let (p_s, p_u) = (p_s_vertices, p_u_vertices);
         let f = value.as_dvec3() * p_s;
         to_path_into(&self.joined, f.as_vec3(), pixel_of_x1, &mut self.path_buf);
-        sink.record_from_vertices(&self.path_buf, &self.joined, f, p_u, pixel.is_some());
+        sink.record(&self.path_buf, Some(&self.joined), f, p_u, pixel.is_some());
     }
 }

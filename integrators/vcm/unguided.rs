@@ -96,17 +96,15 @@ impl VcmUnguided {
         eta: f64,
         y: &[Vertex],
     ) -> Option<([f64; MAX_VERTICES], [f64; MAX_VERTICES], f64)> {
-        let mut terms = paths::PathTerms::new(0);
+        thread_local! {
+            /// Scratch of the path's terms: held paths are weighed one after another.
+            static TERMS: std::cell::RefCell<paths::PathTerms> =
+                std::cell::RefCell::new(paths::PathTerms::new(0));
+        }
         let (mut vc, mut vm) = ([0.0f64; MAX_VERTICES], [0.0f64; MAX_VERTICES]);
-        let sum = bdpt::densities_from_vertices(
-            scene,
-            y,
-            &self.settings,
-            eta,
-            &mut terms,
-            &mut vc,
-            &mut vm,
-        )?;
+        let sum = TERMS.with_borrow_mut(|terms| {
+            bdpt::densities_from_vertices(scene, y, &self.settings, eta, terms, &mut vc, &mut vm)
+        })?;
         Some((vc, vm, sum))
     }
 

@@ -23,8 +23,9 @@ better:
 runs of a statistic the renders report (the bench's `stats.csv`), named by the one word given
 after the benches; integrators that do not report it are left out:
 
-    <!-- results: stat pool=out/pool-60 dining=out/dining-60 failed_guided_share --> Keys in capitals (such as `T=60`) are labels for the reader and are
-ignored. The reports behind the tables of docs/results.md are kept in docs/results-data/
+    <!-- results: stat pool=out/pool-60 dining=out/dining-60 failed_guided_share -->
+
+Keys in capitals (such as `T=60`) are labels for the reader and are ignored. The reports behind the tables of docs/results.md are kept in docs/results-data/
 (`report.csv` of each bench, a few kilobytes), so `update` reproduces the file as committed;
 `scripts/test_results.py` checks that it does.
 

@@ -6,6 +6,7 @@ pub mod bdpt;
 pub mod guided;
 pub mod mcmc;
 pub mod option_docs;
+pub mod options;
 pub mod paths;
 pub mod pt;
 pub mod unguided;
@@ -14,7 +15,7 @@ pub mod vcm;
 use crate::error::{Error, Result};
 use crate::math::SamplerKind;
 use crate::render::Integrator;
-use std::cell::Cell;
+pub use options::{Options, Spec};
 
 /// Settings every integrator receives: the depth limit plus `key=value` options
 /// (`-O key=value` on the command line), each checked by the integrator that reads it.
@@ -29,14 +30,7 @@ impl IntegratorParams {
     /// Option `sampler` of pt, bdpt, lt, vcm and bpm: `independent` (default) or `sobol`
     /// ([`crate::math::sobol`]).
     pub fn sampler(&self) -> Result<SamplerKind> {
-        let kind = self
-            .options
-            .choice("sampler", "independent", &["independent", "sobol"])?;
-        Ok(if kind == "sobol" {
-            SamplerKind::Sobol
-        } else {
-            SamplerKind::Independent
-        })
+        options::sampler(&self.options.declared(&[&[options::SAMPLER]]))
     }
 }
 
@@ -49,9 +43,9 @@ pub struct Entry {
     pub summary: &'static str,
     /// Builds the integrator from its parameters; an option value it cannot use is an error.
     pub build: fn(&IntegratorParams) -> Result<Box<dyn Integrator>>,
-    /// The sources (`include_str!` of module files) whose module documentation holds the
-    /// integrator's option tables (`option_docs`).
-    pub options: &'static [&'static str],
+    /// The integrator's options: the tables of [`Spec`]s it reads through (where two declare
+    /// a name the first stands); `option_docs` lists them.
+    pub options: &'static [&'static [Spec]],
     /// Whether the integrator (its name, with these options) can render one `--part` slice of
     /// a render (`crate::parts`); the error says why not. [`splittable`] and
     /// [`not_splittable`] serve most.
@@ -89,12 +83,6 @@ fn entry(name: &str) -> Result<Entry> {
     })
 }
 
-const PT_DOCS: &[&str] = &[include_str!("pt/mod.rs"), include_str!("pt/guiding.rs")];
-const BDPT_DOCS: &[&str] = &[include_str!("bdpt/mod.rs")];
-const GUIDED_DOCS: &[&str] = &[guided::OPTIONS_DOC];
-const MCMC_DOCS: &[&str] = &[include_str!("mcmc/mod.rs")];
-const VCM_DOCS: &[&str] = &[include_str!("vcm/mod.rs")];
-
 /// Integrators registered at run time by code outside the crate ([`register`]).
 static REGISTERED: std::sync::RwLock<Vec<Entry>> = std::sync::RwLock::new(Vec::new());
 
@@ -129,70 +117,70 @@ pub static REGISTRY: &[Entry] = &[
         name: "pt",
         summary: "path tracing: next-event estimation and BSDF sampling combined by MIS, Russian roulette",
         build: pt::build,
-        options: PT_DOCS,
+        options: &[pt::OPTIONS],
         parts: pt::check_parts,
     },
     Entry {
         name: "lt",
         summary: "light tracing: light subpaths connected to the camera and splatted",
         build: bdpt::build_lt,
-        options: BDPT_DOCS,
+        options: &[bdpt::LT_OPTIONS],
         parts: splittable,
     },
     Entry {
         name: "guided-pt",
         summary: "selective guided sampling with complete guide paths (Reibold et al. 2018), mixed with pt",
         build: guided::build_pt,
-        options: GUIDED_DOCS,
+        options: guided::options::PT_OPTIONS,
         parts: guided::check_parts,
     },
     Entry {
         name: "guided-bdpt",
         summary: "selective guided sampling with complete guide paths, mixed with bdpt (balance heuristic over all techniques)",
         build: guided::build_bdpt,
-        options: GUIDED_DOCS,
+        options: guided::options::BDPT_OPTIONS,
         parts: guided::check_parts,
     },
     Entry {
         name: "guided-vcm",
         summary: "selective guided sampling with complete guide paths, mixed with vcm (bdpt's techniques and merging, explicit balance weights; consistent)",
         build: guided::build_vcm,
-        options: GUIDED_DOCS,
+        options: guided::options::VCM_OPTIONS,
         parts: not_splittable,
     },
     Entry {
         name: "bdpt",
         summary: "bidirectional path tracing: all (s, t) techniques, full MIS, media",
         build: bdpt::build,
-        options: BDPT_DOCS,
+        options: &[bdpt::OPTIONS],
         parts: splittable,
     },
     Entry {
         name: "pssmlt",
         summary: "primary-sample-space Metropolis light transport over pt (Kelemen et al. 2002)",
         build: mcmc::build_pssmlt,
-        options: MCMC_DOCS,
+        options: mcmc::PSSMLT_OPTIONS,
         parts: mcmc::check_parts,
     },
     Entry {
         name: "mmlt",
         summary: "multiplexed Metropolis light transport over bdpt's techniques (Hachisuka et al. 2014)",
         build: mcmc::build_mmlt,
-        options: MCMC_DOCS,
+        options: mcmc::MMLT_OPTIONS,
         parts: mcmc::check_parts,
     },
     Entry {
         name: "vcm",
         summary: "vertex connection and merging: BDPT's techniques plus photon merging, MIS, shrinking radius",
         build: vcm::build,
-        options: VCM_DOCS,
+        options: &[vcm::OPTIONS],
         parts: splittable,
     },
     Entry {
         name: "bpm",
         summary: "bidirectional photon mapping: vcm's merging techniques alone, MIS, shrinking radius",
         build: vcm::build_bpm,
-        options: VCM_DOCS,
+        options: &[vcm::BPM_OPTIONS],
         parts: splittable,
     },
 ];
@@ -203,101 +191,6 @@ pub fn build(name: &str, params: &IntegratorParams) -> Result<Box<dyn Integrator
     let integrator = (entry(name)?.build)(params)?;
     params.options.check_all_used(name)?;
     Ok(integrator)
-}
-
-/// `key=value` options with typed access; keys nobody read are reported (pbrt's ReportUnused).
-#[derive(Debug, Default)]
-pub struct Options {
-    entries: Vec<(String, String, Cell<bool>)>,
-    /// Every key an integrator asked for, given or not (`tests/integrators_doc.rs` checks
-    /// them against the option tables).
-    asked: std::cell::RefCell<Vec<String>>,
-}
-
-impl Options {
-    /// Parse `key=value` strings.
-    pub fn parse(items: &[String]) -> Result<Options> {
-        let mut entries: Vec<(String, String, Cell<bool>)> = Vec::new();
-        for item in items {
-            let Some((k, v)) = item.split_once('=') else {
-                return Err(Error::new(format!(
-                    "option '{item}' must have the form key=value"
-                )));
-            };
-            let k = k.trim().to_string();
-            if entries.iter().any(|(e, _, _)| *e == k) {
-                return Err(Error::new(format!("option '{k}' is given twice")));
-            }
-            entries.push((k, v.trim().to_string(), Cell::new(false)));
-        }
-        Ok(Options {
-            entries,
-            asked: Default::default(),
-        })
-    }
-
-    fn raw(&self, key: &str) -> Option<&str> {
-        {
-            let mut asked = self.asked.borrow_mut();
-            if !asked.iter().any(|k| k == key) {
-                asked.push(key.to_string());
-            }
-        }
-        self.entries
-            .iter()
-            .find(|(k, _, _)| k == key)
-            .map(|(_, v, used)| {
-                used.set(true);
-                v.as_str()
-            })
-    }
-
-    /// The keys asked for so far, given or not, in the order first asked.
-    pub fn asked(&self) -> Vec<String> {
-        self.asked.borrow().clone()
-    }
-
-    /// Whether `key` was given.
-    pub fn has(&self, key: &str) -> bool {
-        self.entries.iter().any(|(k, _, _)| k == key)
-    }
-
-    /// Typed value of `key`, or `default` when absent.
-    pub fn get<T: std::str::FromStr>(&self, key: &str, default: T, expected: &str) -> Result<T> {
-        match self.raw(key) {
-            None => Ok(default),
-            Some(v) => v
-                .parse()
-                .map_err(|_| Error::new(format!("option '{key}': expected {expected}, got '{v}'"))),
-        }
-    }
-
-    /// One of the given words.
-    pub fn choice(
-        &self,
-        key: &str,
-        default: &'static str,
-        allowed: &[&'static str],
-    ) -> Result<&'static str> {
-        match self.raw(key) {
-            None => Ok(default),
-            Some(v) => allowed.iter().copied().find(|a| *a == v).ok_or_else(|| {
-                Error::new(format!(
-                    "option '{key}': expected one of {}, got '{v}'",
-                    allowed.join(", ")
-                ))
-            }),
-        }
-    }
-
-    fn check_all_used(&self, integrator: &str) -> Result<()> {
-        match self.entries.iter().find(|(_, _, used)| !used.get()) {
-            Some((k, _, _)) => Err(Error::new(format!(
-                "option '{k}' is not a setting of integrator '{integrator}'"
-            ))),
-            None => Ok(()),
-        }
-    }
 }
 
 /// The outcome of [`render_named`].

@@ -1,97 +1,24 @@
-//! Every integrator's options, read from the option tables of its modules' documentation:
-//! the rows `//! | option | type | default | meaning |` that open `pt/mod.rs`, `bdpt/mod.rs`
-//! and the others. Those tables are the one place an option is documented;
-//! `lodestar integrators --options` prints them and `lodestar integrators --markdown` writes
-//! `docs/integrators.md` from them. `tests/integrators_doc.rs` keeps them true: every option an
-//! integrator reads is in its table, each default written there leaves the image unchanged
-//! when given explicitly, and `docs/integrators.md` is current.
+//! Every integrator's options as text and Markdown, from their declarations
+//! ([`options::Spec`](super::options::Spec), listed by each registry entry):
+//! `lodestar integrators --options` prints [`text`] and `lodestar integrators --markdown`
+//! writes `docs/integrators.md` ([`markdown`]). `tests/integrators_doc.rs` keeps them true:
+//! every option an integrator reads is declared in its entry, each declared default given
+//! explicitly leaves the image unchanged, and `docs/integrators.md` is current.
 
 use super::Entry;
+use super::options::Spec;
 use std::fmt::Write as _;
 
-/// One row of an option table.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub struct OptionRow {
-    /// The option's name (a row may name several: `s1, s2`).
-    pub name: String,
-    /// Type or values.
-    pub kind: String,
-    /// The value the integrator uses when the option is not given, as the table writes it.
-    pub default: String,
-    /// What the option does.
-    pub meaning: String,
-}
-
-impl OptionRow {
-    /// The names the row documents (`s1, s2` documents two).
-    pub fn names(&self) -> impl Iterator<Item = &str> {
-        self.name
-            .split(',')
-            .map(str::trim)
-            .filter(|n| !n.is_empty())
-    }
-
-    /// The default as a value to pass with `-O`, when the table gives one literally: a
-    /// number, or a word in backticks (`auto`); `None` for a description ("scene's", "—").
-    pub fn literal_default(&self) -> Option<String> {
-        let d = self.default.trim();
-        if let Some(word) = d.strip_prefix('`').and_then(|w| w.strip_suffix('`'))
-            && !word.contains('`')
-        {
-            return Some(word.to_string());
-        }
-        d.parse::<f64>().is_ok().then(|| d.to_string())
-    }
-}
-
-/// The option tables in the module documentation `source` (a file's text): rows of every
-/// table whose header's first cell is `option`.
-pub fn tables(source: &str) -> Vec<OptionRow> {
-    let mut rows = Vec::new();
-    let mut in_table = false;
-    for line in source.lines() {
-        let Some(row) = line.trim_start().strip_prefix("//!").map(str::trim) else {
-            in_table = false;
-            continue;
-        };
-        if !row.starts_with('|') {
-            in_table = false;
-            continue;
-        }
-        let cells: Vec<&str> = row.trim_matches('|').split('|').map(str::trim).collect();
-        if cells.first() == Some(&"option") {
-            in_table = true;
-            continue;
-        }
-        if !in_table
-            || cells
-                .iter()
-                .all(|c| c.chars().all(|ch| ch == '-' || ch == ':'))
-        {
-            continue;
-        }
-        if let [name, kind, default, meaning @ ..] = cells.as_slice() {
-            rows.push(OptionRow {
-                name: name.to_string(),
-                kind: kind.to_string(),
-                default: default.to_string(),
-                meaning: meaning.join(" | "),
-            });
+/// The options of integrator `entry`: its tables' declarations in order; where two tables
+/// declare the same name the first stands.
+pub fn options(entry: &Entry) -> Vec<Spec> {
+    let mut specs: Vec<Spec> = Vec::new();
+    for spec in entry.options.iter().flat_map(|t| t.iter()) {
+        if !specs.iter().any(|s| s.name == spec.name) {
+            specs.push(*spec);
         }
     }
-    rows
-}
-
-/// The options of integrator `entry`: the rows of its documented modules, in order; where two
-/// tables document the same name the first row stands.
-pub fn options(entry: &Entry) -> Vec<OptionRow> {
-    let mut rows: Vec<OptionRow> = Vec::new();
-    for row in entry.options.iter().flat_map(|s| tables(s)) {
-        if !rows.iter().any(|r| r.name == row.name) {
-            rows.push(row);
-        }
-    }
-    rows
+    specs
 }
 
 /// The options as text for a terminal (`lodestar integrators --options`).
@@ -99,84 +26,51 @@ pub fn text(entries: &[Entry]) -> String {
     let mut out = String::new();
     for e in entries {
         let _ = writeln!(out, "{}: {}", e.name, e.summary);
-        for r in options(e) {
-            let _ = writeln!(out, "  {:<22} {:<28} default {}", r.name, r.kind, r.default);
+        for s in options(e) {
+            let _ = writeln!(
+                out,
+                "  {:<22} {:<28} default {}",
+                s.name,
+                s.kind.column(),
+                s.default.column()
+            );
         }
         out.push('\n');
     }
     out
 }
 
-/// `docs/integrators.md`: integrators that share their option tables are listed together.
+/// `docs/integrators.md`: one section per integrator, its options in a table.
 pub fn markdown(entries: &[Entry]) -> String {
     let mut out = String::from(
         "# Integrators and their options\n\n\
-         Generated by `lodestar integrators --markdown` from the option tables in the \
-         integrators' module documentation (`integrators/*/mod.rs`); `tests/integrators_doc.rs` \
-         checks that this file is current, that every option an integrator reads is in its \
-         table, and that each default given here is the one the integrator uses. Options are \
-         given on the command line as `-O key=value`, in a bench as `NAME:key=value,...`, and \
-         in Python as `options={\"key\": value}`.\n",
+         Generated by `lodestar integrators --markdown` from the options each integrator \
+         declares (`integrators/options.rs`: name, type and range, default, meaning); \
+         `tests/integrators_doc.rs` checks that this file is current, that every option an \
+         integrator reads is declared, and that each default given here, passed explicitly, \
+         renders the same image as leaving it out. Options are given on the command line as \
+         `-O key=value`, in a bench as `NAME:key=value,...`, and in Python as \
+         `options={\"key\": value}`. Every integrator also takes `--max-depth` (the scene's \
+         `max_depth` by default), the largest number of path segments.\n",
     );
-    let mut done = vec![false; entries.len()];
-    for i in 0..entries.len() {
-        if done[i] {
+    for e in entries {
+        let _ = writeln!(out, "\n## `{}`\n\n{}\n", e.name, e.summary);
+        let specs = options(e);
+        if specs.is_empty() {
+            out.push_str("No options.\n");
             continue;
         }
-        let group: Vec<usize> = (i..entries.len())
-            .filter(|&j| !done[j] && entries[j].options == entries[i].options)
-            .collect();
-        let names: Vec<String> = group
-            .iter()
-            .map(|&j| format!("`{}`", entries[j].name))
-            .collect();
-        let _ = writeln!(out, "\n## {}\n", names.join(", "));
-        for &j in &group {
-            done[j] = true;
-            let _ = writeln!(out, "- `{}`: {}", entries[j].name, entries[j].summary);
-        }
-        let rows = options(&entries[i]);
-        if rows.is_empty() {
-            out.push_str("\nNo options.\n");
-            continue;
-        }
-        out.push_str("\n| option | type | default | meaning |\n|---|---|---|---|\n");
-        for r in rows {
+        out.push_str("| option | type | default | meaning |\n|---|---|---|---|\n");
+        for s in specs {
             let _ = writeln!(
                 out,
                 "| {} | {} | {} | {} |",
-                r.name, r.kind, r.default, r.meaning
+                s.name,
+                s.kind.column(),
+                s.default.column(),
+                s.doc
             );
         }
     }
     out
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn reads_the_rows_of_option_tables_only() {
-        let src = "//! text\n\
-                   //! | option | type | default | meaning |\n\
-                   //! |--------|------|---------|---------|\n\
-                   //! | a      | int  | 3       | the a |\n\
-                   //! | s1, s2 | x    | `auto`  | two \n\
-                   //!\n\
-                   //! | other | table |\n\
-                   //! | b     | c     |\n\
-                   fn f() {}\n";
-        let rows = tables(src);
-        assert_eq!(rows.len(), 2);
-        assert_eq!(rows[0].name, "a");
-        assert_eq!(rows[0].literal_default().as_deref(), Some("3"));
-        assert_eq!(rows[1].names().collect::<Vec<_>>(), ["s1", "s2"]);
-        assert_eq!(rows[1].literal_default().as_deref(), Some("auto"));
-        let described = OptionRow {
-            default: "0.003 x scene radius".into(),
-            ..rows[0].clone()
-        };
-        assert_eq!(described.literal_default(), None);
-    }
 }

@@ -762,7 +762,10 @@ fn guided_vcm_option_errors() {
         build("guided-vcm", &params).map(|_| ())
     };
     let err = build_with(&["seeder=mcmc"]).unwrap_err().to_string();
-    assert!(err.contains("option 'seeder': guided-vcm"), "{err}");
+    assert!(
+        err.contains("option 'seeder'") && err.contains("replays one sample alone"),
+        "{err}"
+    );
     let err = build_with(&["mis=power"]).unwrap_err().to_string();
     assert!(
         err.contains("option 'mis': guided-vcm needs 'balance'"),

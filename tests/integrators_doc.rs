@@ -1,18 +1,17 @@
-//! The option tables in the integrators' module documentation are true, and
-//! `docs/integrators.md` (generated from them) is current:
+//! The options the integrators declare (`integrators/options.rs`) are the ones they read,
+//! and `docs/integrators.md` (generated from the declarations) is current:
 //! - every option key an integrator asks for (building it with no options and with each
-//!   switch that enables more: `seeder=mcmc`, `guiding=sdtree`, `small_step=gaussian`) is a row
-//!   of its table;
-//! - every default the table gives literally (a number or a word in backticks), passed
+//!   switch that enables more: `seeder=mcmc`, `guiding=sdtree`, `small_step=gaussian`) is
+//!   declared in its registry entry, and every declared option is asked for;
+//! - every declared default that is a value (not computed from the scene or absent), passed
 //!   explicitly, renders the same image bit for bit and the same settings as leaving it out
-//!   (where the option is read only under a switch, with that switch on both sides); an option
-//!   the integrator does not read at all must be one its row assigns to another integrator;
+//!   (where the option is read only under a switch, with that switch on both sides);
 //! - `docs/integrators.md` equals `lodestar integrators --markdown`.
 
 mod util;
 
-use lodestar::integrators::option_docs::{self, OptionRow};
-use lodestar::integrators::{self, Entry, IntegratorParams, Options};
+use lodestar::integrators::option_docs;
+use lodestar::integrators::{self, IntegratorParams, Options};
 use lodestar::render::Budget;
 use lodestar::scene::Scene;
 
@@ -41,14 +40,10 @@ fn render(
     ))
 }
 
-fn documented(rows: &[OptionRow], key: &str) -> bool {
-    rows.iter().any(|r| r.names().any(|n| n == key))
-}
-
 #[test]
-fn every_option_read_is_documented() {
+fn every_option_read_is_declared_and_every_declared_option_is_read() {
     for e in integrators::entries() {
-        let rows = option_docs::options(&e);
+        let declared: Vec<&str> = option_docs::options(&e).iter().map(|s| s.name).collect();
         let mut asked = Vec::new();
         for switch in std::iter::once(None).chain(SWITCHES.iter().map(Some)) {
             let p = params(
@@ -60,101 +55,71 @@ fn every_option_read_is_documented() {
             let _ = (e.build)(&p);
             asked.extend(p.options.asked());
         }
-        assert!(
-            !asked.is_empty() || rows.is_empty(),
-            "{}: asked for nothing",
-            e.name
-        );
-        for key in asked {
+        for key in &asked {
             assert!(
-                documented(&rows, &key),
-                "{}: reads option '{key}', which its table does not document",
+                declared.contains(&key.as_str()),
+                "{}: reads option '{key}', which its entry does not declare",
+                e.name
+            );
+        }
+        for key in &declared {
+            assert!(
+                asked.iter().any(|a| a == key),
+                "{}: declares option '{key}', which it never reads",
                 e.name
             );
         }
     }
 }
 
-/// Whether `row` names an integrator other than `entry` as the one that reads it.
-fn assigned_elsewhere(row: &OptionRow, entry: &Entry, all: &[Entry]) -> bool {
-    all.iter().filter(|o| o.name != entry.name).any(|o| {
-        let m = &row.meaning;
-        m.contains(&format!("`{}`", o.name))
-            || m.starts_with(&format!("{} ", o.name))
-            || m.starts_with(&format!("{}:", o.name))
-            || m.starts_with(&format!("{},", o.name))
-    })
-}
-
 #[test]
 fn every_literal_default_is_the_default_used() {
     let scene = util::cornell(8);
-    let all = integrators::entries();
     let mut checked = 0;
-    for e in &all {
+    for e in &integrators::entries() {
         let base = render(&scene, e.name, &[]).unwrap();
-        for row in option_docs::options(e) {
-            let Some(value) = row.literal_default() else {
+        for spec in option_docs::options(e) {
+            let Some(value) = spec.default.literal() else {
                 continue;
             };
-            for key in row.names() {
-                // `--max-depth`, not an `-O` option.
-                if key == "max_depth" {
+            let given = format!("{}={value}", spec.name);
+            let mut verdict = match render(&scene, e.name, std::slice::from_ref(&given)) {
+                Ok(r) => Some(r == base),
+                // Read only under a switch.
+                Err(msg)
+                    if ["only a setting", "belongs to"]
+                        .iter()
+                        .any(|w| msg.contains(w)) =>
+                {
+                    None
+                }
+                Err(msg) => panic!("{}: -O {given} (the declared default): {msg}", e.name),
+            };
+            // Read only under a switch: compare with the switch on both sides.
+            for switch in SWITCHES {
+                if verdict.is_some() || switch.starts_with(&format!("{}=", spec.name)) {
                     continue;
                 }
-                let given = format!("{key}={value}");
-                let mut verdict = match render(&scene, e.name, std::slice::from_ref(&given)) {
-                    Ok(r) => Some(r == base),
-                    // Not read here, or read only under a switch.
-                    Err(msg)
-                        if ["is not a setting", "only a setting", "belongs to"]
-                            .iter()
-                            .any(|w| msg.contains(w)) =>
-                    {
-                        None
-                    }
-                    Err(msg) => panic!("{}: -O {given} (the documented default): {msg}", e.name),
+                let on = [switch.to_string()];
+                let (Ok(without), Ok(with)) = (
+                    render(&scene, e.name, &on),
+                    render(&scene, e.name, &[switch.to_string(), given.clone()]),
+                ) else {
+                    continue;
                 };
-                // Read only under a switch: compare with the switch on both sides.
-                for switch in SWITCHES {
-                    if verdict.is_some() || switch.starts_with(&format!("{key}=")) {
-                        continue;
-                    }
-                    let on = [switch.to_string()];
-                    let (Ok(without), Ok(with)) = (
-                        render(&scene, e.name, &on),
-                        render(&scene, e.name, &[switch.to_string(), given.clone()]),
-                    ) else {
-                        continue;
-                    };
-                    verdict = Some(with == without);
-                }
-                match verdict {
-                    Some(same) => {
-                        assert!(
-                            same,
-                            "{}: -O {given}, the documented default, changes the render",
-                            e.name
-                        );
-                        checked += 1;
-                    }
-                    // Or documented for a switch this integrator refuses (guided-vcm takes no
-                    // `seeder=mcmc`, so no `chain_*` option).
-                    None => assert!(
-                        assigned_elsewhere(&row, e, &all)
-                            || SWITCHES.iter().any(|sw| {
-                                let v = sw.split_once('=').unwrap().1;
-                                row.meaning.starts_with(&format!("`{v}`"))
-                                    && render(&scene, e.name, &[sw.to_string()]).is_err()
-                            }),
-                        "{}: its table documents '{key}', which it does not read",
-                        e.name
-                    ),
-                }
+                verdict = Some(with == without);
             }
+            let same = verdict
+                .unwrap_or_else(|| panic!("{}: -O {given} is accepted under no switch", e.name));
+            assert!(
+                same,
+                "{}: -O {given}, the declared default, changes the render",
+                e.name
+            );
+            checked += 1;
         }
     }
-    assert!(checked >= 40, "only {checked} defaults checked");
+    assert!(checked >= 60, "only {checked} defaults checked");
 }
 
 #[test]

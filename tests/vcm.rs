@@ -206,7 +206,8 @@ fn vcm_converges_to_pt() {
             panic!("{name}: {e}");
         }
         if name == "cornell-box.toml" {
-            let control = converges_to_pt((&scene, &small), refs, &["radius=0.3", "alpha=1"]);
+            let control =
+                converges_to_pt((&scene, &small), refs, &["radius=0.3", "radius_alpha=1"]);
             eprintln!("control (radius 0.3, alpha 1): {control:?}");
             assert!(control.is_err(), "vcm with a fixed radius of 0.3 converges");
         }
@@ -229,7 +230,15 @@ fn bpm_agrees_with_pt() {
     let pt = util::seeded_renders(&scene, "pt", 6, &[], 256, 6, 10);
     let bpm = util::seeded_renders(&scene, "bpm", 6, &["radius=0.05"], 64, 6, 20);
     util::assert_same_image(&pt, &bpm, 4, "bpm vs pt");
-    let blurred = util::seeded_renders(&scene, "bpm", 6, &["radius=0.5", "alpha=1"], 64, 6, 30);
+    let blurred = util::seeded_renders(
+        &scene,
+        "bpm",
+        6,
+        &["radius=0.5", "radius_alpha=1"],
+        64,
+        6,
+        30,
+    );
     assert!(
         util::differs(&pt, &blurred, 4),
         "bpm with radius 0.5 passes"
@@ -267,13 +276,13 @@ fn bad_options_are_errors() {
         ),
         (
             "vcm",
-            "alpha=0",
-            "option 'alpha': expected a number in (0, 1]",
+            "radius_alpha=0",
+            "option 'radius_alpha': expected a number in (0, 1]",
         ),
         (
             "vcm",
-            "alpha=1.5",
-            "option 'alpha': expected a number in (0, 1]",
+            "radius_alpha=1.5",
+            "option 'radius_alpha': expected a number in (0, 1]",
         ),
         (
             "vcm",

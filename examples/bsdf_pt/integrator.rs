@@ -17,16 +17,13 @@
 //!   (`pdf_unguided`). That is all `Guided<U, S>` needs: `guided-bsdf-pt` mixes guided
 //!   samples with these by the balance heuristic.
 //!
-//! | option    | type         | default | meaning |
-//! |-----------|--------------|---------|---------|
-//! | max_depth | integer >= 1 | scene's | maximum number of segments (`--max-depth`) |
-//! | rr_depth  | integer >= 1 | 5       | Russian roulette on walks of this many segments or more |
-//!
-//! `guided-bsdf-pt` also reads every option of the guided integrators (`docs/integrators.md`).
+//! Its one option, `rr_depth`, is declared in [`OPTIONS`]; `guided-bsdf-pt` also reads every
+//! option the guided integrators share (`guided::options::COMMON`, `SEEDERS`).
 
 use glam::{DVec3, Vec2};
 use lodestar::Result;
 use lodestar::integrators::bdpt::camera_subpath;
+use lodestar::integrators::options::{self, DefaultValue, Spec};
 use lodestar::integrators::paths::contribution::contribution;
 use lodestar::integrators::paths::{Kind, PathTerms, Vertex, path_terms_into, to_path};
 use lodestar::integrators::unguided::{PathSink, Unguided};
@@ -36,12 +33,16 @@ use lodestar::path::MAX_VERTICES;
 use lodestar::render::{Budget, Integrator, RenderContext, RenderResult, RowTracer, render_rows};
 use lodestar::scene::Scene;
 
-/// The guided integrators' option table (`integrators/guided/mod.rs`), which
-/// `guided-bsdf-pt` reads too.
-const GUIDED_OPTIONS: &str = lodestar::integrators::guided::OPTIONS_DOC;
-
 /// Russian roulette's default start (pt's).
 pub const RR_DEPTH: u32 = 5;
+
+/// bsdf-pt's options.
+pub const OPTIONS: &[Spec] = &[Spec {
+    name: "rr_depth",
+    kind: options::Kind::Int { min: 1 },
+    default: DefaultValue::Int(RR_DEPTH as i64),
+    doc: "Russian roulette on walks of this many segments or more",
+}];
 
 /// Path tracing by BSDF sampling alone.
 #[derive(Debug, Clone, Copy)]
@@ -56,22 +57,20 @@ pub fn register() -> Result<()> {
         name: "bsdf-pt",
         summary: "path tracing by BSDF sampling alone (an integrator from examples/bsdf_pt)",
         build,
-        options: &[include_str!("integrator.rs")],
+        options: &[OPTIONS],
         parts: integrators::not_splittable,
     })?;
     integrators::register(Entry {
         name: "guided-bsdf-pt",
         summary: "selective guided sampling mixed with bsdf-pt (examples/bsdf_pt)",
         build: build_guided,
-        options: &[include_str!("integrator.rs"), GUIDED_OPTIONS],
+        options: &[OPTIONS, guided::options::COMMON, guided::options::SEEDERS],
         parts: integrators::not_splittable,
     })
 }
 
 fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
-    let rr_depth = params
-        .options
-        .get("rr_depth", RR_DEPTH, "an integer >= 1")?;
+    let rr_depth = params.options.declared(&[OPTIONS]).int("rr_depth")?;
     Ok(Box::new(BsdfPt::new(params.max_depth, rr_depth)?))
 }
 

@@ -18,15 +18,8 @@
 //! connection through a vertex reuses is cached once per subpath (`cache.rs`), and each
 //! connection end costs one BSDF evaluation (`f` and the densities in both directions).
 //!
-//! | option    | type                 | default   | meaning |
-//! |-----------|----------------------|-----------|---------|
-//! | max_depth | integer >= 1         | 8         | maximum number of segments, as for `pt` |
-//! | rr_depth  | integer >= 1         | 1         | roulette on subpaths of this many segments or more (1: from the first bounce, as SmallVCM and `vcm`) |
-//! | mis       | `balance` / `power`  | `balance` | MIS heuristic (`bdpt` only) |
-//! | only      | `s,t`                | none      | render technique (s, t) alone, MIS-weighted (`bdpt` only): the images of every technique sum to the bdpt image |
-//! | skip      | `s,t`                | none      | leave technique (s, t) out (`bdpt` only; biased: a control for tests) |
-//! | sampler   | `independent` / `sobol` | `independent` | whose numbers each pixel sample draws, as `pt`'s option: `sobol` stratifies every pair of numbers of the camera and light subpaths over the pixel's samples |
-//! | direct_splats | `true` / `false` | `false`   | directly seen emitters also by technique (1, 1), MIS-weighted (`bdpt` only; off: a directly seen emitter through vacuum is left to the camera ray in the pixels it fills, `paths/terms.rs`) |
+//! Options: [`OPTIONS`], lt's [`LT_OPTIONS`] (`lodestar integrators --options`,
+//! `docs/integrators.md`).
 //!
 //! Light subpaths start in the medium around the light (`Scene::light_medium`); lights at
 //! infinity seen through a world medium send none (they are attenuated to nothing).
@@ -67,7 +60,10 @@ use cache::{Cached, cache_subpath, mis_sums};
 use glam::{Vec2, Vec3};
 pub use merging::{LIGHT_STREAMS, SharedLights, densities_from_vertices, mergeable};
 use settings::settings;
-pub use settings::{BdptSettings, RR_DEPTH, TechniqueFilter};
+pub use settings::{
+    BdptSettings, DIRECT_SPLATS_OPTION, LT_OPTIONS, MIS_OPTION, OPTIONS, RR_DEPTH, RR_DEPTH_OPTION,
+    TechniqueFilter, heuristic,
+};
 pub use technique::TECHNIQUE_STREAMS;
 pub use unguided::BdptUnguided;
 pub(crate) use unguided::bdpt_estimate;

@@ -1,9 +1,60 @@
-//! bdpt's and lt's settings: the options of the table in the module doc of `bdpt`, parsed and
-//! checked.
+//! bdpt's and lt's settings: their options declared ([`OPTIONS`]), parsed and checked.
 
 use crate::error::{Error, Result};
 use crate::integrators::IntegratorParams;
+use crate::integrators::options::{DefaultValue, Kind, SAMPLER, Spec};
 use crate::integrators::paths::Heuristic;
+
+/// Option `rr_depth` of bdpt, lt, guided-bdpt and guided-vcm's U.
+pub const RR_DEPTH_OPTION: Spec = Spec {
+    name: "rr_depth",
+    kind: Kind::Int { min: 1 },
+    default: DefaultValue::Int(RR_DEPTH as i64),
+    doc: "roulette on subpaths of this many segments or more (1: from the first bounce, as \
+          SmallVCM and `vcm`)",
+};
+
+/// Option `mis` of bdpt (and of mmlt's techniques).
+pub const MIS_OPTION: Spec = Spec {
+    name: "mis",
+    kind: Kind::Choice(&["balance", "power"]),
+    default: DefaultValue::Word("balance"),
+    doc: "MIS heuristic among the techniques",
+};
+
+/// Option `direct_splats` of bdpt and of guided-bdpt's and guided-vcm's U.
+pub const DIRECT_SPLATS_OPTION: Spec = Spec {
+    name: "direct_splats",
+    kind: Kind::Bool,
+    default: DefaultValue::Bool(false),
+    doc: "directly seen emitters also by technique (1, 1), MIS-weighted (off: a directly \
+          seen emitter through vacuum is left to the camera ray in the pixels it fills, \
+          `paths/terms.rs`)",
+};
+
+/// The options of lt.
+pub const LT_OPTIONS: &[Spec] = &[RR_DEPTH_OPTION, SAMPLER];
+
+/// The options of bdpt.
+pub const OPTIONS: &[Spec] = &[
+    RR_DEPTH_OPTION,
+    MIS_OPTION,
+    Spec {
+        name: "only",
+        kind: Kind::Text("a technique 's,t'"),
+        default: DefaultValue::Absent,
+        doc: "render technique (s, t) alone, MIS-weighted: the images of every \
+              technique sum to the bdpt image",
+    },
+    Spec {
+        name: "skip",
+        kind: Kind::Text("a technique 's,t'"),
+        default: DefaultValue::Absent,
+        doc: "leave technique (s, t) out (biased: a control for tests)",
+    },
+    SAMPLER,
+    DIRECT_SPLATS_OPTION,
+];
 
 /// Options of bdpt and lt (and of U in guided-bdpt and guided-vcm).
 #[derive(Debug, Clone, PartialEq)]
@@ -69,41 +120,31 @@ fn technique(key: &str, v: &str) -> Result<(usize, usize)> {
 pub const RR_DEPTH: u32 = 1;
 
 pub(super) fn settings(params: &IntegratorParams, light_tracing: bool) -> Result<BdptSettings> {
-    let o = &params.options;
-    let rr_depth = o.get("rr_depth", RR_DEPTH, "an integer >= 1")?;
-    if rr_depth == 0 {
-        return Err(Error::new(
-            "option 'rr_depth': expected an integer >= 1, got 0",
-        ));
-    }
+    let o = params.options.declared(&[OPTIONS]);
+    let rr_depth = o.int("rr_depth")?;
     let heuristic = if light_tracing {
         Heuristic::Balance
     } else {
-        match o.choice("mis", "balance", &["balance", "power"])? {
-            "power" => Heuristic::Power,
-            _ => Heuristic::Balance,
-        }
+        heuristic(&o)?
     };
     let mut techniques = TechniqueFilter::All;
     if !light_tracing {
-        let only = o.get("only", String::new(), "a technique 's,t'")?;
-        let skip = o.get("skip", String::new(), "a technique 's,t'")?;
-        techniques = match (only.is_empty(), skip.is_empty()) {
-            (true, true) => TechniqueFilter::All,
-            (false, true) => {
+        techniques = match (o.text("only")?, o.text("skip")?) {
+            (None, None) => TechniqueFilter::All,
+            (Some(only), None) => {
                 let (s, t) = technique("only", &only)?;
                 TechniqueFilter::Only(s, t)
             }
-            (true, false) => {
+            (None, Some(skip)) => {
                 let (s, t) = technique("skip", &skip)?;
                 TechniqueFilter::Skip(s, t)
             }
-            (false, false) => {
+            (Some(_), Some(_)) => {
                 return Err(Error::new("options 'only' and 'skip' exclude each other"));
             }
         };
     }
-    let direct_splats = !light_tracing && o.get("direct_splats", false, "true or false")?;
+    let direct_splats = !light_tracing && o.flag("direct_splats")?;
     Ok(BdptSettings {
         max_depth: params.max_depth,
         rr_depth,
@@ -111,5 +152,13 @@ pub(super) fn settings(params: &IntegratorParams, light_tracing: bool) -> Result
         light_tracing,
         techniques,
         direct_splats,
+    })
+}
+
+/// Option `mis` ([`MIS_OPTION`]) read through `o`.
+pub fn heuristic(o: &crate::integrators::options::Declared) -> Result<Heuristic> {
+    Ok(match o.word(MIS_OPTION.name)? {
+        "power" => Heuristic::Power,
+        _ => Heuristic::Balance,
     })
 }

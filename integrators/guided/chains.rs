@@ -50,7 +50,8 @@
 //! whatever they find.
 
 use super::cache::Record;
-use super::estimator::{Collector, RowOutput};
+use super::collector::Collector;
+use super::estimator::RowOutput;
 use super::seeder::{Explore, LearnPass, LearnRow, Outliers, Seeder, Source};
 use super::share;
 use crate::integrators::mcmc::bootstrap::pick_by_importance;
@@ -148,14 +149,19 @@ pub struct ChainSettings {
     pub spread: u32,
 }
 
+impl ChainSettings {
+    /// The default settings (the `chain_*` options' defaults).
+    pub const DEFAULT: ChainSettings = ChainSettings {
+        share: 0.25,
+        large_step: 0.1,
+        target: ChainTarget::Mixture,
+        spread: 7,
+    };
+}
+
 impl Default for ChainSettings {
     fn default() -> Self {
-        ChainSettings {
-            share: 0.25,
-            large_step: 0.1,
-            target: ChainTarget::Mixture,
-            spread: 7,
-        }
+        ChainSettings::DEFAULT
     }
 }
 

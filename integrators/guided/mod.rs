@@ -27,33 +27,7 @@
 //! U's side is `integrators/unguided.rs` (the traits) and each estimator's own `unguided.rs`
 //! (`pt/`, `bdpt/`, `vcm/`).
 //!
-//! | option          | type          | default | meaning |
-//! |-----------------|---------------|---------|---------|
-//! | max_depth       | integer >= 1  | 8       | maximum number of segments (`--max-depth`) |
-//! | rr_depth        | integer >= 1  | U's     | U's Russian roulette start: 5 for guided-pt (pt's), 1 for guided-bdpt (bdpt's) |
-//! | alpha           | (0, 1]        | 0.5     | unguided share once the cache is non-empty (`--alpha`) |
-//! | share           | `auto` / `fixed` | `auto` | `auto`: keep α only where learning measured that guiding pays (`driver.rs`), else α = 1 |
-//! | mis             | `balance`     | `balance` | guided-bdpt only: `power` is an error (it does not mix with a further technique) |
-//! | learn_fraction  | [0, 1)        | 0.1     | share of the budget spent learning (`--learn-fraction`) |
-//! | max_guides      | integer >= 1  | 100000  | cache capacity; the lightest guide paths go first (`--max-guides`) |
-//! | intake          | integer >= 1  | 100     | outliers kept per worker (band of rows) and iteration |
-//! | weights         | `second_moment` / `c` | `second_moment` | selection weights: half the spec's `C` of each guide path and half each guide's share of the learning samples' second moment, or the spec's `C` alone (`cache/mod.rs`) |
-//! | kernel_width    | number > 0    | 3       | factor on the conditional Gaussians' standard deviations (1: the spec's; `cache/build.rs`) |
-//! | first_width     | number > 0    | 2       | factor on the first-vertex kernel's width (1: the spec's) |
-//! | first_width_specular | number > 0 | 6     | the same where g_1 is specular (roughness 0); interpolated by roughness in between |
-//! | seeder          | `outliers` / `mcmc` | `outliers` | where guide paths come from: the passes' outliers, or also Markov chains started at them (`chains.rs`, `--seeder`) |
-//! | direct_splats   | `true` / `false` | `false` | guided-bdpt, guided-vcm: U's directly seen emitters also by technique (1, 1), as `bdpt -O direct_splats` |
-//! | radius          | number > 0    | 0.003 x scene radius | guided-vcm: initial merging radius r_0, as `vcm -O radius` |
-//! | radius_alpha    | (0, 1]        | 0.75    | guided-vcm: radius schedule exponent, as `vcm -O alpha` |
-//! | chain_share     | number > 0    | 0.25    | `mcmc`: chain steps per learning iteration, per pixel |
-//! | chain_large_step | [0, 1]       | 0.1     | `mcmc`: large-step probability of the chains |
-//! | chain_target    | `mixture` / `uncovered` | `mixture` | `mcmc`: a chain state's importance: all its sample adds under the current mixture, or only its paths with p_g = 0 (`chains.rs`) |
-//! | chain_spread    | integer >= 0  | 7       | `mcmc`: chain states kept as guide paths lie at least this many pixels apart in x or y, per band of rows and iteration (0: any distance; `seeder.rs`) |
-//! | sampler         | `independent` / `sobol` | `independent` | U's numbers in the render passes (for guided-vcm: its camera subpaths'), as `pt -O sampler` (learning passes, guided samples and chains stay independent: outliers and chain states are replayed from their independent streams) |
-//! | manifold        | [0, 1]        | 0       | probability of the specular-chain step where the guide has a chain of 1-4 delta vertices after a non-delta vertex (`manifold/`; 0: off) |
-//! | keep_learning   | `true` / `false` | `true` | keep the learning passes in the image: each its mixed estimate where the passes before it chose guiding, else U's own (chosen before the pass, so unbiased; see `driver.rs`) |
-//! | save_guides     | path          | —       | write the learned cache (`--save-guides`) |
-//! | load_guides     | path          | —       | start from a saved cache and skip learning (`--load-guides`) |
+//! Options: [`options`] declares them (`lodestar integrators --options`, `docs/integrators.md`).
 //!
 //! ```text
 //! lodestar render scenes/pool.toml --integrator guided-pt --time 60 -O alpha=0.5
@@ -100,6 +74,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
 
 pub mod cache;
+pub mod candidates;
 pub mod chains;
 pub mod collector;
 pub mod coverage;
@@ -110,6 +85,7 @@ pub mod io;
 pub mod kernel;
 pub mod learn;
 pub mod manifold;
+pub mod options;
 pub mod plane;
 pub mod report;
 pub mod sampler;
@@ -119,20 +95,18 @@ pub mod stats;
 
 pub use crate::integrators::paths::contribution;
 
-/// This module's documentation, whose option table lists what every guided integrator reads
-/// (`integrators::option_docs`); an integrator guided through [`build_over`] shows it too.
-pub const OPTIONS_DOC: &str = include_str!("mod.rs");
 pub use chains::{ChainSettings, ChainTarget, Mcmc};
 pub use driver::Guided;
 pub use estimator::{Estimator, Stats};
+pub use options::check_parts;
 pub use seeder::{Outliers, Seeder};
 
 use super::IntegratorParams;
-use super::bdpt::{BdptSettings, BdptUnguided};
+use super::bdpt::{BdptSettings, BdptUnguided, RR_DEPTH};
 use super::paths::Heuristic;
 use super::pt::{PathTracer, PtSettings};
 use super::vcm::VcmUnguided;
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::math::SamplerKind;
 use crate::render::Integrator;
 use cache::{GuideCache, KernelWidths, WeightRule};
@@ -193,11 +167,11 @@ pub struct GuidedSettings {
 impl Default for GuidedSettings {
     fn default() -> Self {
         GuidedSettings {
-            alpha: 0.5,
+            alpha: options::ALPHA,
             share: Share::Auto,
-            learn_fraction: 0.1,
-            max_guides: 100_000,
-            intake: 100,
+            learn_fraction: options::LEARN_FRACTION,
+            max_guides: options::MAX_GUIDES as usize,
+            intake: options::INTAKE as usize,
             damping: 0.5,
             weights: WeightRule::SecondMoment,
             widths: KernelWidths::default(),
@@ -282,7 +256,8 @@ pub fn build_over<U: crate::integrators::unguided::Unguided + 'static>(
     default_rr: u32,
     make: impl FnOnce(u32) -> Result<U>,
 ) -> Result<Box<dyn Integrator>> {
-    let (settings, rr_depth) = options(params, default_rr)?;
+    let (settings, rr_depth) =
+        options::read(params, &[options::COMMON, options::SEEDERS], default_rr)?;
     let unguided = make(rr_depth)?;
     Ok(match settings.chains {
         Some(chains) => Box::new(Guided {
@@ -302,162 +277,10 @@ pub fn build_over<U: crate::integrators::unguided::Unguided + 'static>(
     })
 }
 
-/// Options every guided integrator reads, and U's roulette depth (`default_rr`: U's own).
-fn options(params: &IntegratorParams, default_rr: u32) -> Result<(GuidedSettings, u32)> {
-    crate::path::check_stored_depth("a guided integrator", params.max_depth).map_err(Error::new)?;
-    let o = &params.options;
-    let rr_depth = o.get("rr_depth", default_rr, "an integer >= 1")?;
-    let alpha = o.get("alpha", 0.5f64, "a number in (0, 1]")?;
-    let share = match o.choice("share", "auto", &["auto", "fixed"])? {
-        "fixed" => Share::Fixed,
-        _ => Share::Auto,
-    };
-    let learn_fraction = o.get("learn_fraction", 0.1f64, "a number in [0, 1)")?;
-    let max_guides = o.get("max_guides", 100_000usize, "an integer >= 1")?;
-    let intake = o.get("intake", 100usize, "an integer >= 1")?;
-    let default_widths = KernelWidths::default();
-    let kernel_width = o.get("kernel_width", default_widths.regression, "a number > 0")?;
-    let first_width = o.get("first_width", default_widths.first_vertex, "a number > 0")?;
-    let first_width_specular = o.get(
-        "first_width_specular",
-        default_widths.first_vertex_specular,
-        "a number > 0",
-    )?;
-    let save = o.get("save_guides", String::new(), "a file path")?;
-    let load = o.get("load_guides", String::new(), "a file path")?;
-    let seeder = o.choice("seeder", "outliers", &["outliers", "mcmc"])?;
-    let defaults = ChainSettings::default();
-    let chain_share = o.get("chain_share", defaults.share, "a number > 0")?;
-    let chain_large_step = o.get(
-        "chain_large_step",
-        defaults.large_step,
-        "a number in [0, 1]",
-    )?;
-    let targets = ["mixture", "uncovered", "unguided"];
-    let chain_target = match o.choice("chain_target", "mixture", &targets)? {
-        "uncovered" => ChainTarget::Uncovered,
-        "unguided" => ChainTarget::Unguided,
-        _ => ChainTarget::Mixture,
-    };
-    let chain_spread: u32 = o.get("chain_spread", defaults.spread, "an integer >= 0")?;
-    let keep_learning = o.get("keep_learning", true, "true or false")?;
-    let manifold_share = o.get("manifold", manifold::DEFAULT_SHARE, "a number in [0, 1]")?;
-    let weights = match o.choice("weights", "second_moment", &["second_moment", "c"])? {
-        "c" => WeightRule::C,
-        _ => WeightRule::SecondMoment,
-    };
-    let bad = |key: &str, expected: &str, got: String| {
-        Err(Error::new(format!(
-            "option '{key}': expected {expected}, got {got}"
-        )))
-    };
-    if rr_depth == 0 {
-        return bad("rr_depth", "an integer >= 1", "0".into());
-    }
-    if !(alpha > 0.0 && alpha <= 1.0) {
-        return bad("alpha", "a number in (0, 1]", alpha.to_string());
-    }
-    if !(0.0..1.0).contains(&learn_fraction) {
-        return bad(
-            "learn_fraction",
-            "a number in [0, 1)",
-            learn_fraction.to_string(),
-        );
-    }
-    if !(chain_share > 0.0 && chain_share.is_finite()) {
-        return bad("chain_share", "a number > 0", chain_share.to_string());
-    }
-    if !(0.0..=1.0).contains(&chain_large_step) {
-        return bad(
-            "chain_large_step",
-            "a number in [0, 1]",
-            chain_large_step.to_string(),
-        );
-    }
-    if seeder != "mcmc" {
-        for key in [
-            "chain_share",
-            "chain_large_step",
-            "chain_target",
-            "chain_spread",
-        ] {
-            if o.has(key) {
-                return Err(Error::new(format!(
-                    "option '{key}' belongs to seeder=mcmc (the seeder is '{seeder}')"
-                )));
-            }
-        }
-    }
-    if !(0.0..=1.0).contains(&manifold_share) {
-        return bad("manifold", "a number in [0, 1]", manifold_share.to_string());
-    }
-    if max_guides == 0 {
-        return bad("max_guides", "an integer >= 1", "0".into());
-    }
-    if intake == 0 {
-        return bad("intake", "an integer >= 1", "0".into());
-    }
-    for (key, v) in [
-        ("kernel_width", kernel_width),
-        ("first_width", first_width),
-        ("first_width_specular", first_width_specular),
-    ] {
-        if !(v > 0.0 && v.is_finite()) {
-            return bad(key, "a number > 0", v.to_string());
-        }
-    }
-    for key in ["kernel_width", "first_width", "first_width_specular"] {
-        if !load.is_empty() && o.has(key) {
-            return Err(Error::new(format!(
-                "option '{key}' has no effect with load_guides: a loaded cache keeps the \
-                 kernel widths it was learned with"
-            )));
-        }
-    }
-    let path = |s: String| (!s.is_empty()).then(|| PathBuf::from(s));
-    let settings = GuidedSettings {
-        alpha,
-        share,
-        learn_fraction,
-        max_guides,
-        intake,
-        weights,
-        widths: KernelWidths {
-            regression: kernel_width,
-            first_vertex: first_width,
-            first_vertex_specular: first_width_specular,
-        },
-        save_guides: path(save),
-        load_guides: path(load),
-        chains: (seeder == "mcmc").then_some(ChainSettings {
-            share: chain_share,
-            large_step: chain_large_step,
-            target: chain_target,
-            spread: chain_spread,
-        }),
-        keep_learning,
-        sampler: params.sampler()?,
-        manifold: manifold_share,
-        ..GuidedSettings::default()
-    };
-    Ok((settings, rr_depth))
-}
-
-/// `--part` (`Entry::parts`) of guided-pt and guided-bdpt: only with a saved guide cache,
-/// so that every part renders the same estimator.
-pub fn check_parts(name: &str, o: &super::Options) -> Result<()> {
-    if o.has("load_guides") {
-        return Ok(());
-    }
-    Err(Error::new(format!(
-        "--part with {name}: every part must render with the same saved guide cache \
-         (learn it once with --save-guides, then give each part --load-guides)"
-    )))
-}
-
 /// Build guided-pt (with the chain seeder under `-O seeder=mcmc`) from its parameters.
 pub fn build_pt(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
-    let (settings, rr_depth) = options(params, PtSettings::default().rr_depth)?;
+    let (settings, rr_depth) =
+        options::read(params, options::PT_OPTIONS, PtSettings::default().rr_depth)?;
     let pt = PtSettings {
         max_depth: params.max_depth,
         rr_depth,
@@ -472,35 +295,10 @@ pub fn build_pt(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     })
 }
 
-/// U's settings for guided-bdpt and guided-vcm (`name`), with the balance heuristic.
-fn bdpt_settings(params: &IntegratorParams, name: &str, rr_depth: u32) -> Result<BdptSettings> {
-    if params
-        .options
-        .choice("mis", "balance", &["balance", "power"])?
-        == "power"
-    {
-        return Err(Error::new(format!(
-            "option 'mis': {name} needs 'balance': the guided technique joins BDPT's \
-             techniques by adding n_g p_g to the balance heuristic's denominator, which the \
-             power heuristic has no place for"
-        )));
-    }
-    Ok(BdptSettings {
-        max_depth: params.max_depth,
-        rr_depth,
-        heuristic: Heuristic::Balance,
-        light_tracing: false,
-        techniques: Default::default(),
-        direct_splats: params
-            .options
-            .get("direct_splats", false, "true or false")?,
-    })
-}
-
 /// Build guided-bdpt (with the chain seeder under `-O seeder=mcmc`) from its parameters.
 pub fn build_bdpt(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
-    let (settings, rr_depth) = options(params, crate::integrators::bdpt::RR_DEPTH)?;
-    let bdpt = bdpt_settings(params, "guided-bdpt", rr_depth)?;
+    let (settings, rr_depth) = options::read(params, options::BDPT_OPTIONS, RR_DEPTH)?;
+    let bdpt = options::bdpt_settings(params, "guided-bdpt", rr_depth)?;
     Ok(match settings.chains {
         Some(chains) => {
             let seeder = Mcmc::new(settings.intake, chains);
@@ -512,16 +310,10 @@ pub fn build_bdpt(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
 
 /// Build guided-vcm (outlier seeder only) from its parameters.
 pub fn build_vcm(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
-    let (settings, rr_depth) = options(params, crate::integrators::bdpt::RR_DEPTH)?;
-    let bdpt = bdpt_settings(params, "guided-vcm", rr_depth)?;
-    if settings.chains.is_some() {
-        return Err(Error::new(
-            "option 'seeder': guided-vcm takes 'outliers' only: a Markov chain replays one \
-             sample alone, and vcm's samples share their pass's light subpaths",
-        ));
-    }
+    let (settings, rr_depth) = options::read(params, options::VCM_OPTIONS, RR_DEPTH)?;
+    let bdpt = options::bdpt_settings(params, "guided-vcm", rr_depth)?;
     let (radius, radius_alpha) =
-        crate::integrators::vcm::radius_options(&params.options, "radius_alpha")?;
+        crate::integrators::vcm::radius_options(&params.options.declared(options::VCM_OPTIONS))?;
     let seeder = Outliers::new(settings.intake);
     Ok(Box::new(Guided {
         name: "guided-vcm",

@@ -46,19 +46,11 @@ use glam::{DVec3, Vec2};
 pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     // One chain group per path length, each with its own bootstrap: lengths must be few.
     crate::path::check_stored_depth("mmlt", params.max_depth).map_err(Error::new)?;
-    let o = &params.options;
-    let heuristic = match o.choice("mis", "balance", &["balance", "power"])? {
-        "power" => Heuristic::Power,
-        _ => Heuristic::Balance,
-    };
-    let mut settings = super::settings(o)?;
-    settings.direct_every = o.get("specular_every", settings.direct_every, "an integer >= 1")?;
-    if settings.direct_every == 0 {
-        return Err(Error::new(
-            "option 'specular_every': expected an integer >= 1, got 0",
-        ));
-    }
-    settings.split = if o.get("separate_specular", false, "true or false")? {
+    let o = params.options.declared(super::MMLT_OPTIONS);
+    let heuristic = crate::integrators::bdpt::heuristic(&o)?;
+    let mut settings = super::settings(&params.options)?;
+    settings.direct_every = o.int("specular_every")?;
+    settings.split = if o.flag("separate_specular")? {
         Split::Always
     } else {
         Split::Never

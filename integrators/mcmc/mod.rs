@@ -13,18 +13,8 @@
 //! driver (`driver.rs`) explains the bootstrap, the chain schedule and the splatting, and
 //! `primary.rs` the lazily mutated primary samples.
 //!
-//! | option     | type                    | default  | meaning |
-//! |------------|-------------------------|----------|---------|
-//! | bootstrap  | integer >= 1            | 100000   | bootstrap samples (per path length for `mmlt`) |
-//! | chains     | integer >= 1            | 1024     | Markov chains over all groups |
-//! | large_step | number in [0, 1]        | 0.3      | probability of a large step (a fresh sample) |
-//! | small_step | `kelemen` / `gaussian`  | `kelemen`| small-step kernel |
-//! | s1, s2     | 0 < s1 <= s2 < 1        | 1/1024, 1/64 | Kelemen's smallest and largest step |
-//! | sigma      | number in (0, 1)        | 0.01     | deviation of the Gaussian step |
-//! | rr_depth, strategy | as in `pt`      | as in `pt` | `pssmlt`: pt's own settings (`mmlt` walks fixed lengths and never plays roulette) |
-//! | mis        | `balance` / `power`     | `balance`| `mmlt`: MIS heuristic among the techniques of a length |
-//! | separate_specular | `true` / `false` | `false`  | `mmlt`: the s = 0 technique on paths E S* L (lights seen directly or through mirrors and glass) estimated per pixel, not by the chains (`mmlt.rs`) |
-//! | specular_every | integer >= 1        | 4        | `mmlt`: a pixel's sample of those paths every this many passes (every pixel in the first) |
+//! Options: [`PSSMLT_OPTIONS`], [`MMLT_OPTIONS`] (`lodestar integrators --options`,
+//! `docs/integrators.md`).
 //!
 //! ```text
 //! lodestar render scenes/ajar.toml --integrator mmlt --time 60
@@ -45,40 +35,100 @@ pub use primary::{PrimarySampler, ReplaySampler, SmallStep};
 pub use pssmlt::{PssTarget, Pssmlt};
 pub use target::{Contribution, McmcSettings, Split, Target};
 
+use super::options::{DefaultValue, Kind, Spec};
 use super::{IntegratorParams, Options};
 use crate::error::{Error, Result};
 
+/// The chain options common to pssmlt and mmlt.
+const CHAIN_OPTIONS: &[Spec] = &[
+    Spec {
+        name: "bootstrap",
+        kind: Kind::Int { min: 1 },
+        default: DefaultValue::Int(target::BOOTSTRAP),
+        doc: "bootstrap samples (per path length for `mmlt`)",
+    },
+    Spec {
+        name: "chains",
+        kind: Kind::Int { min: 1 },
+        default: DefaultValue::Int(target::CHAINS),
+        doc: "Markov chains over all groups",
+    },
+    Spec {
+        name: "large_step",
+        kind: Kind::closed(0.0, 1.0),
+        default: DefaultValue::Number(target::LARGE_STEP),
+        doc: "probability of a large step (a fresh sample)",
+    },
+    Spec {
+        name: "small_step",
+        kind: Kind::Choice(&["kelemen", "gaussian"]),
+        default: DefaultValue::Word("kelemen"),
+        doc: "small-step kernel",
+    },
+    Spec {
+        name: "s1",
+        kind: Kind::open(0.0, 1.0),
+        default: DefaultValue::Number(primary::S1),
+        doc: "`kelemen`: the smallest step (s1 <= s2)",
+    },
+    Spec {
+        name: "s2",
+        kind: Kind::open(0.0, 1.0),
+        default: DefaultValue::Number(primary::S2),
+        doc: "`kelemen`: the largest step",
+    },
+    Spec {
+        name: "sigma",
+        kind: Kind::open(0.0, 1.0),
+        default: DefaultValue::Number(primary::SIGMA),
+        doc: "`gaussian`: deviation of the Gaussian step",
+    },
+];
+
+/// The options of pssmlt: the chains', and pt's `rr_depth` and `strategy`.
+pub const PSSMLT_OPTIONS: &[&[Spec]] = &[
+    CHAIN_OPTIONS,
+    &[super::pt::RR_DEPTH_OPTION, super::pt::STRATEGY_OPTION],
+];
+
+/// The options of mmlt (which walks fixed lengths and never plays roulette).
+pub const MMLT_OPTIONS: &[&[Spec]] = &[
+    CHAIN_OPTIONS,
+    &[
+        super::bdpt::MIS_OPTION,
+        Spec {
+            name: "separate_specular",
+            kind: Kind::Bool,
+            default: DefaultValue::Bool(false),
+            doc: "the s = 0 technique on paths E S* L (lights seen directly or through mirrors \
+                  and glass) estimated per pixel, not by the chains (`mmlt.rs`)",
+        },
+        Spec {
+            name: "specular_every",
+            kind: Kind::Int { min: 1 },
+            default: DefaultValue::Int(target::DIRECT_EVERY),
+            doc: "with `separate_specular`: a pixel's sample of those paths every this many \
+                  passes (every pixel in the first)",
+        },
+    ],
+];
+
 /// The chain settings common to both integrators.
 pub fn settings(o: &Options) -> Result<McmcSettings> {
+    let o = o.declared(&[CHAIN_OPTIONS]);
     let d = McmcSettings::default();
-    let bootstrap = o.get("bootstrap", d.bootstrap, "an integer >= 1")?;
-    let chains = o.get("chains", d.chains, "an integer >= 1")?;
-    for (key, v) in [("bootstrap", bootstrap), ("chains", chains)] {
-        if v == 0 {
-            return Err(Error::new(format!(
-                "option '{key}': expected an integer >= 1, got 0"
-            )));
-        }
-    }
-    let large_step = o.get("large_step", d.large_step, "a number in [0, 1]")?;
-    if !(0.0..=1.0).contains(&large_step) {
-        return Err(Error::new(format!(
-            "option 'large_step': expected a number in [0, 1], got {large_step}"
-        )));
-    }
-    let kind = o.choice("small_step", "kelemen", &["kelemen", "gaussian"])?;
+    let bootstrap = o.int("bootstrap")?;
+    let chains = o.int("chains")?;
+    let large_step = o.number("large_step")?;
+    let kind = o.word("small_step")?;
     let small_step = if kind == "gaussian" {
-        let sigma = o.get("sigma", 0.01f64, "a number in (0, 1)")?;
-        if !(sigma > 0.0 && sigma < 1.0) {
-            return Err(Error::new(format!(
-                "option 'sigma': expected a number in (0, 1), got {sigma}"
-            )));
+        SmallStep::Gaussian {
+            sigma: o.number("sigma")?,
         }
-        SmallStep::Gaussian { sigma }
     } else {
-        let s1 = o.get("s1", 1.0f64 / 1024.0, "a number in (0, 1)")?;
-        let s2 = o.get("s2", 1.0f64 / 64.0, "a number in (0, 1)")?;
-        if !(s1 > 0.0 && s1 <= s2 && s2 < 1.0) {
+        let s1 = o.number("s1")?;
+        let s2 = o.number("s2")?;
+        if s1 > s2 {
             return Err(Error::new(format!(
                 "options 's1', 's2': expected 0 < s1 <= s2 < 1, got s1 = {s1}, s2 = {s2}"
             )));

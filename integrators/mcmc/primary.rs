@@ -52,12 +52,16 @@ pub enum SmallStep {
     },
 }
 
+/// Kelemen's default smallest step.
+pub const S1: f64 = 1.0 / 1024.0;
+/// Kelemen's default largest step.
+pub const S2: f64 = 1.0 / 64.0;
+/// The Gaussian step's default deviation.
+pub const SIGMA: f64 = 0.01;
+
 impl Default for SmallStep {
     fn default() -> Self {
-        SmallStep::Kelemen {
-            s1: 1.0 / 1024.0,
-            s2: 1.0 / 64.0,
-        }
+        SmallStep::Kelemen { s1: S1, s2: S2 }
     }
 }
 

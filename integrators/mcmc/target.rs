@@ -96,15 +96,24 @@ pub struct McmcSettings {
     pub faults: Faults,
 }
 
+/// Default bootstrap samples (per path length for mmlt).
+pub const BOOTSTRAP: i64 = 100_000;
+/// Default number of chains.
+pub const CHAINS: i64 = 1024;
+/// Default large-step probability.
+pub const LARGE_STEP: f64 = 0.3;
+/// Default passes between a pixel's samples of the separated paths (mmlt).
+pub const DIRECT_EVERY: i64 = 4;
+
 impl Default for McmcSettings {
     fn default() -> Self {
         McmcSettings {
-            bootstrap: 100_000,
-            chains: 1024,
-            large_step: 0.3,
+            bootstrap: BOOTSTRAP as u64,
+            chains: CHAINS as u64,
+            large_step: LARGE_STEP,
             small_step: SmallStep::default(),
             split: Split::Never,
-            direct_every: 4,
+            direct_every: DIRECT_EVERY as u64,
             faults: Faults::default(),
         }
     }

@@ -22,16 +22,18 @@
 //! next-event value once its visibility is known); elsewhere pt traces one path at a time
 //! whatever the option says.
 
+use super::round::{ROUND, Round};
 use super::wavefront::{self, Isa};
-use super::{Deferred, Extras, PathState, PathTracer};
+use super::{Extras, PathState, PathTracer};
 use crate::error::Result;
 use crate::integrators::IntegratorParams;
+use crate::integrators::options::{DefaultValue, Kind, Spec};
 use crate::math::{Sampler, SamplerKind, Spectrum};
 use crate::render::{
     Budget, Integrator, PixelEstimator, RenderContext, RenderResult, render_pixel_estimator,
 };
 use crate::scene::Scene;
-use glam::{Vec2, Vec3};
+use glam::Vec2;
 
 /// When pt traces a row's paths together.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -57,14 +59,23 @@ pub enum Tracing {
     Single,
 }
 
+/// Option `batch` of pt.
+pub const BATCH_OPTION: Spec = Spec {
+    name: "batch",
+    kind: Kind::Choice(&["auto", "wavefront", "on", "off"]),
+    default: DefaultValue::Word("auto"),
+    doc: "trace a row's paths together, segment by segment: `wavefront` shades them sixteen at \
+          a time in AVX-512 registers where the scene's materials and lights allow \
+          (`pt/wavefront/`), `on` traces their rays together so that misses in a large BVH \
+          overlap (`pt/batch.rs`), `auto` takes the wavefront where it applies and batches \
+          where that pays; the same image bit for bit in every mode",
+};
+
 impl BatchMode {
     /// The mode of option `batch` (`auto`, `wavefront`, `on`, `off`).
     pub fn parse(params: &IntegratorParams) -> Result<BatchMode> {
         Ok(
-            match params
-                .options
-                .choice("batch", "auto", &["auto", "wavefront", "on", "off"])?
-            {
+            match params.options.declared(&[&[BATCH_OPTION]]).word("batch")? {
                 "wavefront" => BatchMode::Wavefront,
                 "on" => BatchMode::On,
                 "off" => BatchMode::Off,
@@ -161,69 +172,6 @@ impl PixelEstimator for Batched<'_> {
             Some(isa) => self.0.li_row_wavefront(scene, rasters, samplers, out, isa),
             None => self.0.li_row(scene, rasters, samplers, out),
         }
-    }
-}
-
-thread_local! {
-    /// The calling thread's round buffers, kept from row to row (also the wavefront's).
-    pub(super) static ROUND: std::cell::RefCell<Round> = std::cell::RefCell::new(Round::default());
-}
-
-/// One round's buffers, kept across rounds.
-#[derive(Default)]
-pub(super) struct Round {
-    pub(super) hits: Vec<Option<crate::geometry::Hit>>,
-    /// Per path, whether it goes on after this round.
-    pub(super) alive: Vec<bool>,
-    /// Next-event samples of the round, and the path (index in the round) of each.
-    pub(super) deferred: Vec<Deferred>,
-    pub(super) owner: Vec<usize>,
-    rays: Vec<crate::geometry::Ray>,
-    queries: Vec<(Vec3, Vec3, f32)>,
-    free: Vec<bool>,
-}
-
-impl Round {
-    /// Start a round: the closest hits of the paths' rays into `hits`, the other buffers
-    /// cleared.
-    pub(super) fn trace(&mut self, scene: &Scene, paths: &[(usize, PathState)]) {
-        self.rays.clear();
-        self.rays.extend(paths.iter().map(|(_, p)| p.ray));
-        scene.intersect_many(&self.rays, &mut self.hits);
-        self.alive.clear();
-        self.deferred.clear();
-        self.owner.clear();
-    }
-
-    /// End a round once every path has pushed its `alive` flag and its next-event samples:
-    /// the shadow rays traced together, each visible sample added to its path's radiance in
-    /// the order they were pushed, and the paths that ended written to `out` (at their
-    /// raster index) and dropped.
-    pub(super) fn settle(
-        &mut self,
-        scene: &Scene,
-        paths: &mut Vec<(usize, PathState)>,
-        out: &mut [Spectrum],
-    ) {
-        self.queries.clear();
-        self.queries
-            .extend(self.deferred.iter().filter_map(|d| d.query));
-        scene.unoccluded_many(&self.queries, &mut self.free);
-        let mut free = self.free.iter();
-        for (d, &k) in self.deferred.iter().zip(&self.owner) {
-            let visible = d.query.is_none() || *free.next().expect("one answer per query");
-            let value = if visible { d.value } else { Spectrum::ZERO };
-            let path = &mut paths[k].1;
-            path.l += d.beta * value;
-        }
-        let mut alive = self.alive.iter();
-        paths.retain(|(i, path)| {
-            let keep = *alive.next().expect("one flag per path");
-            if !keep {
-                out[*i] = path.l;
-            }
-            keep
-        });
     }
 }
 

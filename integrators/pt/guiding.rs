@@ -17,11 +17,7 @@
 //! and the render's passes run with it: the image does not depend on the number of threads
 //! (fixed-point sums), and under `--spp` not on the machine either.
 //!
-//! | option          | type          | default | meaning |
-//! |-----------------|---------------|---------|---------|
-//! | guiding         | `none` / `sdtree` | `none` | learn and sample the tree |
-//! | guide_fraction  | (0, 1)        | 0.7     | probability of drawing the continuation from the tree where it has learned something (Müller et al. use 0.5; 0.7 measured the lower error on dining and pool) |
-//! | learn_fraction  | (0, 1)        | 0.25    | share of the budget spent learning |
+//! Options `guiding`, `guide_fraction`, `learn_fraction`: in pt's table (`super::OPTIONS`).
 //!
 //! Only pt's own continuation is guided: guided-pt, pssmlt and the recorders use pt without
 //! the tree, and media scatter by their phase function. With `--part`, each part learns its
@@ -33,6 +29,7 @@ use super::sdtree::{DTree, INV_FOUR_PI, SdTree, from_square, to_square};
 use crate::bsdf::{BsdfSample, TransportMode};
 use crate::error::{Error, Result};
 use crate::integrators::IntegratorParams;
+use crate::integrators::options::{DefaultValue, Kind, Spec};
 use crate::math::{IndependentSampler, Sampler, SamplerKind, Spectrum, luminance};
 use crate::render::{
     Budget, Integrator, PixelEstimator, RenderContext, RenderResult, render_pixel_estimator,
@@ -53,10 +50,37 @@ pub struct GuidingSettings {
     pub learn_fraction: f64,
 }
 
+/// Option `guiding` of pt.
+pub const GUIDING_OPTION: Spec = Spec {
+    name: "guiding",
+    kind: Kind::Choice(&["none", "sdtree"]),
+    default: DefaultValue::Word("none"),
+    doc: "`sdtree`: learn a distribution of incident radiance and mix it with BSDF sampling at \
+          rough surfaces (`pt/guiding.rs`)",
+};
+
+/// Option `guide_fraction` of pt.
+pub const GUIDE_FRACTION_OPTION: Spec = Spec {
+    name: "guide_fraction",
+    kind: Kind::open(0.0, 1.0),
+    default: DefaultValue::Number(0.7),
+    doc: "`guiding=sdtree`: probability of drawing the continuation from the tree where it has \
+          learned something (Müller et al. use 0.5; 0.7 measured the lower error on dining and \
+          pool)",
+};
+
+/// Option `learn_fraction` of pt.
+pub const LEARN_FRACTION_OPTION: Spec = Spec {
+    name: "learn_fraction",
+    kind: Kind::open(0.0, 1.0),
+    default: DefaultValue::Number(0.25),
+    doc: "`guiding=sdtree`: share of the budget spent learning",
+};
+
 /// The guiding options of pt; `None` without `guiding=sdtree`.
 pub fn settings(params: &IntegratorParams) -> Result<Option<GuidingSettings>> {
-    let o = &params.options;
-    if o.choice("guiding", "none", &["none", "sdtree"])? == "none" {
+    let o = params.options.declared(&[super::OPTIONS]);
+    if o.word("guiding")? == "none" {
         for key in ["guide_fraction", "learn_fraction"] {
             if o.has(key) {
                 return Err(Error::new(format!(
@@ -66,18 +90,8 @@ pub fn settings(params: &IntegratorParams) -> Result<Option<GuidingSettings>> {
         }
         return Ok(None);
     }
-    let guide_fraction = o.get("guide_fraction", 0.7f32, "a number in (0, 1)")?;
-    if !(guide_fraction > 0.0 && guide_fraction < 1.0) {
-        return Err(Error::new(format!(
-            "option 'guide_fraction': expected a number in (0, 1), got {guide_fraction}"
-        )));
-    }
-    let learn_fraction = o.get("learn_fraction", 0.25f64, "a number in (0, 1)")?;
-    if !(learn_fraction > 0.0 && learn_fraction < 1.0) {
-        return Err(Error::new(format!(
-            "option 'learn_fraction': expected a number in (0, 1), got {learn_fraction}"
-        )));
-    }
+    let guide_fraction = o.number("guide_fraction")? as f32;
+    let learn_fraction = o.number("learn_fraction")?;
     Ok(Some(GuidingSettings {
         guide_fraction,
         learn_fraction,

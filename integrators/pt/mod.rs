@@ -5,14 +5,7 @@
 //! sampling that hits emitters, weighting the two by the power heuristic; paths continue by
 //! BSDF sampling with Russian roulette.
 //!
-//! | option    | type                   | default | meaning |
-//! |-----------|------------------------|---------|---------|
-//! | max_depth | integer >= 1           | 8       | maximum number of path segments; 1 shows only emitters seen directly, 2 is direct lighting (`--max-depth`) |
-//! | rr_depth  | integer >= 1           | 5       | Russian roulette starts on paths of this many segments (Mitsuba's default) |
-//! | strategy  | `mis` / `bsdf` / `nee` | `mis`   | `bsdf`: emitters only found by BSDF sampling; `nee`: only by next-event estimation (except after delta bounces and for the camera ray) |
-//! | batch     | `auto` / `wavefront` / `on` / `off` | `auto` | trace a row's paths together, segment by segment: `wavefront` shades them sixteen at a time in AVX-512 registers where the scene's materials and lights allow (`wavefront/`), `on` traces their rays together so that misses in a large BVH overlap (`batch.rs`), `auto` takes the wavefront where it applies and batches where that pays; the same image bit for bit in every mode |
-//! | sampler   | `independent` / `sobol` | `independent` | `sobol`: padded Owen-scrambled Sobol points per pixel (`math/sobol.rs`), stratifying every pair of numbers a path draws over the pixel's samples; unbiased, and lower error on smooth integrands (direct light from area lights) |
-//! | guiding   | `none` / `sdtree`      | `none`  | `sdtree`: learn a distribution of incident radiance and mix it with BSDF sampling at rough surfaces (`guiding.rs`, which also lists `guide_fraction` and `learn_fraction`) |
+//! Options: [`OPTIONS`] (`lodestar integrators --options`, `docs/integrators.md`).
 //!
 //! Roulette continues with the local probability of the vertex (`Bsdf::continuation`: its
 //! largest reflectance, 1 for glass; a medium's albedo), so that the density of any path, roulette
@@ -32,6 +25,7 @@
 //! ```
 
 use super::IntegratorParams;
+use super::options::{DefaultValue, Kind, SAMPLER, Spec};
 use crate::bsdf::TransportMode;
 use crate::error::{Error, Result};
 use crate::geometry::Ray;
@@ -54,6 +48,7 @@ mod direct;
 mod emission;
 pub mod guiding;
 mod recording;
+mod round;
 pub mod sdtree;
 mod unguided;
 pub mod wavefront;
@@ -84,16 +79,47 @@ impl Default for PtSettings {
     fn default() -> Self {
         PtSettings {
             max_depth: 8,
-            rr_depth: 5,
+            rr_depth: RR_DEPTH as u32,
             strategy: Strategy::Mis,
         }
     }
 }
 
+/// pt's default roulette start (Mitsuba's).
+const RR_DEPTH: i64 = 5;
+
+/// Option `rr_depth` of pt (and of pssmlt).
+pub const RR_DEPTH_OPTION: Spec = Spec {
+    name: "rr_depth",
+    kind: Kind::Int { min: 1 },
+    default: DefaultValue::Int(RR_DEPTH),
+    doc: "Russian roulette starts on paths of this many segments (Mitsuba's default)",
+};
+
+/// Option `strategy` of pt (and of pssmlt).
+pub const STRATEGY_OPTION: Spec = Spec {
+    name: "strategy",
+    kind: Kind::Choice(&["mis", "bsdf", "nee"]),
+    default: DefaultValue::Word("mis"),
+    doc: "`bsdf`: emitters only found by BSDF sampling; `nee`: only by next-event estimation \
+          (except after delta bounces and for the camera ray)",
+};
+
+/// pt's options.
+pub const OPTIONS: &[Spec] = &[
+    RR_DEPTH_OPTION,
+    STRATEGY_OPTION,
+    batch::BATCH_OPTION,
+    SAMPLER,
+    guiding::GUIDING_OPTION,
+    guiding::GUIDE_FRACTION_OPTION,
+    guiding::LEARN_FRACTION_OPTION,
+];
+
 /// `--part` (`Entry::parts`): pt's passes are independent, except with `guiding=sdtree`,
 /// whose tree each part would learn from its own passes.
 pub fn check_parts(_: &str, o: &super::Options) -> Result<()> {
-    if o.get("guiding", String::from("none"), "a word")? == "sdtree" {
+    if o.declared(&[OPTIONS]).word("guiding")? == "sdtree" {
         return Err(Error::new(
             "--part with pt -O guiding=sdtree: each part would learn its own tree from its \
              own passes, so the parts would not be slices of one render",
@@ -108,7 +134,7 @@ pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
         settings: settings(params)?,
     };
     let batch = BatchMode::parse(params)?;
-    let sampler = params.sampler()?;
+    let sampler = super::options::sampler(&params.options.declared(&[OPTIONS]))?;
     Ok(match guiding::settings(params)? {
         None => Box::new(batch::Pt { pt, batch, sampler }),
         Some(_) if batch == BatchMode::On => {
@@ -125,20 +151,17 @@ pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     })
 }
 
-/// pt's settings from `max_depth` and the options of the table above (also `pssmlt`'s).
+/// pt's settings from `max_depth` and options `rr_depth` and `strategy` (also `pssmlt`'s).
 pub fn settings(params: &IntegratorParams) -> Result<PtSettings> {
-    let o = &params.options;
-    let strategy = match o.choice("strategy", "mis", &["mis", "bsdf", "nee"])? {
+    let o = params
+        .options
+        .declared(&[&[RR_DEPTH_OPTION, STRATEGY_OPTION]]);
+    let strategy = match o.word("strategy")? {
         "bsdf" => Strategy::Bsdf,
         "nee" => Strategy::Nee,
         _ => Strategy::Mis,
     };
-    let rr_depth = o.get("rr_depth", 5u32, "an integer >= 1")?;
-    if rr_depth == 0 {
-        return Err(Error::new(
-            "option 'rr_depth': expected an integer >= 1, got 0",
-        ));
-    }
+    let rr_depth = o.int("rr_depth")?;
     Ok(PtSettings {
         max_depth: params.max_depth,
         rr_depth,

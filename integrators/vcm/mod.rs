@@ -2,7 +2,7 @@
 //! same estimator as Hachisuka et al.'s unified path sampling); `bpm` — its merging half
 //! alone (bidirectional photon mapping).
 //!
-//! Consistent: the merging radius shrinks over the passes, r_i = r_0 (i + 1)^((alpha - 1) / 2)
+//! Consistent: the merging radius shrinks over the passes, r_i = r_0 (i + 1)^((radius_alpha - 1) / 2)
 //! (i = 0, 1, ... the pass), so the bias of merging vanishes and the image converges to the
 //! unbiased one (DESIGN.md §4). Per pass, with N = the number of pixels:
 //!
@@ -28,14 +28,8 @@
 //! paths with at least one non-delta surface vertex inside, or none that merging could
 //! take: an emitter hit counts in `bpm` when no vertex before it is a merging vertex.
 //!
-//! | option | type              | default                                | meaning |
-//! |--------|-------------------|----------------------------------------|---------|
-//! | max_depth | integer >= 1   | scene                                  | maximum number of segments, as for `pt` |
-//! | radius | number > 0        | 0.003 x the scene's bounding-sphere radius | initial merging radius r_0 (scene units) |
-//! | alpha  | number in (0, 1]  | 0.75                                   | radius schedule exponent (1: fixed radius) |
-//! | merge  | `true` / `false`  | `true`                                 | merging on (`vcm` only; `false` gives BDPT's techniques) |
-//! | direct_splats | `true` / `false` | `false`                         | directly seen emitters also by the light origin's splat, MIS-weighted (`vcm` only; otherwise left to the camera ray through vacuum in the pixels they fill, as bdpt) |
-//! | sampler | `independent` / `sobol` | `independent`                     | whose numbers each pixel's camera subpath draws, as `pt`'s option: `sobol` stratifies every pair of them over the pixel's samples (the passes); light subpaths stay independent (the one of index k is drawn per pass apart from pixel k's camera samples) |
+//! Options: [`OPTIONS`], bpm's [`BPM_OPTIONS`] (`lodestar integrators --options`,
+//! `docs/integrators.md`).
 //!
 //! Light subpaths start in the medium around the light, as in `bdpt`. Limits: no merging in
 //! media.
@@ -55,6 +49,7 @@ pub use light::{LightPaths, Photon};
 pub use unguided::{FastPass, VcmPass, VcmTracer, VcmUnguided};
 
 use super::IntegratorParams;
+use super::options::{Declared, DefaultValue, Kind, SAMPLER, Spec};
 use crate::error::{Error, Result};
 use crate::film::Film;
 use crate::geometry::HashGrid;
@@ -102,42 +97,66 @@ impl VcmSettings {
     }
 }
 
-/// The merging radius and its schedule exponent from options `radius` (a number > 0; absent:
-/// `None`, the scene's default) and `alpha_key` (in (0, 1], default 0.75): vcm's `alpha`,
-/// guided-vcm's `radius_alpha`.
-pub fn radius_options(
-    o: &crate::integrators::Options,
-    alpha_key: &str,
-) -> Result<(Option<f32>, f32)> {
-    let radius = match o.get::<String>("radius", String::new(), "a number > 0")? {
-        r if r.is_empty() => None,
-        r => match r.parse::<f32>() {
-            Ok(v) if v.is_finite() && v > 0.0 => Some(v),
-            _ => {
-                return Err(Error::new(format!(
-                    "option 'radius': expected a number > 0, got '{r}'"
-                )));
-            }
-        },
-    };
-    let alpha: f32 = o.get(alpha_key, 0.75, "a number in (0, 1]")?;
-    if !(alpha > 0.0 && alpha <= 1.0) {
-        return Err(Error::new(format!(
-            "option '{alpha_key}': expected a number in (0, 1], got {alpha}"
-        )));
-    }
+/// Option `radius` of vcm, bpm and guided-vcm.
+pub const RADIUS_OPTION: Spec = Spec {
+    name: "radius",
+    kind: Kind::above(0.0),
+    default: DefaultValue::Computed("0.003 x the scene's bounding-sphere radius"),
+    doc: "initial merging radius r_0 (scene units)",
+};
+
+/// Option `radius_alpha` of vcm, bpm and guided-vcm.
+pub const RADIUS_ALPHA_OPTION: Spec = Spec {
+    name: "radius_alpha",
+    kind: Kind::open_closed(0.0, 1.0),
+    default: DefaultValue::Number(0.75),
+    doc: "radius schedule exponent: r_i = r_0 (i + 1)^((radius_alpha - 1) / 2) in pass i \
+          (1: a fixed radius)",
+};
+
+/// The options of vcm.
+pub const OPTIONS: &[Spec] = &[
+    RADIUS_OPTION,
+    RADIUS_ALPHA_OPTION,
+    Spec {
+        name: "merge",
+        kind: Kind::Bool,
+        default: DefaultValue::Bool(true),
+        doc: "merging on (`false` gives BDPT's techniques)",
+    },
+    Spec {
+        name: "direct_splats",
+        kind: Kind::Bool,
+        default: DefaultValue::Bool(false),
+        doc: "directly seen emitters also by the light origin's splat, MIS-weighted (otherwise \
+              left to the camera ray through vacuum in the pixels they fill, as bdpt)",
+    },
+    SAMPLER,
+];
+
+/// The options of bpm.
+pub const BPM_OPTIONS: &[Spec] = &[RADIUS_OPTION, RADIUS_ALPHA_OPTION, SAMPLER];
+
+/// The merging radius (`None`: the scene's default) and its schedule exponent, options
+/// `radius` and `radius_alpha` read through `o`.
+pub fn radius_options(o: &Declared) -> Result<(Option<f32>, f32)> {
+    let radius = o.number_given(RADIUS_OPTION.name)?.map(|r| r as f32);
+    let alpha = o.number(RADIUS_ALPHA_OPTION.name)? as f32;
     Ok((radius, alpha))
 }
 
 fn settings(params: &IntegratorParams, connect: bool) -> Result<VcmSettings> {
-    let o = &params.options;
-    let (radius, alpha) = radius_options(o, "alpha")?;
-    let merge = if connect {
-        o.get("merge", true, "true or false")?
-    } else {
-        true
-    };
-    let direct_splats = connect && o.get("direct_splats", false, "true or false")?;
+    let o = params.options.declared(&[OPTIONS]);
+    // `alpha` names one thing across integrators: the guided integrators' unguided share.
+    if o.has("alpha") {
+        return Err(Error::new(
+            "option 'alpha': vcm's and bpm's radius schedule exponent is 'radius_alpha' \
+             ('alpha' is the guided integrators' unguided share)",
+        ));
+    }
+    let (radius, alpha) = radius_options(&o)?;
+    let merge = if connect { o.flag("merge")? } else { true };
+    let direct_splats = connect && o.flag("direct_splats")?;
     Ok(VcmSettings {
         max_depth: params.max_depth,
         radius,

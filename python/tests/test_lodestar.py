@@ -95,7 +95,7 @@ def test_scene_from_toml_text_matches_the_exact_furnace():
 
 
 def test_options_and_defines_reach_the_integrator_and_the_scene():
-    _, stats = lodestar.render(TINY, "vcm", spp=1, options={"alpha": 0.5, "merge": False})
+    _, stats = lodestar.render(TINY, "vcm", spp=1, options={"radius_alpha": 0.5, "merge": False})
     assert "alpha: 0.5" in stats["settings"] and "merge: false" in stats["settings"]
     xml = ROOT / "scenes" / "mitsuba" / "cornell-box.xml"
     small, stats = lodestar.render(xml, defines={"res": 20, "spp": 2, "max_depth": 3})
@@ -236,6 +236,13 @@ def test_bench_returns_rows_for_each_run_and_the_medians(tmp_path):
     assert [r["integrator"] for r in medians] == ["pt", "bdpt:mis=power"]
     assert all(r["mse"] > 0 and r["seconds"] > 0 for r in rows)
     assert (tmp_path / "bench").is_dir()
+    # A Mitsuba scene's parameters: at res 8 the 8 x 8 reference fits.
+    xml = ROOT / "scenes" / "mitsuba" / "cornell-box.xml"
+    small, _ = lodestar.render(xml, "pt", spp=2, defines={"res": 8})
+    lodestar.write_exr(tmp_path / "ref8.exr", small)
+    rows8 = lodestar.bench(xml, ["pt"], time=0.05, reference=tmp_path / "ref8.exr", runs=1,
+                           defines={"res": 8})
+    assert rows8[0]["mse"] >= 0
     pandas = pytest.importorskip("pandas")
     frame = pandas.DataFrame(rows)
     assert set(frame.integrator) == {"pt", "bdpt:mis=power"}

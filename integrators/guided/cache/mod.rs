@@ -67,7 +67,7 @@ pub use density::Terms;
 #[cfg(doc)]
 use super::kernel::segment_frame;
 use super::kernel::{FirstKernel, Kernel, Node};
-use super::manifold::ManifoldSettings;
+use super::manifold::settings::ManifoldSettings;
 use super::plane::PlaneKernel;
 use crate::integrators::paths::structure::{HeldKey, SigMap, SigSet};
 use crate::math::AliasTable;
@@ -202,13 +202,18 @@ impl KernelWidths {
     }
 }
 
+impl KernelWidths {
+    /// The default factors (options `kernel_width`, `first_width`, `first_width_specular`).
+    pub const DEFAULT: KernelWidths = KernelWidths {
+        regression: 3.0,
+        first_vertex: 2.0,
+        first_vertex_specular: 6.0,
+    };
+}
+
 impl Default for KernelWidths {
     fn default() -> Self {
-        KernelWidths {
-            regression: 3.0,
-            first_vertex: 2.0,
-            first_vertex_specular: 6.0,
-        }
+        KernelWidths::DEFAULT
     }
 }
 

@@ -24,7 +24,8 @@
 use lodestar::integrators::bdpt::{BdptSettings, BdptUnguided, Tracer};
 use lodestar::integrators::guided::Estimator;
 use lodestar::integrators::guided::cache::{GuideCache, Install};
-use lodestar::integrators::guided::estimator::{Collector, RowOutput};
+use lodestar::integrators::guided::collector::Collector;
+use lodestar::integrators::guided::estimator::RowOutput;
 use lodestar::integrators::guided::kernel;
 use lodestar::integrators::paths::{self, Heuristic};
 use lodestar::integrators::pt::{PathRecorder, PathTracer, PtSettings};

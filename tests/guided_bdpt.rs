@@ -553,7 +553,8 @@ fn guided_renders_do_not_depend_on_the_thread_count() {
 /// f32 densities, the guider's f64 densities recomputed from the vertices.
 #[test]
 fn learning_passes_keep_bdpts_own_estimate() {
-    use lodestar::integrators::guided::estimator::{Collector, RowOutput};
+    use lodestar::integrators::guided::collector::Collector;
+    use lodestar::integrators::guided::estimator::RowOutput;
     use lodestar::integrators::guided::seeder::Source;
     let scene = box_scene("cornell-box.toml", 16);
     let cache = cache_of_bdpt_paths(&scene, 3000);

@@ -4,8 +4,8 @@
 //! classes, outlier candidates) is kept beside it.
 
 use super::cache::Record;
+use super::candidates::{Candidate, Source};
 use super::estimator::{Coverage, Estimator, PG_ZERO_VERTICES, RowOutput};
-use super::seeder::{Candidate, Source};
 use super::{coverage, kernel, share};
 use crate::integrators::paths::{Kind, Vertex};
 use crate::integrators::unguided::{PathSink, Unguided};

@@ -11,7 +11,10 @@
 //! image's error (up to the covariances between classes; `class_variance_over_total`, Σ_c
 //! Var(X_c) / Var(Σ_c X_c), says how far they matter: 1 when the classes are independent).
 
-use super::estimator::RowOutput;
+/// One row of a pass as the accumulator reads it: per pixel of the row the luminance of each
+/// class, and (pixel, class, luminance) of the row's splatted paths and guided samples
+/// (`RowOutput::class_pixels`, `RowOutput::class_splats`).
+pub type ClassRow<'r> = (&'r [[f64; CLASSES]], &'r [(u32, u8, f64)]);
 
 /// The classes: U's paths by [`super::estimator::Coverage`], then the guided samples.
 pub const CLASSES: usize = 4;
@@ -32,8 +35,8 @@ pub struct CoverageVariance {
 impl CoverageVariance {
     /// Add one pass from its rows (row y covers pixels y w .. y w + w − 1); rows without
     /// class values (a pass that evaluated no densities) are skipped.
-    pub fn add_pass(&mut self, rows: &[RowOutput], w: usize) {
-        if rows.iter().all(|r| r.class_pixels.is_empty()) {
+    pub fn add_pass(&mut self, rows: &[ClassRow], w: usize) {
+        if rows.iter().all(|(pixels, _)| pixels.is_empty()) {
             return;
         }
         let n_pix = rows.len() * w;
@@ -45,13 +48,13 @@ impl CoverageVariance {
                 passes: 0,
             };
         }
-        for (y, r) in rows.iter().enumerate() {
-            for (x, v) in r.class_pixels.iter().enumerate() {
+        for (y, (pixels, _)) in rows.iter().enumerate() {
+            for (x, v) in pixels.iter().enumerate() {
                 self.pass[y * w + x] = *v;
             }
         }
-        for r in rows {
-            for &(p, c, lum) in &r.class_splats {
+        for (_, splats) in rows {
+            for &(p, c, lum) in splats.iter() {
                 self.pass[p as usize][c as usize] += lum;
             }
         }
@@ -88,14 +91,6 @@ impl CoverageVariance {
 mod tests {
     use super::*;
 
-    fn row(pixels: Vec<[f64; CLASSES]>, splats: Vec<(u32, u8, f64)>) -> RowOutput {
-        RowOutput {
-            class_pixels: pixels,
-            class_splats: splats,
-            ..RowOutput::default()
-        }
-    }
-
     /// Two pixels, three passes, splats across rows: the variances of hand-computed per-pass
     /// values (a misplaced splat, a class index off by one or a biased variance fails it).
     #[test]
@@ -122,7 +117,7 @@ mod tests {
             ),
         ];
         for (p0, p1, splats) in passes {
-            acc.add_pass(&[row(p0, vec![]), row(p1, splats)], 1);
+            acc.add_pass(&[(&p0, &[]), (&p1, &splats)], 1);
         }
         let var = |xs: [f64; 3]| {
             let m = xs.iter().sum::<f64>() / 3.0;
@@ -145,7 +140,7 @@ mod tests {
     fn needs_two_passes() {
         let mut acc = CoverageVariance::default();
         assert!(acc.variances().is_none());
-        acc.add_pass(&[row(vec![[1.0; CLASSES]], vec![])], 1);
+        acc.add_pass(&[(&[[1.0; CLASSES]], &[])], 1);
         assert!(acc.variances().is_none());
     }
 }

@@ -29,8 +29,9 @@
 //! run chose (saved with it); `share = fixed` uses `alpha`.
 
 use super::cache::{self, GuideCache, RebuildParams, WeightRule};
+use super::collector::Collector;
 use super::coverage::{self, CoverageVariance};
-use super::estimator::{Collector, Estimator, RowOutput, Stats};
+use super::estimator::{Estimator, RowOutput, Stats};
 use super::io;
 use super::report::{self, stat};
 use super::seeder::{Candidate, Explore, LearnPass, LearnRow, Seeder, Source};
@@ -543,7 +544,11 @@ impl<U: Unguided, S: Seeder> Integrator for Guided<U, S> {
                     for r in &rows {
                         render_stats.borrow_mut().add(&r.stats);
                     }
-                    class_variance.borrow_mut().add_pass(&rows, w as usize);
+                    let classes: Vec<_> = rows
+                        .iter()
+                        .map(|r| (&r.class_pixels[..], &r.class_splats[..]))
+                        .collect();
+                    class_variance.borrow_mut().add_pass(&classes, w as usize);
                     spare = Some(est.pass);
                 },
                 |film, passes| {

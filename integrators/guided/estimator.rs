@@ -30,10 +30,9 @@
 //! render passes hand over.
 
 use super::cache::{GuideCache, Record};
-pub use super::collector::Collector;
+use super::candidates::LearnRow;
 use super::kernel::FirstTest;
 use super::manifold::WalkMemo;
-use super::seeder::LearnRow;
 use super::share;
 pub use super::stats::{COVERAGE_CLASSES, FAILURE_REASONS, PG_ZERO_VERTICES, Stats};
 use super::stats::{EDGE, NON_FINITE, ZERO};

@@ -24,29 +24,7 @@ use crate::path::{Path, Vertex as PathVertex, VertexKind};
 use crate::scene::{Endpoint, Scene, SurfacePoint};
 use glam::{Vec2, Vec3};
 
-/// Why a guided sample failed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Failure {
-    /// The first direction leaves the image.
-    OffImage,
-    /// A ray towards a surface vertex hit nothing, or a surface of another kind (delta or
-    /// not) than the guide's vertex.
-    Miss,
-    /// The path's structure (modes, delta flags) differs from the guide's.
-    Structure,
-    /// BSDF or phase sampling produced nothing, or a drawn distance was not positive.
-    Scatter,
-    /// A medium target is not visible or not in the guide's medium.
-    Occluded,
-    /// The step to the emitter does not reach it: a specular or BSDF direction outside a
-    /// light's cone, or a ray towards the emitter that hits something else first.
-    Light,
-    /// The specular-chain step's Newton walk did not converge (`manifold/`).
-    NoConvergence,
-    /// The specular-chain step converged, but the walk from the path's own far end returns
-    /// another chain (the basin indicator is 0 for the path drawn).
-    OtherChain,
-}
+pub use super::stats::Failure;
 
 /// A guided path drawn from a guide path, with what weighing it needs.
 pub struct GuidedSample {

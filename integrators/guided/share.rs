@@ -27,7 +27,7 @@
 //! is evaluated. The choice is global, not per image region. [`EarlyStop`] says when
 //! learning may end before its budget because no ratio pays.
 
-use super::estimator::Stats;
+use super::stats::Stats;
 
 /// Ratios n_g / n_u the render may use (unguided share α = 1 / (1 + r): 1, 0.9, 0.8, 2/3,
 /// 0.5, 1/3, 0.25).

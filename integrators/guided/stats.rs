@@ -2,12 +2,34 @@
 //! work, rays, and where U's second moment sits by what the cache offers it; summed over a
 //! pass's rows and passes, and reported at the end of a render (`report.rs`).
 
-use super::sampler;
+/// Why a guided sample failed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Failure {
+    /// The first direction leaves the image.
+    OffImage,
+    /// A ray towards a surface vertex hit nothing, or a surface of another kind (delta or
+    /// not) than the guide's vertex.
+    Miss,
+    /// The path's structure (modes, delta flags) differs from the guide's.
+    Structure,
+    /// BSDF or phase sampling produced nothing, or a drawn distance was not positive.
+    Scatter,
+    /// A medium target is not visible or not in the guide's medium.
+    Occluded,
+    /// The step to the emitter does not reach it: a specular or BSDF direction outside a
+    /// light's cone, or a ray towards the emitter that hits something else first.
+    Light,
+    /// The specular-chain step's Newton walk did not converge (`manifold/`).
+    NoConvergence,
+    /// The specular-chain step converged, but the walk from the path's own far end returns
+    /// another chain (the basin indicator is 0 for the path drawn).
+    OtherChain,
+}
 
 /// Names of [`Stats::reasons`], in order.
 pub const FAILURE_REASONS: &str =
     "offimage_miss_structure_scatter_occluded_light_noconvergence_otherchain_zero_edge_nonfinite";
-/// Index of the reasons that are not [`sampler::Failure`]s.
+/// Index of the reasons that are not [`Failure`]s.
 pub(super) const ZERO: usize = 8;
 pub(super) const EDGE: usize = 9;
 pub(super) const NON_FINITE: usize = 10;
@@ -25,7 +47,7 @@ pub struct Stats {
     /// another chain, zero contribution, own guide's term zero on re-evaluation (a truncation edge),
     /// non-finite value.
     pub reasons: [u64; 11],
-    /// Failures of the walk ([`sampler::Failure`]) by the vertex it was drawing: x_1 ..
+    /// Failures of the walk ([`Failure`]) by the vertex it was drawing: x_1 ..
     /// x_6, then x_7 and later.
     pub failed_by_vertex: [u64; PG_ZERO_VERTICES],
     /// Evaluations of p_g (paths of a held structure).
@@ -110,7 +132,7 @@ impl Stats {
     }
 
     /// A walk that failed while drawing vertex `v` (1 for x_1).
-    pub(super) fn fail_at(&mut self, why: sampler::Failure, v: usize) {
+    pub(super) fn fail_at(&mut self, why: Failure, v: usize) {
         self.fail(why as usize);
         self.failed_by_vertex[v.clamp(1, PG_ZERO_VERTICES) - 1] += 1;
     }
@@ -119,7 +141,7 @@ impl Stats {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use sampler::Failure::{self, *};
+    use Failure::{self, *};
 
     /// The report names `Stats::reasons` by [`FAILURE_REASONS`] while walks count at
     /// `Failure as usize`: the orders must agree. (The match names every `Failure`.)

@@ -39,6 +39,8 @@ use std::path::{Path, PathBuf};
 pub struct BenchConfig {
     /// The scene file.
     pub scene: PathBuf,
+    /// Mitsuba XML scene parameters (`-D name=value`), overriding the scene's `<default>`s.
+    pub defines: Vec<(String, String)>,
     /// Integrator entries, `name` or `name:key=value:...`; the first is the speed-ups'
     /// baseline.
     pub integrators: Vec<String>,
@@ -111,7 +113,7 @@ pub fn prepare(config: BenchConfig) -> Result<Prepared> {
             "--max-depth must be at least 1 (or -1 for no limit)",
         ));
     }
-    let scene = loader::load_file(&c.scene)?;
+    let scene = loader::load_file_with(&c.scene, &c.defines)?;
     let max_depth = c.max_depth.unwrap_or(scene.render.max_depth);
     for entry in &c.integrators {
         let (name, options) = split_entry(entry).map_err(|e| e.context("--integrators"))?;

@@ -14,7 +14,7 @@
 //! report only in the measured times (and hence spp and error at the budget), never in which
 //! runs it holds.
 
-use super::run::{CurvePoint, Rendered, Run};
+use super::run::{CurvePoint, Job, Rendered, Run, jobs};
 use super::{BenchConfig, Prepared};
 use crate::error::{Error, Result};
 use crate::film::Image;
@@ -23,27 +23,6 @@ use crate::parts::{Part, fingerprint};
 use glam::DVec3;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
-
-/// One render of the bench: integrator (index into the list) and seed.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub struct Job {
-    /// Index of the integrator in the bench's list.
-    pub integrator: usize,
-    /// The render's seed.
-    pub seed: u64,
-}
-
-/// Every run of the bench, in the order one machine renders them (seeds interleaved so that
-/// a slow spell of a shared machine spreads over all integrators).
-pub fn jobs(c: &BenchConfig) -> Vec<Job> {
-    let mut out = Vec::new();
-    for seed in c.seed..c.seed + c.runs as u64 {
-        for integrator in 0..c.integrators.len() {
-            out.push(Job { integrator, seed });
-        }
-    }
-    out
-}
 
 /// The runs of part `part`: dealt round-robin over [`jobs`] with the integrators rotated by
 /// one place per seed (the run of integrator `i` with the `r`-th seed has slot
@@ -70,6 +49,14 @@ fn identity(p: &Prepared) -> Result<Vec<(&'static str, String)>> {
         ("bench_scene_hash", fingerprint(&bytes(&c.scene)?)),
         ("bench_reference_hash", fingerprint(&bytes(&c.reference)?)),
         ("bench_integrators", c.integrators.join(",")),
+        (
+            "bench_defines",
+            c.defines
+                .iter()
+                .map(|(k, v)| format!("{k}={v}"))
+                .collect::<Vec<_>>()
+                .join(","),
+        ),
         ("bench_time", c.seconds.to_string()),
         ("bench_runs", c.runs.to_string()),
         ("bench_seed", c.seed.to_string()),
@@ -312,6 +299,7 @@ mod tests {
     fn shares_cover_every_job_once() {
         let c = BenchConfig {
             scene: PathBuf::new(),
+            defines: Vec::new(),
             integrators: vec!["pt".into(), "bdpt".into(), "vcm".into()],
             seconds: 1.0,
             reference: PathBuf::new(),

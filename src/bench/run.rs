@@ -5,7 +5,7 @@
 //! Nothing here is integrator-specific: any name in the registry runs through
 //! `integrators::render_named_with`.
 
-use super::Prepared;
+use super::{BenchConfig, Prepared};
 use crate::error::Result;
 use crate::film::Image;
 use crate::integrators::{self, IntegratorParams, RunSettings};
@@ -13,6 +13,27 @@ use crate::metrics::{Comparison, compare_crop};
 use crate::render::Budget;
 use crate::snapshot::{Snapshot, Snapshots};
 use std::sync::Mutex;
+
+/// One render of the bench: integrator (index into the list) and seed.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub struct Job {
+    /// Index of the integrator in the bench's list.
+    pub integrator: usize,
+    /// The render's seed.
+    pub seed: u64,
+}
+
+/// Every run of the bench, in the order one machine renders them (seeds interleaved so that
+/// a slow spell of a shared machine spreads over all integrators).
+pub fn jobs(c: &BenchConfig) -> Vec<Job> {
+    let mut out = Vec::new();
+    for seed in c.seed..c.seed + c.runs as u64 {
+        for integrator in 0..c.integrators.len() {
+            out.push(Job { integrator, seed });
+        }
+    }
+    out
+}
 
 /// Fractions of the time budget at which curve points are taken (plus the final image).
 pub const CURVE_FRACTIONS: [f64; 5] = [1.0 / 32.0, 1.0 / 16.0, 1.0 / 8.0, 1.0 / 4.0, 1.0 / 2.0];
@@ -97,7 +118,7 @@ pub fn run_all_controlled(
     control: Option<&crate::render::Control>,
 ) -> Result<Vec<IntegratorRuns>> {
     let c = &p.config;
-    let jobs = super::parts::jobs(c);
+    let jobs = jobs(c);
     let total = jobs.len();
     let mut done = Vec::new();
     for job in jobs {
@@ -113,7 +134,7 @@ pub fn run_all_controlled(
 }
 
 /// Render one job of the bench's list (an integrator and a seed).
-pub fn render_job(p: &Prepared, job: super::parts::Job) -> Result<Rendered> {
+pub fn render_job(p: &Prepared, job: Job) -> Result<Rendered> {
     let c = &p.config;
     let entry = &c.integrators[job.integrator];
     let (run, image, name, settings) = render_one(p, entry, job.seed)?;

@@ -17,9 +17,10 @@
 //! primitives. Batches of rays are tested sixteen at a time instead, each triangle and sphere
 //! against all of them ([`packet`], with AVX-512 or AVX).
 
-use super::bvh::{Prim, SPHERE_TAG, intersect_prim};
+use super::prim::{Prim, SPHERE_TAG, intersect_prim};
 use glam::{Vec2, Vec3A, Vec4};
 
+mod lanes;
 mod packet;
 #[cfg(target_arch = "x86_64")]
 mod packet_avx;
@@ -57,8 +58,8 @@ pub struct Flat {
     /// Indices of the spheres in the primitive list.
     spheres: Vec<u32>,
     /// The triangles and spheres again, one by one, for packets of rays ([`packet`]).
-    packet_tris: Vec<packet::PacketTri>,
-    packet_spheres: Vec<packet::PacketSphere>,
+    packet_tris: Vec<lanes::PacketTri>,
+    packet_spheres: Vec<lanes::PacketSphere>,
     /// The instructions the running CPU has for the group test.
     isa: Isa,
 }
@@ -102,8 +103,8 @@ impl Flat {
             lanes.extend(std::iter::repeat_n(u32::MAX, LANES - chunk.len()));
         }
         Flat {
-            packet_tris: packet::packet_tris(prims, &lanes),
-            packet_spheres: packet::packet_spheres(prims, &spheres),
+            packet_tris: lanes::packet_tris(prims, &lanes),
+            packet_spheres: lanes::packet_spheres(prims, &spheres),
             groups,
             lanes,
             spheres,

@@ -19,7 +19,7 @@
 //! from the mesh's arrays, which the walk never touches (cold misses on pool's water).
 
 use super::TriangleMesh;
-use super::bvh::{Prim, intersect_prim};
+use super::prim::{Prim, intersect_prim};
 use glam::{Affine3A, UVec2, Vec2, Vec3, Vec3A};
 
 /// Padding of every cell and of the height range, in cells, beyond the measured rounding.

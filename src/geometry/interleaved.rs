@@ -16,9 +16,8 @@
 //! where the CPU has AVX (`flat/packet.rs`), else ray by ray; scenes with grid meshes
 //! (`geometry/grid.rs`) are traced ray by ray.
 
-use super::bvh::{
-    Accel, Index, Prim, ShapeGeometry, canonical_dir, count_ray, intersect_prim, surface_hit,
-};
+use super::bvh::{Accel, Index, ShapeGeometry, canonical_dir, count_ray, surface_hit};
+use super::prim::{Prim, intersect_prim};
 use super::{Hit, Ray};
 use crate::prefetch;
 use glam::{UVec2, Vec2, Vec3, Vec3A};

@@ -23,6 +23,7 @@ pub mod heightfield;
 pub mod interleaved;
 pub mod mesh;
 mod node_avx2;
+mod prim;
 pub mod sphere;
 pub mod transform;
 

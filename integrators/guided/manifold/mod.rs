@@ -57,14 +57,16 @@
 //! any technique), and chains longer than [`MAX_CHAIN`]. There the usual mixture draws the
 //! vertex alone.
 
+pub mod settings;
 mod walk;
 
+pub use settings::{DEFAULT_SHARE, ManifoldSettings};
 pub use walk::{ChainMap, From, Goal, Solution, TOLERANCE, chain_map, solve};
 
 use super::cache::GuideCache;
 use super::gaussian::sample_std_trunc;
 use super::kernel::{Node, Reach, dvec};
-use super::sampler::Failure;
+use super::stats::Failure;
 use crate::integrators::paths::Vertex;
 use crate::light::Light;
 use crate::math::Sampler;
@@ -73,37 +75,11 @@ use glam::{DVec3, IVec3, Vec3};
 
 /// Longest chain of delta vertices the step solves.
 pub const MAX_CHAIN: usize = 4;
-/// Default probability of the step where a guide's chain allows it (option `manifold`): off,
-/// since it does not yet pay at equal time (`docs/results.md`, "The specular-chain step").
-pub const DEFAULT_SHARE: f64 = 0.0;
 /// The basin indicator holds when the walk's `x_{a+1}` lies within this times the length of
 /// the segment `x_a → x_{a+1}` of the path's own.
 pub const BASIN: f64 = 1e-3;
 /// The walk's seed offsets are rounded to a grid of this times the scene's radius ([`seed`]).
 pub const SEED_GRID: f64 = 0.1;
-
-/// The step's settings (on the cache: p_g and the sampler read them alike).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct ManifoldSettings {
-    /// Probability of the step where the guide's chain allows it; 0 turns it off.
-    pub share: f64,
-    /// Testing hooks (negative controls), never changed by the renderer: a factor on the
-    /// Jacobian determinant (1; 0 leaves it out of the density), and whether the basin
-    /// indicator applies.
-    pub jacobian: f64,
-    /// Whether the basin indicator applies (see `jacobian`).
-    pub basin: bool,
-}
-
-impl Default for ManifoldSettings {
-    fn default() -> Self {
-        ManifoldSettings {
-            share: DEFAULT_SHARE,
-            jacobian: 1.0,
-            basin: true,
-        }
-    }
-}
 
 /// What the chain's far end is.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -27,7 +27,7 @@ mod shade;
 #[cfg(all(test, target_arch = "x86_64"))]
 mod tests;
 
-use super::batch::{ROUND, Round};
+use super::round::{ROUND, Round};
 use super::{PathState, PathTracer, Strategy};
 use crate::bsdf::Bsdf;
 use crate::math::{Sampler, Spectrum};

@@ -4,7 +4,7 @@
 
 use super::Flat;
 use super::avx::{cross, dot, inside_mask, store};
-use super::packet::{PACKET, Packet, PacketSphere};
+use super::lanes::{PACKET, Packet, PacketSphere};
 use std::arch::x86_64::*;
 
 /// Rays per half packet: one per lane of an AVX register.

@@ -47,6 +47,7 @@ fn main() {
         let reference = reference_for(&scene_file, &out_root, stem, reference_spp, threads);
         let config = BenchConfig {
             scene: scene_file,
+            defines: Vec::new(),
             integrators: names.clone(),
             seconds,
             reference,

@@ -1,7 +1,7 @@
 //! `lodestar bench`: its arguments, and the command that runs a bench, one `--part` of it, or
 //! its report from the parts (`lodestar::bench` does the work).
 
-use crate::cli_max_depth;
+use crate::{cli_max_depth, parse_defines};
 use lodestar::bench::BenchConfig;
 use lodestar::error::Result;
 use lodestar::metrics::Crop;
@@ -21,6 +21,9 @@ pub struct BenchArgs {
     /// Reference EXR of the scene (same resolution).
     #[arg(long)]
     pub reference: PathBuf,
+    /// Mitsuba XML scenes: set parameter `$name` (overrides its <default>), repeatable.
+    #[arg(short = 'D', long = "define", value_name = "NAME=VALUE")]
+    pub defines: Vec<String>,
     /// Renders per integrator, seeds seed..seed+runs; the table shows medians.
     #[arg(long, default_value_t = 1, allow_negative_numbers = true)]
     pub runs: u32,
@@ -62,6 +65,7 @@ pub fn bench(args: BenchArgs) -> Result<()> {
             .clone()
             .unwrap_or_else(|| lodestar::bench::default_out(&args.scene)),
         scene: args.scene,
+        defines: parse_defines(&args.defines)?,
         integrators: args.integrators,
         seconds: args.time,
         reference: args.reference,

@@ -57,7 +57,12 @@ enum Command {
         exposure: f32,
     },
     /// Print a scene's counts and features.
-    Info { scene: PathBuf },
+    Info {
+        scene: PathBuf,
+        /// Mitsuba XML scenes: set parameter `$name` (overrides its <default>), repeatable.
+        #[arg(short = 'D', long = "define", value_name = "NAME=VALUE")]
+        defines: Vec<String>,
+    },
     /// List the registered integrators.
     Integrators {
         /// Also list each integrator's options (`-O key=value`) with their defaults.
@@ -119,7 +124,7 @@ fn main() -> ExitCode {
             png,
             exposure,
         } => merge(&parts, &output, png.as_deref(), exposure),
-        Command::Info { scene } => info(&scene),
+        Command::Info { scene, defines } => info(&scene, &defines),
         Command::Integrators { options, markdown } => {
             let entries = integrators::entries();
             if markdown {
@@ -217,8 +222,8 @@ fn compare(a: &Path, b: &Path, crop: Option<&str>) -> Result<()> {
     Ok(())
 }
 
-fn info(path: &Path) -> Result<()> {
-    let s = loader::load_file(path)?;
+fn info(path: &Path, defines: &[String]) -> Result<()> {
+    let s = loader::load_file_with(path, &parse_defines(defines)?)?;
     let r = s.camera.resolution;
     outln!("scene       {}", s.source);
     outln!("resolution  {} x {}", r.x, r.y);

@@ -32,7 +32,7 @@ use common::chi2::{self, LobeDomain};
 use common::{Failures, MODES, close, dir_around, ng_generic};
 use glam::Vec3;
 use lodestar::bsdf::microfacet::MIN_ALPHA;
-use lodestar::bsdf::{Bsdf, ConductorFresnel, ShadingFrame, TransportMode, fresnel};
+use lodestar::bsdf::{Bsdf, ConductorFresnel, Distribution, ShadingFrame, TransportMode, fresnel};
 use lodestar::math::{Sampler, warp};
 use statrs::distribution::{ContinuousCDF, Normal};
 
@@ -452,12 +452,18 @@ fn tiny_alpha_is_numerically_safe() {
     for alpha in [0.0f32, MIN_ALPHA, 1e-3, -1.0, f32::NAN] {
         for bsdf in [
             Bsdf::rough_conductor(alpha, gold()),
+            // The variants as written (unclamped alpha), with Beckmann microfacets.
             Bsdf::RoughConductor {
                 alpha,
                 fresnel: ConductorFresnel::Constant(Vec3::ONE),
+                distribution: Distribution::Beckmann,
             },
             Bsdf::rough_dielectric(ETA, alpha),
-            Bsdf::RoughDielectric { eta: ETA, alpha },
+            Bsdf::RoughDielectric {
+                eta: ETA,
+                alpha,
+                distribution: Distribution::Beckmann,
+            },
         ] {
             for ns in [ng, dir_around(ng, 15.0, 0.0)] {
                 let sf = ShadingFrame::new(ns, ng);
@@ -535,7 +541,11 @@ fn roughness_and_flags() {
     for alpha in [0.0f32, 1e-4, 0.01, 0.1, 0.49, 1.0, 4.0, f32::NAN] {
         for bsdf in [
             Bsdf::rough_conductor(alpha, gold()),
-            Bsdf::RoughDielectric { eta: ETA, alpha },
+            Bsdf::RoughDielectric {
+                eta: ETA,
+                alpha,
+                distribution: Distribution::Ggx,
+            },
         ] {
             let r = bsdf.roughness();
             assert!((0.0..=1.0).contains(&r), "{bsdf:?}: roughness {r}");
@@ -558,7 +568,8 @@ fn roughness_and_flags() {
         Bsdf::rough_dielectric(ETA, 0.0),
         Bsdf::RoughDielectric {
             eta: ETA,
-            alpha: MIN_ALPHA
+            alpha: MIN_ALPHA,
+            distribution: Distribution::Ggx,
         }
     );
 }

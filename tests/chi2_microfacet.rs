@@ -1,5 +1,5 @@
-//! Statistical tests of the microfacet BSDFs (GGX rough conductor and rough dielectric) and
-//! of the GGX distribution itself.
+//! Statistical tests of the microfacet BSDFs (rough conductor and rough dielectric, GGX and
+//! Beckmann) and of the two distributions themselves.
 //!
 //! * The distribution: `∫ D(m) cos(theta_m) dm = 1` and `∫ D_wo(m) dm = 1` by cubature, and
 //!   chi-square of the visible-normal sampler against `D_wo`.
@@ -17,8 +17,9 @@
 //!   without the `eta^2` of the half-vector Jacobian.
 //!
 //! Statistics (see `common/chi2.rs`): every chi-square test and mass check runs at the
-//! suite's Sidak-corrected level `chi2::alpha()`; this file has 124 of them (60 cases and 2
-//! power controls, x 2). Samples per case: [`N`] = 200,000 on 20 x 32 bins per chart (a few
+//! suite's Sidak-corrected level `chi2::alpha()`; this file has 144 of them (70 cases and 2
+//! power controls, x 2; Beckmann: the visible-normal sampler at 3 angles, the conductor and
+//! the dielectric in 4 and 3 configurations). Samples per case: [`N`] = 200,000 on 20 x 32 bins per chart (a few
 //! hundred to a couple of thousand expected per bin where the lobe is).
 
 mod common;
@@ -26,7 +27,8 @@ mod common;
 use common::chi2::{self, LobeDomain};
 use common::{Failures, MODES, close, close3, dir_around, ng_generic};
 use glam::Vec3;
-use lodestar::bsdf::microfacet::Ggx;
+use lodestar::bsdf::Distribution;
+use lodestar::bsdf::microfacet::{Beckmann, Ggx};
 use lodestar::bsdf::{Bsdf, ConductorFresnel, ShadingFrame, TransportMode, fresnel};
 use lodestar::math::Sampler;
 
@@ -245,6 +247,80 @@ fn ggx_visible_normal_sampling() {
             .assert_ok();
             fails.assert_none(&name);
         }
+    }
+}
+
+#[test]
+fn beckmann_projected_area_and_visible_normals_integrate_to_one() {
+    let mut fails = Failures::new();
+    for alpha in [0.05f32, 0.3, 1.0] {
+        let b = Beckmann::new(alpha);
+        let domain = LobeDomain::new(Vec3::Z, Vec3::Z, -Vec3::Z, warp_for(alpha)).with_res(12, 16);
+        let projected = chi2::integrate_lobe(&domain, |m| (b.d(m) * m.z.max(0.0)) as f64);
+        println!("beckmann alpha {alpha}: ∫ D cos = {projected:.6}");
+        fails.check(close(projected, 1.0, 0.0, 1e-3), || {
+            format!("beckmann alpha {alpha}: ∫ D(m) cos = {projected}")
+        });
+        for theta in [0.0f32, 60.0, 85.0] {
+            let wo = dir_around(Vec3::Z, theta, 20.0);
+            // Holds only with the exact Smith Lambda (not a rational fit of it).
+            let vis = chi2::integrate_lobe(&domain, |m| b.d_visible(wo, m) as f64);
+            println!("beckmann alpha {alpha}, theta_o {theta}: ∫ D_wo = {vis:.6}");
+            fails.check(close(vis, 1.0, 0.0, 1e-3), || {
+                format!("beckmann alpha {alpha}, theta_o {theta}: ∫ D_wo(m) = {vis}")
+            });
+        }
+    }
+    fails.assert_none("Beckmann normalisation");
+}
+
+#[test]
+fn beckmann_visible_normal_sampling() {
+    let alpha = 0.3f32;
+    let b = Beckmann::new(alpha);
+    for theta in [0.0f32, 60.0, 85.0] {
+        let wo = dir_around(Vec3::Z, theta, 20.0);
+        let name = format!("Beckmann VNDF alpha {alpha}, theta_o {theta}");
+        let domain =
+            LobeDomain::new(Vec3::Z, Vec3::Z, -Vec3::Z, warp_for(alpha)).with_res(RINGS, PHIS);
+        let mut fails = Failures::new();
+        chi2::lobe_spherical(
+            &name,
+            N,
+            &domain,
+            |s| {
+                let m = b.sample_visible(wo, s.next_2d())?;
+                fails.check((m.length() - 1.0).abs() < 1e-4 && m.z > 0.0, || {
+                    format!("m = {m}")
+                });
+                Some(m)
+            },
+            |m| b.d_visible(wo, m) as f64,
+        )
+        .assert_ok();
+        fails.assert_none(&name);
+    }
+}
+
+#[test]
+fn beckmann_rough_bsdfs_sampling_matches_pdf() {
+    let ng = ng_generic();
+    let sf = ShadingFrame::new(ng, ng);
+    for alpha in [0.1f32, 0.5] {
+        let bsdf = Bsdf::rough_conductor(alpha, gold()).with_distribution(Distribution::Beckmann);
+        for theta in [45.0f32, 85.0] {
+            let wo = dir_around(ng, theta, 40.0);
+            let name = format!("Beckmann rough conductor alpha {alpha}, wo at {theta} deg");
+            bsdf_case(&name, &bsdf, &sf, wo, 1.0, alpha);
+        }
+    }
+    let (eta, alpha) = (1.5f32, 0.3f32);
+    let bsdf = Bsdf::rough_dielectric(eta, alpha).with_distribution(Distribution::Beckmann);
+    for theta in [45.0f32, 160.0, 95.0] {
+        let wo = dir_around(ng, theta, 70.0);
+        let eta_r = if wo.dot(ng) > 0.0 { eta } else { 1.0 / eta };
+        let name = format!("Beckmann rough dielectric alpha {alpha}, wo at {theta} deg");
+        bsdf_case(&name, &bsdf, &sf, wo, eta_r, alpha);
     }
 }
 

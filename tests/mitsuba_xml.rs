@@ -1,10 +1,12 @@
 //! Mitsuba 3 XML scenes: the Cornell box family written in XML renders the same image as the
-//! TOML scenes (tile by tile), and parameters, references, transforms, one-sided BSDFs, PLY and
-//! OBJ meshes and the error messages (file, line and plugin) each have a case.
+//! TOML scenes (tile by tile), and parameters (in plugin types too), Mitsuba 0.x scenes,
+//! references, transforms, one-sided BSDFs, the microfacet distributions, PLY and OBJ meshes
+//! and the error messages (file, line and plugin) each have a case.
 
 mod util;
 
 use glam::Vec3;
+use lodestar::bsdf::{Bsdf, Distribution};
 use lodestar::geometry::bvh::ShapeGeometry;
 use lodestar::scene::Scene;
 use lodestar::scene::loader::{load_file, load_file_with, load_mitsuba_str};
@@ -350,8 +352,8 @@ fn errors_name_the_line_and_the_plugin() {
             "does not take the property 'roughness'",
         ),
         (
-            r#"<shape type="cube"><bsdf type="roughconductor"/></shape>"#,
-            "Beckmann",
+            r#"<shape type="cube"><bsdf type="roughconductor"><string name="distribution" value="phong"/></bsdf></shape>"#,
+            "distribution 'phong' is not supported",
         ),
         (
             r#"<shape type="cube"><bsdf type="diffuse"><texture type="bitmap" name="reflectance"/></bsdf></shape>"#,
@@ -382,8 +384,8 @@ fn errors_name_the_line_and_the_plugin() {
             "'x' is not a finite number",
         ),
         (
-            r#"<include filename="other.xml"/>"#,
-            "<include> is not supported",
+            r#"<include filename="no-such-file.xml"/>"#,
+            "cannot read included file",
         ),
         (
             r#"<shape type="cube"><bsdf type="null"/></shape>"#,
@@ -423,7 +425,7 @@ fn errors_name_the_line_and_the_plugin() {
     assert!(e.contains("/nonexistent/scene.xml"), "{e}");
 }
 
-/// The command line: `render scene.xml -D name=value`, and its errors.
+/// The command line: `render scene.xml -D name=value` (and `info`), and its errors.
 #[test]
 fn cli_renders_xml_with_definitions() {
     let dir = std::env::temp_dir().join(format!("lodestar-xml-cli-{}", std::process::id()));
@@ -452,7 +454,39 @@ fn cli_renders_xml_with_definitions() {
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let (img, _) = lodestar::film::Image::read_exr(&out).unwrap();
     assert_eq!((img.width, img.height), (8, 8));
+    // `bench` takes definitions too: without them the scene is 256 x 256 and the 8 x 8
+    // reference does not fit.
+    let bench_out = dir.join("bench");
+    let bench = |defines: &[&str]| {
+        let mut args = vec![
+            "bench",
+            "--scene",
+            scene,
+            "--integrators",
+            "pt",
+            "--time",
+            "0.05",
+        ];
+        args.extend_from_slice(defines);
+        args.extend_from_slice(&["--reference", out.to_str().unwrap()]);
+        args.extend_from_slice(&["--out", bench_out.to_str().unwrap(), "--quiet"]);
+        run(&args)
+    };
+    let o = bench(&["-D", "res=8"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(bench_out.join("report.csv").exists());
+    let o = bench(&[]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        !o.status.success() && err.contains("reference is 8x8"),
+        "{err}"
+    );
+    // `info` takes definitions too.
+    let o = run(&["info", scene, "-D", "res=8"]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success() && text.contains("8 x 8"), "{text}");
     for (args, needle) in [
+        (vec!["info", scene, "-D", "res=x"], "cornell-box.xml:24:"),
         (vec!["render", scene, "-D", "res"], "expected NAME=VALUE"),
         (vec!["render", scene, "-D", "res=x"], "cornell-box.xml:24:"),
         (
@@ -490,4 +524,157 @@ fn spot_has_mitsubas_linear_edge() {
     assert!((at(10.0) - 4.0).abs() < 1e-5);
     assert!((at(17.5) - 2.0).abs() < 1e-2, "{}", at(17.5));
     assert_eq!(at(20.5), 0.0);
+}
+
+/// `$name` in a plugin's type: the tutorial scenes' `<integrator type="$integrator">`, with its
+/// `<default>` and overridden by a definition.
+#[test]
+fn parameters_substitute_in_plugin_types() {
+    let text = wrap(
+        r#"<default name="integrator" value="path"/>
+    <default name="bsdf" value="diffuse"/>
+    <integrator type="$integrator"><integer name="max_depth" value="5"/></integrator>
+    <shape type="sphere"><bsdf type="$bsdf"/></shape>"#,
+    );
+    let scene = xml(&text).unwrap();
+    assert_eq!(scene.render.integrator, "pt");
+    assert_eq!(scene.render.max_depth, 5);
+    let d = [("integrator".to_string(), "ptracer".to_string())];
+    let scene = load_mitsuba_str(&text, "t.xml", None, &d).unwrap();
+    assert_eq!(scene.render.integrator, "lt");
+    let d = [("bsdf".to_string(), "plastic".to_string())];
+    let e = load_mitsuba_str(&text, "t.xml", None, &d)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("'plastic' is not supported"), "{e}");
+}
+
+/// A Mitsuba 0.5 scene (camelCase names, `<lookAt>`, `ldrfilm`, `diffuseReflectance`, a
+/// `halton` sampler) loads as the same scene written for Mitsuba 3.
+#[test]
+fn mitsuba_0_5_scenes_are_upgraded_on_load() {
+    let scene_v = |version: &str, body: &str| {
+        format!(
+            r#"<scene version="{version}">
+{body}
+</scene>"#
+        )
+    };
+    let old = scene_v(
+        "0.5.0",
+        r#"<integrator type="path"><integer name="maxDepth" value="6"/></integrator>
+    <sensor type="perspective">
+        <float name="fov" value="40"/><string name="fovAxis" value="y"/>
+        <transform name="toWorld"><lookAt origin="0, 0, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <sampler type="halton"><integer name="sampleCount" value="32"/><integer name="scramble" value="-1"/></sampler>
+        <film type="ldrfilm"><integer name="width" value="16"/><integer name="height" value="8"/><float name="gamma" value="2.2"/><rfilter type="box"/></film>
+    </sensor>
+    <shape type="sphere"><bsdf type="diffuse"><rgb name="diffuseReflectance" value="0.2, 0.4, 0.6"/></bsdf></shape>
+    <shape type="sphere"><point name="center" x="2" y="0" z="0"/><bsdf type="roughdielectric"><float name="intIOR" value="1.33"/><float name="extIOR" value="1"/></bsdf></shape>"#,
+    );
+    let new = scene_v(
+        "3.0.0",
+        r#"<integrator type="path"><integer name="max_depth" value="6"/></integrator>
+    <sensor type="perspective">
+        <float name="fov" value="40"/><string name="fov_axis" value="y"/>
+        <transform name="to_world"><lookat origin="0, 0, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <sampler type="independent"><integer name="sample_count" value="32"/></sampler>
+        <film type="hdrfilm"><integer name="width" value="16"/><integer name="height" value="8"/><rfilter type="box"/></film>
+    </sensor>
+    <shape type="sphere"><bsdf type="diffuse"><rgb name="reflectance" value="0.2, 0.4, 0.6"/></bsdf></shape>
+    <shape type="sphere"><point name="center" x="2" y="0" z="0"/><bsdf type="roughdielectric"><float name="int_ior" value="1.33"/><float name="ext_ior" value="1"/></bsdf></shape>"#,
+    );
+    let (a, b) = (xml(&old).unwrap(), xml(&new).unwrap());
+    assert_eq!(
+        (a.render.max_depth, a.render.spp, &a.render.integrator),
+        (b.render.max_depth, b.render.spp, &b.render.integrator)
+    );
+    assert_eq!(a.render.spp, 32);
+    assert_eq!(a.camera.resolution, b.camera.resolution);
+    assert_eq!(a.camera.fov_y_degrees, b.camera.fov_y_degrees);
+    let bsdfs = |s: &Scene| {
+        s.materials
+            .iter()
+            .map(|m| m.bsdf.clone())
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(bsdfs(&a), bsdfs(&b));
+    let ray = |s: &Scene| s.camera.generate_ray(glam::Vec2::new(3.5, 2.5));
+    assert_eq!(format!("{:?}", ray(&a)), format!("{:?}", ray(&b)));
+    // Not upgraded in a Mitsuba 3 scene, and a malformed version is an error on its line.
+    let e = xml_err(&old.replace("0.5.0", "3.0.0"));
+    assert!(e.contains("diffuseReflectance"), "{e}");
+    let e = xml_err(&new.replace("3.0.0", "three"));
+    assert!(
+        e.starts_with("test.xml:1:") && e.contains("version 'three'"),
+        "{e}"
+    );
+}
+
+/// Rough BSDFs take Mitsuba's default distribution, Beckmann, unless GGX is written out.
+#[test]
+fn rough_bsdfs_take_beckmann_by_default_and_ggx_when_asked() {
+    let dist = |inner: &str| {
+        let text = wrap(&format!(
+            r#"<shape type="sphere"><bsdf type="roughconductor">{inner}<float name="alpha" value="0.2"/></bsdf></shape>"#
+        ));
+        match &xml(&text).unwrap().materials[0].bsdf {
+            Bsdf::RoughConductor {
+                distribution,
+                alpha,
+                ..
+            } => (*distribution, *alpha),
+            other => panic!("{other:?}"),
+        }
+    };
+    assert_eq!(dist(""), (Distribution::Beckmann, 0.2));
+    assert_eq!(
+        dist(r#"<string name="distribution" value="ggx"/>"#),
+        (Distribution::Ggx, 0.2)
+    );
+    assert_eq!(
+        dist(r#"<string name="distribution" value="beckmann"/>"#),
+        (Distribution::Beckmann, 0.2)
+    );
+}
+
+/// `<include>` puts the included scene's contents in place (its errors name the included
+/// file and line), and `<path>` adds a directory where mesh files are found.
+#[test]
+fn includes_and_search_paths() {
+    let dir = std::env::temp_dir().join(format!("lodestar-xml-include-{}", std::process::id()));
+    let meshes = dir.join("elsewhere");
+    std::fs::create_dir_all(&meshes).unwrap();
+    std::fs::write(
+        meshes.join("tri.obj"),
+        "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.join("geometry.xml"),
+        r#"<scene version="3.0.0">
+    <shape type="obj"><string name="filename" value="tri.obj"/></shape>
+    <shape type="sphere"><float name="radius" value="$r"/></shape>
+</scene>"#,
+    )
+    .unwrap();
+    let main = wrap(
+        r#"<default name="r" value="0.5"/>
+    <path value="elsewhere"/>
+    <include filename="geometry.xml"/>"#,
+    );
+    std::fs::write(dir.join("main.xml"), &main).unwrap();
+    let scene = load_file(&dir.join("main.xml")).unwrap();
+    assert_eq!(scene.shapes.len(), 2);
+    assert_eq!(mesh_positions(&scene, 0).len(), 3);
+    // An error in the included file names it and its line.
+    std::fs::write(
+        dir.join("geometry.xml"),
+        "<scene version=\"3.0.0\">\n\n    <shape type=\"teapot\"/>\n</scene>",
+    )
+    .unwrap();
+    let e = load_file(&dir.join("main.xml")).err().unwrap().to_string();
+    assert!(e.contains("geometry.xml:3:") && e.contains("teapot"), "{e}");
+    std::fs::remove_dir_all(&dir).ok();
 }

@@ -683,6 +683,11 @@ fn rough_material_alpha_and_ior() {
         ("roughconductor", "alpha = 1.5 ", "'alpha'"),
         ("roughdielectric", "alpha = nan ", "'alpha'"),
         ("roughdielectric", "ior = 1.0 ", "index-matched"),
+        (
+            "roughconductor",
+            "distribution = \"phong\" ",
+            "distribution 'phong' (expected ggx or beckmann)",
+        ),
     ] {
         let other = match (kind, line.starts_with("ior")) {
             ("roughconductor", _) => "reflectance = [0.9, 0.9, 0.9]",

@@ -113,6 +113,7 @@ def bench(
     seed: int = 0,
     threads: int = 1,
     max_depth: Optional[int] = None,
+    defines: Optional[Mapping[str, Any]] = None,
     out: Union[str, "os.PathLike[str]", None] = None,
     progress: Optional[Callable[[float], None]] = None,
 ) -> List[Dict[str, Any]]:
@@ -121,6 +122,7 @@ def bench(
     ``reference`` (an EXR of the scene's resolution).
 
     integrators: names with options, as on the command line: ``"guided-bdpt:alpha=0.5"``.
+    defines:     a Mitsuba scene's ``$name`` parameters (``-D``).
     out:         where the report, images and plot go (default: a temporary directory,
                  removed afterwards).
     progress:    called with the fraction of renders done; Ctrl-C (or an exception in it)
@@ -131,7 +133,8 @@ def bench(
     ``seconds``, ``spp``, ``passes``, ``mse``, ``rmse``, ``rel_mse``, ``speedup`` (the first
     integrator's MSE over this one's), ``variance``, ``var_speedup``.
     """
-    args = (os.fspath(scene), list(integrators), float(time), os.fspath(reference), runs, seed, threads, max_depth)
+    pairs = [(str(k), str(v)) for k, v in (defines or {}).items()]
+    args = (os.fspath(scene), list(integrators), float(time), os.fspath(reference), runs, seed, threads, max_depth, pairs)
     if out is None:
         with tempfile.TemporaryDirectory(prefix="lodestar-bench-") as tmp:
             return _lodestar.bench(*args, os.path.join(tmp, "bench"), progress)

@@ -26,6 +26,7 @@ def bench(
     seed: int,
     threads: int,
     max_depth: Optional[int],
+    defines: List[Tuple[str, str]],
     out: str,
     progress: Optional[Callable[[float], None]],
 ) -> List[Dict[str, Any]]: ...

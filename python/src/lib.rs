@@ -238,7 +238,7 @@ fn py_render<'py>(
 
 #[allow(clippy::too_many_arguments)]
 #[pyfunction(name = "bench")]
-#[pyo3(signature = (scene, integrators, time, reference, runs, seed, threads, max_depth, out, progress))]
+#[pyo3(signature = (scene, integrators, time, reference, runs, seed, threads, max_depth, defines, out, progress))]
 fn py_bench<'py>(
     py: Python<'py>,
     scene: PathBuf,
@@ -249,11 +249,13 @@ fn py_bench<'py>(
     seed: u64,
     threads: usize,
     max_depth: Option<u32>,
+    defines: Vec<(String, String)>,
     out: PathBuf,
     progress: Option<Bound<'py, PyAny>>,
 ) -> PyResult<Bound<'py, PyList>> {
     let config = BenchConfig {
         scene,
+        defines,
         integrators,
         seconds: time,
         reference,
@@ -325,12 +327,12 @@ fn py_integrators<'py>(py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
         d.set_item("name", e.name)?;
         d.set_item("summary", e.summary)?;
         let options = PyList::empty(py);
-        for row in lodestar::integrators::option_docs::options(&e) {
+        for spec in lodestar::integrators::option_docs::options(&e) {
             let o = PyDict::new(py);
-            o.set_item("name", &row.name)?;
-            o.set_item("type", &row.kind)?;
-            o.set_item("default", &row.default)?;
-            o.set_item("meaning", &row.meaning)?;
+            o.set_item("name", spec.name)?;
+            o.set_item("type", spec.kind.column())?;
+            o.set_item("default", spec.default.column())?;
+            o.set_item("meaning", spec.doc)?;
             options.append(o)?;
         }
         d.set_item("options", options)?;

@@ -1,5 +1,7 @@
-//! Isotropic GGX / Trowbridge-Reitz microfacet distribution.
+//! Isotropic microfacet distributions: GGX / Trowbridge-Reitz ([`Ggx`]) and Beckmann
+//! ([`Beckmann`]), and [`Microfacet`], the one a rough BSDF was given ([`Distribution`]).
 //!
+//! GGX:
 //! Everything here works in the local shading frame (`z` = macro-surface normal) with the
 //! directions in the **upper** hemisphere: callers mirror a configuration with `wo.z < 0`
 //! through the `z = 0` plane first (the distribution is symmetric under that mirror).
@@ -126,6 +128,239 @@ impl Ggx {
         }
         let m = m / len;
         (m.z > 0.0).then_some(m)
+    }
+}
+
+/// Which microfacet distribution a rough BSDF uses (Mitsuba's `distribution`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Distribution {
+    /// GGX / Trowbridge-Reitz.
+    #[default]
+    Ggx,
+    /// Beckmann.
+    Beckmann,
+}
+
+/// Isotropic Beckmann distribution of roughness `alpha` (the RMS slope times sqrt 2).
+///
+/// * `D(m) = exp(-tan^2(theta_m) / alpha^2) / (pi alpha^2 cos^4(theta_m))`.
+/// * Smith `Lambda(w) = (erf(a) - 1) / 2 + exp(-a^2) / (2 a sqrt(pi))`, `a = 1 / (alpha
+///   tan(theta))`, evaluated exactly (`math::special`), not by Walter et al.'s rational fit,
+///   so that the visible-normal density integrates to one and matches the sampler.
+/// * `G2` height-correlated, as for GGX.
+/// * Visible normals: the slope of the stretched configuration (alpha = 1) is drawn from the
+///   distribution of visible slopes (Heitz and d'Eon 2014): its x component by inverting the
+///   CDF `1 + b + tan(theta) / sqrt(pi) exp(-erfinv(b)^2)` over `b = erf(x)` with safeguarded
+///   Newton steps, its y component from the Gaussian; then rotated to `wo`'s azimuth and
+///   unstretched.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Beckmann {
+    alpha: f32,
+}
+
+impl Beckmann {
+    /// `alpha` is clamped with [`clamp_alpha`].
+    pub fn new(alpha: f32) -> Beckmann {
+        Beckmann {
+            alpha: clamp_alpha(alpha),
+        }
+    }
+
+    /// The roughness alpha, as clamped.
+    pub fn alpha(&self) -> f32 {
+        self.alpha
+    }
+
+    /// Normal distribution `D(m)` for a unit `m`; zero for `m.z <= 0`.
+    #[inline]
+    pub fn d(&self, m: Vec3) -> f32 {
+        if m.z <= 0.0 {
+            return 0.0;
+        }
+        let a2 = (self.alpha as f64).powi(2);
+        let cos2 = (m.z as f64).powi(2);
+        let tan2 = ((m.x as f64).powi(2) + (m.y as f64).powi(2)) / cos2;
+        let e = (-tan2 / a2).exp();
+        if e == 0.0 {
+            return 0.0;
+        }
+        let v = e / (std::f64::consts::PI * a2 * cos2 * cos2);
+        if v.is_finite() { v as f32 } else { 0.0 }
+    }
+
+    /// Smith's `Lambda(w)`; infinite at the horizon. Uses `|w.z|`.
+    #[inline]
+    pub fn lambda(&self, w: Vec3) -> f32 {
+        let z = (w.z as f64).abs();
+        if z == 0.0 {
+            return f32::INFINITY;
+        }
+        let tan = ((w.x as f64).powi(2) + (w.y as f64).powi(2)).sqrt() / z;
+        if tan == 0.0 {
+            return 0.0;
+        }
+        let a = 1.0 / (self.alpha as f64 * tan);
+        if a > 6.0 {
+            // Lambda < 1e-17.
+            return 0.0;
+        }
+        let inv_sqrt_pi = 0.5 * std::f64::consts::FRAC_2_SQRT_PI;
+        let l = 0.5 * ((-a * a).exp() * inv_sqrt_pi / a - crate::math::special::erfc(a));
+        l.max(0.0) as f32
+    }
+
+    /// Smith masking `G1(w) = 1 / (1 + Lambda(w))`.
+    #[inline]
+    pub fn g1(&self, w: Vec3) -> f32 {
+        1.0 / (1.0 + self.lambda(w))
+    }
+
+    /// Height-correlated masking-shadowing `G2 = 1 / (1 + Lambda(wo) + Lambda(wi))`.
+    #[inline]
+    pub fn g2(&self, wo: Vec3, wi: Vec3) -> f32 {
+        1.0 / (1.0 + self.lambda(wo) + self.lambda(wi))
+    }
+
+    /// Distribution of visible normals, as [`Ggx::d_visible`].
+    #[inline]
+    pub fn d_visible(&self, wo: Vec3, m: Vec3) -> f32 {
+        let cos_o = wo.z.abs();
+        let wo_m = wo.dot(m);
+        if cos_o == 0.0 || wo_m <= 0.0 {
+            return 0.0;
+        }
+        let v = self.g1(wo) * wo_m * self.d(m) / cos_o;
+        if v.is_finite() { v } else { 0.0 }
+    }
+
+    /// A visible slope of the distribution with alpha = 1 for an incident direction at
+    /// `cos_theta` from the normal, in the plane of incidence (x towards the direction).
+    fn sample_slope(cos_theta: f64, u: Vec2) -> (f64, f64) {
+        use crate::math::special::{erf, erf_inv};
+        let (u1, u2) = ((u.x as f64).max(1e-6), (u.y as f64).max(1e-6));
+        if cos_theta > 0.99999 {
+            // Normal incidence: the slope is Gaussian (radius Rayleigh-distributed).
+            let r = (-(1.0 - u.x as f64).ln()).sqrt();
+            let phi = 2.0 * std::f64::consts::PI * u.y as f64;
+            return (r * phi.cos(), r * phi.sin());
+        }
+        let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
+        let tan_theta = sin_theta / cos_theta;
+        let cot_theta = 1.0 / tan_theta;
+        let inv_sqrt_pi = 0.5 * std::f64::consts::FRAC_2_SQRT_PI;
+        // Search over b = erf(x) in [-1, erf(cot)]: the visible slopes end where the facet
+        // turns away from the direction.
+        let (mut lo, mut hi) = (-1.0f64, erf(cot_theta));
+        let norm = 1.0 / (1.0 + hi + inv_sqrt_pi * tan_theta * (-cot_theta * cot_theta).exp());
+        // First guess from a fit in theta (Jakob's), then Newton steps kept inside the bracket.
+        let theta = cos_theta.acos();
+        let fit = 1.0 + theta * (-0.876 + theta * (0.4265 - 0.0594 * theta));
+        let mut b = hi - (1.0 + hi) * (1.0 - u1).powf(fit);
+        for _ in 0..100 {
+            if !(b >= lo && b <= hi) {
+                b = 0.5 * (lo + hi);
+            }
+            let x = erf_inv(b);
+            let value = norm * (1.0 + b + inv_sqrt_pi * tan_theta * (-x * x).exp()) - u1;
+            let derivative = norm * (1.0 - x * tan_theta);
+            if value.abs() < 1e-6 {
+                break;
+            }
+            if value > 0.0 {
+                hi = b;
+            } else {
+                lo = b;
+            }
+            b -= value / derivative;
+        }
+        (erf_inv(b), erf_inv(2.0 * u2 - 1.0))
+    }
+
+    /// Samples a visible normal for `wo` (upper hemisphere, unit) with density
+    /// [`Beckmann::d_visible`]; `None` where the construction degenerates.
+    pub fn sample_visible(&self, wo: Vec3, u: Vec2) -> Option<Vec3> {
+        let a = self.alpha as f64;
+        // Stretch to alpha = 1.
+        let (sx, sy, sz) = (wo.x as f64 * a, wo.y as f64 * a, wo.z as f64);
+        let len = (sx * sx + sy * sy + sz * sz).sqrt();
+        let (sx, sy, sz) = (sx / len, sy / len, sz / len);
+        let sin_t = (sx * sx + sy * sy).sqrt();
+        let (cos_phi, sin_phi) = if sin_t > 0.0 {
+            (sx / sin_t, sy / sin_t)
+        } else {
+            (1.0, 0.0)
+        };
+        let (x, y) = Self::sample_slope(sz, u);
+        // Rotate to wo's azimuth, unstretch; the normal of slope (x, y) is (-x, -y, 1).
+        let (rx, ry) = (cos_phi * x - sin_phi * y, sin_phi * x + cos_phi * y);
+        let m = glam::DVec3::new(-rx * a, -ry * a, 1.0);
+        let m = m / m.length();
+        let m = Vec3::new(m.x as f32, m.y as f32, m.z as f32);
+        (m.is_finite() && m.z > 0.0).then_some(m)
+    }
+}
+
+/// A rough BSDF's microfacet distribution: [`Ggx`] or [`Beckmann`] of one roughness.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Microfacet {
+    /// GGX.
+    Ggx(Ggx),
+    /// Beckmann.
+    Beckmann(Beckmann),
+}
+
+impl Microfacet {
+    /// The distribution `kind` of roughness `alpha` (clamped with [`clamp_alpha`]).
+    pub fn new(kind: Distribution, alpha: f32) -> Microfacet {
+        match kind {
+            Distribution::Ggx => Microfacet::Ggx(Ggx::new(alpha)),
+            Distribution::Beckmann => Microfacet::Beckmann(Beckmann::new(alpha)),
+        }
+    }
+
+    /// `D(m)`.
+    #[inline]
+    pub fn d(&self, m: Vec3) -> f32 {
+        match self {
+            Microfacet::Ggx(g) => g.d(m),
+            Microfacet::Beckmann(b) => b.d(m),
+        }
+    }
+
+    /// Smith `G1(w)`.
+    #[inline]
+    pub fn g1(&self, w: Vec3) -> f32 {
+        match self {
+            Microfacet::Ggx(g) => g.g1(w),
+            Microfacet::Beckmann(b) => b.g1(w),
+        }
+    }
+
+    /// Height-correlated `G2(wo, wi)`.
+    #[inline]
+    pub fn g2(&self, wo: Vec3, wi: Vec3) -> f32 {
+        match self {
+            Microfacet::Ggx(g) => g.g2(wo, wi),
+            Microfacet::Beckmann(b) => b.g2(wo, wi),
+        }
+    }
+
+    /// Density of visible normals `D_wo(m)`.
+    #[inline]
+    pub fn d_visible(&self, wo: Vec3, m: Vec3) -> f32 {
+        match self {
+            Microfacet::Ggx(g) => g.d_visible(wo, m),
+            Microfacet::Beckmann(b) => b.d_visible(wo, m),
+        }
+    }
+
+    /// A visible normal for `wo`, with density [`Microfacet::d_visible`].
+    #[inline]
+    pub fn sample_visible(&self, wo: Vec3, u: Vec2) -> Option<Vec3> {
+        match self {
+            Microfacet::Ggx(g) => g.sample_visible(wo, u),
+            Microfacet::Beckmann(b) => b.sample_visible(wo, u),
+        }
     }
 }
 

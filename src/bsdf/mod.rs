@@ -19,7 +19,8 @@
 //!   the shading and the geometric normal; transmission on opposite sides of both. Directions
 //!   where the two normals disagree get zero (no light leaks), consistently in sample, eval and
 //!   pdf.
-//! * Rough (microfacet) BSDFs use GGX with visible-normal sampling (see [`microfacet`]);
+//! * Rough (microfacet) BSDFs use GGX or Beckmann with visible-normal sampling (see
+//!   [`microfacet`]);
 //!   their `eval`, `pdf` and `sample` share one function, so a sample's `f` and `pdf` are
 //!   what `eval` and `pdf` return for its direction. Samples that a lobe scatters to the wrong
 //!   side of the macro surface are dropped (`None`), and `eval`/`pdf` give them no density.
@@ -33,6 +34,8 @@ mod rough_dielectric;
 
 use crate::math::{Frame, Spectrum};
 use glam::{Vec2, Vec3};
+pub use microfacet::Distribution;
+use microfacet::Microfacet;
 
 /// Lowest Russian-roulette continuation probability (caps the weight boost at 20x).
 pub const MIN_CONTINUATION: f32 = 0.05;
@@ -108,10 +111,12 @@ pub enum Bsdf {
     /// [`microfacet::MIN_ALPHA`] when evaluated), two-sided. Build with
     /// [`Bsdf::rough_conductor`].
     RoughConductor {
-        /// GGX roughness (the slope distribution's width).
+        /// Roughness (the slope distribution's width).
         alpha: f32,
         /// Reflectance of the microfacets.
         fresnel: ConductorFresnel,
+        /// GGX (the default) or Beckmann.
+        distribution: Distribution,
     },
     /// Rough dielectric interface (Walter et al. 2007): GGX reflection and transmission of
     /// roughness `alpha`; `eta` = index inside / index outside (front side), as for
@@ -119,8 +124,10 @@ pub enum Bsdf {
     RoughDielectric {
         /// Index inside over index outside.
         eta: f32,
-        /// GGX roughness.
+        /// Roughness.
         alpha: f32,
+        /// GGX (the default) or Beckmann.
+        distribution: Distribution,
     },
 }
 
@@ -156,6 +163,7 @@ impl Bsdf {
         Bsdf::RoughConductor {
             alpha: microfacet::clamp_alpha(alpha),
             fresnel,
+            distribution: Distribution::Ggx,
         }
     }
 
@@ -164,6 +172,25 @@ impl Bsdf {
         Bsdf::RoughDielectric {
             eta,
             alpha: microfacet::clamp_alpha(alpha),
+            distribution: Distribution::Ggx,
+        }
+    }
+
+    /// This BSDF with microfacet distribution `d` (rough BSDFs; others are returned as they
+    /// are).
+    pub fn with_distribution(self, d: Distribution) -> Bsdf {
+        match self {
+            Bsdf::RoughConductor { alpha, fresnel, .. } => Bsdf::RoughConductor {
+                alpha,
+                fresnel,
+                distribution: d,
+            },
+            Bsdf::RoughDielectric { eta, alpha, .. } => Bsdf::RoughDielectric {
+                eta,
+                alpha,
+                distribution: d,
+            },
+            other => other,
         }
     }
 
@@ -255,12 +282,23 @@ impl Bsdf {
                 }
             }
             Bsdf::Dielectric { eta } => dielectric::sample(*eta, wo_l, u_lobe, mode)?,
-            Bsdf::RoughConductor { alpha, fresnel } => {
-                rough_conductor::sample(*alpha, fresnel, wo_l, u)?
-            }
-            Bsdf::RoughDielectric { eta, alpha } => {
-                rough_dielectric::sample(*eta, *alpha, wo_l, u_lobe, u, mode)?
-            }
+            Bsdf::RoughConductor {
+                alpha,
+                fresnel,
+                distribution,
+            } => rough_conductor::sample(Microfacet::new(*distribution, *alpha), fresnel, wo_l, u)?,
+            Bsdf::RoughDielectric {
+                eta,
+                alpha,
+                distribution,
+            } => rough_dielectric::sample(
+                *eta,
+                Microfacet::new(*distribution, *alpha),
+                wo_l,
+                u_lobe,
+                u,
+                mode,
+            )?,
         };
         let wi = sf.frame.to_world(s.wi);
         if !geometry_agrees(sf, wo, wi, s.transmission) {
@@ -292,12 +330,33 @@ impl Bsdf {
         }
         let f = match self {
             Bsdf::Diffuse { albedo } => diffuse::eval(*albedo, wo_l, wi_l),
-            Bsdf::RoughConductor { alpha, fresnel } => {
-                rough_conductor::eval_pdf(*alpha, Some(fresnel), wo_l, wi_l).0
+            Bsdf::RoughConductor {
+                alpha,
+                fresnel,
+                distribution,
+            } => {
+                rough_conductor::eval_pdf(
+                    Microfacet::new(*distribution, *alpha),
+                    Some(fresnel),
+                    wo_l,
+                    wi_l,
+                )
+                .0
             }
-            Bsdf::RoughDielectric { eta, alpha } => {
-                Spectrum::splat(rough_dielectric::eval_pdf(*eta, *alpha, wo_l, wi_l, mode).0)
-            }
+            Bsdf::RoughDielectric {
+                eta,
+                alpha,
+                distribution,
+            } => Spectrum::splat(
+                rough_dielectric::eval_pdf(
+                    *eta,
+                    Microfacet::new(*distribution, *alpha),
+                    wo_l,
+                    wi_l,
+                    mode,
+                )
+                .0,
+            ),
             Bsdf::Black | Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => {
                 return Spectrum::ZERO;
             }
@@ -314,11 +373,27 @@ impl Bsdf {
         }
         match self {
             Bsdf::Diffuse { .. } => diffuse::pdf(wo_l, wi_l),
-            Bsdf::RoughConductor { alpha, .. } => {
-                rough_conductor::eval_pdf(*alpha, None, wo_l, wi_l).1
+            Bsdf::RoughConductor {
+                alpha,
+                distribution,
+                ..
+            } => {
+                rough_conductor::eval_pdf(Microfacet::new(*distribution, *alpha), None, wo_l, wi_l)
+                    .1
             }
-            Bsdf::RoughDielectric { eta, alpha } => {
-                rough_dielectric::eval_pdf(*eta, *alpha, wo_l, wi_l, mode).1
+            Bsdf::RoughDielectric {
+                eta,
+                alpha,
+                distribution,
+            } => {
+                rough_dielectric::eval_pdf(
+                    *eta,
+                    Microfacet::new(*distribution, *alpha),
+                    wo_l,
+                    wi_l,
+                    mode,
+                )
+                .1
             }
             Bsdf::Black | Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => 0.0,
         }
@@ -400,19 +475,51 @@ impl Bsdf {
                     0.0
                 },
             ),
-            Bsdf::RoughConductor { alpha, fresnel } => {
-                let (f, pdf_fwd) = rough_conductor::eval_pdf(*alpha, Some(fresnel), wo_l, wi_l);
+            Bsdf::RoughConductor {
+                alpha,
+                fresnel,
+                distribution,
+            } => {
+                let (f, pdf_fwd) = rough_conductor::eval_pdf(
+                    Microfacet::new(*distribution, *alpha),
+                    Some(fresnel),
+                    wo_l,
+                    wi_l,
+                );
                 let pdf_rev = if reverse {
-                    rough_conductor::eval_pdf(*alpha, None, wi_l, wo_l).1
+                    rough_conductor::eval_pdf(
+                        Microfacet::new(*distribution, *alpha),
+                        None,
+                        wi_l,
+                        wo_l,
+                    )
+                    .1
                 } else {
                     0.0
                 };
                 (f, pdf_fwd, pdf_rev)
             }
-            Bsdf::RoughDielectric { eta, alpha } => {
-                let (f, pdf_fwd) = rough_dielectric::eval_pdf(*eta, *alpha, wo_l, wi_l, mode);
+            Bsdf::RoughDielectric {
+                eta,
+                alpha,
+                distribution,
+            } => {
+                let (f, pdf_fwd) = rough_dielectric::eval_pdf(
+                    *eta,
+                    Microfacet::new(*distribution, *alpha),
+                    wo_l,
+                    wi_l,
+                    mode,
+                );
                 let pdf_rev = if reverse {
-                    rough_dielectric::eval_pdf(*eta, *alpha, wi_l, wo_l, TransportMode::Radiance).1
+                    rough_dielectric::eval_pdf(
+                        *eta,
+                        Microfacet::new(*distribution, *alpha),
+                        wi_l,
+                        wo_l,
+                        TransportMode::Radiance,
+                    )
+                    .1
                 } else {
                     0.0
                 };

@@ -1,11 +1,11 @@
-//! Rough conductor: GGX microfacet reflection (Cook-Torrance with Smith masking), two-sided.
+//! Rough conductor: microfacet (GGX or Beckmann) reflection (Cook-Torrance with Smith masking), two-sided.
 //!
 //! `f = D(m) G2(wo, wi) F(wo.m) / (4 |cos_o| |cos_i|)` with `m = normalize(wo + wi)`; sampled
 //! by visible normals, `pdf = D_wo(m) / (4 wo.m) = G1(wo) D(m) / (4 |cos_o|)`, so the weight
 //! is `F G2 / G1(wo) <= F`. A configuration with `wo` below the surface is mirrored through
 //! the tangent plane first (two-sided, like the smooth conductor).
 
-use super::microfacet::{Ggx, reflect};
+use super::microfacet::{Microfacet, reflect};
 use super::{ConductorFresnel, LocalSample};
 use crate::math::Spectrum;
 use glam::{Vec2, Vec3};
@@ -22,7 +22,7 @@ fn flip_z(w: Vec3, flip: bool) -> Vec3 {
 // `!(x > 0.0)` deliberately rejects NaN as well.
 #[allow(clippy::neg_cmp_op_on_partial_ord)]
 pub(super) fn eval_pdf(
-    alpha: f32,
+    mf: Microfacet,
     fr: Option<&ConductorFresnel>,
     wo: Vec3,
     wi: Vec3,
@@ -43,7 +43,7 @@ pub(super) fn eval_pdf(
     if !(wo_m > 0.0) {
         return ZERO;
     }
-    let ggx = Ggx::new(alpha);
+    let ggx = mf;
     let d = ggx.d(m);
     // f without the Fresnel term (which is in [0, 1]).
     let f_unit = d * ggx.g2(wo, wi) / (4.0 * wo.z * wi.z);
@@ -56,17 +56,22 @@ pub(super) fn eval_pdf(
     (f, pdf)
 }
 
-pub(super) fn sample(alpha: f32, fr: &ConductorFresnel, wo: Vec3, u: Vec2) -> Option<LocalSample> {
+pub(super) fn sample(
+    mf: Microfacet,
+    fr: &ConductorFresnel,
+    wo: Vec3,
+    u: Vec2,
+) -> Option<LocalSample> {
     let flip = wo.z < 0.0;
     let wo_up = flip_z(wo, flip);
-    let m = Ggx::new(alpha).sample_visible(wo_up, u)?;
+    let m = mf.sample_visible(wo_up, u)?;
     let wi_up = reflect(wo_up, m);
     if wi_up.z <= 0.0 {
         // Reflected below the surface: single scattering loses this energy.
         return None;
     }
     let wi = flip_z(wi_up, flip);
-    let (f, pdf) = eval_pdf(alpha, Some(fr), wo, wi);
+    let (f, pdf) = eval_pdf(mf, Some(fr), wo, wi);
     if pdf <= 0.0 {
         return None;
     }

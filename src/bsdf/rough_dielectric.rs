@@ -22,7 +22,7 @@
 //! density: transmitted samples are dropped. The loader should use a smooth dielectric (or no
 //! interface) for index-matched boundaries.
 
-use super::microfacet::{Ggx, reflect, refract};
+use super::microfacet::{Microfacet, reflect, refract};
 use super::{LocalSample, TransportMode, fresnel};
 use crate::math::Spectrum;
 use glam::{Vec2, Vec3};
@@ -37,7 +37,7 @@ fn flip_z(w: Vec3, flip: bool) -> Vec3 {
 #[allow(clippy::neg_cmp_op_on_partial_ord)]
 pub(super) fn eval_pdf(
     eta: f32,
-    alpha: f32,
+    mf: Microfacet,
     wo: Vec3,
     wi: Vec3,
     mode: TransportMode,
@@ -48,7 +48,7 @@ pub(super) fn eval_pdf(
     let flip = wo.z < 0.0;
     let eta_r = if flip { 1.0 / eta } else { eta };
     let (wo, wi) = (flip_z(wo, flip), flip_z(wi, flip));
-    let ggx = Ggx::new(alpha);
+    let ggx = mf;
     let (f, pdf) = if wi.z > 0.0 {
         let h = wo + wi;
         let len = h.length();
@@ -104,7 +104,7 @@ pub(super) fn eval_pdf(
 #[allow(clippy::neg_cmp_op_on_partial_ord)]
 pub(super) fn sample(
     eta: f32,
-    alpha: f32,
+    mf: Microfacet,
     wo: Vec3,
     u_lobe: f32,
     u: Vec2,
@@ -113,7 +113,7 @@ pub(super) fn sample(
     let flip = wo.z < 0.0;
     let eta_r = if flip { 1.0 / eta } else { eta };
     let wo_up = flip_z(wo, flip);
-    let m = Ggx::new(alpha).sample_visible(wo_up, u)?;
+    let m = mf.sample_visible(wo_up, u)?;
     let co = wo_up.dot(m);
     if !(co > 0.0) {
         return None;
@@ -133,7 +133,7 @@ pub(super) fn sample(
         (wi.normalize(), true)
     };
     let wi = flip_z(wi_up, flip);
-    let (f, pdf) = eval_pdf(eta, alpha, wo, wi, mode);
+    let (f, pdf) = eval_pdf(eta, mf, wo, wi, mode);
     if pdf <= 0.0 {
         return None;
     }

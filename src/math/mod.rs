@@ -2,17 +2,20 @@
 //! their densities, discrete distributions and the counter-based random streams.
 
 pub mod alias;
+pub mod any_sampler;
 pub mod distribution;
 pub mod frame;
 pub mod rng;
 pub mod sobol;
+pub mod special;
 pub mod streams;
 pub mod warp;
 
 pub use alias::AliasTable;
+pub use any_sampler::{AnySampler, SamplerKind};
 pub use distribution::Distribution1D;
 pub use frame::Frame;
-pub use rng::{AnySampler, IndependentSampler, PixelSampler, Sampler, SamplerKind, stream_seed};
+pub use rng::{IndependentSampler, PixelSampler, Sampler, stream_seed};
 pub use sobol::SobolSampler;
 
 use glam::Vec3;

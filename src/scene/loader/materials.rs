@@ -15,6 +15,7 @@ impl Builder<'_> {
             ("reflectance", at(&d.reflectance)),
             ("ior", at(&d.ior)),
             ("alpha", at(&d.alpha)),
+            ("distribution", at(&d.distribution)),
             ("eta", at(&d.eta)),
             ("k", at(&d.k)),
             ("one_sided", at(&d.one_sided)),
@@ -23,8 +24,15 @@ impl Builder<'_> {
             "diffuse" => &["albedo", "one_sided"],
             "conductor" => &["reflectance", "one_sided"],
             "dielectric" => &["ior"],
-            "roughconductor" => &["alpha", "reflectance", "eta", "k", "one_sided"],
-            "roughdielectric" => &["alpha", "ior"],
+            "roughconductor" => &[
+                "alpha",
+                "distribution",
+                "reflectance",
+                "eta",
+                "k",
+                "one_sided",
+            ],
+            "roughdielectric" => &["alpha", "distribution", "ior"],
             "black" => &[],
             other => {
                 return src.err(d.kind.span(), format!("unknown material type '{other}' (expected diffuse, conductor, dielectric, roughconductor, roughdielectric or black)"));
@@ -48,10 +56,23 @@ impl Builder<'_> {
             if !(v > 0.0 && v <= 1.0) {
                 return src.err(
                     a.span(),
-                    format!("'alpha' (GGX roughness) must be in (0, 1], got {v}"),
+                    format!("'alpha' (microfacet roughness) must be in (0, 1], got {v}"),
                 );
             }
             Ok(v)
+        };
+        let distribution = match &d.distribution {
+            None => Distribution::Ggx,
+            Some(v) => match v.get_ref().as_str() {
+                "ggx" => Distribution::Ggx,
+                "beckmann" => Distribution::Beckmann,
+                other => {
+                    return src.err(
+                        v.span(),
+                        format!("unknown distribution '{other}' (expected ggx or beckmann)"),
+                    );
+                }
+            },
         };
         let one_sided = d.one_sided.as_ref().is_some_and(|o| *o.get_ref());
         let bsdf = match kind {
@@ -91,6 +112,6 @@ impl Builder<'_> {
             "black" => Bsdf::Black,
             _ => unreachable!("material types are checked above"),
         };
-        Ok((bsdf, one_sided))
+        Ok((bsdf.with_distribution(distribution), one_sided))
     }
 }

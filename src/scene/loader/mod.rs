@@ -73,7 +73,7 @@
 //! one builder and its checks.
 
 use super::{Material, RenderDefaults, Scene, SceneFeatures, ShapeInfo};
-use crate::bsdf::{Bsdf, ConductorFresnel};
+use crate::bsdf::{Bsdf, ConductorFresnel, Distribution};
 use crate::camera::Camera;
 use crate::error::{Error, Result};
 use crate::geometry::bvh::ShapeGeometry;
@@ -179,6 +179,8 @@ struct MaterialDesc {
     reflectance: Option<V3>,
     ior: Option<Spanned<f32>>,
     alpha: Option<Spanned<f32>>,
+    /// Microfacet distribution of the rough materials: `ggx` (default) or `beckmann`.
+    distribution: Option<Spanned<String>>,
     eta: Option<V3>,
     k: Option<V3>,
     /// Black when seen from the back of the shape (Mitsuba's non-`twosided` BSDFs).
@@ -290,15 +292,30 @@ struct LightDesc {
 struct Source<'a> {
     name: &'a str,
     text: &'a str,
+    /// Where each piece of `text` comes from, when it is a Mitsuba scene with its includes
+    /// expanded (`mitsuba/include.rs`).
+    origins: Option<&'a mitsuba::Origins>,
 }
 
 impl Source<'_> {
+    /// The 1-based line of byte `offset` in the file it comes from.
     fn line(&self, offset: usize) -> usize {
+        if let Some(o) = self.origins.filter(|o| o.any()) {
+            return o.locate(offset).1;
+        }
         self.text[..offset.min(self.text.len())]
             .bytes()
             .filter(|&b| b == b'\n')
             .count()
             + 1
+    }
+
+    /// The name of the file byte `offset` comes from.
+    fn file(&self, offset: usize) -> &str {
+        match self.origins.filter(|o| o.any()) {
+            Some(o) => o.locate(offset).0,
+            None => self.name,
+        }
     }
 
     /// The key of the `key = value` whose value encloses `offset`, from the text before it on
@@ -316,7 +333,7 @@ impl Source<'_> {
     fn err<T>(&self, span: std::ops::Range<usize>, msg: impl std::fmt::Display) -> Result<T> {
         Err(Error::new(format!(
             "{}:{}: {}",
-            self.name,
+            self.file(span.start),
             self.line(span.start),
             msg
         )))
@@ -422,8 +439,13 @@ pub fn load_mitsuba_str(
     dir: Option<&Path>,
     defines: &[(String, String)],
 ) -> Result<Scene> {
-    let src = Source { name, text };
-    let (desc, sensor_medium) = mitsuba::parse(&src, defines)?;
+    let (text, origins) = mitsuba::expand_includes(text, name, dir)?;
+    let src = Source {
+        name,
+        text: &text,
+        origins: Some(&origins),
+    };
+    let (desc, sensor_medium) = mitsuba::parse(&src, defines, dir)?;
     let scene = Builder {
         src: &src,
         dir: dir.map(Path::to_path_buf),
@@ -448,7 +470,11 @@ pub fn load_mitsuba_str(
 
 /// Load a scene from TOML text; `name` is used in error messages, `dir` resolves mesh paths.
 pub fn load_str(text: &str, name: &str, dir: Option<&Path>) -> Result<Scene> {
-    let src = Source { name, text };
+    let src = Source {
+        name,
+        text,
+        origins: None,
+    };
     let desc: SceneDesc = toml::from_str(text).map_err(|e| {
         let mut msg = e.message().trim().replace('\n', " ");
         // serde's value errors ("invalid type: ...", "invalid length 2, ...") omit the key.

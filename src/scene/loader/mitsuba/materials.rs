@@ -3,7 +3,7 @@
 //! subset and its defaults.
 
 use super::super::{MaterialDesc, MediumDesc};
-use super::plugins::{Out, kind, s};
+use super::out::{Out, kind, s};
 use super::{Props, Xml, span};
 use crate::error::Result;
 use glam::Vec3;
@@ -18,6 +18,7 @@ pub(super) fn material_desc(n: Node, name: String, kind: &str) -> MaterialDesc {
         reflectance: None,
         ior: None,
         alpha: None,
+        distribution: None,
         eta: None,
         k: None,
         one_sided: None,
@@ -45,6 +46,7 @@ pub(super) fn bsdf(xml: &Xml, n: Node, out: &mut Out) -> Result<Option<String>> 
 /// A material description; `one_sided` unless inside `twosided`.
 fn bsdf_desc(xml: &Xml, n: Node, name: String, one_sided: bool) -> Result<Option<MaterialDesc>> {
     let k = kind(xml, n)?;
+    let k = k.as_str();
     let mut p = xml.props(n)?;
     let mut d = material_desc(n, name, k);
     let unit = |v: Option<(Node, Vec3)>, default: f32| {
@@ -71,13 +73,19 @@ fn bsdf_desc(xml: &Xml, n: Node, name: String, one_sided: bool) -> Result<Option
         }
         Ok(())
     };
-    // GGX only: Mitsuba's default distribution is Beckmann, so it must be written out.
-    let ggx_alpha = |p: &mut Props| -> Result<Spanned<f32>> {
-        match p.string(xml, "distribution")? {
-            Some((_, dist)) if dist == "ggx" => {}
-            Some((at, dist)) => return xml.err(at, format!("distribution '{dist}' is not supported (lodestar's microfacets are GGX)")),
-            None => return xml.err(n, format!("{k}: lodestar's microfacets are GGX and Mitsuba's default is Beckmann; write <string name=\"distribution\" value=\"ggx\"/>")),
-        }
+    // The microfacet distribution (Mitsuba's default: Beckmann) and roughness.
+    let rough = |p: &mut Props, d: &mut MaterialDesc| -> Result<Spanned<f32>> {
+        d.distribution = Some(match p.string(xml, "distribution")? {
+            Some((at, dist)) if dist == "ggx" || dist == "beckmann" => s(at, dist),
+            Some((at, dist)) => {
+                return xml.err(
+                    at,
+                    format!("distribution '{dist}' is not supported (expected ggx or beckmann)"),
+                );
+            }
+            None => s(n, "beckmann".to_string()),
+        });
+        // Both are sampled by their visible normals.
         p.boolean(xml, "sample_visible")?;
         let a = p.float(xml, "alpha")?;
         let (au, av) = (p.float(xml, "alpha_u")?, p.float(xml, "alpha_v")?);
@@ -95,7 +103,7 @@ fn bsdf_desc(xml: &Xml, n: Node, name: String, one_sided: bool) -> Result<Option
         }
         "conductor" | "roughconductor" => {
             if k == "roughconductor" {
-                d.alpha = Some(ggx_alpha(&mut p)?);
+                d.alpha = Some(rough(&mut p, &mut d)?);
             }
             let material = p.string(xml, "material")?;
             let (eta, kk) = (p.color(xml, "eta")?, p.color(xml, "k")?);
@@ -119,7 +127,7 @@ fn bsdf_desc(xml: &Xml, n: Node, name: String, one_sided: bool) -> Result<Option
         }
         "dielectric" | "roughdielectric" => {
             if k == "roughdielectric" {
-                d.alpha = Some(ggx_alpha(&mut p)?);
+                d.alpha = Some(rough(&mut p, &mut d)?);
             }
             d.ior = Some(s(n, ior(&mut p)?));
             white_only(&mut p, "specular_reflectance")?;
@@ -129,7 +137,7 @@ fn bsdf_desc(xml: &Xml, n: Node, name: String, one_sided: bool) -> Result<Option
             let inner = p.nested(xml, "bsdf")?;
             p.finish(xml)?;
             return match inner.as_slice() {
-                [b] if matches!(kind(xml, *b)?, "dielectric" | "roughdielectric" | "twosided" | "null") => xml.err(*b, format!("twosided cannot wrap '{}'", kind(xml, *b)?)),
+                [b] if matches!(kind(xml, *b)?.as_str(), "dielectric" | "roughdielectric" | "twosided" | "null") => xml.err(*b, format!("twosided cannot wrap '{}'", kind(xml, *b)?)),
                 [b] => bsdf_desc(xml, *b, d.name.into_inner(), false),
                 [] => xml.err(n, "twosided needs one nested <bsdf>"),
                 _ => xml.err(inner[1], "twosided with a different BSDF per side is not supported"),
@@ -178,7 +186,7 @@ pub(super) fn medium(xml: &Xml, n: Node, out: &mut Out) -> Result<String> {
     let mut g = 0.0;
     for ph in p.nested(xml, "phase")? {
         let mut pp = xml.props(ph)?;
-        g = match kind(xml, ph)? {
+        g = match kind(xml, ph)?.as_str() {
             "isotropic" => 0.0,
             "hg" => pp.float(xml, "g")?.map_or(0.8, |(_, g)| g),
             other => {

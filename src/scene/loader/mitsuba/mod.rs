@@ -4,21 +4,29 @@
 //!
 //! # The subset
 //! * `<scene version="3.x">` with `<default name value>` parameters and `$name` substitution
-//!   in any attribute (`lodestar render -D name=value` overrides a default); `id` and
+//!   in any attribute, plugin types included (`-D name=value` on `render`, `info` and `bench`
+//!   overrides a default); `id` and
 //!   `<ref id>` (also `<ref name="interior" id>`) for BSDFs and media.
 //! * `sensor` `perspective`: `fov`, `fov_axis` (x, y, diagonal, smaller, larger; default x),
 //!   `to_world`, `near_clip`/`far_clip` (read; lodestar does not clip), a nested or referenced
-//!   medium (the medium the camera is in); `film` `hdrfilm` `width`/`height` (768 x 576) with
+//!   medium (the medium the camera is in); `film` `hdrfilm` (or Mitsuba 0.x's `ldrfilm`, its
+//!   tone mapping read and the linear image written) `width`/`height` (768 x 576) with
 //!   `rfilter` `box` or none (lodestar's film is a box filter; Mitsuba's default Gaussian only
-//!   blurs), `pixel_format`/`component_format`/`file_format` (output only); `sampler` of any
-//!   type: `sample_count` (4) becomes the default spp.
+//!   blurs), `pixel_format`/`component_format`/`file_format` (output only); `sampler`
+//!   `independent`, `stratified`, `multijitter`, `orthogonal`, `ldsampler`, `sobol`, `halton`
+//!   or `hammersley`: `sample_count` (4) becomes the default spp (`seed`, `jitter`,
+//!   `strength`, `dimension`, `scramble` are read; lodestar draws its own numbers).
+//! * Mitsuba 0.x scenes (`version` below 2.0.0) are upgraded as Mitsuba 3 upgrades them:
+//!   property names from camelCase to snake_case (`maxDepth`, `intIOR`, `sampleCount`),
+//!   `<lookAt>` read as `<lookat>`, the diffuse BSDF's `diffuse_reflectance` as
+//!   `reflectance`.
 //! * `integrator` `path`, `volpath`, `volpathmis` (lodestar `pt`) and `ptracer` (`lt`):
 //!   `max_depth` (-1, no limit), `rr_depth` (read: lodestar's roulette starts on its own
 //!   schedule, which changes noise, not the image), `hide_emitters` false.
 //! * BSDFs: `diffuse` (`reflectance` 0.5), `conductor` and `roughconductor` (`material`
-//!   "none" with `specular_reflectance`, or `eta` and `k`; rough: `distribution` "ggx", which
-//!   must be written out because Mitsuba's default is Beckmann, `alpha` 0.1 or equal
-//!   `alpha_u`/`alpha_v`), `dielectric` and `roughdielectric` (`int_ior` 1.5046 "bk7",
+//!   "none" with `specular_reflectance`, or `eta` and `k`; rough: `distribution` "beckmann"
+//!   (Mitsuba's default) or "ggx", `alpha` 0.1 or equal `alpha_u`/`alpha_v`,
+//!   `sample_visible` read: both are sampled by visible normals), `dielectric` and `roughdielectric` (`int_ior` 1.5046 "bk7",
 //!   `ext_ior` 1.000277 "air", numbers or Mitsuba's named media), `twosided` around one
 //!   BSDF, and `null` on a medium boundary. Without `twosided`, diffuse and conductors are
 //!   black from the back, as in Mitsuba. `plastic` and `roughplastic` are refused: lodestar
@@ -39,15 +47,22 @@
 //!   `transform` with `translate`, `rotate`, `scale`, `matrix` (16 or 9 numbers) and `lookat`,
 //!   applied in the order written.
 //!
-//! Anything else (another plugin, an unknown property, a texture, `include`, a spectrum given
-//! by wavelengths) is an error naming the file, the line and the plugin: nothing is skipped.
+//! * `<include filename>` (its scene's contents in place of the element, recursively;
+//!   `include.rs`) and `<path value>` (a directory searched first for mesh files).
+//!
+//! Anything else (another plugin, an unknown property, a texture, a spectrum given by
+//! wavelengths) is an error naming the file, the line and the plugin: nothing is skipped.
 //!
 //! Files: this one reads the document (parameters, references, property values, transforms);
 //! `plugins.rs` turns the scene, sensor, integrator, shapes and emitters into the scene
 //! description, `materials.rs` the BSDFs and media.
 
+mod include;
 mod materials;
+mod out;
 mod plugins;
+
+pub(super) use include::{Origins, expand as expand_includes};
 
 use super::{SceneDesc, Source};
 use crate::error::{Error, Result};
@@ -55,12 +70,14 @@ use glam::{Mat4, Vec3, Vec4};
 use roxmltree::{Document, Node};
 use std::collections::{HashMap, HashSet};
 use std::ops::Range;
+use std::path::{Path, PathBuf};
 
 /// Parse Mitsuba XML `src.text` into a scene description, and the medium the sensor is in
 /// (name and position; see [`plugins::scene`]). `defines` override `<default>`s.
 pub(super) fn parse(
     src: &Source,
     defines: &[(String, String)],
+    dir: Option<&Path>,
 ) -> Result<(SceneDesc, Option<SensorMedium>)> {
     let doc = Document::parse(src.text).map_err(|e| {
         let pos = e.pos();
@@ -74,6 +91,8 @@ pub(super) fn parse(
         src,
         params: defines.iter().cloned().collect(),
         ids: HashMap::new(),
+        before_2: false,
+        search: Vec::new(),
     };
     if root.tag_name().name() != "scene" {
         return xml.err(
@@ -84,6 +103,17 @@ pub(super) fn parse(
             ),
         );
     }
+    if let Some(v) = root.attribute("version") {
+        xml.before_2 = match version(v) {
+            Some((major, _, _)) => major < 2,
+            None => {
+                return xml.err(
+                    root,
+                    format!("version '{v}': expected three numbers separated by periods (3.0.0)"),
+                );
+            }
+        };
+    }
     // Parameters first (a default never overrides a command-line definition), then ids.
     for n in root.children().filter(Node::is_element) {
         if n.tag_name().name() == "default" {
@@ -92,6 +122,14 @@ pub(super) fn parse(
                 .entry(name.to_string())
                 .or_insert(value.to_string());
         }
+    }
+    // Mitsuba searches the directories of `<path>` for files, the last given first, before
+    // the scene's own directory.
+    for n in root.children().filter(|n| n.has_tag_name("path")) {
+        let value = xml.subst(n, xml.raw(n, "value")?)?;
+        let p = PathBuf::from(&value);
+        let p = dir.map_or_else(|| p.clone(), |d| d.join(&p));
+        xml.search.insert(0, p);
     }
     for n in root.descendants().filter(Node::is_element) {
         if let (Some(id), false) = (n.attribute("id"), n.tag_name().name() == "ref") {
@@ -110,6 +148,37 @@ pub(super) fn parse(
     plugins::scene(&xml, root)
 }
 
+/// A scene's `version` attribute as (major, minor, patch).
+fn version(v: &str) -> Option<(u32, u32, u32)> {
+    let mut parts = v.trim().split('.').map(|p| p.trim().parse::<u32>().ok());
+    let triple = (parts.next()??, parts.next()??, parts.next()??);
+    parts.next().is_none().then_some(triple)
+}
+
+/// A Mitsuba 0.x property name in Mitsuba 3's spelling: camelCase to snake_case as Mitsuba 3
+/// upgrades it (`maxDepth` -> `max_depth`, `intIOR` -> `int_ior`, `sampleCount` ->
+/// `sample_count`): an underscore where a lower-case letter meets an upper-case one, and that
+/// run of capitals lowered.
+fn snake_case(name: &str) -> String {
+    let c: Vec<char> = name.chars().collect();
+    let mut out = String::with_capacity(name.len() + 4);
+    let mut i = 0;
+    while i < c.len() {
+        out.push(c[i]);
+        if c[i].is_ascii_lowercase() && i + 1 < c.len() && c[i + 1].is_ascii_uppercase() {
+            out.push('_');
+            i += 1;
+            while i < c.len() && c[i].is_ascii_uppercase() {
+                out.push(c[i].to_ascii_lowercase());
+                i += 1;
+            }
+            continue;
+        }
+        i += 1;
+    }
+    out
+}
+
 /// The medium a sensor says the camera is in: its name and where the sensor says so.
 type SensorMedium = (String, Range<usize>);
 
@@ -118,6 +187,12 @@ struct Xml<'a, 'input> {
     src: &'a Source<'a>,
     params: HashMap<String, String>,
     ids: HashMap<String, Node<'a, 'input>>,
+    /// A Mitsuba 0.x scene (`version` below 2.0.0), upgraded as it is read, as Mitsuba 3 does:
+    /// property names from camelCase, `<lookAt>` as `<lookat>`, the diffuse BSDF's
+    /// `diffuse_reflectance` as `reflectance`.
+    before_2: bool,
+    /// Directories `<path>` elements add, searched first (the last given first).
+    search: Vec<PathBuf>,
 }
 
 impl<'a, 'input> Xml<'a, 'input> {
@@ -164,6 +239,16 @@ impl<'a, 'input> Xml<'a, 'input> {
         Ok(out)
     }
 
+    /// A file name as the scene writes it, found where Mitsuba would: in the `<path>`
+    /// directories (the last given first), else relative to the scene's directory.
+    fn find_file(&self, name: &str) -> String {
+        self.search
+            .iter()
+            .map(|d| d.join(name))
+            .find(|p| p.exists())
+            .map_or_else(|| name.to_string(), |p| p.display().to_string())
+    }
+
     /// An attribute with parameters substituted.
     fn attr(&self, node: Node, key: &str) -> Result<Option<String>> {
         node.attribute(key).map(|v| self.subst(node, v)).transpose()
@@ -186,14 +271,23 @@ impl<'a, 'input> Xml<'a, 'input> {
 
     /// The properties and nested objects of a plugin element.
     fn props(&self, node: Node<'a, 'input>) -> Result<Props<'a, 'input>> {
-        let plugin = format!(
-            "{} '{}'",
-            node.tag_name().name(),
-            node.attribute("type").unwrap_or("?")
-        );
+        let kind = match node.attribute("type") {
+            Some(t) => self.subst(node, t)?,
+            None => "?".to_string(),
+        };
+        let plugin = format!("{} '{kind}'", node.tag_name().name());
+        let diffuse = node.tag_name().name() == "bsdf" && kind == "diffuse";
         let mut items = Vec::new();
         for c in node.children().filter(Node::is_element) {
-            let name = self.attr(c, "name")?;
+            let mut name = self.attr(c, "name")?;
+            if self.before_2
+                && let Some(n) = &mut name
+            {
+                *n = snake_case(n);
+                if diffuse && n == "diffuse_reflectance" {
+                    *n = "reflectance".to_string();
+                }
+            }
             items.push(Item {
                 node: c,
                 name,
@@ -281,7 +375,7 @@ impl<'a, 'input> Xml<'a, 'input> {
                         }
                     }
                 }
-                "lookat" => {
+                "lookat" | "lookAt" if op.tag_name().name() == "lookat" || self.before_2 => {
                     let p = |key: &str| -> Result<Vec3> {
                         match self.attr(op, key)? {
                             Some(v) => match self.numbers(op, &v)?.as_slice() {

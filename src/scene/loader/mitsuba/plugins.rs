@@ -5,30 +5,16 @@
 
 use super::super::{CameraDesc, LightDesc, RenderDesc, SceneDesc, ShapeDesc, TransformDesc};
 use super::materials::{bsdf, material_desc, medium};
+use super::out::{Out, kind, s};
 use super::{Props, SensorMedium, Xml, span};
 use crate::error::Result;
 use glam::{Mat4, Vec3};
-use roxmltree::{Node, NodeId};
+use roxmltree::Node;
 use std::collections::HashMap;
 use toml::Spanned;
 
 /// Segments of the triangle fan standing for an analytic disk.
 const DISK_SEGMENTS: u32 = 1024;
-
-/// What the plugins produce, and the objects already converted (by element).
-pub(super) struct Out {
-    pub(super) desc: SceneDesc,
-    /// BSDF element -> material name (`None`: a `null` BSDF).
-    pub(super) bsdfs: HashMap<NodeId, Option<String>>,
-    pub(super) media: HashMap<NodeId, String>,
-    /// Name of Mitsuba's default BSDF (diffuse 0.5, one-sided), once a shape needed it.
-    default_bsdf: Option<String>,
-    sensor_medium: Option<SensorMedium>,
-}
-
-pub(super) fn s<T>(node: Node, v: T) -> Spanned<T> {
-    Spanned::new(span(node), v)
-}
 
 /// A scene description from the `<scene>` element, and the medium the sensor says the
 /// camera is in (checked against the geometry once the scene is built).
@@ -72,7 +58,8 @@ pub(super) fn scene(xml: &Xml, root: Node) -> Result<(SceneDesc, Option<SensorMe
             "shape" => shape(xml, n, &mut out)?,
             "emitter" => emitter(xml, n, &mut out)?,
             "texture" => return xml.err(n, "textures are not supported (lodestar takes constant colours)"),
-            "include" | "path" => return xml.err(n, format!("<{}> is not supported: write the scene in one file", n.tag_name().name())),
+            // Read before the plugins (`<path>`) or expanded before the document is read.
+            "path" | "include" => {}
             other => return xml.err(n, format!("<{other}> is not supported at the top level of a scene (expected default, integrator, sensor, bsdf, medium, shape or emitter)")),
         }
     }
@@ -121,12 +108,8 @@ fn default_camera() -> CameraDesc {
     }
 }
 
-pub(super) fn kind<'a, 'i>(xml: &Xml<'_, 'i>, n: Node<'a, 'i>) -> Result<&'a str> {
-    xml.raw(n, "type")
-}
-
 fn integrator_plugin(xml: &Xml, n: Node, render: &mut RenderDesc) -> Result<()> {
-    let name = match kind(xml, n)? {
+    let name = match kind(xml, n)?.as_str() {
         "path" | "volpath" | "volpathmis" => "pt",
         "ptracer" => "lt",
         other => {
@@ -173,10 +156,11 @@ fn sensor_plugin(xml: &Xml, n: Node, out: &mut Out, render: &mut RenderDesc) -> 
         return xml.err(films[1], "a sensor has one <film>");
     }
     if let Some(&f) = films.first() {
-        if kind(xml, f)? != "hdrfilm" {
+        let film = kind(xml, f)?;
+        if film != "hdrfilm" && film != "ldrfilm" {
             return xml.err(
                 f,
-                format!("film '{}' is not supported (hdrfilm only)", kind(xml, f)?),
+                format!("film '{film}' is not supported (hdrfilm, or ldrfilm read as hdrfilm)"),
             );
         }
         res_at = f;
@@ -192,6 +176,17 @@ fn sensor_plugin(xml: &Xml, n: Node, out: &mut Out, render: &mut RenderDesc) -> 
         for key in ["pixel_format", "component_format", "file_format"] {
             fp.string(xml, key)?;
         }
+        if film == "ldrfilm" {
+            // Mitsuba 0.x's tone-mapped film: lodestar writes the linear image (EXR) and a
+            // PNG only on request, so its tone mapping is read and left to the viewer.
+            fp.string(xml, "tonemap_method")?;
+            for key in ["gamma", "exposure", "key", "burn"] {
+                fp.float(xml, key)?;
+            }
+            for key in ["banner", "high_quality_edges"] {
+                fp.boolean(xml, key)?;
+            }
+        }
         // A box filter of radius 1/2 never reaches past its pixel: the border changes nothing.
         fp.boolean(xml, "sample_border")?;
         for r in fp.nested(xml, "rfilter")? {
@@ -205,18 +200,33 @@ fn sensor_plugin(xml: &Xml, n: Node, out: &mut Out, render: &mut RenderDesc) -> 
     // Sampler.
     for smp in p.nested(xml, "sampler")? {
         let k = kind(xml, smp)?;
-        if ![
+        let k = k.as_str();
+        const SAMPLERS: [&str; 8] = [
             "independent",
             "stratified",
             "multijitter",
             "orthogonal",
             "ldsampler",
-        ]
-        .contains(&k)
-        {
-            return xml.err(smp, format!("sampler '{k}' is not supported"));
+            "sobol",
+            "halton",
+            "hammersley",
+        ];
+        if !SAMPLERS.contains(&k) {
+            return xml.err(
+                smp,
+                format!(
+                    "sampler '{k}' is not supported (expected one of {})",
+                    SAMPLERS.join(", ")
+                ),
+            );
         }
         let mut sp = xml.props(smp)?;
+        // How a sampler places its numbers changes the noise, not the image: lodestar reads
+        // the sample count and draws its own numbers (`-O sampler=sobol` for stratified ones).
+        for key in ["seed", "strength", "dimension", "scramble"] {
+            sp.integer(xml, key)?;
+        }
+        sp.boolean(xml, "jitter")?;
         if let Some((at, c)) = sp.integer(xml, "sample_count")? {
             if !(1..=u32::MAX as i64).contains(&c) {
                 return xml.err(at, format!("'sample_count' must be at least 1, got {c}"));
@@ -321,6 +331,7 @@ fn matrix_desc(at: Node, m: Mat4) -> Spanned<TransformDesc> {
 
 fn shape(xml: &Xml, n: Node, out: &mut Out) -> Result<()> {
     let k = kind(xml, n)?;
+    let k = k.as_str();
     let mut p = xml.props(n)?;
     let to_world = p.take_to_world(xml)?;
     let flip = p.boolean(xml, "flip_normals")?.unwrap_or(false);
@@ -328,7 +339,7 @@ fn shape(xml: &Xml, n: Node, out: &mut Out) -> Result<()> {
         "obj" | "ply" => {
             let mut d = shape_desc(n, k);
             d.file = match p.string(xml, "filename")? {
-                Some((at, f)) => Some(s(at, f)),
+                Some((at, f)) => Some(s(at, xml.find_file(&f))),
                 None => return xml.err(n, format!("shape '{k}' needs 'filename'")),
             };
             let faces = p.boolean(xml, "face_normals")?.unwrap_or(false);
@@ -463,6 +474,7 @@ fn light_desc(n: Node, kind: &str) -> LightDesc {
 
 fn emitter(xml: &Xml, n: Node, out: &mut Out) -> Result<()> {
     let k = kind(xml, n)?;
+    let k = k.as_str();
     let mut p = xml.props(n)?;
     let color = |p: &mut Props, key: &str| -> Result<Spanned<[f32; 3]>> {
         Ok(p.color(xml, key)?

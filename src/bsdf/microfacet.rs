@@ -82,33 +82,8 @@ impl Ggx {
         0.5 * a / (1.0 + (1.0 + a).sqrt())
     }
 
-    /// Smith masking `G1(w) = 1 / (1 + Lambda(w))`.
-    #[inline]
-    pub fn g1(&self, w: Vec3) -> f32 {
-        1.0 / (1.0 + self.lambda(w))
-    }
-
-    /// Height-correlated masking-shadowing `G2 = 1 / (1 + Lambda(wo) + Lambda(wi))`.
-    #[inline]
-    pub fn g2(&self, wo: Vec3, wi: Vec3) -> f32 {
-        1.0 / (1.0 + self.lambda(wo) + self.lambda(wi))
-    }
-
-    /// Distribution of visible normals `D_wo(m) = G1(wo) max(0, wo.m) D(m) / |wo.z|`, a density
-    /// over the solid angle of `m`. `wo` must be in the upper hemisphere.
-    #[inline]
-    pub fn d_visible(&self, wo: Vec3, m: Vec3) -> f32 {
-        let cos_o = wo.z.abs();
-        let wo_m = wo.dot(m);
-        if cos_o == 0.0 || wo_m <= 0.0 {
-            return 0.0;
-        }
-        let v = self.g1(wo) * wo_m * self.d(m) / cos_o;
-        if v.is_finite() { v } else { 0.0 }
-    }
-
     /// Samples a visible normal for `wo` (upper hemisphere, unit) with density
-    /// [`Ggx::d_visible`]. `None` for the measure-zero draws where the construction
+    /// [`Smith::d_visible`]. `None` for the measure-zero draws where the construction
     /// degenerates.
     pub fn sample_visible(&self, wo: Vec3, u: Vec2) -> Option<Vec3> {
         let a = self.alpha;
@@ -209,30 +184,6 @@ impl Beckmann {
         l.max(0.0) as f32
     }
 
-    /// Smith masking `G1(w) = 1 / (1 + Lambda(w))`.
-    #[inline]
-    pub fn g1(&self, w: Vec3) -> f32 {
-        1.0 / (1.0 + self.lambda(w))
-    }
-
-    /// Height-correlated masking-shadowing `G2 = 1 / (1 + Lambda(wo) + Lambda(wi))`.
-    #[inline]
-    pub fn g2(&self, wo: Vec3, wi: Vec3) -> f32 {
-        1.0 / (1.0 + self.lambda(wo) + self.lambda(wi))
-    }
-
-    /// Distribution of visible normals, as [`Ggx::d_visible`].
-    #[inline]
-    pub fn d_visible(&self, wo: Vec3, m: Vec3) -> f32 {
-        let cos_o = wo.z.abs();
-        let wo_m = wo.dot(m);
-        if cos_o == 0.0 || wo_m <= 0.0 {
-            return 0.0;
-        }
-        let v = self.g1(wo) * wo_m * self.d(m) / cos_o;
-        if v.is_finite() { v } else { 0.0 }
-    }
-
     /// A visible slope of the distribution with alpha = 1 for an incident direction at
     /// `cos_theta` from the normal, in the plane of incidence (x towards the direction).
     fn sample_slope(cos_theta: f64, u: Vec2) -> (f64, f64) {
@@ -277,7 +228,7 @@ impl Beckmann {
     }
 
     /// Samples a visible normal for `wo` (upper hemisphere, unit) with density
-    /// [`Beckmann::d_visible`]; `None` where the construction degenerates.
+    /// [`Smith::d_visible`]; `None` where the construction degenerates.
     pub fn sample_visible(&self, wo: Vec3, u: Vec2) -> Option<Vec3> {
         let a = self.alpha as f64;
         // Stretch to alpha = 1.
@@ -318,48 +269,86 @@ impl Microfacet {
         }
     }
 
-    /// `D(m)`.
-    #[inline]
-    pub fn d(&self, m: Vec3) -> f32 {
-        match self {
-            Microfacet::Ggx(g) => g.d(m),
-            Microfacet::Beckmann(b) => b.d(m),
-        }
-    }
-
-    /// Smith `G1(w)`.
-    #[inline]
-    pub fn g1(&self, w: Vec3) -> f32 {
-        match self {
-            Microfacet::Ggx(g) => g.g1(w),
-            Microfacet::Beckmann(b) => b.g1(w),
-        }
-    }
-
-    /// Height-correlated `G2(wo, wi)`.
-    #[inline]
-    pub fn g2(&self, wo: Vec3, wi: Vec3) -> f32 {
-        match self {
-            Microfacet::Ggx(g) => g.g2(wo, wi),
-            Microfacet::Beckmann(b) => b.g2(wo, wi),
-        }
-    }
-
-    /// Density of visible normals `D_wo(m)`.
-    #[inline]
-    pub fn d_visible(&self, wo: Vec3, m: Vec3) -> f32 {
-        match self {
-            Microfacet::Ggx(g) => g.d_visible(wo, m),
-            Microfacet::Beckmann(b) => b.d_visible(wo, m),
-        }
-    }
-
-    /// A visible normal for `wo`, with density [`Microfacet::d_visible`].
+    /// A visible normal for `wo`, with density [`Smith::d_visible`].
     #[inline]
     pub fn sample_visible(&self, wo: Vec3, u: Vec2) -> Option<Vec3> {
         match self {
             Microfacet::Ggx(g) => g.sample_visible(wo, u),
             Microfacet::Beckmann(b) => b.sample_visible(wo, u),
+        }
+    }
+}
+
+/// The Smith microfacet model of a distribution: its `D` and `Lambda` give the masking terms
+/// and the density of visible normals.
+pub trait Smith {
+    /// Normal distribution `D(m)` for a unit `m`; zero for `m.z <= 0`.
+    fn d(&self, m: Vec3) -> f32;
+
+    /// Smith's `Lambda(w)`; infinite at the horizon. Uses `|w.z|`.
+    fn lambda(&self, w: Vec3) -> f32;
+
+    /// Smith masking `G1(w) = 1 / (1 + Lambda(w))`.
+    #[inline]
+    fn g1(&self, w: Vec3) -> f32 {
+        1.0 / (1.0 + self.lambda(w))
+    }
+
+    /// Height-correlated masking-shadowing `G2 = 1 / (1 + Lambda(wo) + Lambda(wi))`.
+    #[inline]
+    fn g2(&self, wo: Vec3, wi: Vec3) -> f32 {
+        1.0 / (1.0 + self.lambda(wo) + self.lambda(wi))
+    }
+
+    /// Distribution of visible normals `D_wo(m) = G1(wo) max(0, wo.m) D(m) / |wo.z|`, a density
+    /// over the solid angle of `m`. `wo` must be in the upper hemisphere.
+    #[inline]
+    fn d_visible(&self, wo: Vec3, m: Vec3) -> f32 {
+        let cos_o = wo.z.abs();
+        let wo_m = wo.dot(m);
+        if cos_o == 0.0 || wo_m <= 0.0 {
+            return 0.0;
+        }
+        let v = self.g1(wo) * wo_m * self.d(m) / cos_o;
+        if v.is_finite() { v } else { 0.0 }
+    }
+}
+
+impl Smith for Ggx {
+    #[inline]
+    fn d(&self, m: Vec3) -> f32 {
+        Ggx::d(self, m)
+    }
+    #[inline]
+    fn lambda(&self, w: Vec3) -> f32 {
+        Ggx::lambda(self, w)
+    }
+}
+
+impl Smith for Beckmann {
+    #[inline]
+    fn d(&self, m: Vec3) -> f32 {
+        Beckmann::d(self, m)
+    }
+    #[inline]
+    fn lambda(&self, w: Vec3) -> f32 {
+        Beckmann::lambda(self, w)
+    }
+}
+
+impl Smith for Microfacet {
+    #[inline]
+    fn d(&self, m: Vec3) -> f32 {
+        match self {
+            Microfacet::Ggx(g) => g.d(m),
+            Microfacet::Beckmann(b) => b.d(m),
+        }
+    }
+    #[inline]
+    fn lambda(&self, w: Vec3) -> f32 {
+        match self {
+            Microfacet::Ggx(g) => g.lambda(w),
+            Microfacet::Beckmann(b) => b.lambda(w),
         }
     }
 }

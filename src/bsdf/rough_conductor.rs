@@ -5,7 +5,7 @@
 //! is `F G2 / G1(wo) <= F`. A configuration with `wo` below the surface is mirrored through
 //! the tangent plane first (two-sided, like the smooth conductor).
 
-use super::microfacet::{Microfacet, reflect};
+use super::microfacet::{Microfacet, Smith, reflect};
 use super::{ConductorFresnel, LocalSample};
 use crate::math::Spectrum;
 use glam::{Vec2, Vec3};

@@ -22,7 +22,7 @@
 //! density: transmitted samples are dropped. The loader should use a smooth dielectric (or no
 //! interface) for index-matched boundaries.
 
-use super::microfacet::{Microfacet, reflect, refract};
+use super::microfacet::{Microfacet, Smith, reflect, refract};
 use super::{LocalSample, TransportMode, fresnel};
 use crate::math::Spectrum;
 use glam::{Vec2, Vec3};

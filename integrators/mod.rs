@@ -50,7 +50,13 @@ pub struct Entry {
     /// a render (`crate::parts`); the error says why not. [`splittable`] and
     /// [`not_splittable`] serve most.
     pub parts: fn(&str, &Options) -> Result<()>,
+    /// The largest `--max-depth` it renders: `None` for any, [`STORED_PATHS`] for integrators
+    /// that keep whole paths (the Markov chains' states, guide paths); [`build`] checks it.
+    pub max_depth: Option<u32>,
 }
+
+/// [`Entry::max_depth`] of an integrator that stores whole paths ([`crate::path::Path`]).
+pub const STORED_PATHS: Option<u32> = Some(crate::path::MAX_VERTICES as u32 - 1);
 
 /// [`Entry::parts`] of an integrator whose passes depend on the seed and the global pass
 /// index alone: any slice of the passes can be rendered on its own.
@@ -119,6 +125,7 @@ pub static REGISTRY: &[Entry] = &[
         build: pt::build,
         options: &[pt::OPTIONS],
         parts: pt::check_parts,
+        max_depth: None,
     },
     Entry {
         name: "lt",
@@ -126,6 +133,7 @@ pub static REGISTRY: &[Entry] = &[
         build: bdpt::build_lt,
         options: &[bdpt::LT_OPTIONS],
         parts: splittable,
+        max_depth: None,
     },
     Entry {
         name: "guided-pt",
@@ -133,6 +141,7 @@ pub static REGISTRY: &[Entry] = &[
         build: guided::build_pt,
         options: guided::options::PT_OPTIONS,
         parts: guided::check_parts,
+        max_depth: STORED_PATHS,
     },
     Entry {
         name: "guided-bdpt",
@@ -140,6 +149,7 @@ pub static REGISTRY: &[Entry] = &[
         build: guided::build_bdpt,
         options: guided::options::BDPT_OPTIONS,
         parts: guided::check_parts,
+        max_depth: STORED_PATHS,
     },
     Entry {
         name: "guided-vcm",
@@ -147,6 +157,7 @@ pub static REGISTRY: &[Entry] = &[
         build: guided::build_vcm,
         options: guided::options::VCM_OPTIONS,
         parts: not_splittable,
+        max_depth: STORED_PATHS,
     },
     Entry {
         name: "bdpt",
@@ -154,6 +165,7 @@ pub static REGISTRY: &[Entry] = &[
         build: bdpt::build,
         options: &[bdpt::OPTIONS],
         parts: splittable,
+        max_depth: None,
     },
     Entry {
         name: "pssmlt",
@@ -161,6 +173,7 @@ pub static REGISTRY: &[Entry] = &[
         build: mcmc::build_pssmlt,
         options: mcmc::PSSMLT_OPTIONS,
         parts: mcmc::check_parts,
+        max_depth: None,
     },
     Entry {
         name: "mmlt",
@@ -168,6 +181,7 @@ pub static REGISTRY: &[Entry] = &[
         build: mcmc::build_mmlt,
         options: mcmc::MMLT_OPTIONS,
         parts: mcmc::check_parts,
+        max_depth: STORED_PATHS,
     },
     Entry {
         name: "vcm",
@@ -175,6 +189,7 @@ pub static REGISTRY: &[Entry] = &[
         build: vcm::build,
         options: &[vcm::OPTIONS],
         parts: splittable,
+        max_depth: None,
     },
     Entry {
         name: "bpm",
@@ -182,13 +197,25 @@ pub static REGISTRY: &[Entry] = &[
         build: vcm::build_bpm,
         options: &[vcm::BPM_OPTIONS],
         parts: splittable,
+        max_depth: None,
     },
 ];
 
 /// Build an integrator by name; an unknown name lists the valid ones, and an option that
 /// the integrator does not read is an error.
 pub fn build(name: &str, params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
-    let integrator = (entry(name)?.build)(params)?;
+    let e = entry(name)?;
+    if let Some(most) = e.max_depth
+        && params.max_depth > most
+    {
+        return Err(Error::new(format!(
+            "{name} stores whole paths of at most {} vertices, so max_depth must be at most \
+             {most}; got {}",
+            most + 1,
+            crate::path::depth_label(params.max_depth)
+        )));
+    }
+    let integrator = (e.build)(params)?;
     params.options.check_all_used(name)?;
     Ok(integrator)
 }

@@ -55,6 +55,12 @@ pub fn markdown(entries: &[Entry]) -> String {
     );
     for e in entries {
         let _ = writeln!(out, "\n## `{}`\n\n{}\n", e.name, e.summary);
+        if let Some(most) = e.max_depth {
+            let _ = writeln!(
+                out,
+                "It stores whole paths: `--max-depth` at most {most}.\n"
+            );
+        }
         let specs = options(e);
         if specs.is_empty() {
             out.push_str("No options.\n");

@@ -39,20 +39,6 @@ pub fn depth_label(d: u32) -> String {
     }
 }
 
-/// The error of an integrator that stores whole paths when `max_depth` exceeds what a stored
-/// path holds.
-pub fn check_stored_depth(who: &str, max_depth: u32) -> Result<(), String> {
-    if max_depth as usize >= MAX_VERTICES {
-        return Err(format!(
-            "{who} stores whole paths of at most {MAX_VERTICES} vertices, so max_depth must be \
-             at most {}; got {}",
-            MAX_VERTICES - 1,
-            depth_label(max_depth)
-        ));
-    }
-    Ok(())
-}
-
 /// What a path vertex is: it decides the vertex's measure (area, volume or solid angle) and
 /// how the densities at it are evaluated.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -37,6 +37,7 @@ use lodestar::integrators::{self, IntegratorParams, Options};
 use lodestar::math::{IndependentSampler, Sampler, luminance, stream_seed};
 use lodestar::render::RenderResult;
 use lodestar::scene::Scene;
+use rayon::prelude::*;
 use std::path::Path;
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -622,28 +623,33 @@ fn mmlt_specular_split_adds_up() {
         bdpt: &bdpt,
         scene: &scene,
     };
-    let mut tracer = split.scratch();
     let raster = |i: u32, sampler: &mut IndependentSampler| {
         let pixel = i % (w * h);
         Vec2::new((pixel % w) as f32, (pixel / w) as f32) + sampler.next_2d()
     };
-    let (mut direct, mut technique) = (Vec::new(), Vec::new());
-    for i in 0..w * h * spp {
-        let mut sampler = IndependentSampler::new(3, i as u64, 0);
-        let r = raster(i, &mut sampler);
-        direct.push(luminance(split.direct(&mut tracer, r, &mut sampler).as_vec3()) as f64);
-        let mut sum = 0.0;
-        for t in 2..=depth as usize + 1 {
-            let mut sampler = IndependentSampler::new(4, i as u64, t as u64);
-            let r = raster(i, &mut sampler);
-            if let Some((_, c)) = tracer.sample_technique(r, 0, t, &mut sampler)
-                && tracer.camera_inner_specular()
-            {
-                sum += luminance(c) as f64;
-            }
-        }
-        technique.push(sum);
-    }
+    // Sample i draws from its own streams: the same values on any number of threads.
+    let (direct, technique): (Vec<f64>, Vec<f64>) = (0..w * h * spp)
+        .into_par_iter()
+        .map_init(
+            || split.scratch(),
+            |tracer, i| {
+                let mut sampler = IndependentSampler::new(3, i as u64, 0);
+                let r = raster(i, &mut sampler);
+                let direct = luminance(split.direct(tracer, r, &mut sampler).as_vec3()) as f64;
+                let mut sum = 0.0;
+                for t in 2..=depth as usize + 1 {
+                    let mut sampler = IndependentSampler::new(4, i as u64, t as u64);
+                    let r = raster(i, &mut sampler);
+                    if let Some((_, c)) = tracer.sample_technique(r, 0, t, &mut sampler)
+                        && tracer.camera_inner_specular()
+                    {
+                        sum += luminance(c) as f64;
+                    }
+                }
+                (direct, sum)
+            },
+        )
+        .unzip();
     let pixels = (w * h) as usize;
     let ((direct, direct_se), (technique, technique_se)) = (
         stratified_mean_se(&direct, pixels),

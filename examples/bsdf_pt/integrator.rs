@@ -59,6 +59,7 @@ pub fn register() -> Result<()> {
         build,
         options: &[OPTIONS],
         parts: integrators::not_splittable,
+        max_depth: None,
     })?;
     integrators::register(Entry {
         name: "guided-bsdf-pt",
@@ -66,6 +67,7 @@ pub fn register() -> Result<()> {
         build: build_guided,
         options: &[OPTIONS, guided::options::COMMON, guided::options::SEEDERS],
         parts: integrators::not_splittable,
+        max_depth: integrators::STORED_PATHS,
     })
 }
 

@@ -200,7 +200,6 @@ pub fn read(
     tables: &[&[Spec]],
     default_rr: u32,
 ) -> Result<(GuidedSettings, u32)> {
-    crate::path::check_stored_depth("a guided integrator", params.max_depth).map_err(Error::new)?;
     let o = params.options.declared(tables);
     let rr_depth = o.int_or("rr_depth", default_rr as i64)?;
     let share = match o.word("share")? {

@@ -33,7 +33,7 @@
 use super::driver;
 use super::pssmlt::raster_of;
 use super::target::{Contribution, McmcSettings, Split, Target};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::integrators::IntegratorParams;
 use crate::integrators::bdpt::{BdptSettings, TECHNIQUE_STREAMS, Tracer};
 use crate::integrators::paths::Heuristic;
@@ -44,8 +44,6 @@ use glam::{DVec3, Vec2};
 
 /// Build mmlt from its parameters (`max_depth` must fit a stored path).
 pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
-    // One chain group per path length, each with its own bootstrap: lengths must be few.
-    crate::path::check_stored_depth("mmlt", params.max_depth).map_err(Error::new)?;
     let o = params.options.declared(super::MMLT_OPTIONS);
     let heuristic = crate::integrators::bdpt::heuristic(&o)?;
     let mut settings = super::settings(&params.options)?;

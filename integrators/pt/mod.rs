@@ -25,7 +25,6 @@
 //! ```
 
 use super::IntegratorParams;
-use super::options::{DefaultValue, Kind, SAMPLER, Spec};
 use crate::bsdf::TransportMode;
 use crate::error::{Error, Result};
 use crate::geometry::Ray;
@@ -40,6 +39,8 @@ use direct::{Queue, Scatterer, TraceNow};
 use emission::EmitterAt;
 use glam::{Vec2, Vec3};
 use guiding::{Guide, Trail};
+use options::RR_DEPTH;
+pub use options::{OPTIONS, RR_DEPTH_OPTION, STRATEGY_OPTION};
 pub use recording::PathRecorder;
 use recording::Recording;
 
@@ -47,6 +48,7 @@ pub mod batch;
 mod direct;
 mod emission;
 pub mod guiding;
+mod options;
 mod recording;
 mod round;
 pub mod sdtree;
@@ -84,37 +86,6 @@ impl Default for PtSettings {
         }
     }
 }
-
-/// pt's default roulette start (Mitsuba's).
-const RR_DEPTH: i64 = 5;
-
-/// Option `rr_depth` of pt (and of pssmlt).
-pub const RR_DEPTH_OPTION: Spec = Spec {
-    name: "rr_depth",
-    kind: Kind::Int { min: 1 },
-    default: DefaultValue::Int(RR_DEPTH),
-    doc: "Russian roulette starts on paths of this many segments (Mitsuba's default)",
-};
-
-/// Option `strategy` of pt (and of pssmlt).
-pub const STRATEGY_OPTION: Spec = Spec {
-    name: "strategy",
-    kind: Kind::Choice(&["mis", "bsdf", "nee"]),
-    default: DefaultValue::Word("mis"),
-    doc: "`bsdf`: emitters only found by BSDF sampling; `nee`: only by next-event estimation \
-          (except after delta bounces and for the camera ray)",
-};
-
-/// pt's options.
-pub const OPTIONS: &[Spec] = &[
-    RR_DEPTH_OPTION,
-    STRATEGY_OPTION,
-    batch::BATCH_OPTION,
-    SAMPLER,
-    guiding::GUIDING_OPTION,
-    guiding::GUIDE_FRACTION_OPTION,
-    guiding::LEARN_FRACTION_OPTION,
-];
 
 /// `--part` (`Entry::parts`): pt's passes are independent, except with `guiding=sdtree`,
 /// whose tree each part would learn from its own passes.

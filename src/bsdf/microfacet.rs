@@ -300,6 +300,14 @@ pub trait Smith {
         1.0 / (1.0 + self.lambda(wo) + self.lambda(wi))
     }
 
+    /// `(G1(wo), G2(wo, wi))` with `Lambda(wo)` evaluated once (what a BSDF's value and density
+    /// need together).
+    #[inline]
+    fn g1_g2(&self, wo: Vec3, wi: Vec3) -> (f32, f32) {
+        let lo = self.lambda(wo);
+        (1.0 / (1.0 + lo), 1.0 / (1.0 + lo + self.lambda(wi)))
+    }
+
     /// Distribution of visible normals `D_wo(m) = G1(wo) max(0, wo.m) D(m) / |wo.z|`, a density
     /// over the solid angle of `m`. `wo` must be in the upper hemisphere.
     #[inline]

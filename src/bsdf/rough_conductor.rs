@@ -46,9 +46,10 @@ pub(super) fn eval_pdf(
     let ggx = mf;
     let d = ggx.d(m);
     // f without the Fresnel term (which is in [0, 1]).
-    let f_unit = d * ggx.g2(wo, wi) / (4.0 * wo.z * wi.z);
+    let (g1, g2) = ggx.g1_g2(wo, wi);
+    let f_unit = d * g2 / (4.0 * wo.z * wi.z);
     // D_wo(m) / (4 wo.m), with the wo.m cancelled.
-    let pdf = ggx.g1(wo) * d / (4.0 * wo.z);
+    let pdf = g1 * d / (4.0 * wo.z);
     if !(f_unit.is_finite() && pdf.is_finite()) || pdf <= 0.0 {
         return ZERO;
     }

@@ -62,8 +62,9 @@ pub(super) fn eval_pdf(
         }
         let fr = fresnel::dielectric(co, eta_r).0;
         let d = ggx.d(m);
-        let f = fr * d * ggx.g2(wo, wi) / (4.0 * wo.z * wi.z);
-        let pdf = fr * ggx.g1(wo) * d / (4.0 * wo.z);
+        let (g1, g2) = ggx.g1_g2(wo, wi);
+        let f = fr * d * g2 / (4.0 * wo.z * wi.z);
+        let pdf = fr * g1 * d / (4.0 * wo.z);
         (f, pdf)
     } else {
         let h = wo + eta_r * wi;
@@ -88,11 +89,15 @@ pub(super) fn eval_pdf(
         let d = ggx.d(m);
         let denom = (ci + co / eta_r) * (ci + co / eta_r);
         let jacobian = -ci / denom;
-        let mut f = t * d * ggx.g2(wo, wi) * co * jacobian / (wo.z * -wi.z);
+        let (g1, g2) = ggx.g1_g2(wo, wi);
+        let mut f = t * d * g2 * co * jacobian / (wo.z * -wi.z);
         if mode == TransportMode::Radiance {
             f /= eta_r * eta_r;
         }
-        let pdf = t * ggx.d_visible(wo, m) * jacobian;
+        // D_wo(m) (`Smith::d_visible`) with G1 and D already at hand.
+        let visible = g1 * co * d / wo.z;
+        let visible = if visible.is_finite() { visible } else { 0.0 };
+        let pdf = t * visible * jacobian;
         (f, pdf)
     };
     if !(f.is_finite() && pdf.is_finite()) || pdf <= 0.0 || f < 0.0 {

@@ -61,12 +61,14 @@ mod include;
 mod materials;
 mod out;
 mod plugins;
+mod transform;
+mod upgrade;
 
 pub(super) use include::{Origins, expand as expand_includes};
 
 use super::{SceneDesc, Source};
 use crate::error::{Error, Result};
-use glam::{Mat4, Vec3, Vec4};
+use glam::{Mat4, Vec3};
 use roxmltree::{Document, Node};
 use std::collections::{HashMap, HashSet};
 use std::ops::Range;
@@ -104,7 +106,7 @@ pub(super) fn parse(
         );
     }
     if let Some(v) = root.attribute("version") {
-        xml.before_2 = match version(v) {
+        xml.before_2 = match upgrade::version(v) {
             Some((major, _, _)) => major < 2,
             None => {
                 return xml.err(
@@ -146,37 +148,6 @@ pub(super) fn parse(
         }
     }
     plugins::scene(&xml, root)
-}
-
-/// A scene's `version` attribute as (major, minor, patch).
-fn version(v: &str) -> Option<(u32, u32, u32)> {
-    let mut parts = v.trim().split('.').map(|p| p.trim().parse::<u32>().ok());
-    let triple = (parts.next()??, parts.next()??, parts.next()??);
-    parts.next().is_none().then_some(triple)
-}
-
-/// A Mitsuba 0.x property name in Mitsuba 3's spelling: camelCase to snake_case as Mitsuba 3
-/// upgrades it (`maxDepth` -> `max_depth`, `intIOR` -> `int_ior`, `sampleCount` ->
-/// `sample_count`): an underscore where a lower-case letter meets an upper-case one, and that
-/// run of capitals lowered.
-fn snake_case(name: &str) -> String {
-    let c: Vec<char> = name.chars().collect();
-    let mut out = String::with_capacity(name.len() + 4);
-    let mut i = 0;
-    while i < c.len() {
-        out.push(c[i]);
-        if c[i].is_ascii_lowercase() && i + 1 < c.len() && c[i + 1].is_ascii_uppercase() {
-            out.push('_');
-            i += 1;
-            while i < c.len() && c[i].is_ascii_uppercase() {
-                out.push(c[i].to_ascii_lowercase());
-                i += 1;
-            }
-            continue;
-        }
-        i += 1;
-    }
-    out
 }
 
 /// The medium a sensor says the camera is in: its name and where the sensor says so.
@@ -283,7 +254,7 @@ impl<'a, 'input> Xml<'a, 'input> {
             if self.before_2
                 && let Some(n) = &mut name
             {
-                *n = snake_case(n);
+                *n = upgrade::snake_case(n);
                 if diffuse && n == "diffuse_reflectance" {
                     *n = "reflectance".to_string();
                 }
@@ -343,85 +314,6 @@ impl<'a, 'input> Xml<'a, 'input> {
             [v] => Ok(*v),
             _ => self.err(node, format!("expected one number, got '{text}'")),
         }
-    }
-
-    /// A `<transform>` element: its operations composed in the order written.
-    fn transform(&self, node: Node) -> Result<Mat4> {
-        let mut m = Mat4::IDENTITY;
-        for op in node.children().filter(Node::is_element) {
-            let step = match op.tag_name().name() {
-                "translate" => Mat4::from_translation(self.xyz(op, 0.0)?),
-                "scale" => Mat4::from_scale(self.xyz(op, 1.0)?),
-                "rotate" => {
-                    let axis = self.xyz(op, 0.0)?;
-                    let angle = match self.attr(op, "angle")? {
-                        Some(a) => self.number(op, &a)?,
-                        None => return self.err(op, "<rotate> needs 'angle' (degrees)"),
-                    };
-                    let Some(axis) = axis.try_normalize() else {
-                        return self.err(op, "<rotate> needs a non-zero axis (x, y, z or value)");
-                    };
-                    Mat4::from_axis_angle(axis, angle.to_radians())
-                }
-                "matrix" => {
-                    let v = self.attr(op, "value")?.unwrap_or_default();
-                    let n = self.numbers(op, &v)?;
-                    match n.len() {
-                        16 => Mat4::from_cols_slice(&n).transpose(),
-                        9 => Mat4::from_mat3(glam::Mat3::from_cols_slice(&n).transpose()),
-                        k => {
-                            return self
-                                .err(op, format!("<matrix> needs 16 (or 9) numbers, got {k}"));
-                        }
-                    }
-                }
-                "lookat" | "lookAt" if op.tag_name().name() == "lookat" || self.before_2 => {
-                    let p = |key: &str| -> Result<Vec3> {
-                        match self.attr(op, key)? {
-                            Some(v) => match self.numbers(op, &v)?.as_slice() {
-                                [x, y, z] => Ok(Vec3::new(*x, *y, *z)),
-                                _ => {
-                                    self.err(op, format!("<lookat> '{key}' must be three numbers"))
-                                }
-                            },
-                            None if key == "up" => Ok(Vec3::Y),
-                            None => self.err(op, format!("<lookat> needs '{key}'")),
-                        }
-                    };
-                    let (origin, target, up) = (p("origin")?, p("target")?, p("up")?);
-                    let Some(dir) = (target - origin).try_normalize() else {
-                        return self.err(op, "<lookat> 'target' must differ from 'origin'");
-                    };
-                    let Some(left) = up.cross(dir).try_normalize() else {
-                        return self.err(
-                            op,
-                            "<lookat> 'up' must not be zero or parallel to the view direction",
-                        );
-                    };
-                    let new_up = dir.cross(left);
-                    Mat4::from_cols(
-                        left.extend(0.0),
-                        new_up.extend(0.0),
-                        dir.extend(0.0),
-                        origin.extend(1.0),
-                    )
-                }
-                other => {
-                    return self.err(
-                        op,
-                        format!("<{other}> in a transform (expected translate, rotate, scale, matrix or lookat)"),
-                    );
-                }
-            };
-            m = step * m;
-        }
-        if m.row(3) != Vec4::W {
-            return self.err(
-                node,
-                "the transform is projective (its last row is not 0 0 0 1)",
-            );
-        }
-        Ok(m)
     }
 }
 

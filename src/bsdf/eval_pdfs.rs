@@ -1,0 +1,147 @@
+//! [`Bsdf::eval_pdfs`]: a BSDF's value and its densities in both directions in one call, what
+//! a connection between two subpaths needs at each end.
+
+use super::microfacet::Microfacet;
+use super::{
+    Bsdf, ShadingFrame, TransportMode, diffuse, geometry_agrees, rough_conductor, rough_dielectric,
+    shading_correction,
+};
+use crate::math::Spectrum;
+use glam::Vec3;
+
+/// `f(wo, wi)` and the densities of sampling either direction from the other: what a
+/// connection between two subpaths needs at each end (see [`Bsdf::eval_pdfs`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EvalPdfs {
+    /// As [`Bsdf::eval`] (no cosine).
+    pub f: Spectrum,
+    /// As [`Bsdf::pdf`] of `wi` given `wo`.
+    pub pdf_fwd: f32,
+    /// As [`Bsdf::pdf`] of `wo` given `wi`.
+    pub pdf_rev: f32,
+}
+
+impl EvalPdfs {
+    /// No value and no density either way: what a delta lobe or an impossible pair of
+    /// directions gives.
+    pub const ZERO: EvalPdfs = EvalPdfs {
+        f: Spectrum::ZERO,
+        pdf_fwd: 0.0,
+        pdf_rev: 0.0,
+    };
+}
+
+impl Bsdf {
+    /// `eval(wo, wi)`, `pdf(wo -> wi)` and `pdf(wi -> wo)` in one call, sharing the frame
+    /// transforms and side checks; bit-identical to the three separate calls (densities do
+    /// not depend on `mode`). Zero for delta lobes.
+    pub fn eval_pdfs(
+        &self,
+        sf: &ShadingFrame,
+        wo: Vec3,
+        wi: Vec3,
+        mode: TransportMode,
+    ) -> EvalPdfs {
+        self.eval_with_pdfs(sf, wo, wi, mode, true)
+    }
+
+    /// `eval(wo, wi)` and `pdf(wo -> wi)` in one call (next-event estimation's pair), sharing
+    /// the frame transforms, side checks and, for the microfacet models, the evaluation
+    /// itself; bit-identical to the two separate calls.
+    pub fn eval_pdf(
+        &self,
+        sf: &ShadingFrame,
+        wo: Vec3,
+        wi: Vec3,
+        mode: TransportMode,
+    ) -> (Spectrum, f32) {
+        let e = self.eval_with_pdfs(sf, wo, wi, mode, false);
+        (e.f, e.pdf_fwd)
+    }
+
+    /// [`Bsdf::eval_pdfs`], with `pdf_rev` left 0 unless `reverse`.
+    #[inline(always)]
+    fn eval_with_pdfs(
+        &self,
+        sf: &ShadingFrame,
+        wo: Vec3,
+        wi: Vec3,
+        mode: TransportMode,
+        reverse: bool,
+    ) -> EvalPdfs {
+        let (wo_l, wi_l) = (sf.frame.to_local(wo), sf.frame.to_local(wi));
+        let transmission = wo_l.z * wi_l.z < 0.0;
+        if !geometry_agrees(sf, wo, wi, transmission) {
+            return EvalPdfs::ZERO;
+        }
+        let (f, pdf_fwd, pdf_rev) = match self {
+            Bsdf::Diffuse { albedo } => (
+                diffuse::eval(*albedo, wo_l, wi_l),
+                diffuse::pdf(wo_l, wi_l),
+                if reverse {
+                    diffuse::pdf(wi_l, wo_l)
+                } else {
+                    0.0
+                },
+            ),
+            Bsdf::RoughConductor {
+                alpha,
+                fresnel,
+                distribution,
+            } => {
+                let (f, pdf_fwd) = rough_conductor::eval_pdf(
+                    Microfacet::new(*distribution, *alpha),
+                    Some(fresnel),
+                    wo_l,
+                    wi_l,
+                );
+                let pdf_rev = if reverse {
+                    rough_conductor::eval_pdf(
+                        Microfacet::new(*distribution, *alpha),
+                        None,
+                        wi_l,
+                        wo_l,
+                    )
+                    .1
+                } else {
+                    0.0
+                };
+                (f, pdf_fwd, pdf_rev)
+            }
+            Bsdf::RoughDielectric {
+                eta,
+                alpha,
+                distribution,
+            } => {
+                let (f, pdf_fwd) = rough_dielectric::eval_pdf(
+                    *eta,
+                    Microfacet::new(*distribution, *alpha),
+                    wo_l,
+                    wi_l,
+                    mode,
+                );
+                let pdf_rev = if reverse {
+                    rough_dielectric::eval_pdf(
+                        *eta,
+                        Microfacet::new(*distribution, *alpha),
+                        wi_l,
+                        wo_l,
+                        TransportMode::Radiance,
+                    )
+                    .1
+                } else {
+                    0.0
+                };
+                (Spectrum::splat(f), pdf_fwd, pdf_rev)
+            }
+            Bsdf::Black | Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => {
+                return EvalPdfs::ZERO;
+            }
+        };
+        EvalPdfs {
+            f: f * shading_correction(sf, wo, wi, mode),
+            pdf_fwd,
+            pdf_rev,
+        }
+    }
+}

@@ -5,7 +5,7 @@
 //! Statistical checks are z-tests at |z| < 4.5 per channel (false-failure rate below 1e-5
 //! each) with fixed seeds.
 
-mod util;
+use crate::util;
 
 use glam::Vec2;
 use lodestar::integrators::bdpt::{BdptSettings, Tracer};

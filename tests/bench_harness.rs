@@ -3,7 +3,7 @@
 //! back, numbers checked against each other and against errors recomputed here from the
 //! written images), and `render --snapshots` writes the images a shorter render would give.
 
-mod util;
+use crate::util;
 
 use lodestar::film::Image;
 use lodestar::integrators::{self, IntegratorParams, Options};

@@ -26,7 +26,7 @@
 //! * Near-specular safety: alpha 0 (clamped to 1e-4) and tiny alphas give finite `f`, `pdf`
 //!   and weights everywhere, including the exact mirror and refraction directions.
 
-mod common;
+use crate::common;
 
 use common::chi2::{self, LobeDomain};
 use common::{Failures, MODES, close, dir_around, ng_generic};

@@ -10,7 +10,7 @@
 //!   total internal reflection, and that `eval` and `pdf` are zero.
 //! * The harness itself: it must reject deliberately mismatched sampler/pdf pairs.
 
-mod common;
+use crate::common;
 
 use common::chi2::{self, SphereDomain};
 use common::{Failures, MODES, close, close3, dir_around, ng_generic};

@@ -14,7 +14,7 @@
 //!   and the environment).
 //! * Point lights (delta) and the power-proportional light selection.
 
-mod common;
+use crate::common;
 
 use common::chi2::{self, SphereDomain};
 use common::{Failures, close, close3};

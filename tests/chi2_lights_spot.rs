@@ -33,7 +33,7 @@
 //! Samples: 1e6 per chi-square case (2.5e5 for two power controls), 2e5 per irradiance
 //! z-test. About 5 s in release on one core.
 
-mod common;
+use crate::common;
 
 use common::chi2::{self, SphereDomain};
 use common::{Failures, close, close3};

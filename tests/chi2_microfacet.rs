@@ -22,7 +22,7 @@
 //! the dielectric in 4 and 3 configurations). Samples per case: [`N`] = 200,000 on 20 x 32 bins per chart (a few
 //! hundred to a couple of thousand expected per bin where the lobe is).
 
-mod common;
+use crate::common;
 
 use common::chi2::{self, LobeDomain};
 use common::{Failures, MODES, close, close3, dir_around, ng_generic};

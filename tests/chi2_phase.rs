@@ -4,7 +4,7 @@
 //! suite, fixed seeds). The domain is the sphere around the propagation direction, so strong
 //! forward peaks are resolved by the (1 - cos) binning.
 
-mod common;
+use crate::common;
 
 use common::chi2::{self, SphereDomain};
 use glam::Vec3;

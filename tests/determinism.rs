@@ -1,7 +1,7 @@
 //! An image depends on the seed only: bit-identical for 1 and 2 threads, and for repeated
 //! runs; different for another seed.
 
-mod util;
+use crate::util;
 
 #[test]
 fn bit_identical_across_thread_counts() {

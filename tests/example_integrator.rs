@@ -6,7 +6,7 @@
 #[path = "../examples/bsdf_pt/integrator.rs"]
 #[allow(dead_code)]
 mod integrator;
-mod util;
+use crate::util;
 
 use glam::{DVec3, Vec2};
 use integrator::{BsdfPt, Walker};

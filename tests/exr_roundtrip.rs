@@ -2,7 +2,7 @@
 //! every header entry the command line writes: the run's identity, the integrator's settings,
 //! the pass count and every statistic the render reported (guided statistics included).
 
-mod util;
+use crate::util;
 
 use lodestar::film::Image;
 use std::process::Command;

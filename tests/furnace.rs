@@ -10,7 +10,7 @@
 //! Each check is a z-test of the image mean (pixels are independent estimates of the same
 //! constant) at |z| < 4.5 per channel: false-failure rate below 1e-5 per check, seeds fixed.
 
-mod util;
+use crate::util;
 
 use std::fmt::Write as _;
 use std::path::PathBuf;

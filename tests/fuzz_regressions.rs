@@ -2,8 +2,7 @@
 //! accepted, kept under `tests/data/fuzz/`: each must now load or fail with a clean one-line
 //! error, without a panic. Plus a short deterministic run of the fuzzer itself.
 
-#[path = "fuzz_support/mod.rs"]
-mod fuzz_support;
+use crate::fuzz_support;
 
 use fuzz_support::{Kind, Outcome, XorShift, corpus, mutate, run_input};
 use std::path::{Path, PathBuf};

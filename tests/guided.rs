@@ -1,6 +1,6 @@
 //! guided-pt: sampling and evaluation agree, the estimator is unbiased, caches round-trip.
 
-mod util;
+use crate::util;
 
 use util::guided::{CAUSTIC, installs_of, trace_pt, twin_caustic_cache};
 

@@ -2,7 +2,7 @@
 //! techniques plus the guided one sum to one, the estimator converges to bdpt's image (and a
 //! broken p_g is caught), bad options are errors.
 
-mod util;
+use crate::util;
 
 use glam::DVec3;
 use lodestar::bsdf::Bsdf;

@@ -2,7 +2,7 @@
 //! without underflow on long paths in large scenes, one source of p_u, every failed guided
 //! sample counted with its reason.
 
-mod util;
+use crate::util;
 
 use glam::DVec3;
 use lodestar::integrators::guided::cache::{GuideCache, Install};

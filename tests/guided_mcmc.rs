@@ -3,7 +3,7 @@
 //! caught), a chain replays the outlier it starts at, and renders do not depend on the thread
 //! count.
 
-mod util;
+use crate::util;
 
 use lodestar::film::Image;
 

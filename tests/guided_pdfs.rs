@@ -22,7 +22,7 @@
 //! a shape and a mass test: 14 hypothesis tests (the suite had 425 of at most 500). The power
 //! test at the end expects a rejection. The integral and reference tests are deterministic.
 
-mod common;
+use crate::common;
 
 use common::chi2::{self, SphereDomain};
 use glam::{DVec3, Vec2, Vec3};

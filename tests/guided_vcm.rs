@@ -6,7 +6,7 @@
 //! Statistical checks are z-tests at |z| < 4.5 per pixel and channel (`util::assert_same_mean`,
 //! false-failure rate about 2e-5 for three channels) with fixed seeds.
 
-mod util;
+use crate::util;
 
 use glam::DVec3;
 use lodestar::integrators::bdpt::{self, BdptSettings};

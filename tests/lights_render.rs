@@ -3,7 +3,7 @@
 //! max_depth 2). z-tests at |z| < 4.5 per channel (false-failure rate below 1e-5 each), with
 //! fixed seeds; noiseless cases are compared to the f32 resolution of the image.
 
-mod util;
+use crate::util;
 
 fn floor_scene(light: &str, fov: f32) -> String {
     format!(

@@ -5,7 +5,7 @@
 // The 2x2 Jacobians read best with explicit indices.
 #![allow(clippy::needless_range_loop)]
 
-mod util;
+use crate::util;
 
 use glam::{DVec3, Vec3};
 use lodestar::integrators::guided::cache::GuideCache;

@@ -7,7 +7,7 @@
 //! basin indicator dropped, makes the first comparison fail. The images do not depend on the
 //! number of threads with the step on.
 
-mod util;
+use crate::util;
 
 use lodestar::film::Image;
 use lodestar::integrators::bdpt::{BdptSettings, RR_DEPTH};

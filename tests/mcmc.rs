@@ -18,7 +18,7 @@
 //! Statistical checks use fixed seeds; each states the values measured over other seeds that
 //! its tolerance rests on, and its false-failure reasoning.
 
-mod util;
+use crate::util;
 
 use glam::DVec3;
 use glam::Vec2;

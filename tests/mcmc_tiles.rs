@@ -11,7 +11,7 @@
 //! Bonferroni bound, family-wise false-failure rate 1e-4 per comparison (fixed seeds), and
 //! then the whole image as one tile (the renders' means, each with its own estimate of b).
 
-mod util;
+use crate::util;
 
 use lodestar::film::Image;
 use lodestar::integrators::mcmc::faults::Faults;

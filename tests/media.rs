@@ -2,7 +2,7 @@
 //! each other in media. Statistical checks are z-tests at |z| < 4.5 (false-failure rate below
 //! 1e-5 each), with fixed seeds.
 
-mod util;
+use crate::util;
 
 use glam::{Vec2, Vec3};
 use lodestar::scene::Endpoint;

@@ -8,7 +8,7 @@
 //! (`util::assert_same_image`, family-wise false-failure rate 1e-4 per comparison), with
 //! every render free of invalid samples.
 
-mod util;
+use crate::util;
 
 use lodestar::film::Image;
 use lodestar::scene::Scene;

@@ -3,7 +3,7 @@
 //! references, transforms, one-sided BSDFs, the microfacet distributions, PLY and OBJ meshes
 //! and the error messages (file, line and plugin) each have a case.
 
-mod util;
+use crate::util;
 
 use glam::Vec3;
 use lodestar::bsdf::{Bsdf, Distribution};

@@ -6,7 +6,7 @@
 //! * bdpt: every technique's path, converted to a `Path` and back, gives the same technique
 //!   densities as the technique assembled while rendering.
 
-mod util;
+use crate::util;
 
 use glam::Vec2;
 use lodestar::integrators::bdpt::{BdptSettings, Tracer};

@@ -4,7 +4,7 @@
 //! pixel differences (`util::z_same_mean`) at |z| < 4.5: false-failure rate below 1e-5 per
 //! comparison, fixed seeds.
 
-mod util;
+use crate::util;
 
 #[test]
 fn mis_bsdf_and_nee_agree_on_the_cornell_box() {

@@ -4,7 +4,7 @@
 //! value added without its shadow ray's answer, or a change in the order of the sums changes
 //! bits of the image, so these comparisons are exact.
 
-mod util;
+use crate::util;
 
 use lodestar::integrators::pt::batch::{BatchMode, Tracing};
 use lodestar::integrators::pt::{PathTracer, PtSettings, wavefront};

@@ -4,8 +4,8 @@
 //! against pt's (tile-wise Welch tests at a family-wise false-failure rate of 1e-4, fixed
 //! seeds), bit-identical images for 1 and 2 threads, and the options' errors.
 
-mod common;
-mod util;
+use crate::common;
+use crate::util;
 
 use common::chi2::{self, SphereDomain};
 use glam::Vec3;

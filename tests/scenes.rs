@@ -2,7 +2,7 @@
 //! render (at a reduced resolution, a few samples, with pt and bdpt) to finite, non-negative,
 //! non-black images. The white furnace renders to its analytic value.
 
-mod util;
+use crate::util;
 
 use lodestar::geometry::bvh::ShapeGeometry;
 use lodestar::light::Light;

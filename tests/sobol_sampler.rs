@@ -5,7 +5,7 @@
 //! bit-identical images across thread counts and with batched tracing; a clear error for an
 //! unknown sampler.
 
-mod util;
+use crate::util;
 
 use lodestar::film::Image;
 use util::{assert_same_image, differs, mirrored, render, seeded_renders, shipped_at as shipped};

@@ -6,7 +6,7 @@
 //! the sample counts low: these are tests of robustness, with agreement checked where the
 //! noise allows (z tests with the false-failure rates stated at each).
 
-mod util;
+use crate::util;
 use util::stat;
 
 use lodestar::film::Image;

@@ -7,7 +7,7 @@
 //! each; 3 channels x 7 tests, so below 2e-4 in all) with fixed seeds, and MSE ratios whose
 //! thresholds are over 5 standard deviations of the ratio at these pixel counts.
 
-mod util;
+use crate::util;
 
 use lodestar::film::Image;
 use lodestar::integrators::paths::{self, Kind};

@@ -133,21 +133,30 @@ fn intersect_triangle(o: DVec3, d: DVec3, [a, b, c]: [DVec3; 3]) -> Option<f64> 
 }
 
 /// Solid-angle density of `sample_li` at `p` in direction `w` for a mesh light: the sum of
-/// `pdf_li` over the mesh's front-facing points along the ray.
-fn mesh_dir_pdf(light: &Light, mesh: &TriangleMesh, p: Vec3, w: Vec3) -> f64 {
-    let (o, d) = (p.as_dvec3(), w.as_dvec3().normalize());
-    let mut sum = 0.0;
-    for i in 0..mesh.indices.len() {
-        let tri = mesh.triangle(i).map(|v| v.as_dvec3());
-        if let Some(t) = intersect_triangle(o, d, tri) {
-            let n = mesh.geometric_normal(i);
-            if n.as_dvec3().dot(d) < 0.0 {
+/// `pdf_li` over the mesh's front-facing points along the ray. The triangles are converted to
+/// f64 once, outside the returned closure (the cubature calls it millions of times).
+fn mesh_dir_pdf<'a>(light: &'a Light, mesh: &TriangleMesh, p: Vec3) -> impl Fn(Vec3) -> f64 + 'a {
+    let tris: Vec<([DVec3; 3], Vec3)> = (0..mesh.indices.len())
+        .map(|i| {
+            (
+                mesh.triangle(i).map(|v| v.as_dvec3()),
+                mesh.geometric_normal(i),
+            )
+        })
+        .collect();
+    move |w| {
+        let (o, d) = (p.as_dvec3(), w.as_dvec3().normalize());
+        let mut sum = 0.0;
+        for &(tri, n) in &tris {
+            if n.as_dvec3().dot(d) < 0.0
+                && let Some(t) = intersect_triangle(o, d, tri)
+            {
                 let p_l = (o + t * d).as_vec3();
                 sum += light.pdf_li(p, p_l, n, d.as_vec3()) as f64;
             }
         }
+        sum
     }
-    sum
 }
 
 // ------------------------------------------------------------------------------------------
@@ -227,7 +236,7 @@ fn quad_light_sample_li() {
             &light,
             p,
             &SphereDomain::covering_ball(p, c, r),
-            |w| mesh_dir_pdf(&light, &mesh, p, w),
+            mesh_dir_pdf(&light, &mesh, p),
         );
         assert!(r.share() > 0.99, "{r}");
     }
@@ -238,7 +247,7 @@ fn quad_light_sample_li() {
         &light,
         p,
         &SphereDomain::covering_ball(p, c, r),
-        |w| mesh_dir_pdf(&light, &mesh, p, w),
+        mesh_dir_pdf(&light, &mesh, p),
     );
     assert_eq!(r.successes, 0, "{r}");
 }
@@ -263,7 +272,7 @@ fn cube_light_sample_li() {
             &light,
             p,
             &SphereDomain::covering_ball(p, c, r),
-            |w| mesh_dir_pdf(&light, &mesh, p, w),
+            mesh_dir_pdf(&light, &mesh, p),
         );
         assert!(r.share() > 0.05 && r.share() < 0.95, "{r}");
     }
@@ -283,7 +292,7 @@ fn fan_light_sample_li() {
             &light,
             p,
             &SphereDomain::covering_ball(p, c, r),
-            |w| mesh_dir_pdf(&light, &mesh, p, w),
+            mesh_dir_pdf(&light, &mesh, p),
         );
     }
 }
@@ -513,13 +522,20 @@ fn quad_light_sample_le() {
     fails.assert_none("quad sample_le directions");
 }
 
-/// Is `p` (in the fan's plane) inside triangle `i` of the fan?
-fn in_triangle(mesh: &TriangleMesh, i: usize, p: Vec2) -> bool {
-    let [a, b, c] = mesh.triangle(i).map(|v| v.truncate().as_dvec2());
-    let p = p.as_dvec2();
-    let e = |a: glam::DVec2, b: glam::DVec2| (b - a).perp_dot(p - a);
-    let (x, y, z) = (e(a, b), e(b, c), e(c, a));
-    (x >= 0.0 && y >= 0.0 && z >= 0.0) || (x <= 0.0 && y <= 0.0 && z <= 0.0)
+/// Is a point of the fan's plane inside one of the fan's triangles? (The triangles are
+/// converted to f64 once, outside the returned closure.)
+fn inside_fan(mesh: &TriangleMesh) -> impl Fn(Vec2) -> bool + use<> {
+    let tris: Vec<[glam::DVec2; 3]> = (0..mesh.indices.len())
+        .map(|i| mesh.triangle(i).map(|v| v.truncate().as_dvec2()))
+        .collect();
+    move |p| {
+        let p = p.as_dvec2();
+        tris.iter().any(|&[a, b, c]| {
+            let e = |a: glam::DVec2, b: glam::DVec2| (b - a).perp_dot(p - a);
+            let (x, y, z) = (e(a, b), e(b, c), e(c, a));
+            (x >= 0.0 && y >= 0.0 && z >= 0.0) || (x <= 0.0 && y <= 0.0 && z <= 0.0)
+        })
+    }
 }
 
 #[test]
@@ -539,6 +555,7 @@ fn fan_light_sample_le_positions_are_uniform_by_area() {
     );
     let inv_area = 1.0 / areas.iter().map(|&a| a as f64).sum::<f64>();
     let mut fails = Failures::new();
+    let inside = inside_fan(&mesh);
     chi2::planar(
         "fan light sample_le positions",
         N,
@@ -555,8 +572,7 @@ fn fan_light_sample_le_positions_are_uniform_by_area() {
             Some(e.p.truncate())
         },
         |p| {
-            let inside = (0..mesh.indices.len()).any(|i| in_triangle(&mesh, i, p));
-            if inside { inv_area } else { 0.0 }
+            if inside(p) { inv_area } else { 0.0 }
         },
     )
     .assert_ok();
@@ -830,7 +846,7 @@ fn a_mesh_sampler_ignoring_triangle_areas_is_rejected() {
         N,
         &SphereDomain::covering_ball(p, c, r),
         |s| Some(light.sample_li(p, s.next_2d())?.wi),
-        |w| mesh_dir_pdf(&light, &mesh, p, w),
+        mesh_dir_pdf(&light, &mesh, p),
     );
     println!("{report}");
     assert!(report.rejected(), "{report}");
@@ -838,6 +854,7 @@ fn a_mesh_sampler_ignoring_triangle_areas_is_rejected() {
     let mesh = irregular_fan();
     let light = bad(&mesh);
     let inv_area = 1.0 / mesh.area() as f64;
+    let inside = inside_fan(&mesh);
     let report = chi2::planar(
         "power: fan positions, uniform triangle choice",
         N,
@@ -846,8 +863,7 @@ fn a_mesh_sampler_ignoring_triangle_areas_is_rejected() {
         [32, 32],
         |s| Some(light.sample_le(s.next_2d(), s.next_2d())?.p.truncate()),
         |p| {
-            let inside = (0..mesh.indices.len()).any(|i| in_triangle(&mesh, i, p));
-            if inside { inv_area } else { 0.0 }
+            if inside(p) { inv_area } else { 0.0 }
         },
     );
     println!("{report}");

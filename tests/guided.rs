@@ -608,41 +608,38 @@ fn guided_pt_learning_in_fog_agrees_with_bdpt_tile_by_tile() {
 /// their error bounds: guided rays leave each vertex on the line through the vertex itself
 /// (`Hit::spawn_along`), so the density recomputed from the vertices sees the direction that
 /// was drawn. 100 units away, sampling and evaluation agree as at the origin (the strict
-/// check above); with rays offset along the normal instead, 2 % of samples were off by more
-/// than 1e-3 and the worst by 9 %. 1e4 away, the hit points' own rounding (an ulp is 1e-3
-/// there) limits agreement: the median within 1e-2 and 99 % within 0.2 (with normal
-/// offsets: median 4.5e-2, 1 % off by more than 0.9, the worst by a factor 1e302).
+/// check above). 1e4 away the hit points' own rounding (an ulp is 1e-3 there) limits
+/// agreement, so every sample's disagreement must be within what that rounding explains:
+/// [`util::rounding_sensitivity`] of the recomputed density, the change it makes when the
+/// vertices move within their error bounds (measured: at most 0.48 of it, median 0.03; the
+/// relative disagreement itself has median 4e-3 and reaches 0.75 where the density is that
+/// sensitive). With rays offset along the normal instead, the worst sample was off by a factor
+/// 1e302.
 #[test]
 fn guided_densities_match_their_evaluation_far_from_the_origin() {
     let near = util::scene(&util::transformed_cornell(1.0, 100.0, 32));
     check_cache_sampling("box 100 away", &near, &cache_of_pt_paths(&near, 6, 600));
     let far = util::scene(&util::transformed_cornell(1.0, 1e4, 32));
     let cache = cache_of_pt_paths(&far, 6, 600);
-    let mut rel: Vec<f64> = (0..4000u64)
-        .filter_map(|i| {
-            let mut s = IndependentSampler::new(11, 0, i);
-            let g = sampler::sample_path(&far, &cache, &mut s).ok()?;
-            let y = paths::from_path(&far, &g.path).expect("a complete path");
-            let term = cache.pdf_given(&far, g.guide, &y);
-            assert!(term.is_finite() && g.density.is_finite());
-            Some((term - g.density).abs() / term.max(1e-300))
-        })
-        .collect();
-    assert!(rel.len() > 100, "only {} guided samples", rel.len());
-    rel.sort_by(f64::total_cmp);
-    let q = |f: f64| rel[((rel.len() - 1) as f64 * f) as usize];
-    eprintln!(
-        "1e4 away: median {:.1e}, 99 % {:.1e}, max {:.1e}",
-        q(0.5),
-        q(0.99),
-        q(1.0)
-    );
-    assert!(
-        q(0.5) < 1e-2 && q(0.99) < 0.2,
-        "1e4 away: median {}, 99 % {}",
-        q(0.5),
-        q(0.99)
-    );
+    let mut samples = 0;
+    for i in 0..4000u64 {
+        let mut s = IndependentSampler::new(11, 0, i);
+        let Ok(g) = sampler::sample_path(&far, &cache, &mut s) else {
+            continue;
+        };
+        let y = paths::from_path(&far, &g.path).expect("a complete path");
+        let term = cache.pdf_given(&far, g.guide, &y);
+        assert!(term.is_finite() && g.density.is_finite());
+        let bound = util::rounding_sensitivity(&y, |y| cache.pdf_given(&far, g.guide, y));
+        assert!(
+            (term - g.density).abs() <= bound,
+            "1e4 away, sample {i}: sampled density {} against {term} recomputed; rounding \
+             explains {bound}",
+            g.density
+        );
+        samples += 1;
+    }
+    assert!(samples > 100, "only {samples} guided samples");
 }
 
 /// A failed walk says why and where: with a quad across the Cornell box 5 mm under its light

@@ -181,19 +181,21 @@ emission = [1e6, 1e6, 1e6]
             let fx = contribution::contribution(self.scene, &y, 0);
             let rel = ((f - fx).abs() / f.abs()).max_element();
             // Hit points are f32: at 1000 units from the origin they are rounded by 6e-5, which
-            // is 1e-3 of a corner bounce's 0.1-unit segment (measured: f off by 1.6 % there).
-            // Agreement to 1e-2 is asserted where every segment is at least 10 units long
-            // (measured: within 2.4e-3); f from the vertices must be non-zero for every path,
-            // which is what an f32 product fails.
-            let shortest = path
-                .vertices()
-                .windows(2)
-                .map(|w| w[0].p.distance(w[1].p))
-                .fold(f32::INFINITY, f32::min);
-            let tolerance = if shortest >= 10.0 { 1e-2 } else { 1.0 };
-            if (fx == DVec3::ZERO || rel.is_nan() || rel >= tolerance) && self.bad.len() < 4 {
+            // is 1e-3 of a corner bounce's 0.1-unit segment. So f from the vertices may differ
+            // from pt's by what moving the vertices within their error bounds changes
+            // (`util::rounding_sensitivity`), times 4: a vertex as traced differs from its
+            // stored position by its rounding (one bound) and, as a ray origin, by the offset
+            // along the normal (up to sqrt(3) bounds). Measured: at most 2.97 times the
+            // sensitivity over 12 835 paths (median 0.8); the relative difference reaches 0.28
+            // at a corner and is below 1e-4 for 90 % of paths.
+            let bound = crate::util::rounding_sensitivity(&y, |y| {
+                contribution::contribution(self.scene, y, 0).x
+            });
+            // (The scene is grey: every channel of f is the same.)
+            let within = (f - fx).abs().max_element() <= 4.0 * bound;
+            if (fx == DVec3::ZERO || rel.is_nan() || !within) && self.bad.len() < 4 {
                 self.bad.push(format!(
-                    "k {} technique {technique}: pt {f} vs {fx} {:?}",
+                    "k {} technique {technique}: pt {f} vs {fx}, rounding explains {bound} {:?}",
                     path.segments(),
                     path.vertices().iter().map(|v| v.p).collect::<Vec<_>>()
                 ));

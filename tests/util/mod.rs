@@ -326,3 +326,32 @@ type = "point"
 position = [0, 0.3, 0]
 intensity = [2, 2, 2]
 "#;
+
+/// How much `f` of a path can change when each vertex position moves within its rounding
+/// bound `p_err` (the error of an f32 hit point): the linearised maximum over that box,
+/// Σ_j |f(y + e_j) − f(y − e_j)| / 2 over every coordinate j of every vertex, with e_j the
+/// bound along j. Tests comparing a value carried through sampling with the same value
+/// recomputed from the stored (rounded) vertices allow a multiple of this, not a hand-set
+/// relative tolerance.
+pub fn rounding_sensitivity(
+    y: &[lodestar::integrators::paths::Vertex],
+    f: impl Fn(&[lodestar::integrators::paths::Vertex]) -> f64,
+) -> f64 {
+    let mut moved = y.to_vec();
+    let mut total = 0.0;
+    for i in 0..y.len() {
+        for axis in 0..3 {
+            let e = y[i].p_err[axis];
+            if e == 0.0 {
+                continue;
+            }
+            moved[i].p[axis] = y[i].p[axis] + e;
+            let up = f(&moved);
+            moved[i].p[axis] = y[i].p[axis] - e;
+            let down = f(&moved);
+            moved[i].p[axis] = y[i].p[axis];
+            total += (up - down).abs() / 2.0;
+        }
+    }
+    total
+}

@@ -12,7 +12,7 @@
 //! |-----------|----------------------------|
 //! | `pt`      | the continuation hitting the emitter (s = 0) and next-event estimation (s = 1) |
 //! | `bdpt`    | every (s, t) split (`paths::path_terms`) |
-//! | `vcm`     | every (s, t) split, and merging at every non-delta surface vertex with the pass's radius (`bdpt/merging.rs`) |
+//! | `vcm`     | every (s, t) split, and merging at every non-delta surface vertex with the pass's radius (`vcm/densities.rs`) |
 //!
 //! Samples of pt and bdpt are independent; vcm's share the light subpaths of their pass
 //! (traced once per pass by `begin_pass`), so everything that traces or weighs is given the
@@ -21,9 +21,8 @@
 //! Where the sink needs the densities of only some paths (the guider's render passes: those
 //! whose structure its cache holds, a [`HeldPaths`] test), an estimator may trace the pass
 //! with a faster tracer that hands every other path over weighted by its own techniques
-//! (`Unguided::renew_render_pass`): vcm uses its own integrator's tracer there (`vcm/`,
-//! recursive weights, no per-path bookkeeping), and bdpt's recording tracer in learning passes,
-//! where every path is reported with its densities.
+//! (`Unguided::renew_render_pass`): vcm's tracer weighs with its recursive weights and hands
+//! over with their densities only the paths the test holds (in learning passes, every path).
 //!
 //! This module holds the traits and what any estimator or the guider uses with them alone
 //! ([`own_row`], `finite`); it stands on the path algebra (`integrators/paths/`) only. Each

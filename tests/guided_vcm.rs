@@ -9,7 +9,7 @@
 use crate::util;
 
 use glam::DVec3;
-use lodestar::integrators::bdpt::{self, BdptSettings};
+use lodestar::integrators::bdpt::BdptSettings;
 use lodestar::integrators::paths::{self, Heuristic, Vertex};
 use lodestar::integrators::unguided::{HeldPaths, PathSink, Unguided};
 use lodestar::integrators::vcm::{self, Record, Technique, VcmPass, VcmSettings, VcmUnguided};
@@ -104,109 +104,72 @@ fn p_u_is_the_denominator_of_vcms_weights() {
     }
 }
 
-/// Every path guided-vcm's learning tracer reports carries the `p_u` that `pdf_unguided`
-/// recomputes from its vertices, to f32 rounding (relative 2e-3): connections, which join two
-/// true subpaths, and merged paths alike (a merge's camera vertex stands in for the photon, so
-/// the tracer hands over the densities of the merged path's vertices, not the merge's own
-/// across the photon, which differ by up to a factor 4000 in corners). Also: the reported f
-/// over p_u sums to the tracer's own estimate of the same sample for connections (recording
-/// and weighing agree), and merges are reported. Control: the merge's own densities (the
-/// tracer before it delivered merges from their vertices) fail the first check.
+/// A learning pass (`Unguided::begin_pass`) is a pass of vcm's tracer in which every path is
+/// held: traced on the same streams, it hands the sink the same paths with the same values as
+/// `renew_render_pass` with a test that holds every path (compared path by path below), and
+/// those carry densities from their vertices (the next test shows that they add up to vcm's
+/// image). Merges are among them.
 #[test]
-fn reported_densities_match_the_recomputation() {
+fn a_learning_pass_hands_over_every_path_with_its_densities() {
+    struct All;
+    impl HeldPaths for All {
+        fn holds(&self, _: &Scene, _: &[PathVertex], _: &[PathVertex]) -> bool {
+            true
+        }
+    }
+    #[derive(Default)]
+    struct Log {
+        recorded: Vec<(u32, bool, usize, DVec3, f64)>,
+        weighted: Vec<(u32, bool, DVec3)>,
+    }
+    impl PathSink for Log {
+        fn record(&mut self, path: &Path, y: Option<&[Vertex]>, f: DVec3, p_u: f64, splat: bool) {
+            assert!(y.is_some(), "a learning pass hands over the vertices");
+            self.recorded
+                .push((path.pixel, splat, path.segments(), f, p_u));
+        }
+        fn record_weighted(&mut self, pixel: u32, value: DVec3, splat: bool) {
+            self.weighted.push((pixel, splat, value));
+        }
+    }
     let scene = box_scene("cornell-box.toml", 16);
     let u = unguided();
-    let shared = u.begin_pass(&scene, 3, 0, 0);
-    struct Check<'a, 's> {
-        scene: &'a Scene,
-        u: &'a VcmUnguided,
-        shared: &'a VcmPass<'s>,
-        /// Relative errors of connections' and merges' p_u against the recomputation.
-        connections: Vec<f64>,
-        merges: Vec<f64>,
-        sum: DVec3,
-    }
-    impl Check<'_, '_> {
-        fn error(&self, y: &[Vertex], p_u: f64) -> f64 {
-            let again = self.u.pdf_unguided(self.scene, self.shared, y);
-            (p_u - again).abs() / again.max(1e-300)
+    let n = scene.camera.pixel_count() as u64;
+    let log = |pass: VcmPass| {
+        let mut tracer = u.tracer(&scene, &pass);
+        let mut log = Log::default();
+        for i in 0..n {
+            let (raster, mut s) = sample_stream(&scene, 11, i);
+            u.trace(&mut tracer, &scene, raster, &mut s, &mut log);
         }
-    }
-    impl PathSink for Check<'_, '_> {
-        fn record(&mut self, _: &Path, y: Option<&[Vertex]>, f: DVec3, p_u: f64, _: bool) {
-            let y = y.expect("the tracer hands over its vertices");
-            self.sum += f / p_u;
-            let err = self.error(y, p_u);
-            self.connections.push(err);
-        }
-        fn record_from_vertices(&mut self, _: &Path, y: &[Vertex], _: DVec3, p_u: f64, _: bool) {
-            let err = self.error(y, p_u);
-            self.merges.push(err);
-        }
-    }
-    let VcmPass::Recording(lights) = &shared else {
-        unreachable!("a learning pass is bdpt's")
+        log
     };
-    let fresh = || Check {
-        scene: &scene,
-        u: &u,
-        shared: &shared,
-        connections: Vec::new(),
-        merges: Vec::new(),
-        sum: DVec3::ZERO,
+    let all: Arc<dyn HeldPaths> = Arc::new(All);
+    let learning = log(u.begin_pass(&scene, 3, 0, 0));
+    let held = log(u.renew_render_pass(&scene, 3, 0, 0, None, Some(&all)));
+    assert_eq!(learning.recorded, held.recorded);
+    assert_eq!(learning.weighted, held.weighted);
+    let recorded = learning.recorded.len() as u64;
+    assert!(recorded > 2 * n, "only {recorded} paths with densities");
+    // Merges are handed over too: the same pass at a radius of 1e-9 (no merges) hands over
+    // fewer paths (measured: 952 against 897; 256 light subpaths leave few photons near).
+    let without = VcmUnguided {
+        radius: Some(1e-9),
+        ..unguided()
     };
-    let run = |merges_as_weighed: bool| {
-        let mut tracer = bdpt::Tracer::merging(&scene, &u.settings, lights);
-        tracer.merges_as_weighed = merges_as_weighed;
-        let mut check = fresh();
-        for i in 0..1024u64 {
-            let (raster, mut a) = sample_stream(&scene, 11, i);
-            tracer.sample_recorded(raster, &mut a, &mut check);
+    let connections = {
+        let pass = without.begin_pass(&scene, 3, 0, 0);
+        let mut tracer = without.tracer(&scene, &pass);
+        let mut log = Log::default();
+        for i in 0..n {
+            let (raster, mut s) = sample_stream(&scene, 11, i);
+            without.trace(&mut tracer, &scene, raster, &mut s, &mut log);
         }
-        check
+        log.recorded.len() as u64
     };
-    let check = run(false);
-    let (nc, nm) = (check.connections.len(), check.merges.len());
     assert!(
-        nc > 2000 && nm > 100,
-        "only {nc} connections and {nm} merges"
-    );
-    let worst = |e: &[f64]| e.iter().copied().fold(0.0f64, f64::max);
-    let (wc, wm) = (worst(&check.connections), worst(&check.merges));
-    assert!(wc < 2e-3, "connections: worst relative error {wc}");
-    assert!(wm < 2e-3, "merges: worst relative error {wm}");
-    // Control: the merge's own densities (across the photon) handed over as a connection's.
-    let control = run(true);
-    assert!(control.merges.is_empty());
-    let wrong = control.connections.iter().filter(|&&e| e >= 2e-3).count();
-    assert!(
-        wrong > nm / 10,
-        "control: only {wrong} of {} paths disagree",
-        control.connections.len()
-    );
-    // Connections only (no merges in the pass): the reported f over p_u sums to the tracer's
-    // own estimate of the same samples.
-    let lights = bdpt::SharedLights::trace(&scene, &u.settings, 3, 0, 1e-9);
-    let mut tracer = bdpt::Tracer::merging(&scene, &u.settings, &lights);
-    let mut check = fresh();
-    let (mut own, mut recorded) = (DVec3::ZERO, DVec3::ZERO);
-    for i in 0..1024u64 {
-        let (raster, mut a) = sample_stream(&scene, 11, i);
-        let (_, mut b) = sample_stream(&scene, 11, i);
-        check.sum = DVec3::ZERO;
-        tracer.sample_recorded(raster, &mut a, &mut check);
-        recorded += check.sum;
-        let v = tracer.sample(raster, &mut b);
-        own += v.as_dvec3();
-        for (_, c) in tracer.splats.drain(..) {
-            own += c.as_dvec3();
-        }
-    }
-    assert!(check.merges.is_empty(), "merges at a radius of 1e-9");
-    let rel = ((own - recorded).abs() / own.abs()).max_element();
-    assert!(
-        rel < 1e-4,
-        "recorded sum {recorded} vs the tracer's estimate {own}"
+        recorded > connections + 20,
+        "{recorded} paths with merging, {connections} without: no merges handed over"
     );
 }
 
@@ -385,7 +348,7 @@ fn vcm_claims_the_paths_whose_structure_the_cache_holds() {
     }
     let scene = box_scene("cornell-box.toml", 24);
     let u = unguided();
-    let cache = bdpt_paths_cache(&scene, &u, 3);
+    let cache = learning_paths_cache(&scene, &u, 3);
     let compare = Arc::new(Compare {
         held: cache.held(),
         cache,
@@ -425,9 +388,9 @@ fn two_render_passes(
     }
 }
 
-/// A cache of every `stride`-th of bdpt's paths of one pass (with merging) of `scene` that
+/// A cache of every `stride`-th of the paths of one learning pass of `scene` that
 /// have at least three segments (so that the paths vcm forms most, of two, are not held).
-fn bdpt_paths_cache(
+fn learning_paths_cache(
     scene: &Scene,
     u: &VcmUnguided,
     stride: usize,
@@ -445,15 +408,15 @@ fn bdpt_paths_cache(
                 self.0.push((path.vertices().to_vec(), lum, p_u, 1.0, 0));
             }
         }
+        /// Paths of two vertices (no structure to guide).
+        fn record_weighted(&mut self, _: u32, _: DVec3, _: bool) {}
     }
-    let VcmPass::Recording(lights) = u.begin_pass(scene, 3, 0, 0) else {
-        unreachable!("a learning pass is bdpt's")
-    };
-    let mut tracer = bdpt::Tracer::merging(scene, &u.settings, &lights);
+    let pass = u.begin_pass(scene, 3, 0, 0);
+    let mut tracer = u.tracer(scene, &pass);
     let mut keep = Keep(Vec::new(), 0, stride);
     for i in 0..scene.camera.pixel_count() as u64 {
         let (raster, mut s) = sample_stream(scene, 4, i);
-        tracer.sample_recorded(raster, &mut s, &mut keep);
+        u.trace(&mut tracer, scene, raster, &mut s, &mut keep);
     }
     let mut cache = lodestar::integrators::guided::cache::GuideCache::default();
     cache.install(scene, keep.0, 10_000);
@@ -544,7 +507,7 @@ fn the_low_bit_test_keeps_every_held_path() {
     }
     let scene = box_scene("cornell-box.toml", 24);
     let u = unguided();
-    let cache = bdpt_paths_cache(&scene, &u, 3);
+    let cache = learning_paths_cache(&scene, &u, 3);
     let run = |filter: bool| {
         let mut held = cache.held();
         held.filter = filter;
@@ -749,7 +712,8 @@ fn guided_vcm_does_not_depend_on_the_thread_count() {
     );
 }
 
-/// The chain seeder and the power heuristic are errors that say why; vcm's options are read.
+/// The chain seeder, the power heuristic and roulette past the first bounce are errors that
+/// say why; vcm's options are read.
 #[test]
 fn guided_vcm_option_errors() {
     use lodestar::integrators::{IntegratorParams, Options, build};
@@ -775,111 +739,12 @@ fn guided_vcm_option_errors() {
     assert!(err.contains("option 'radius'"), "{err}");
     let err = build_with(&["radius_alpha=0"]).unwrap_err().to_string();
     assert!(err.contains("option 'radius_alpha'"), "{err}");
-    assert!(build_with(&["radius=0.01", "radius_alpha=0.5"]).is_ok());
-}
-
-/// The recursive weights (O(1) per path, merges included: `bdpt/cache.rs` `mis_sums`) give
-/// each path the value its explicitly assembled densities give, `f / p_u`: the tracer run
-/// twice on the same streams, once with a sink that asks for every path's densities and
-/// once with one that declines them all (`PathSink::needs_densities`), reports the same
-/// paths in the same order with the same values (relative 1e-3: f32 densities), for bdpt's
-/// tracer (guided-bdpt) and the merging one (guided-vcm), in a plain, a glossy and a fog box.
-/// Merged paths are handed over with the merge's own densities here (`merges_as_weighed`: the
-/// ones the weights use). A merge term missing from the sums (or counted twice) moves the
-/// weights of every path with a mergeable vertex by far more.
-#[test]
-fn recursive_weights_give_the_explicit_values() {
-    #[derive(Default)]
-    struct Values {
-        declines: bool,
-        got: Vec<(u32, bool, DVec3)>,
-    }
-    impl PathSink for Values {
-        fn record(&mut self, path: &Path, _: Option<&[Vertex]>, f: DVec3, p_u: f64, splat: bool) {
-            self.got.push((path.pixel, splat, f / p_u));
-        }
-        fn needs_densities(&mut self, _: &[Vertex], _: &[Vertex]) -> bool {
-            !self.declines
-        }
-        fn record_weighted(&mut self, pixel: u32, value: DVec3, splat: bool) {
-            self.got.push((pixel, splat, value));
-        }
-    }
-    fn run(
-        scene: &Scene,
-        mut trace: impl FnMut(glam::Vec2, &mut dyn PathSink, u64),
-        declines: bool,
-    ) -> Vec<(u32, bool, DVec3)> {
-        let mut sink = Values {
-            declines,
-            ..Default::default()
-        };
-        for i in 0..512u64 {
-            let (raster, _) = sample_stream(scene, 5, i);
-            trace(raster, &mut sink, i);
-        }
-        sink.got
-    }
-    for name in [
-        "cornell-box.toml",
-        "cornell-glossy.toml",
-        "cornell-fog.toml",
-    ] {
-        let scene = box_scene(name, 16);
-        let vcm = unguided();
-        let bdpt_u = bdpt::BdptUnguided {
-            settings: vcm.settings.clone(),
-        };
-        let VcmPass::Recording(shared) = vcm.begin_pass(&scene, 9, 0, 0) else {
-            unreachable!("a learning pass is bdpt's")
-        };
-        for merging in [false, true] {
-            let trace_with = |declines: bool| {
-                let mut tracer = if merging {
-                    bdpt::Tracer::merging(&scene, &vcm.settings, &shared)
-                } else {
-                    bdpt_u.tracer(&scene, &())
-                };
-                // Merges with the densities they are weighed by (the recursive weights'), not
-                // their vertices' (what the guider is handed otherwise).
-                tracer.merges_as_weighed = true;
-                run(
-                    &scene,
-                    |raster, sink, i| {
-                        let (_, mut s) = sample_stream(&scene, 5, i);
-                        tracer.sample_recorded(raster, &mut s, sink);
-                    },
-                    declines,
-                )
-            };
-            let (explicit, recursive) = (trace_with(false), trace_with(true));
-            let what = if merging { "merging" } else { "bdpt" };
-            assert!(
-                explicit.len() > 2000,
-                "{name} {what}: {} paths",
-                explicit.len()
-            );
-            assert_eq!(
-                explicit.len(),
-                recursive.len(),
-                "{name} {what}: path counts"
-            );
-            let mut bad = Vec::new();
-            for (a, b) in explicit.iter().zip(&recursive) {
-                let rel = ((a.2 - b.2).abs() / a.2.abs().max(DVec3::splat(1e-12))).max_element();
-                if a.0 != b.0 || a.1 != b.1 || rel > 1e-3 {
-                    bad.push(format!("{a:?} vs {b:?}"));
-                }
-            }
-            assert!(
-                bad.is_empty(),
-                "{name} {what}: {} of {} paths differ, e.g.\n{}",
-                bad.len(),
-                explicit.len(),
-                bad[..bad.len().min(6)].join("\n")
-            );
-        }
-    }
+    let err = build_with(&["rr_depth=3"]).unwrap_err().to_string();
+    assert!(
+        err.contains("option 'rr_depth'") && err.contains("expected 1, got 3"),
+        "{err}"
+    );
+    assert!(build_with(&["radius=0.01", "radius_alpha=0.5", "rr_depth=1"]).is_ok());
 }
 
 /// Outside learning, a held path whose x_1 no first-vertex kernel of its structure reaches is
@@ -946,7 +811,7 @@ fn held_paths_no_guide_reaches_keep_vcms_weight() {
     let u = unguided();
     // Every 90th path: sparse enough that many held paths' x_1 lie outside every kernel (every
     // 100th gave 5 structures, below the helper's floor, once quad lights became parallelograms).
-    let cache = bdpt_paths_cache(&scene, &u, 90);
+    let cache = learning_paths_cache(&scene, &u, 90);
     let held: Arc<dyn HeldPaths> = Arc::new(cache.held());
     let mut counts = Counts::default();
     for pass in 1..3u64 {

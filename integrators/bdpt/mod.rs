@@ -32,7 +32,6 @@
 
 mod cache;
 mod connections;
-mod merging;
 mod recording;
 mod settings;
 mod technique;
@@ -58,7 +57,6 @@ use crate::render::{Budget, Integrator, RenderContext, RenderResult, RowTracer, 
 use crate::scene::{Endpoint, Scene};
 use cache::{Cached, cache_subpath, mis_sums};
 use glam::{Vec2, Vec3};
-pub use merging::{LIGHT_STREAMS, SharedLights, densities_from_vertices, mergeable};
 use settings::settings;
 pub use settings::{
     BdptSettings, DIRECT_SPLATS_OPTION, LT_OPTIONS, MIS_OPTION, OPTIONS, RR_DEPTH, RR_DEPTH_OPTION,
@@ -66,7 +64,6 @@ pub use settings::{
 };
 pub use technique::TECHNIQUE_STREAMS;
 pub use unguided::BdptUnguided;
-pub(crate) use unguided::bdpt_estimate;
 pub use walk::camera_subpath;
 use walk::roulette;
 use weights::Bridge;
@@ -176,18 +173,8 @@ pub struct Tracer<'a> {
     /// Weigh by assembling every technique's density even where the recursive weights apply
     /// (for tests: the two must agree).
     pub explicit_weights: bool,
-    /// Vertex merging (`merging.rs`): the pass's light subpaths, used instead of tracing
-    /// one per sample, and merged with at every mergeable camera vertex.
-    pub shared: Option<&'a SharedLights<'a>>,
-    /// Scratch: the photons of the current merge query.
-    photons: Vec<merging::Photon>,
     /// Recording mode: the light vertex of the last next-event estimation (for `deliver`).
     nee_vertex: Vertex<'a>,
-    /// Recording mode, scratch: a merged path's terms from its vertices (`deliver`).
-    vertex_terms: PathTerms,
-    /// Recording mode: hand merged paths over with the merge's own densities (across the
-    /// photon) instead of their vertices' (a deliberate error for the tests' controls).
-    pub merges_as_weighed: bool,
 }
 
 impl<'a> Tracer<'a> {
@@ -215,24 +202,8 @@ impl<'a> Tracer<'a> {
             path_buf: Path::default(),
             pixel: 0,
             explicit_weights: false,
-            shared: None,
-            photons: Vec::new(),
             nee_vertex: Vertex::new(Kind::Camera, Vec3::ZERO, Vec3::ZERO),
-            vertex_terms: PathTerms::new(0),
-            merges_as_weighed: false,
         }
-    }
-
-    /// A tracer that merges with the light subpaths of `shared` (`merging.rs`).
-    pub fn merging(
-        scene: &'a Scene,
-        settings: &'a BdptSettings,
-        shared: &'a SharedLights<'a>,
-    ) -> Tracer<'a> {
-        let mut t = Tracer::new(scene, settings);
-        t.terms.eta = shared.eta;
-        t.shared = Some(shared);
-        t
     }
 
     /// The recursive (O(1)) MIS weights apply: roulette from the first bounce (every
@@ -279,51 +250,20 @@ impl<'a> Tracer<'a> {
         );
         cache_subpath(scene, &camera, st.rr_depth, &mut cc);
         let recursive = self.recursive_mis();
-        let eta = self.shared.map_or(0.0, |sh| sh.eta);
         if recursive {
-            mis_sums(scene, &camera, &mut cc, None, st.heuristic, eta);
+            mis_sums(&camera, &mut cc, None, st.heuristic);
         }
-        // The light subpath: the pass's of this pixel when merging (its sums made with the
-        // pass), else traced here.
-        let (light_p, lc_p): (&[Vertex<'a>], &[Cached]) = if let Some(shared) = self.shared {
-            let (lv, lcache, nee) = shared.path(self.pixel as usize);
-            self.light_nee = nee;
-            (lv, lcache)
-        } else {
-            walk::light_subpath(scene, max_depth + 1, st.rr_depth, sampler, &mut light_buf);
-            cache_subpath(scene, &light_buf, st.rr_depth, &mut lc_buf);
-            self.light_nee = light_nee(scene, &light_buf);
-            if recursive {
-                mis_sums(
-                    scene,
-                    &light_buf,
-                    &mut lc_buf,
-                    Some(self.light_nee),
-                    st.heuristic,
-                    0.0,
-                );
-            }
-            (&light_buf, &lc_buf)
-        };
-        let (light, lc) = (light_p, lc_p);
+        walk::light_subpath(scene, max_depth + 1, st.rr_depth, sampler, &mut light_buf);
+        cache_subpath(scene, &light_buf, st.rr_depth, &mut lc_buf);
+        self.light_nee = light_nee(scene, &light_buf);
+        if recursive {
+            let nee = Some(self.light_nee);
+            mis_sums(&light_buf, &mut lc_buf, nee, st.heuristic);
+        }
+        let (light, lc) = (&light_buf[..], &lc_buf[..]);
         let mut l = Spectrum::ZERO;
         for t in 1..=camera.len() {
-            // Merging's bucket, asked for now so that its cache misses overlap the
-            // connections below (as `vcm` does).
-            let bucket = match self.shared {
-                Some(sh) if t >= 2 => {
-                    let b = sh.grid.bucket_of(camera[t - 1].p);
-                    sh.grid.prefetch_range(b);
-                    Some((sh, b))
-                }
-                _ => None,
-            };
             for s in 0..=light.len() {
-                if s == 2
-                    && let Some((sh, b)) = bucket
-                {
-                    sh.grid.prefetch_entries(b);
-                }
                 let k = s + t - 1;
                 if k == 0
                     || k > max_depth
@@ -363,9 +303,6 @@ impl<'a> Tracer<'a> {
                         None => l += c,
                     }
                 }
-            }
-            if self.shared.is_some() && t >= 2 {
-                l += self.merge_at(&camera[..t], &cc[..t], sink.as_deref_mut());
             }
         }
         self.camera = camera;

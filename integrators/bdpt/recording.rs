@@ -6,7 +6,6 @@ use super::Tracer;
 use crate::integrators::paths::{Vertex, to_path_into};
 use crate::integrators::unguided::PathSink;
 use crate::math::{Sampler, Spectrum};
-use crate::path::MAX_VERTICES;
 use glam::Vec2;
 
 /// What the last weight function left for [`Tracer::deliver`] in recording mode.
@@ -40,40 +39,25 @@ impl<'a> Tracer<'a> {
         self.splats.clear();
     }
 
-    /// Technique `own`'s density and the sum of every technique's (s = 0..=k for BDPT's
-    /// techniques, k + 1 + j for merging at y_j) for the path `c` followed by `lp` reversed,
-    /// whose inputs are in `self.terms`; `None` if the own density is 0 or either is not
-    /// finite.
-    fn densities_of(
-        &mut self,
-        c: &[Vertex<'a>],
-        lp: &[Vertex<'a>],
-        own: usize,
-    ) -> Option<(f64, f64)> {
+    /// Technique `own`'s density (s) and the sum of every technique's for the path whose
+    /// inputs are in `self.terms`; `None` if the own density is 0 or either is not finite.
+    fn densities_of(&mut self, own: usize) -> Option<(f64, f64)> {
         let k = self.terms.k;
-        self.densities
-            .resize(self.densities.len().max(2 * (k + 1)), 0.0);
-        let (vc, vm) = self.densities.split_at_mut(k + 1);
+        self.densities.resize(self.densities.len().max(k + 1), 0.0);
+        let vc = &mut self.densities[..=k];
         self.terms.technique_densities(vc);
-        let scene = self.scene;
-        let t = c.len();
-        let vm_sum = self.terms.merge_densities(
-            |j| super::mergeable(scene, if j < t { &c[j] } else { &lp[k - j] }),
-            vm,
-        );
-        let p_s = if own <= k { vc[own] } else { vm[own - k - 1] };
-        let p_u: f64 = vc.iter().sum::<f64>() + vm_sum;
+        let p_s = vc[own];
+        let p_u: f64 = vc.iter().sum::<f64>();
         (p_s > 0.0 && p_s.is_finite() && p_u.is_finite()).then_some((p_s, p_u))
     }
 
-    /// Explicit balance weights: the path `c` followed by `lp` reversed (camera first)
-    /// weighed as technique `own` among all of BDPT's techniques and, with merging
-    /// (`Tracer::shared`), merging at every mergeable vertex. In recording mode the densities
-    /// are kept for `deliver` and the return is 1 (the raw estimate is delivered); otherwise
-    /// it is the weight.
-    pub(super) fn hold(&mut self, c: &[Vertex<'a>], lp: &[Vertex<'a>], own: usize) -> f64 {
+    /// Explicit balance weights: the path whose inputs are in `self.terms` weighed as
+    /// technique `own` among all of BDPT's techniques. In recording mode the densities are
+    /// kept for `deliver` and the return is 1 (the raw estimate is delivered); otherwise it
+    /// is the weight.
+    pub(super) fn hold(&mut self, own: usize) -> f64 {
         self.pending = None;
-        let Some((p_s, p_u)) = self.densities_of(c, lp, own) else {
+        let Some((p_s, p_u)) = self.densities_of(own) else {
             return 0.0;
         };
         if !self.recording {
@@ -124,41 +108,9 @@ impl<'a> Tracer<'a> {
         };
         self.joined.clear();
         self.joined.extend(c.iter().chain(lp.iter().rev()));
-        let k = self.joined.len() - 1;
-        // A merge: the camera vertex y_m stands in for the photon, so the merged path's
-        // densities as the merge weighed it (across y_m, the photon's own) are not those of
-        // its vertices, by orders of magnitude where the photon's neighbour is about as near
-        // as the radius. The sink gets the densities of the vertices instead, as `pdf_unguided`
-        // evaluates them for every other path (and as vcm's tracer delivers merges in render
-        // passes), so that every technique that can form this vertex path weighs it with the
-        // same numbers: f = (the merge's raw estimate) x (merging's density at y_m).
-        if own > k && !self.merges_as_weighed {
-            let eta = self.shared.map_or(0.0, |s| s.eta);
-            let (mut vc, mut vm) = ([0.0f64; MAX_VERTICES], [0.0f64; MAX_VERTICES]);
-            let from_vertices = super::densities_from_vertices(
-                self.scene,
-                &self.joined,
-                self.settings,
-                eta,
-                &mut self.vertex_terms,
-                &mut vc,
-                &mut vm,
-            )
-            .map(|sum| (vm[own - k - 1], sum))
-            .filter(|&(p_s, p_u)| p_s > 0.0 && p_s.is_finite() && p_u.is_finite());
-            if let Some((p_s, p_u)) = from_vertices {
-                let f = value.as_dvec3() * p_s;
-                to_path_into(&self.joined, f.as_vec3(), pixel_of_x1, &mut self.path_buf);
-                sink.record_from_vertices(&self.path_buf, &self.joined, f, p_u, pixel.is_some());
-                return;
-            }
-            // The vertices give the merge no density (a segment the merge never traced is
-            // blocked for them): its own densities go to the sink as a connection's do.
-        }
-        // A connection joins two traced subpaths: its densities are the path's own.
         let (p_s, p_u) = match pending {
             Pending::Explicit { p_s, p_u, .. } => (p_s, p_u),
-            Pending::Recursive { .. } => match self.densities_of(c, lp, own) {
+            Pending::Recursive { .. } => match self.densities_of(own) {
                 Some(d) => d,
                 None => return,
             },

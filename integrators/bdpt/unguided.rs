@@ -1,7 +1,6 @@
 //! bdpt as an [`Unguided`] estimator ([`BdptUnguided`]): every (s, t) technique, weighed by the
 //! balance heuristic; its tracer reports each path with the sum of their densities
-//! (`recording.rs`). [`bdpt_estimate`] is the tracer's own estimate of a sample, which vcm's
-//! estimator uses too when it traces with bdpt's tracer and merging (`VcmPass::Recording`).
+//! (`recording.rs`). [`bdpt_estimate`] is the tracer's own estimate of a sample.
 
 use super::{BdptSettings, Tracer};
 use crate::integrators::paths::{Vertex, technique_densities_of_vertices};

@@ -100,8 +100,8 @@ impl<'a> Tracer<'a> {
         if let Some(w) = recursive {
             return self.hold_recursive(w, s);
         }
-        if self.recording || self.shared.is_some() {
-            return self.hold(c, lp, s);
+        if self.recording {
+            return self.hold(s);
         }
         self.densities.resize(self.densities.len().max(k + 1), 0.0);
         self.terms
@@ -177,8 +177,8 @@ impl<'a> Tracer<'a> {
         if let Some(w) = recursive {
             return self.hold_recursive(w, 0);
         }
-        if self.recording || self.shared.is_some() {
-            return self.hold(&c[..k], std::slice::from_ref(emitter), 0);
+        if self.recording {
+            return self.hold(0);
         }
         self.densities.resize(self.densities.len().max(k + 1), 0.0);
         self.terms
@@ -223,11 +223,11 @@ fn weight_recursive(
         let inner = if s >= 2 {
             let pc_t1 = bridge.light_back as f64 * lc[s - 1].q as f64;
             let before = if s >= 3 { lc[s - 3].mis_sum } else { 0.0 };
-            r(pc_t1, lc[s - 2].fwd) * (lc[s - 2].mis_valid + lc[s - 2].mis_merge + before)
+            r(pc_t1, lc[s - 2].fwd) * (lc[s - 2].mis_valid + before)
         } else {
             0.0
         };
-        r(pc_t, lc[s - 1].fwd) * (lc[s - 1].mis_valid + lc[s - 1].mis_merge + inner)
+        r(pc_t, lc[s - 1].fwd) * (lc[s - 1].mis_valid + inner)
     };
     // Camera side: the techniques with more light vertices. `pl[t - 1]`, then `pl[t - 2]`,
     // replace the camera vertices' forward densities.
@@ -235,12 +235,11 @@ fn weight_recursive(
         let pl_t1 = bridge.light_next as f64 * if s >= 2 { lc[s - 1].q as f64 } else { 1.0 };
         let inner = if t >= 3 {
             let pl_t2 = bridge.cam_back as f64 * cc[t - 1].q as f64;
-            r(pl_t2, cc[t - 2].fwd)
-                * (cc[t - 2].mis_valid + cc[t - 2].mis_merge + cc[t - 3].mis_sum)
+            r(pl_t2, cc[t - 2].fwd) * (cc[t - 2].mis_valid + cc[t - 3].mis_sum)
         } else {
             0.0
         };
-        let sum = r(pl_t1, cc[t - 1].fwd) * (cc[t - 1].mis_valid + cc[t - 1].mis_merge + inner);
+        let sum = r(pl_t1, cc[t - 1].fwd) * (cc[t - 1].mis_valid + inner);
         // Next-event estimation's own density has `p_nee` where the others have `p_origin`.
         if nee { sum * r(lc[0].fwd, nee_k) } else { sum }
     } else {
@@ -280,8 +279,7 @@ impl<'a> Tracer<'a> {
                 0.0
             };
             let pl_k1 = emitter_back(scene, c, emitter);
-            let before = r(pl_k1, cc[k - 1].fwd)
-                * (cc[k - 1].mis_valid + cc[k - 1].mis_merge + cc[k - 2].mis_sum);
+            let before = r(pl_k1, cc[k - 1].fwd) * (cc[k - 1].mis_valid + cc[k - 2].mis_sum);
             nee + r(pl_k, cc[k].fwd) * before
         };
         inverse_or_zero(1.0 + others)

@@ -4,7 +4,8 @@
 //!
 //! Every pass runs one sample per pixel of the unguided estimator U (`pt`, `bdpt` with
 //! all its (s, t) techniques, or `vcm`: bdpt's techniques on light subpaths shared by the
-//! pass plus merging at every non-delta surface vertex, `bdpt/merging.rs`) and, once the cache holds guide paths, `(1 − α) / α` guided
+//! pass plus merging at every non-delta surface vertex, `integrators/vcm/`) and, once the
+//! cache holds guide paths, `(1 − α) / α` guided
 //! paths per pixel (spec §4). Every complete path X either side forms adds
 //! `f(X) / (n_u p_u(X) + n_g p_g(X))` to the pixel of x_1: the balance heuristic over U's
 //! techniques and the guided one (DESIGN.md §3), so each of BDPT's technique weights gains
@@ -36,11 +37,11 @@
 //! ```
 //!
 //! guided-vcm is consistent, not unbiased (merging's radius shrinks with the passes, as in
-//! `vcm`). Its learning passes run bdpt's tracer with merging (every path reported with its
-//! densities, for the seeder); its render passes run vcm's own tracer, which hands over the
-//! paths whose structure the cache holds unweighted, to be weighed from their vertices, and
-//! weighs every other path itself (`Unguided::renew_render_pass`); with guiding off `vcm`
-//! renders the remaining passes. It takes only the `outliers` seeder: a Markov chain
+//! `vcm`). Every pass runs vcm's own tracer: in learning passes it hands every path over
+//! with its densities from its vertices (for the seeder), in render passes only the paths
+//! whose structure the cache holds, weighing every other path itself
+//! (`Unguided::renew_render_pass`); with guiding off `vcm` renders the remaining passes.
+//! Russian roulette is vcm's, from the first bounce (`rr_depth` 1 only). It takes only the `outliers` seeder: a Markov chain
 //! replays one sample alone, and vcm's samples share their pass's light subpaths.
 //!
 //! A cache saved by guided-pt loads into guided-bdpt and back: guide paths are complete
@@ -311,6 +312,13 @@ pub fn build_bdpt(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
 /// Build guided-vcm (outlier seeder only) from its parameters.
 pub fn build_vcm(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     let (settings, rr_depth) = options::read(params, options::VCM_OPTIONS, RR_DEPTH)?;
+    if rr_depth != 1 {
+        return Err(crate::error::Error::new(format!(
+            "option 'rr_depth': guided-vcm plays Russian roulette as vcm does, from the first \
+             bounce (its recursive weights need every vertex's local continuation \
+             probability); expected 1, got {rr_depth}"
+        )));
+    }
     let bdpt = options::bdpt_settings(params, "guided-vcm", rr_depth)?;
     let (radius, radius_alpha) =
         crate::integrators::vcm::radius_options(&params.options.declared(options::VCM_OPTIONS))?;

@@ -28,7 +28,8 @@ pub const COMMON: &[Spec] = &[
         name: "rr_depth",
         kind: Kind::Int { min: 1 },
         default: DefaultValue::Computed(
-            "U's: 5 for guided-pt (pt's), 1 for guided-bdpt and guided-vcm (bdpt's)",
+            "U's: 5 for guided-pt (pt's), 1 for guided-bdpt (bdpt's); guided-vcm: 1 only \
+             (vcm's roulette)",
         ),
         doc: "U's Russian roulette start",
     },

@@ -39,14 +39,16 @@
 //! ```
 
 mod camera;
+pub mod densities;
 mod light;
 mod unguided;
 mod vertex;
 mod walk;
 
 pub use camera::CameraTracer;
+pub use densities::{densities_from_vertices, mergeable};
 pub use light::{LightPaths, Photon};
-pub use unguided::{FastPass, VcmPass, VcmTracer, VcmUnguided};
+pub use unguided::{VcmPass, VcmTracer, VcmUnguided};
 
 use super::IntegratorParams;
 use super::options::{Declared, DefaultValue, Kind, SAMPLER, Spec};

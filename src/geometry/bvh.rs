@@ -256,7 +256,7 @@ pub(super) fn count_ray() {
 }
 
 /// Count `n` units of work that is not a ray as that many rays' worth (guided-vcm's merges,
-/// whose cost the guider's share must see beside the rays; `integrators/bdpt/merging.rs`).
+/// whose cost the guider's share must see beside the rays; `integrators/vcm/camera.rs`).
 pub fn count_ray_equivalents(n: u64) {
     RAYS.with(|r| r.set(r.get() + n));
 }

@@ -4,7 +4,7 @@
 //! implementations (`tests/data/guided_pdfs.csv`, written by `tests/data/gen_guided_pdfs.py`
 //! from `verify_guided_pdfs.py`).
 //!
-//! Branches (spec §4.2; sampling as `sampler.rs` does it: a standard normal truncated at
+//! Branches (spec §4.2; sampling as `guided/sampler/` does it: a standard normal truncated at
 //! `R = 3` by `sample_std_trunc`, warped by `Kernel::warp` around the conditional mean):
 //! * plane Gaussian towards a surface target, anisotropic regression kernel and the isotropic
 //!   first-vertex kernel: direction density `plane_direction_density` (solid angle), and the
@@ -214,7 +214,7 @@ impl Segment {
         })
     }
 
-    /// Direction towards a light at infinity (sampler.rs' infinite branch).
+    /// Direction towards a light at infinity (the guided sampler's infinite branch).
     fn infinite_dir(&self, s: &mut dyn Sampler) -> Option<Vec3> {
         let y = self.draw(2, s);
         Some(self.infinite_of(y).as_vec3())

@@ -22,7 +22,7 @@
 //! `cache/` (storage and weights in `mod.rs`, building in `build.rs`, p_g in `density.rs`;
 //! its surface-to-surface Gaussians precomputed in `plane.rs`),
 //! `integrators/paths/structure.rs` (a path's nodes and their hash), `kernel.rs` (the per-vertex densities,
-//! Gaussians), `sampler.rs`
+//! Gaussians), `sampler/`
 //! (building a guided path), `integrators/paths/contribution.rs` (f(X) from vertices), `io.rs`
 //! (saved caches);
 //! U's side is `integrators/unguided.rs` (the traits) and each estimator's own `unguided.rs`

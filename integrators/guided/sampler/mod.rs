@@ -9,6 +9,8 @@
 //! assembled from sampling-time quantities for the branch taken (the other branch of each
 //! mixture is evaluated); the tests compare it with the cache's evaluation of the finished path.
 
+mod at;
+
 use super::cache::GuideCache;
 use super::gaussian::{sample_std_trunc, std_trunc_density};
 use super::kernel::{
@@ -21,7 +23,9 @@ use crate::geometry::Ray;
 use crate::integrators::paths::{Kind, Vertex, area_factor};
 use crate::math::{Frame, Sampler};
 use crate::path::{Path, Vertex as PathVertex, VertexKind};
-use crate::scene::{Endpoint, Scene, SurfacePoint};
+use crate::scene::{Endpoint, Scene};
+pub(super) use at::trace;
+use at::{At, as_vertex, surface_vertex};
 use glam::{Vec2, Vec3};
 
 pub use super::stats::Failure;
@@ -36,118 +40,6 @@ pub struct GuidedSample {
     pub guide: usize,
     /// p(X | guide) as drawn.
     pub density: f64,
-}
-
-/// The vertex the walk is at.
-struct At<'s> {
-    pv: PathVertex,
-    sp: Option<SurfacePoint<'s>>,
-    /// Medium of a medium vertex; for others the medium the walk arrived through.
-    medium: Option<u32>,
-}
-
-impl<'s> At<'s> {
-    /// A point in `medium`.
-    fn medium(p: Vec3, medium: u32) -> At<'s> {
-        At {
-            pv: PathVertex {
-                p,
-                n: Vec3::ZERO,
-                ns: Vec3::ZERO,
-                kind: VertexKind::Medium { medium },
-            },
-            sp: None,
-            medium: Some(medium),
-        }
-    }
-
-    /// A non-delta emitter vertex at `p` (for lights at infinity `p` = previous + direction and
-    /// `n` the direction), reached through `medium`.
-    fn emitter(p: Vec3, n: Vec3, light: u32, medium: Option<u32>) -> At<'s> {
-        At {
-            pv: PathVertex {
-                p,
-                n,
-                ns: Vec3::ZERO,
-                kind: VertexKind::Emitter {
-                    light,
-                    delta: false,
-                },
-            },
-            sp: None,
-            medium,
-        }
-    }
-
-    fn ray(&self, d: Vec3) -> Ray {
-        match &self.sp {
-            Some(sp) => sp.hit.spawn_along(d),
-            None => Ray::new(self.pv.p, d),
-        }
-    }
-
-    fn endpoint(&self) -> Endpoint {
-        match &self.sp {
-            Some(sp) => Endpoint::surface(&sp.hit),
-            None => Endpoint::point(self.pv.p),
-        }
-    }
-
-    /// Medium a segment leaving along `d` starts in.
-    fn medium_towards(&self, scene: &Scene, d: Vec3) -> Option<u32> {
-        match &self.sp {
-            Some(sp) => scene.medium_after(sp, d, self.medium),
-            None => self.medium,
-        }
-    }
-
-    /// As a BDPT vertex (for the branch densities shared with evaluation).
-    fn vertex(&self) -> Vertex<'s> {
-        let kind = match (&self.sp, self.pv.kind) {
-            (Some(sp), _) => Kind::Surface {
-                bsdf: sp.bsdf,
-                frame: sp.frame,
-                info: sp.info,
-                material: sp.material,
-            },
-            (None, VertexKind::Medium { medium }) => Kind::Medium { medium },
-            _ => Kind::Camera,
-        };
-        Vertex::new(kind, self.pv.p, self.pv.n)
-    }
-}
-
-/// First non-null surface along `ray` (index-matched boundaries crossed), and the medium the
-/// ray arrives through.
-pub(super) fn trace<'s>(
-    scene: &'s Scene,
-    mut ray: Ray,
-    mut medium: Option<u32>,
-) -> (Option<SurfacePoint<'s>>, Option<u32>) {
-    for _ in 0..256 {
-        match scene.intersect(&ray) {
-            None => return (None, medium),
-            Some(sp) if sp.is_null() => {
-                medium = scene.medium_after(&sp, ray.d, medium);
-                ray = sp.hit.spawn_along(ray.d);
-            }
-            Some(sp) => return (Some(sp), medium),
-        }
-    }
-    (None, medium)
-}
-
-fn surface_vertex(sp: &SurfacePoint) -> PathVertex {
-    PathVertex {
-        p: sp.hit.p,
-        n: sp.hit.ng,
-        ns: sp.hit.ns,
-        kind: VertexKind::Surface {
-            material: sp.material,
-            shape: sp.info.index,
-            delta: sp.bsdf.is_delta(),
-        },
-    }
 }
 
 fn to_world(f: &Frame, origin: Vec3, c: [f64; 3]) -> Vec3 {
@@ -582,22 +474,6 @@ pub fn sample_path_into(
         partial_density: density,
         deferred,
     })
-}
-
-fn as_vertex<'s>(scene: &'s Scene, a: &At<'s>) -> Vertex<'s> {
-    match a.pv.kind {
-        VertexKind::Emitter { light, .. } => {
-            let _ = scene;
-            Vertex::new(
-                Kind::Light {
-                    light: light as usize,
-                },
-                a.pv.p,
-                a.pv.n,
-            )
-        }
-        _ => a.vertex(),
-    }
 }
 
 /// The path must reflect or transmit at surface vertex `v` as the guide does.

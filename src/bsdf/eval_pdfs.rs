@@ -4,7 +4,7 @@
 use super::microfacet::Microfacet;
 use super::{
     Bsdf, ShadingFrame, TransportMode, diffuse, geometry_agrees, rough_conductor, rough_dielectric,
-    shading_correction,
+    rough_plastic, shading_correction,
 };
 use crate::math::Spectrum;
 use glam::Vec3;
@@ -133,6 +133,15 @@ impl Bsdf {
                     0.0
                 };
                 (Spectrum::splat(f), pdf_fwd, pdf_rev)
+            }
+            Bsdf::RoughPlastic(p) => {
+                let (f, pdf_fwd) = rough_plastic::eval_pdf(p, wo_l, wi_l, true);
+                let pdf_rev = if reverse {
+                    rough_plastic::eval_pdf(p, wi_l, wo_l, false).1
+                } else {
+                    0.0
+                };
+                (f, pdf_fwd, pdf_rev)
             }
             Bsdf::Black | Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => {
                 return EvalPdfs::ZERO;

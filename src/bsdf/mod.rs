@@ -32,12 +32,14 @@ pub mod fresnel;
 pub mod microfacet;
 mod rough_conductor;
 mod rough_dielectric;
+mod rough_plastic;
 
 use crate::math::{Frame, Spectrum};
 pub use eval_pdfs::EvalPdfs;
 use glam::{Vec2, Vec3};
 pub use microfacet::Distribution;
 use microfacet::Microfacet;
+pub use rough_plastic::RoughPlastic;
 
 /// Lowest Russian-roulette continuation probability (caps the weight boost at 20x).
 pub const MIN_CONTINUATION: f32 = 0.05;
@@ -131,6 +133,9 @@ pub enum Bsdf {
         /// GGX (the default) or Beckmann.
         distribution: Distribution,
     },
+    /// Rough plastic (Mitsuba's `roughplastic`): a rough dielectric coating over a
+    /// Lambertian base, two-sided ([`RoughPlastic`]; boxed for its tables).
+    RoughPlastic(Box<RoughPlastic>),
 }
 
 /// The Fresnel reflectance of a (rough) conductor.
@@ -212,7 +217,8 @@ impl Bsdf {
     /// alpha >= 1.
     pub fn roughness(&self) -> f32 {
         match self {
-            Bsdf::Black | Bsdf::Diffuse { .. } => 1.0,
+            // Rough plastic: its Lambertian base scatters everywhere.
+            Bsdf::Black | Bsdf::Diffuse { .. } | Bsdf::RoughPlastic(_) => 1.0,
             Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => 0.0,
             Bsdf::RoughConductor { alpha, .. } | Bsdf::RoughDielectric { alpha, .. } => {
                 microfacet::clamp_alpha(*alpha).sqrt().min(1.0)
@@ -248,6 +254,7 @@ impl Bsdf {
                 fresnel: ConductorFresnel::Constant(r),
                 ..
             } => r.max_element(),
+            Bsdf::RoughPlastic(p) => p.diffuse.max_element().max(p.specular.max_element()),
             Bsdf::RoughConductor { .. }
             | Bsdf::Dielectric { .. }
             | Bsdf::RoughDielectric { .. } => 1.0,
@@ -301,6 +308,7 @@ impl Bsdf {
                 u,
                 mode,
             )?,
+            Bsdf::RoughPlastic(p) => rough_plastic::sample(p, wo_l, u_lobe, u)?,
         };
         let wi = sf.frame.to_world(s.wi);
         if !geometry_agrees(sf, wo, wi, s.transmission) {
@@ -359,6 +367,7 @@ impl Bsdf {
                 )
                 .0,
             ),
+            Bsdf::RoughPlastic(p) => rough_plastic::eval_pdf(p, wo_l, wi_l, true).0,
             Bsdf::Black | Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => {
                 return Spectrum::ZERO;
             }
@@ -397,6 +406,7 @@ impl Bsdf {
                 )
                 .1
             }
+            Bsdf::RoughPlastic(p) => rough_plastic::eval_pdf(p, wo_l, wi_l, false).1,
             Bsdf::Black | Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => 0.0,
         }
     }

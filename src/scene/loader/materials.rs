@@ -19,6 +19,8 @@ impl Builder<'_> {
             ("eta", at(&d.eta)),
             ("k", at(&d.k)),
             ("one_sided", at(&d.one_sided)),
+            ("specular", at(&d.specular)),
+            ("nonlinear", at(&d.nonlinear)),
         ];
         let allowed: &[&str] = match kind {
             "diffuse" => &["albedo", "one_sided"],
@@ -33,9 +35,18 @@ impl Builder<'_> {
                 "one_sided",
             ],
             "roughdielectric" => &["alpha", "distribution", "ior"],
+            "roughplastic" => &[
+                "albedo",
+                "specular",
+                "ior",
+                "alpha",
+                "distribution",
+                "nonlinear",
+                "one_sided",
+            ],
             "black" => &[],
             other => {
-                return src.err(d.kind.span(), format!("unknown material type '{other}' (expected diffuse, conductor, dielectric, roughconductor, roughdielectric or black)"));
+                return src.err(d.kind.span(), format!("unknown material type '{other}' (expected diffuse, conductor, dielectric, roughconductor, roughdielectric, roughplastic or black)"));
             }
         };
         self.only(&what, &keys, allowed)?;
@@ -108,6 +119,29 @@ impl Builder<'_> {
                     return src.err(at, "'ior' = 1 is no interface at all; use a shape with media and no material (an index-matched boundary) instead");
                 }
                 Bsdf::rough_dielectric(eta, alpha()?)
+            }
+            "roughplastic" => {
+                let eta = ior()?;
+                if eta == 1.0 {
+                    let at = d.ior.as_ref().map_or(span, |i| i.span());
+                    return src.err(
+                        at,
+                        "'ior' = 1: a plastic's coating needs an index other than the outside's",
+                    );
+                }
+                let specular = match &d.specular {
+                    Some(c) => src.in_unit_range(c, "specular")?,
+                    None => glam::Vec3::ONE,
+                };
+                let albedo = src.required(&d.albedo, span.clone(), "albedo", &what)?;
+                Bsdf::RoughPlastic(Box::new(crate::bsdf::RoughPlastic::new(
+                    src.in_unit_range(albedo, "albedo")?,
+                    specular,
+                    eta,
+                    alpha()?,
+                    distribution,
+                    d.nonlinear.as_ref().is_some_and(|n| *n.get_ref()),
+                )))
             }
             "black" => Bsdf::Black,
             _ => unreachable!("material types are checked above"),

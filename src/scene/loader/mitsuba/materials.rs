@@ -22,6 +22,8 @@ pub(super) fn material_desc(n: Node, name: String, kind: &str) -> MaterialDesc {
         eta: None,
         k: None,
         one_sided: None,
+        specular: None,
+        nonlinear: None,
     }
 }
 
@@ -147,8 +149,21 @@ fn bsdf_desc(xml: &Xml, n: Node, name: String, one_sided: bool) -> Result<Option
             p.finish(xml)?;
             return Ok(None);
         }
-        "plastic" | "roughplastic" => return xml.err(n, format!("'{k}' is not supported: lodestar has no exact equivalent of its internal scattering (use diffuse, conductors or dielectrics)")),
-        other => return xml.err(n, format!("bsdf '{other}' is not supported (diffuse, conductor, roughconductor, dielectric, roughdielectric, twosided, null)")),
+        "roughplastic" => {
+            d.alpha = Some(rough(&mut p, &mut d)?);
+            let int = p.ior(xml, "int_ior", 1.49)?;
+            let ext = p.ior(xml, "ext_ior", 1.000277)?;
+            if !(int > 0.0 && ext > 0.0) || int == ext {
+                return xml.err(n, "'int_ior' and 'ext_ior' must be > 0 and differ");
+            }
+            d.ior = Some(s(n, int / ext));
+            d.albedo = Some(unit(p.color(xml, "diffuse_reflectance")?, 0.5));
+            d.specular = Some(unit(p.color(xml, "specular_reflectance")?, 1.0));
+            d.nonlinear = Some(s(n, p.boolean(xml, "nonlinear")?.unwrap_or(false)));
+            d.one_sided = Some(s(n, one_sided));
+        }
+        "plastic" => return xml.err(n, "'plastic' is not supported (a smooth coating: a delta lobe beside a diffuse one); 'roughplastic' is, and a small 'alpha' comes close"),
+        other => return xml.err(n, format!("bsdf '{other}' is not supported (diffuse, conductor, roughconductor, dielectric, roughdielectric, roughplastic, twosided, null)")),
     }
     p.finish(xml)?;
     Ok(Some(d))

@@ -28,9 +28,12 @@
 //!   (Mitsuba's default) or "ggx", `alpha` 0.1 or equal `alpha_u`/`alpha_v`,
 //!   `sample_visible` read: both are sampled by visible normals), `dielectric` and `roughdielectric` (`int_ior` 1.5046 "bk7",
 //!   `ext_ior` 1.000277 "air", numbers or Mitsuba's named media), `twosided` around one
-//!   BSDF, and `null` on a medium boundary. Without `twosided`, diffuse and conductors are
-//!   black from the back, as in Mitsuba. `plastic` and `roughplastic` are refused: lodestar
-//!   has no exact equivalent of their internal scattering.
+//!   BSDF, and `null` on a medium boundary. `roughplastic`: `distribution` and `alpha` as
+//!   above, `int_ior` 1.49 "polypropylene", `ext_ior` "air", `diffuse_reflectance` 0.5,
+//!   `specular_reflectance` 1, `nonlinear` false (Mitsuba 3's model, `bsdf/rough_plastic.rs`).
+//!   Without `twosided`, diffuse, conductors and plastic are black from the back, as in
+//!   Mitsuba. The smooth `plastic` is refused (its delta lobe beside a diffuse one is a kind
+//!   of BSDF lodestar's path algebra does not have).
 //! * Shapes `obj`, `ply` (`filename`, `face_normals`, `flip_normals`), `rectangle`, `cube`,
 //!   `disk` (as a fan of 1024 triangles: 6e-6 less area than the disk), `sphere` (`center`,
 //!   `radius`), each with `to_world`, a BSDF (default: `diffuse` 0.5, black for emitters), an

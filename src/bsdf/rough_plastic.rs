@@ -1,0 +1,233 @@
+//! Rough plastic (Mitsuba's `roughplastic`): a rough dielectric coating over a Lambertian
+//! base, two-sided like the diffuse BSDF (the scene loaders make it one-sided where Mitsuba's
+//! is).
+//!
+//! In the local frame, with `m = normalize(wo + wi)`, `eta` = index inside / outside:
+//! * the coating reflects `F(wo.m, eta) D(m) G1(wo) G1(wi) / (4 cos_o cos_i)` times the
+//!   specular reflectance (Mitsuba's separable masking-shadowing, not the height-correlated
+//!   `G2` of the rough conductor, so that the images agree with Mitsuba's);
+//! * the base is seen through the coating twice: `rho / (1 - R_int) t(cos_o) t(cos_i) /
+//!   (pi eta^2)`, where `t(cos)` is the energy the rough interface transmits (its refraction
+//!   lobe's directional albedo), `R_int = 2 ∫ A_int(mu) mu dmu` the coating's diffuse
+//!   reflectance from inside (`A_int` the reflection lobe's albedo with `1 / eta`), and
+//!   `rho / (1 - R_int)` sums the light bounced between base and coating; with `nonlinear`,
+//!   `rho / (1 - rho R_int)` instead. `t` is tabulated at 64 cosines and interpolated
+//!   linearly, `R_int` is the cosine-weighted mean over the same cosines, both as Mitsuba 3
+//!   computes them (the albedos by a quadrature over visible normals here).
+//!
+//! Sampling picks the coating with probability `(1 - t(cos_o)) w / ((1 - t(cos_o)) w +
+//! t(cos_o) (1 - w))`, `w` the specular reflectance's mean over the sum of both means, then
+//! a visible normal; else a cosine-weighted direction. The density is the mixture's.
+
+use super::fresnel;
+use super::microfacet::{Distribution, Microfacet, Smith, reflect, refract};
+use super::{LocalSample, diffuse};
+use crate::math::{INV_PI, Spectrum};
+use glam::{Vec2, Vec3};
+
+/// Cosines at which the coating's transmittance is tabulated (Mitsuba's resolution).
+const TABLE: usize = 64;
+
+/// Visible-normal samples per axis of the albedo quadrature (midpoint rule).
+const QUADRATURE: usize = 96;
+
+/// A rough plastic's parameters and its precomputed coating terms.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RoughPlastic {
+    /// Reflectance of the Lambertian base.
+    pub diffuse: Spectrum,
+    /// Scale of the coating's reflection.
+    pub specular: Spectrum,
+    /// Index inside over index outside.
+    pub eta: f32,
+    /// Roughness of the coating.
+    pub alpha: f32,
+    /// The coating's microfacet distribution.
+    pub distribution: Distribution,
+    /// Whether the base's reflectance enters the interreflection sum (see the module docs).
+    pub nonlinear: bool,
+    /// `t(cos)` at cosines `i / 63`.
+    transmittance: [f32; TABLE],
+    /// `R_int`.
+    internal_reflectance: f32,
+    /// `w`: the specular reflectance's share of both means.
+    specular_weight: f32,
+}
+
+impl RoughPlastic {
+    /// A rough plastic; `alpha` is clamped as for every microfacet BSDF.
+    pub fn new(
+        diffuse: Spectrum,
+        specular: Spectrum,
+        eta: f32,
+        alpha: f32,
+        distribution: Distribution,
+        nonlinear: bool,
+    ) -> RoughPlastic {
+        let alpha = super::microfacet::clamp_alpha(alpha);
+        let mf = Microfacet::new(distribution, alpha);
+        let mu = |i: usize| (i as f32 / (TABLE - 1) as f32).max(1e-6);
+        let mut transmittance = [0.0; TABLE];
+        for (i, t) in transmittance.iter_mut().enumerate() {
+            *t = coating(mf, eta, mu(i)).1;
+        }
+        let internal = (0..TABLE)
+            .map(|i| (coating(mf, 1.0 / eta, mu(i)).0 * mu(i)) as f64)
+            .sum::<f64>()
+            / TABLE as f64;
+        let (d, s) = (diffuse.element_sum() / 3.0, specular.element_sum() / 3.0);
+        RoughPlastic {
+            diffuse,
+            specular,
+            eta,
+            alpha,
+            distribution,
+            nonlinear,
+            transmittance,
+            internal_reflectance: (2.0 * internal) as f32,
+            specular_weight: if d + s > 0.0 { s / (d + s) } else { 0.5 },
+        }
+    }
+
+    /// `t(cos)`, linearly interpolated.
+    fn t(&self, cos: f32) -> f32 {
+        let x = cos.clamp(0.0, 1.0) * (TABLE - 1) as f32;
+        let i = (x as usize).min(TABLE - 2);
+        let w = x - i as f32;
+        (1.0 - w) * self.transmittance[i] + w * self.transmittance[i + 1]
+    }
+
+    /// The probability of sampling the coating for `cos_o`.
+    fn p_coating(&self, cos_o: f32) -> f32 {
+        let t = self.t(cos_o);
+        let w = self.specular_weight;
+        let (s, d) = ((1.0 - t) * w, t * (1.0 - w));
+        if s + d > 0.0 { s / (s + d) } else { 0.0 }
+    }
+
+    fn microfacet(&self) -> Microfacet {
+        Microfacet::new(self.distribution, self.alpha)
+    }
+
+    /// The base's value: `rho / (1 - R_int) t_o t_i / (pi eta^2)` (or the nonlinear sum).
+    fn base(&self, cos_o: f32, cos_i: f32) -> Spectrum {
+        let r = self.internal_reflectance;
+        let rho = if self.nonlinear {
+            self.diffuse / (Spectrum::ONE - self.diffuse * r)
+        } else {
+            self.diffuse / (1.0 - r)
+        };
+        rho * (INV_PI * self.t(cos_o) * self.t(cos_i) / (self.eta * self.eta))
+    }
+}
+
+/// What the coating does to light arriving at cosine `cos`, as its lobes are sampled (visible
+/// normals `m`, midpoint rule): `(reflected, transmitted)` =
+/// `(E[F(wo.m) G1(wi)], E[(1 - F(wo.m)) G1(wt)])`, `wi` the reflection and `wt` the
+/// refraction of `wo` about `m` (each 0 where it leaves on the wrong side).
+fn coating(mf: Microfacet, eta: f32, cos: f32) -> (f32, f32) {
+    let wo = Vec3::new((1.0 - cos * cos).max(0.0).sqrt(), 0.0, cos);
+    let (mut reflected, mut transmitted) = (0.0f64, 0.0f64);
+    for a in 0..QUADRATURE {
+        for b in 0..QUADRATURE {
+            let u = Vec2::new(
+                (a as f32 + 0.5) / QUADRATURE as f32,
+                (b as f32 + 0.5) / QUADRATURE as f32,
+            );
+            let Some(m) = mf.sample_visible(wo, u) else {
+                continue;
+            };
+            let cos_o = wo.dot(m);
+            let (f, cos_t, eta_r) = fresnel::dielectric(cos_o, eta);
+            let wi = reflect(wo, m);
+            if wi.z > 0.0 {
+                reflected += (f * mf.g1(wi)) as f64;
+            }
+            if f < 1.0 {
+                let wt = refract(wo, m, cos_o, cos_t, eta_r);
+                if wt.z < 0.0 {
+                    transmitted += ((1.0 - f) * mf.g1(wt)) as f64;
+                }
+            }
+        }
+    }
+    let n = (QUADRATURE * QUADRATURE) as f64;
+    ((reflected / n) as f32, (transmitted / n) as f32)
+}
+
+/// Mirror through the tangent plane when `flip` (two-sided).
+#[inline]
+fn flip_z(w: Vec3, flip: bool) -> Vec3 {
+    if flip { Vec3::new(w.x, w.y, -w.z) } else { w }
+}
+
+/// `(f, pdf)` of the pair in the local frame, zero unless both are strictly on one side;
+/// `f` only when `value` (densities alone skip it).
+// `!(x > 0.0)` deliberately rejects NaN as well.
+#[allow(clippy::neg_cmp_op_on_partial_ord)]
+pub(super) fn eval_pdf(p: &RoughPlastic, wo: Vec3, wi: Vec3, value: bool) -> (Spectrum, f32) {
+    const ZERO: (Spectrum, f32) = (Spectrum::ZERO, 0.0);
+    if !(wo.z * wi.z > 0.0) {
+        return ZERO;
+    }
+    let flip = wo.z < 0.0;
+    let (wo, wi) = (flip_z(wo, flip), flip_z(wi, flip));
+    let p_coating = p.p_coating(wo.z);
+    let mut pdf = (1.0 - p_coating) * diffuse::pdf(wo, wi);
+    let mut f = if value {
+        p.base(wo.z, wi.z)
+    } else {
+        Spectrum::ZERO
+    };
+    let h = wo + wi;
+    let len = h.length();
+    if len > 0.0 {
+        let m = h / len;
+        let wo_m = wo.dot(m);
+        if wo_m > 0.0 {
+            let mf = p.microfacet();
+            let d = mf.d(m);
+            let (g1_o, g1_i) = (mf.g1(wo), mf.g1(wi));
+            let lobe_pdf = g1_o * d / (4.0 * wo.z);
+            let f_unit = d * g1_o * g1_i / (4.0 * wo.z * wi.z);
+            if lobe_pdf.is_finite() && f_unit.is_finite() {
+                pdf += p_coating * lobe_pdf;
+                if value {
+                    f += p.specular * (fresnel::dielectric(wo_m, p.eta).0 * f_unit);
+                }
+            }
+        }
+    }
+    if !(pdf > 0.0 && pdf.is_finite()) {
+        return ZERO;
+    }
+    (f, pdf)
+}
+
+pub(super) fn sample(p: &RoughPlastic, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<LocalSample> {
+    let flip = wo.z < 0.0;
+    let wo_up = flip_z(wo, flip);
+    let wi_up = if u_lobe < p.p_coating(wo_up.z) {
+        let m = p.microfacet().sample_visible(wo_up, u)?;
+        let wi = reflect(wo_up, m);
+        if wi.z <= 0.0 {
+            return None;
+        }
+        wi
+    } else {
+        diffuse::sample(Spectrum::ONE, wo_up, u)?.wi
+    };
+    let wi = flip_z(wi_up, flip);
+    let (f, pdf) = eval_pdf(p, wo, wi, true);
+    if pdf <= 0.0 {
+        return None;
+    }
+    Some(LocalSample {
+        wi,
+        f,
+        pdf,
+        delta: false,
+        transmission: false,
+        eta: 1.0,
+    })
+}

@@ -23,6 +23,7 @@ mod chi2_phase;
 mod cli_errors;
 mod cluster_scripts;
 mod determinism;
+mod envmap;
 mod example_integrator;
 mod exr_roundtrip;
 mod furnace;

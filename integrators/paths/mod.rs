@@ -359,7 +359,7 @@ pub fn direct_to_camera(scene: &Scene, light: usize, x1: Vec3) -> bool {
 pub fn hittable(scene: &Scene, light: usize) -> bool {
     matches!(
         scene.lights[light],
-        Light::Area(_) | Light::Environment(_) | Light::Sun(_)
+        Light::Area(_) | Light::Environment(_) | Light::EnvMap(_) | Light::Sun(_)
     )
 }
 

@@ -175,7 +175,7 @@ pub fn node_at(scene: &Scene, x: &PathVertex, a: Vec3, b: Option<Vec3>) -> Optio
 pub fn reach(light: &Light) -> Reach {
     match light {
         Light::Area(_) => Reach::Area,
-        Light::Environment(_) | Light::Sun(_) => Reach::Infinite,
+        Light::Environment(_) | Light::EnvMap(_) | Light::Sun(_) => Reach::Infinite,
         Light::Point(_) | Light::Spot(_) | Light::Directional(_) => Reach::Delta,
     }
 }

@@ -252,7 +252,7 @@ pub fn emission(light: &Light, n: Vec3, w: Vec3) -> Spectrum {
 pub fn hittable(light: &Light) -> bool {
     matches!(
         light,
-        Light::Area(_) | Light::Environment(_) | Light::Sun(_)
+        Light::Area(_) | Light::Environment(_) | Light::EnvMap(_) | Light::Sun(_)
     )
 }
 

@@ -1,6 +1,6 @@
 //! Lights: emissive shapes (area lights on meshes and spheres, optionally with a spot
-//! profile), point and spot lights, and lights at infinity: a constant environment, a
-//! directional light and a sun disk. Each offers
+//! profile), point and spot lights, and lights at infinity: a constant environment, an
+//! environment map (`envmap.rs`), a directional light and a sun disk. Each offers
 //! * `sample_li` / `pdf_li`: a direction from a reference point towards the light (next-event
 //!   estimation), with the solid-angle density at the reference point (a discrete 1 for delta
 //!   lights);
@@ -23,6 +23,7 @@ mod area;
 mod cone;
 mod directional;
 mod environment;
+mod envmap;
 mod point;
 mod spot;
 mod sun;
@@ -30,6 +31,7 @@ mod sun;
 pub use area::{AreaLight, AreaShape};
 pub use directional::DirectionalLight;
 pub use environment::EnvironmentLight;
+pub use envmap::EnvMapLight;
 pub use point::PointLight;
 pub use spot::{SpotEdge, SpotLight, SpotProfile};
 pub use sun::SunLight;
@@ -48,6 +50,8 @@ pub enum Light {
     Spot(SpotLight),
     /// Constant radiance arriving from every direction at infinity.
     Environment(EnvironmentLight),
+    /// Radiance at infinity from a latitude-longitude image (Mitsuba's `envmap`).
+    EnvMap(EnvMapLight),
     /// Parallel light from one direction at infinity (delta in direction).
     Directional(DirectionalLight),
     /// A disk of small angular radius at infinity (not delta).
@@ -104,12 +108,13 @@ impl Light {
         )
     }
 
-    /// Lights at infinity: environment, directional and sun. Their `sample_li` distances are
-    /// infinite and they need the scene bounds ([`Light::set_scene_bounds`]).
+    /// Lights at infinity: environment, environment map, directional and sun. Their
+    /// `sample_li` distances are infinite and they need the scene bounds
+    /// ([`Light::set_scene_bounds`]).
     pub fn is_infinite(&self) -> bool {
         matches!(
             self,
-            Light::Environment(_) | Light::Directional(_) | Light::Sun(_)
+            Light::Environment(_) | Light::EnvMap(_) | Light::Directional(_) | Light::Sun(_)
         )
     }
 
@@ -119,6 +124,7 @@ impl Light {
     pub fn set_scene_bounds(&mut self, center: Vec3, radius: f32) {
         match self {
             Light::Environment(l) => (l.center, l.radius) = (center, radius),
+            Light::EnvMap(l) => (l.center, l.radius) = (center, radius),
             Light::Directional(l) => (l.center, l.radius) = (center, radius),
             Light::Sun(l) => (l.center, l.radius) = (center, radius),
             Light::Area(_) | Light::Point(_) | Light::Spot(_) => {}
@@ -133,6 +139,7 @@ impl Light {
             Light::Point(l) => 4.0 * crate::math::PI * luminance(l.intensity),
             Light::Spot(l) => l.power(),
             Light::Environment(l) => l.power(),
+            Light::EnvMap(l) => l.power(),
             Light::Directional(l) => l.power(),
             Light::Sun(l) => l.power(),
         }
@@ -147,6 +154,7 @@ impl Light {
             Light::Point(l) => l.sample_li(p),
             Light::Spot(l) => l.sample_li(p),
             Light::Environment(l) => l.sample_li(u),
+            Light::EnvMap(l) => l.sample_li(u),
             Light::Directional(l) => Some(l.sample_li()),
             Light::Sun(l) => Some(l.sample_li(u)),
         }
@@ -160,6 +168,7 @@ impl Light {
             Light::Area(l) => l.pdf_li(p, p_l, n_l, wi),
             Light::Point(_) | Light::Spot(_) | Light::Directional(_) => 0.0,
             Light::Environment(_) => environment::pdf_li(),
+            Light::EnvMap(l) => l.pdf_li(wi),
             Light::Sun(l) => l.pdf_li(wi),
         }
     }
@@ -179,6 +188,7 @@ impl Light {
             Light::Area(l) => l.le(n, w),
             Light::Point(_) | Light::Spot(_) | Light::Directional(_) => Spectrum::ZERO,
             Light::Environment(l) => l.radiance,
+            Light::EnvMap(l) => l.le(w),
             Light::Sun(l) => l.le(w),
         }
     }
@@ -191,6 +201,7 @@ impl Light {
             Light::Point(l) => Some(l.sample_le(u_dir)),
             Light::Spot(l) => l.sample_le(u_dir),
             Light::Environment(l) => Some(l.sample_le(u_pos, u_dir)),
+            Light::EnvMap(l) => l.sample_le(u_pos, u_dir),
             Light::Directional(l) => Some(l.sample_le(u_pos)),
             Light::Sun(l) => Some(l.sample_le(u_pos, u_dir)),
         }
@@ -206,6 +217,7 @@ impl Light {
             Light::Point(_) => (1.0, crate::math::warp::uniform_sphere_pdf()),
             Light::Spot(l) => l.pdf_le(dir),
             Light::Environment(l) => l.pdf_le(),
+            Light::EnvMap(l) => l.pdf_le(dir),
             Light::Directional(l) => l.pdf_le(),
             Light::Sun(l) => l.pdf_le(dir),
         }

@@ -225,7 +225,7 @@ impl Builder<'_> {
         let n_shape_lights = lights.len();
         for l in &desc.light {
             let light = self.light(l)?;
-            if matches!(light, Light::Environment(_)) {
+            if matches!(light, Light::Environment(_) | Light::EnvMap(_)) {
                 if environment {
                     return src.err(l.span(), "only one environment light is allowed");
                 }

@@ -19,6 +19,9 @@ impl Builder<'_> {
             ("cone_delta", at(&d.cone_delta)),
             ("cone_edge", at(&d.cone_edge)),
             ("angle", at(&d.angle)),
+            ("filename", at(&d.filename)),
+            ("scale", at(&d.scale)),
+            ("transform", at(&d.transform)),
         ];
         let allowed: &[&str] = match kind {
             "point" => &["position", "intensity"],
@@ -31,10 +34,11 @@ impl Builder<'_> {
                 "cone_edge",
             ],
             "environment" => &["radiance"],
+            "envmap" => &["filename", "scale", "transform"],
             "directional" => &["direction", "irradiance"],
             "sun" => &["direction", "angle", "radiance", "irradiance"],
             other => {
-                return src.err(d.kind.span(), format!("unknown light type '{other}' (expected point, spot, environment, directional or sun)"));
+                return src.err(d.kind.span(), format!("unknown light type '{other}' (expected point, spot, environment, envmap, directional or sun)"));
             }
         };
         self.only(&what, &keys, allowed)?;
@@ -99,6 +103,7 @@ impl Builder<'_> {
                 center: Vec3::ZERO,
                 radius: 1.0,
             }),
+            "envmap" => self.envmap(d, span.clone(), &what)?,
             "directional" => Light::Directional(DirectionalLight::new(
                 direction()?,
                 src.non_negative3(
@@ -136,6 +141,66 @@ impl Builder<'_> {
             }
             _ => unreachable!("light types are checked above"),
         })
+    }
+
+    /// An environment map: its image (OpenEXR, linear RGB), `scale` and orientation.
+    fn envmap(&self, d: &LightDesc, span: std::ops::Range<usize>, what: &str) -> Result<Light> {
+        let src = self.src;
+        let file = src.required(&d.filename, span, "filename", what)?;
+        let path = match &self.dir {
+            Some(dir) => dir.join(file.get_ref()),
+            None => PathBuf::from(file.get_ref()),
+        };
+        let is_exr = path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("exr"));
+        if !is_exr {
+            return src.err(
+                file.span(),
+                format!(
+                    "environment map '{}': only OpenEXR images (.exr) are read",
+                    path.display()
+                ),
+            );
+        }
+        let (image, _) = crate::film::Image::read_exr(&path)
+            .or_else(|e| src.err(file.span(), format!("environment map: {e}")))?;
+        let scale = match &d.scale {
+            None => 1.0,
+            Some(v) => {
+                let x = *v.get_ref();
+                if !(x.is_finite() && x >= 0.0) {
+                    return src.err(
+                        v.span(),
+                        format!("'scale' must be finite and >= 0, got {x}"),
+                    );
+                }
+                x
+            }
+        };
+        let t = self.transform(d.transform.as_ref())?;
+        let m = glam::Mat3::from(t.m.matrix3);
+        let rotation = (m.transpose() * m - glam::Mat3::IDENTITY)
+            .to_cols_array()
+            .iter()
+            .all(|x| x.abs() < 1e-4)
+            && m.determinant() > 0.0;
+        if !rotation {
+            let at = d.transform.as_ref().map_or(file.span(), |t| t.span());
+            return src.err(
+                at,
+                "an environment map's transform must be a rotation (no scale or mirror)",
+            );
+        }
+        let light = EnvMapLight::new(
+            &image.pixels,
+            image.width as usize,
+            image.height as usize,
+            scale,
+            m,
+        )
+        .or_else(|e| src.err(file.span(), format!("'{}': {e}", path.display())))?;
+        Ok(Light::EnvMap(light))
     }
 
     /// A spot profile from optional `cone_angle` / `cone_delta` keys (degrees).

@@ -81,8 +81,8 @@ use crate::geometry::heightfield::{Wave, heightfield};
 use crate::geometry::mesh::MeshSampler;
 use crate::geometry::{Accel, Sphere, Transform, TriangleMesh};
 use crate::light::{
-    AreaLight, AreaShape, DirectionalLight, EnvironmentLight, Light, LightSampler, PointLight,
-    SpotEdge, SpotLight, SpotProfile, SunLight,
+    AreaLight, AreaShape, DirectionalLight, EnvMapLight, EnvironmentLight, Light, LightSampler,
+    PointLight, SpotEdge, SpotLight, SpotProfile, SunLight,
 };
 use crate::math::Frame;
 use crate::medium::{HomogeneousMedium, MediumInterface};
@@ -290,6 +290,12 @@ struct LightDesc {
     /// Mitsuba's).
     cone_edge: Option<Spanned<String>>,
     angle: Option<Spanned<f32>>,
+    /// `envmap`: the latitude-longitude image (OpenEXR), relative to the scene's directory.
+    filename: Option<Spanned<String>>,
+    /// `envmap`: radiance scale (default 1).
+    scale: Option<Spanned<f32>>,
+    /// `envmap`: the map's orientation (a rotation; Mitsuba's `to_world`).
+    transform: Option<Spanned<TransformDesc>>,
 }
 
 /// Line numbers from byte offsets, and the file name errors are reported against.

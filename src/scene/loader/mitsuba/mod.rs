@@ -42,7 +42,9 @@
 //! * Emitters `point` (`intensity`, `position` or `to_world`), `spot` (`intensity`,
 //!   `cutoff_angle` 20, `beam_width` 3/4 of it, Mitsuba's edge linear in the angle,
 //!   `to_world`), `directional`
-//!   (`irradiance`, `direction` or `to_world`), `constant` (`radiance`).
+//!   (`irradiance`, `direction` or `to_world`), `constant` (`radiance`), `envmap`
+//!   (`filename`, an OpenEXR image found like mesh files, `scale` 1, `to_world` a rotation;
+//!   `mis_compensation` read: it changes sampling, not the image).
 //! * Media `homogeneous`: `sigma_t` (1), `albedo` (0.75), `scale` (1), `sample_emitters`,
 //!   `phase` `isotropic` or `hg` (`g` 0.8).
 //! * Values: `float`, `integer`, `boolean`, `string`, `rgb` (one or three numbers),

@@ -469,6 +469,9 @@ fn light_desc(n: Node, kind: &str) -> LightDesc {
         cone_delta: None,
         cone_edge: None,
         angle: None,
+        filename: None,
+        scale: None,
+        transform: None,
     }
 }
 
@@ -526,8 +529,24 @@ fn emitter(xml: &Xml, n: Node, out: &mut Out) -> Result<()> {
             d.radiance = Some(color(&mut p, "radiance")?);
             d
         }
+        "envmap" => {
+            let mut d = light_desc(n, k);
+            d.filename = match p.string(xml, "filename")? {
+                Some((at, f)) => Some(s(at, xml.find_file(&f))),
+                None => return xml.err(n, "emitter 'envmap' needs 'filename'"),
+            };
+            if let Some((at, scale)) = p.float(xml, "scale")? {
+                d.scale = Some(s(at, scale));
+            }
+            if let Some((at, m)) = p.take_to_world(xml)? {
+                d.transform = Some(matrix_desc(at, m));
+            }
+            // Read (MIS compensation changes sampling, not the image; lodestar's is its own).
+            p.boolean(xml, "mis_compensation")?;
+            d
+        }
         "area" => return xml.err(n, "an area emitter belongs inside a <shape>"),
-        other => return xml.err(n, format!("emitter '{other}' is not supported (point, spot, directional, constant; area inside shapes)")),
+        other => return xml.err(n, format!("emitter '{other}' is not supported (point, spot, directional, constant, envmap; area inside shapes)")),
     };
     p.finish(xml)?;
     out.desc.light.push(s(n, d));

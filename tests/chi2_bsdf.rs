@@ -643,3 +643,77 @@ fn statistics_helpers_are_right() {
     let a = chi2::alpha();
     assert!((1.0 - (1.0 - a).powi(chi2::SUITE_TESTS as i32) - 0.01).abs() < 1e-9);
 }
+
+// ------------------------------------------------------------------------------------------
+// Thin dielectric
+// ------------------------------------------------------------------------------------------
+
+/// A thin dielectric sheet from both sides and from normal to grazing incidence, in both
+/// modes: every sample is the mirror direction or straight through (`wi = -wo`), a delta
+/// sample of weight 1 whose `pdf` is `delta_lobe_probability`, with `eta` 1 (no radiance
+/// scaling); the reflection count follows `2 R / (1 + R)` (binomial test at the suite's
+/// level, as the dielectric's), and that reflectance is Mitsuba 3's `thindielectric`'s
+/// (`python3 benches/reference/mitsuba_thindielectric.py`, bisection to 1e-7; asserted to
+/// 1e-5).
+#[test]
+fn thin_dielectric_reflects_as_mitsuba() {
+    #[rustfmt::skip]
+    let reference: &[(f32, f32, f64)] = &[
+        (1.5, 0.0, 0.0769231),
+        (1.5, 30.0, 0.0797345),
+        (1.5, 60.0, 0.1637675),
+        (1.5, 80.0, 0.5587709),
+        (1.5, 89.0, 0.9496819),
+        (1.33, 0.0, 0.0393297),
+        (1.33, 30.0, 0.0413519),
+        (1.33, 60.0, 0.1116499),
+        (1.33, 80.0, 0.5151266),
+        (1.33, 89.0, 0.9451736),
+    ];
+    let n = ng_generic();
+    let sf = ShadingFrame::new(n, n);
+    for &(eta, theta, r_mitsuba) in reference {
+        let bsdf = Bsdf::ThinDielectric { eta };
+        for side in [1.0f32, -1.0] {
+            let wo = dir_around(side * n, theta, 25.0);
+            let name = format!("thin dielectric eta {eta}, theta {theta}, side {side}");
+            let mirror = 2.0 * wo.dot(n) * n - wo;
+            let mut s = chi2::sampler_for(&name);
+            let mut fails = Failures::new();
+            let mut reflections = 0u64;
+            let n_samples = N_DELTA / 4;
+            for _ in 0..n_samples {
+                let (ul, u) = (s.next_1d(), s.next_2d());
+                for mode in MODES {
+                    let Some(smp) = bsdf.sample(&sf, wo, ul, u, mode) else {
+                        fails.check(false, || format!("{mode:?}: no sample"));
+                        continue;
+                    };
+                    let reflected = !smp.transmission;
+                    let expected = if reflected { mirror } else { -wo };
+                    fails.check((smp.wi - expected).length() < 1e-5, || {
+                        format!("{mode:?}: wi {} expected {expected}", smp.wi)
+                    });
+                    let p = bsdf.delta_lobe_probability(&sf, wo, smp.wi);
+                    fails.check(
+                        smp.delta
+                            && smp.eta == 1.0
+                            && close(smp.pdf as f64, p as f64, 1e-6, 0.0)
+                            && close3(smp.weight, Vec3::ONE, 1e-4, 0.0),
+                        || format!("{mode:?}: {smp:?}, lobe probability {p}"),
+                    );
+                    if mode == TransportMode::Radiance && reflected {
+                        reflections += 1;
+                    }
+                }
+            }
+            fails.assert_none(&name);
+            let r = bsdf.delta_lobe_probability(&sf, wo, mirror) as f64;
+            assert!(
+                (r - r_mitsuba).abs() < 1e-5,
+                "{name}: reflectance {r} against Mitsuba's {r_mitsuba}"
+            );
+            chi2::assert_binomial(&name, reflections, n_samples as u64, r);
+        }
+    }
+}

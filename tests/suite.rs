@@ -26,6 +26,7 @@ mod determinism;
 mod envmap;
 mod example_integrator;
 mod exr_roundtrip;
+mod features;
 mod furnace;
 mod fuzz_regressions;
 mod guided;

@@ -34,3 +34,38 @@ pub(super) fn sample(eta: f32, wo: Vec3, u_lobe: f32, mode: TransportMode) -> Op
         eta: eta_rel,
     })
 }
+
+/// Reflectance of a thin dielectric sheet (Mitsuba's `thindielectric`) at `cos_i`: the
+/// interface's Fresnel `R` plus every path that bounces inside the sheet and leaves on the
+/// incident side, `R + T^2 R / (1 - R^2) = 2 R / (1 + R)` (`T = 1 - R`, no absorption).
+pub(super) fn thin_reflectance(cos_i: f32, eta: f32) -> f32 {
+    let r = fresnel::dielectric(cos_i.abs(), eta).0;
+    if r < 1.0 { 2.0 * r / (1.0 + r) } else { 1.0 }
+}
+
+/// A thin dielectric sheet: specular reflection with [`thin_reflectance`], else straight
+/// through (the two refractions cancel; radiance is not scaled).
+pub(super) fn thin_sample(eta: f32, wo: Vec3, u_lobe: f32) -> Option<LocalSample> {
+    let r = thin_reflectance(wo.z, eta);
+    if u_lobe < r {
+        let wi = Vec3::new(-wo.x, -wo.y, wo.z);
+        return Some(LocalSample {
+            wi,
+            f: Spectrum::splat(r / wi.z.abs()),
+            pdf: r,
+            delta: true,
+            transmission: false,
+            eta: 1.0,
+        });
+    }
+    let wi = -wo;
+    let t = 1.0 - r;
+    Some(LocalSample {
+        wi,
+        f: Spectrum::splat(t / wi.z.abs()),
+        pdf: t,
+        delta: true,
+        transmission: true,
+        eta: 1.0,
+    })
+}

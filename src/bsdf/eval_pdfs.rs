@@ -143,7 +143,10 @@ impl Bsdf {
                 };
                 (f, pdf_fwd, pdf_rev)
             }
-            Bsdf::Black | Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => {
+            Bsdf::Black
+            | Bsdf::Conductor { .. }
+            | Bsdf::Dielectric { .. }
+            | Bsdf::ThinDielectric { .. } => {
                 return EvalPdfs::ZERO;
             }
         };

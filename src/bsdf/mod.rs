@@ -111,6 +111,13 @@ pub enum Bsdf {
         /// Index inside over index outside.
         eta: f32,
     },
+    /// A thin dielectric sheet (Mitsuba's `thindielectric`, e.g. a window pane): specular
+    /// reflection with the sheet's reflectance `2 R / (1 + R)` (every internal bounce
+    /// included), else straight through; `eta` = index of the sheet over the outside's.
+    ThinDielectric {
+        /// Index of the sheet over index outside.
+        eta: f32,
+    },
     /// Rough conductor: GGX microfacet reflection of roughness `alpha` (clamped to at least
     /// [`microfacet::MIN_ALPHA`] when evaluated), two-sided. Build with
     /// [`Bsdf::rough_conductor`].
@@ -203,7 +210,10 @@ impl Bsdf {
 
     /// True if the BSDF only has delta lobes (no direction has a non-zero density).
     pub fn is_delta(&self) -> bool {
-        matches!(self, Bsdf::Conductor { .. } | Bsdf::Dielectric { .. })
+        matches!(
+            self,
+            Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } | Bsdf::ThinDielectric { .. }
+        )
     }
 
     /// True if the BSDF scatters no light at all.
@@ -219,7 +229,7 @@ impl Bsdf {
         match self {
             // Rough plastic: its Lambertian base scatters everywhere.
             Bsdf::Black | Bsdf::Diffuse { .. } | Bsdf::RoughPlastic(_) => 1.0,
-            Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => 0.0,
+            Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } | Bsdf::ThinDielectric { .. } => 0.0,
             Bsdf::RoughConductor { alpha, .. } | Bsdf::RoughDielectric { alpha, .. } => {
                 microfacet::clamp_alpha(*alpha).sqrt().min(1.0)
             }
@@ -236,6 +246,11 @@ impl Bsdf {
                 let (wo_l, wi_l) = (sf.frame.to_local(wo), sf.frame.to_local(wi));
                 let (f, _, _) = fresnel::dielectric(wo_l.z, *eta);
                 if wo_l.z * wi_l.z > 0.0 { f } else { 1.0 - f }
+            }
+            Bsdf::ThinDielectric { eta } => {
+                let (wo_l, wi_l) = (sf.frame.to_local(wo), sf.frame.to_local(wi));
+                let r = dielectric::thin_reflectance(wo_l.z, *eta);
+                if wo_l.z * wi_l.z > 0.0 { r } else { 1.0 - r }
             }
             _ => 0.0,
         }
@@ -257,6 +272,7 @@ impl Bsdf {
             Bsdf::RoughPlastic(p) => p.diffuse.max_element().max(p.specular.max_element()),
             Bsdf::RoughConductor { .. }
             | Bsdf::Dielectric { .. }
+            | Bsdf::ThinDielectric { .. }
             | Bsdf::RoughDielectric { .. } => 1.0,
         };
         q.clamp(MIN_CONTINUATION, 1.0)
@@ -291,6 +307,7 @@ impl Bsdf {
                 }
             }
             Bsdf::Dielectric { eta } => dielectric::sample(*eta, wo_l, u_lobe, mode)?,
+            Bsdf::ThinDielectric { eta } => dielectric::thin_sample(*eta, wo_l, u_lobe)?,
             Bsdf::RoughConductor {
                 alpha,
                 fresnel,
@@ -368,7 +385,10 @@ impl Bsdf {
                 .0,
             ),
             Bsdf::RoughPlastic(p) => rough_plastic::eval_pdf(p, wo_l, wi_l, true).0,
-            Bsdf::Black | Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => {
+            Bsdf::Black
+            | Bsdf::Conductor { .. }
+            | Bsdf::Dielectric { .. }
+            | Bsdf::ThinDielectric { .. } => {
                 return Spectrum::ZERO;
             }
         };
@@ -407,7 +427,10 @@ impl Bsdf {
                 .1
             }
             Bsdf::RoughPlastic(p) => rough_plastic::eval_pdf(p, wo_l, wi_l, false).1,
-            Bsdf::Black | Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } => 0.0,
+            Bsdf::Black
+            | Bsdf::Conductor { .. }
+            | Bsdf::Dielectric { .. }
+            | Bsdf::ThinDielectric { .. } => 0.0,
         }
     }
 }

@@ -50,13 +50,13 @@
 //!   mass check, each binomial test) uses the Sidak-corrected level
 //!   `alpha = 1 - (1 - 0.01)^(1 / SUITE_TESTS)` = 2.01e-5, with [`SUITE_TESTS`] = 500 an
 //!   upper bound on the number of such tests in all test files that use this harness
-//!   (`chi2_bsdf.rs` has 113, `chi2_lights.rs` 50, `chi2_microfacet.rs` 162,
+//!   (`chi2_bsdf.rs` has 133, `chi2_lights.rs` 50, `chi2_microfacet.rs` 162,
 //!   `bsdf_energy.rs` 81, `chi2_phase.rs` 22, `chi2_lights_spot.rs` 35 including its power
 //!   controls, `pt_guiding.rs` 10, `envmap.rs` 4, counting a case's chi-square test and mass
-//!   check as two: 477). Under the null
+//!   check as two: 497). Under the null
 //!   hypothesis (every sampler matches its pdf) the probability that *any* test of the suite
 //!   fails is then at most 1 % (Sidak is exact for independent tests and conservative
-//!   otherwise, and 477 < 500 tests only lowers it). The
+//!   otherwise, and 497 < 500 tests only lowers it). The
 //!   seeds are fixed, so a run is reproducible: a correct sampler either always passes or,
 //!   with probability <= 1 % over the choice of seed, always fails. When you add tests and the
 //!   suite would exceed [`SUITE_TESTS`] hypothesis tests, raise the constant.

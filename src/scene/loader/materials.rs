@@ -25,7 +25,7 @@ impl Builder<'_> {
         let allowed: &[&str] = match kind {
             "diffuse" => &["albedo", "one_sided"],
             "conductor" => &["reflectance", "one_sided"],
-            "dielectric" => &["ior"],
+            "dielectric" | "thindielectric" => &["ior"],
             "roughconductor" => &[
                 "alpha",
                 "distribution",
@@ -46,7 +46,7 @@ impl Builder<'_> {
             ],
             "black" => &[],
             other => {
-                return src.err(d.kind.span(), format!("unknown material type '{other}' (expected diffuse, conductor, dielectric, roughconductor, roughdielectric, roughplastic or black)"));
+                return src.err(d.kind.span(), format!("unknown material type '{other}' (expected diffuse, conductor, dielectric, thindielectric, roughconductor, roughdielectric, roughplastic or black)"));
             }
         };
         self.only(&what, &keys, allowed)?;
@@ -98,6 +98,7 @@ impl Builder<'_> {
                 )?,
             },
             "dielectric" => Bsdf::Dielectric { eta: ior()? },
+            "thindielectric" => Bsdf::ThinDielectric { eta: ior()? },
             "roughconductor" => {
                 let fresnel = match (&d.reflectance, &d.eta, &d.k) {
                     (Some(r), None, None) => ConductorFresnel::Constant(src.in_unit_range(r, "reflectance")?),

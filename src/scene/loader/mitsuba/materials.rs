@@ -127,7 +127,7 @@ fn bsdf_desc(xml: &Xml, n: Node, name: String, one_sided: bool) -> Result<Option
             }
             d.one_sided = Some(s(n, one_sided));
         }
-        "dielectric" | "roughdielectric" => {
+        "dielectric" | "roughdielectric" | "thindielectric" => {
             if k == "roughdielectric" {
                 d.alpha = Some(rough(&mut p, &mut d)?);
             }
@@ -139,7 +139,7 @@ fn bsdf_desc(xml: &Xml, n: Node, name: String, one_sided: bool) -> Result<Option
             let inner = p.nested(xml, "bsdf")?;
             p.finish(xml)?;
             return match inner.as_slice() {
-                [b] if matches!(kind(xml, *b)?.as_str(), "dielectric" | "roughdielectric" | "twosided" | "null") => xml.err(*b, format!("twosided cannot wrap '{}'", kind(xml, *b)?)),
+                [b] if matches!(kind(xml, *b)?.as_str(), "dielectric" | "roughdielectric" | "thindielectric" | "twosided" | "null") => xml.err(*b, format!("twosided cannot wrap '{}'", kind(xml, *b)?)),
                 [b] => bsdf_desc(xml, *b, d.name.into_inner(), false),
                 [] => xml.err(n, "twosided needs one nested <bsdf>"),
                 _ => xml.err(inner[1], "twosided with a different BSDF per side is not supported"),
@@ -163,7 +163,7 @@ fn bsdf_desc(xml: &Xml, n: Node, name: String, one_sided: bool) -> Result<Option
             d.one_sided = Some(s(n, one_sided));
         }
         "plastic" => return xml.err(n, "'plastic' is not supported (a smooth coating: a delta lobe beside a diffuse one); 'roughplastic' is, and a small 'alpha' comes close"),
-        other => return xml.err(n, format!("bsdf '{other}' is not supported (diffuse, conductor, roughconductor, dielectric, roughdielectric, roughplastic, twosided, null)")),
+        other => return xml.err(n, format!("bsdf '{other}' is not supported (diffuse, conductor, roughconductor, dielectric, thindielectric, roughdielectric, roughplastic, twosided, null)")),
     }
     p.finish(xml)?;
     Ok(Some(d))

@@ -26,7 +26,7 @@
 //! * BSDFs: `diffuse` (`reflectance` 0.5), `conductor` and `roughconductor` (`material`
 //!   "none" with `specular_reflectance`, or `eta` and `k`; rough: `distribution` "beckmann"
 //!   (Mitsuba's default) or "ggx", `alpha` 0.1 or equal `alpha_u`/`alpha_v`,
-//!   `sample_visible` read: both are sampled by visible normals), `dielectric` and `roughdielectric` (`int_ior` 1.5046 "bk7",
+//!   `sample_visible` read: both are sampled by visible normals), `dielectric`, `thindielectric` and `roughdielectric` (`int_ior` 1.5046 "bk7",
 //!   `ext_ior` 1.000277 "air", numbers or Mitsuba's named media), `twosided` around one
 //!   BSDF, and `null` on a medium boundary. `roughplastic`: `distribution` and `alpha` as
 //!   above, `int_ior` 1.49 "polypropylene", `ext_ior` "air", `diffuse_reflectance` 0.5,

@@ -1,0 +1,78 @@
+//! Scene features every integrator family must handle alike: the rough plastic and the thin
+//! dielectric (the environment map's is in `envmap.rs`). Each renders a 16 x 16 Cornell box
+//! with the feature by pt, bdpt, vcm, guided-bdpt and mmlt, tile by tile within noise of pt's
+//! image (`util::assert_same_image`, 5 renders a side, family-wise false-failure rate 1e-4;
+//! vcm's merging bias at its default radius is below these renders' noise); pt's images
+//! mirrored must fail.
+
+use crate::util;
+
+use util::{assert_same_image, differs, seeded_renders};
+
+/// The Cornell box at 16 x 16 with `edit` applied to its text.
+fn cornell(edit: impl Fn(String) -> String) -> lodestar::scene::Scene {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box.toml");
+    let text = std::fs::read_to_string(path)
+        .unwrap()
+        .replace("resolution = [256, 256]", "resolution = [16, 16]");
+    util::scene(&edit(text))
+}
+
+/// Every integrator family renders `scene` as pt does (see the module docs).
+fn every_integrator_agrees(scene: &lodestar::scene::Scene, what: &str) {
+    let pt = seeded_renders(scene, "pt", 6, &[], 256, 5, 10);
+    for (name, options, spp) in [
+        ("bdpt", &[][..], 64),
+        ("vcm", &[][..], 64),
+        ("guided-bdpt", &["learn_fraction=0.25"][..], 64),
+        ("mmlt", &[][..], 256),
+    ] {
+        let other = seeded_renders(scene, name, 6, options, spp, 5, 20);
+        assert_same_image(&pt, &other, 4, &format!("{name} vs pt on {what}"));
+    }
+    let mirrored: Vec<_> = pt.iter().map(util::mirrored).collect();
+    assert!(differs(&pt, &mirrored, 4), "{what}: mirrored pt passes");
+}
+
+/// The Cornell box with its white walls and boxes in rough plastic (GGX 0.15, eta 1.5) and
+/// red and green plastic sides.
+#[test]
+fn every_integrator_renders_rough_plastic_alike() {
+    let plastic = |name: &str, albedo: &str| {
+        format!(
+            "name = \"{name}\"\ntype = \"roughplastic\"\nalbedo = {albedo}\nior = 1.5\nalpha = 0.15"
+        )
+    };
+    let scene = cornell(|text| {
+        let text = text
+            .replace(
+                "name = \"white\"\ntype = \"diffuse\"\nalbedo = [0.73, 0.73, 0.73]",
+                &plastic("white", "[0.73, 0.73, 0.73]"),
+            )
+            .replace(
+                "name = \"red\"\ntype = \"diffuse\"\nalbedo = [0.65, 0.05, 0.05]",
+                &plastic("red", "[0.65, 0.05, 0.05]"),
+            )
+            .replace(
+                "name = \"green\"\ntype = \"diffuse\"\nalbedo = [0.12, 0.45, 0.15]",
+                &plastic("green", "[0.12, 0.45, 0.15]"),
+            );
+        assert_eq!(text.matches("roughplastic").count(), 3);
+        text
+    });
+    every_integrator_agrees(&scene, "rough plastic");
+}
+
+/// The Cornell box with its glass sphere a thin dielectric shell (a bubble of eta 1.5).
+#[test]
+fn every_integrator_renders_a_thin_dielectric_alike() {
+    let scene = cornell(|text| {
+        let text = text.replace(
+            "name = \"glass\"\ntype = \"dielectric\"",
+            "name = \"glass\"\ntype = \"thindielectric\"",
+        );
+        assert!(text.contains("thindielectric"));
+        text
+    });
+    every_integrator_agrees(&scene, "a thin dielectric");
+}

@@ -544,11 +544,13 @@ fn rough_plastic_sampling_matches_pdf() {
 /// Rough plastic against Mitsuba 3's own (`roughplastic`, version 3.9.1): `f |cos_i|` and the
 /// density at 12 direction pairs for each of GGX 0.2, Beckmann 0.05 and GGX 0.5 (eta 1.5,
 /// base (0.8, 0.4, 0.1)), from `python3 benches/reference/mitsuba_roughplastic.py`. The
-/// coating's tables are quadratures of the same integrals on different nodes, so the values
-/// agree to the quadrature's error, not to the last bit: measured within 1.4e-3 relative
-/// (values and densities); asserted within 3e-3. A coating transmittance of `1 -
-/// reflectance` (Mitsuba 2's choice) is off by 12 % at 80 degrees, and the height-correlated
-/// G2 by up to 3 % on the coating's lobe.
+/// coating's tables are the same quadratures (Gauss-Legendre nodes as Mitsuba's) through
+/// each renderer's own visible-normal sampler, so they agree to rounding, not to the last
+/// bit: measured within 6.8e-4 relative for the values (asserted 1e-3) and 2.6e-3 for the
+/// densities (asserted 5e-3; the density, which decides noise, not the image, differs most
+/// at normal incidence, through the lobe-choice weight). A coating transmittance of
+/// `1 - reflectance` (Mitsuba 2's choice) is off by 12 % at 80 degrees, and the
+/// height-correlated G2 by up to 3 % on the coating's lobe.
 #[test]
 // The reference values as the script prints them.
 #[allow(clippy::excessive_precision)]
@@ -598,7 +600,7 @@ fn rough_plastic_matches_mitsuba() {
         let (t, p) = (theta.to_radians(), phi.to_radians());
         Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos())
     };
-    let mut worst = 0.0f64;
+    let mut worst = [0.0f64; 2];
     for &(dist, alpha, theta_in, theta_out, phi, value, pdf) in reference {
         let dist = if dist == "ggx" {
             Distribution::Ggx
@@ -617,14 +619,21 @@ fn rough_plastic_matches_mitsuba() {
         let mode = TransportMode::Radiance;
         let ours = (bsdf.eval(&sf, wo, wi, mode).x * wi.z) as f64;
         let our_pdf = bsdf.pdf(&sf, wo, wi, mode) as f64;
-        for (what, a, b) in [("value", ours, value), ("pdf", our_pdf, pdf)] {
+        for (k, (what, a, b, tolerance)) in
+            [("value", ours, value, 1e-3), ("pdf", our_pdf, pdf, 5e-3)]
+                .into_iter()
+                .enumerate()
+        {
             let rel = (a - b).abs() / b;
-            worst = worst.max(rel);
+            worst[k] = worst[k].max(rel);
             assert!(
-                rel < 3e-3,
+                rel < tolerance,
                 "{dist:?} alpha {alpha}, {theta_in} -> ({theta_out}, {phi}): {what} {a} against Mitsuba's {b}"
             );
         }
     }
-    eprintln!("worst relative difference from Mitsuba: {worst:.1e}");
+    eprintln!(
+        "worst relative difference from Mitsuba: value {:.1e}, pdf {:.1e}",
+        worst[0], worst[1]
+    );
 }

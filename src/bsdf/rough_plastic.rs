@@ -13,7 +13,8 @@
 //!   `rho / (1 - R_int)` sums the light bounced between base and coating; with `nonlinear`,
 //!   `rho / (1 - rho R_int)` instead. `t` is tabulated at 64 cosines and interpolated
 //!   linearly, `R_int` is the cosine-weighted mean over the same cosines, both as Mitsuba 3
-//!   computes them (the albedos by a quadrature over visible normals here).
+//!   computes them (Gauss-Legendre quadratures over visible normals, 32 x 32 nodes outside and
+//!   128 x 128 inside), once per process for each coating.
 //!
 //! Sampling picks the coating with probability `(1 - t(cos_o)) w / ((1 - t(cos_o)) w +
 //! t(cos_o) (1 - w))`, `w` the specular reflectance's mean over the sum of both means, then
@@ -24,12 +25,25 @@ use super::microfacet::{Distribution, Microfacet, Smith, reflect, refract};
 use super::{LocalSample, diffuse};
 use crate::math::{INV_PI, Spectrum};
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+use std::sync::{Arc, Mutex};
 
 /// Cosines at which the coating's transmittance is tabulated (Mitsuba's resolution).
 const TABLE: usize = 64;
 
-/// Visible-normal samples per axis of the albedo quadrature (midpoint rule).
-const QUADRATURE: usize = 96;
+/// Gauss-Legendre nodes per axis of the albedo quadratures (Mitsuba's): from outside (eta
+/// > 1) and from inside, where total internal reflection makes the integrand less smooth.
+const NODES_OUTSIDE: usize = 32;
+const NODES_INSIDE: usize = 128;
+
+/// The coating's precomputed terms.
+#[derive(Debug, PartialEq)]
+struct Tables {
+    /// `t(cos)` at cosines `i / 63`.
+    transmittance: [f32; TABLE],
+    /// `R_int`.
+    internal_reflectance: f32,
+}
 
 /// A rough plastic's parameters and its precomputed coating terms.
 #[derive(Debug, Clone, PartialEq)]
@@ -46,10 +60,8 @@ pub struct RoughPlastic {
     pub distribution: Distribution,
     /// Whether the base's reflectance enters the interreflection sum (see the module docs).
     pub nonlinear: bool,
-    /// `t(cos)` at cosines `i / 63`.
-    transmittance: [f32; TABLE],
-    /// `R_int`.
-    internal_reflectance: f32,
+    /// `t(cos)` and `R_int`.
+    tables: Arc<Tables>,
     /// `w`: the specular reflectance's share of both means.
     specular_weight: f32,
 }
@@ -65,16 +77,7 @@ impl RoughPlastic {
         nonlinear: bool,
     ) -> RoughPlastic {
         let alpha = super::microfacet::clamp_alpha(alpha);
-        let mf = Microfacet::new(distribution, alpha);
-        let mu = |i: usize| (i as f32 / (TABLE - 1) as f32).max(1e-6);
-        let mut transmittance = [0.0; TABLE];
-        for (i, t) in transmittance.iter_mut().enumerate() {
-            *t = coating(mf, eta, mu(i)).1;
-        }
-        let internal = (0..TABLE)
-            .map(|i| (coating(mf, 1.0 / eta, mu(i)).0 * mu(i)) as f64)
-            .sum::<f64>()
-            / TABLE as f64;
+        let tables = tables(distribution, alpha, eta);
         let (d, s) = (diffuse.element_sum() / 3.0, specular.element_sum() / 3.0);
         RoughPlastic {
             diffuse,
@@ -83,8 +86,7 @@ impl RoughPlastic {
             alpha,
             distribution,
             nonlinear,
-            transmittance,
-            internal_reflectance: (2.0 * internal) as f32,
+            tables,
             specular_weight: if d + s > 0.0 { s / (d + s) } else { 0.5 },
         }
     }
@@ -94,7 +96,8 @@ impl RoughPlastic {
         let x = cos.clamp(0.0, 1.0) * (TABLE - 1) as f32;
         let i = (x as usize).min(TABLE - 2);
         let w = x - i as f32;
-        (1.0 - w) * self.transmittance[i] + w * self.transmittance[i + 1]
+        let t = &self.tables.transmittance;
+        (1.0 - w) * t[i] + w * t[i + 1]
     }
 
     /// The probability of sampling the coating for `cos_o`.
@@ -111,7 +114,7 @@ impl RoughPlastic {
 
     /// The base's value: `rho / (1 - R_int) t_o t_i / (pi eta^2)` (or the nonlinear sum).
     fn base(&self, cos_o: f32, cos_i: f32) -> Spectrum {
-        let r = self.internal_reflectance;
+        let r = self.tables.internal_reflectance;
         let rho = if self.nonlinear {
             self.diffuse / (Spectrum::ONE - self.diffuse * r)
         } else {
@@ -122,37 +125,95 @@ impl RoughPlastic {
 }
 
 /// What the coating does to light arriving at cosine `cos`, as its lobes are sampled (visible
-/// normals `m`, midpoint rule): `(reflected, transmitted)` =
-/// `(E[F(wo.m) G1(wi)], E[(1 - F(wo.m)) G1(wt)])`, `wi` the reflection and `wt` the
-/// refraction of `wo` about `m` (each 0 where it leaves on the wrong side).
-fn coating(mf: Microfacet, eta: f32, cos: f32) -> (f32, f32) {
+/// normals `m` over the unit square, Gauss-Legendre nodes `rule`): `(reflected,
+/// transmitted)` = `(E[F(wo.m) G1(wi)], E[(1 - F(wo.m)) G1(wt)])`, `wi` the reflection and `wt`
+/// the refraction of `wo` about `m` (each 0 where it leaves on the wrong side).
+fn coating(mf: Microfacet, eta: f32, cos: f32, rule: &[(f64, f64)]) -> (f64, f64) {
     let wo = Vec3::new((1.0 - cos * cos).max(0.0).sqrt(), 0.0, cos);
     let (mut reflected, mut transmitted) = (0.0f64, 0.0f64);
-    for a in 0..QUADRATURE {
-        for b in 0..QUADRATURE {
-            let u = Vec2::new(
-                (a as f32 + 0.5) / QUADRATURE as f32,
-                (b as f32 + 0.5) / QUADRATURE as f32,
-            );
+    for &(xa, wa) in rule {
+        for &(xb, wb) in rule {
+            let u = Vec2::new(xa as f32, xb as f32);
             let Some(m) = mf.sample_visible(wo, u) else {
                 continue;
             };
+            let weight = wa * wb;
             let cos_o = wo.dot(m);
             let (f, cos_t, eta_r) = fresnel::dielectric(cos_o, eta);
             let wi = reflect(wo, m);
             if wi.z > 0.0 {
-                reflected += (f * mf.g1(wi)) as f64;
+                reflected += weight * (f * mf.g1(wi)) as f64;
             }
             if f < 1.0 {
                 let wt = refract(wo, m, cos_o, cos_t, eta_r);
                 if wt.z < 0.0 {
-                    transmitted += ((1.0 - f) * mf.g1(wt)) as f64;
+                    transmitted += weight * ((1.0 - f) * mf.g1(wt)) as f64;
                 }
             }
         }
     }
-    let n = (QUADRATURE * QUADRATURE) as f64;
-    ((reflected / n) as f32, (transmitted / n) as f32)
+    (reflected, transmitted)
+}
+
+/// `n` Gauss-Legendre nodes and weights mapped to [0, 1] (weights summing to 1), by Newton's
+/// iteration on the Legendre polynomial.
+fn gauss_legendre(n: usize) -> Vec<(f64, f64)> {
+    (1..=n)
+        .map(|i| {
+            let mut x = (std::f64::consts::PI * (i as f64 - 0.25) / (n as f64 + 0.5)).cos();
+            let mut dp = 1.0;
+            for _ in 0..100 {
+                let (mut p0, mut p1) = (1.0f64, x);
+                for k in 2..=n {
+                    let p2 = ((2 * k - 1) as f64 * x * p1 - (k - 1) as f64 * p0) / k as f64;
+                    (p0, p1) = (p1, p2);
+                }
+                dp = n as f64 * (x * p1 - p0) / (x * x - 1.0);
+                let step = p1 / dp;
+                x -= step;
+                if step.abs() < 1e-15 {
+                    break;
+                }
+            }
+            let w = 2.0 / ((1.0 - x * x) * dp * dp);
+            (0.5 * x + 0.5, 0.5 * w)
+        })
+        .collect()
+}
+
+/// The coating's tables for (distribution, alpha, eta), computed once per process: materials
+/// that differ only in colour share them.
+fn tables(distribution: Distribution, alpha: f32, eta: f32) -> Arc<Tables> {
+    /// (distribution, alpha bits, eta bits): what the tables depend on.
+    type Key = (Distribution, u32, u32);
+    static CACHE: Mutex<Vec<(Key, Arc<Tables>)>> = Mutex::new(Vec::new());
+    let key = (distribution, alpha.to_bits(), eta.to_bits());
+    if let Some((_, t)) = CACHE.lock().unwrap().iter().find(|(k, _)| *k == key) {
+        return t.clone();
+    }
+    let mf = Microfacet::new(distribution, alpha);
+    let mu = |i: usize| (i as f32 / (TABLE - 1) as f32).max(1e-6);
+    let (outside, inside) = (gauss_legendre(NODES_OUTSIDE), gauss_legendre(NODES_INSIDE));
+    // Both tables at once, a cosine per task (the same numbers on any thread count).
+    let pairs: Vec<(f32, f64)> = (0..TABLE)
+        .into_par_iter()
+        .map(|i| {
+            let t = coating(mf, eta, mu(i), &outside).1 as f32;
+            let r = coating(mf, 1.0 / eta, mu(i), &inside).0 * mu(i) as f64;
+            (t, r)
+        })
+        .collect();
+    let mut transmittance = [0.0; TABLE];
+    for (t, &(v, _)) in transmittance.iter_mut().zip(&pairs) {
+        *t = v;
+    }
+    let internal = pairs.iter().map(|&(_, r)| r).sum::<f64>() / TABLE as f64;
+    let t = Arc::new(Tables {
+        transmittance,
+        internal_reflectance: (2.0 * internal) as f32,
+    });
+    CACHE.lock().unwrap().push((key, t.clone()));
+    t
 }
 
 /// Mirror through the tangent plane when `flip` (two-sided).

@@ -723,15 +723,9 @@ fn rough_plastic_reads_mitsubas_defaults_and_properties() {
     );
     assert!(!xml(&text).unwrap().materials[0].one_sided);
     // The same material from TOML.
-    let toml = util::scene(
-        r#"
-[camera]
-position = [0, 0, 4]
-look_at = [0, 0, 0]
-up = [0, 1, 0]
-fov = 40
-resolution = [16, 16]
-
+    let camera = "[camera]\nposition = [0, 0, 4]\nlook_at = [0, 0, 0]\nup = [0, 1, 0]\nfov = 40\nresolution = [16, 16]\n";
+    let toml = util::scene(&format!(
+        r#"{camera}
 [[material]]
 name = "p"
 type = "roughplastic"
@@ -746,8 +740,8 @@ one_sided = true
 type = "sphere"
 radius = 1
 material = "p"
-"#,
-    );
+"#
+    ));
     let Bsdf::RoughPlastic(t) = &toml.materials[0].bsdf else {
         panic!("{:?}", toml.materials[0].bsdf)
     };
@@ -758,20 +752,7 @@ material = "p"
     assert!((t.eta - p.eta).abs() < 1e-4);
     // A missing albedo is named.
     let e = lodestar::scene::loader::load_str(
-        r#"
-[camera]
-position = [0, 0, 4]
-look_at = [0, 0, 0]
-up = [0, 1, 0]
-fov = 40
-resolution = [16, 16]
-
-[[material]]
-name = "p"
-type = "roughplastic"
-ior = 1.5
-alpha = 0.3
-"#,
+        &format!("{camera}\n[[material]]\nname = \"p\"\ntype = \"roughplastic\"\nior = 1.5\nalpha = 0.3\n"),
         "t.toml",
         None,
     )

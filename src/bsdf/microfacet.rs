@@ -361,6 +361,13 @@ impl Smith for Microfacet {
     }
 }
 
+/// `w` mirrored through the tangent plane when `flip` (the two-sided microfacet BSDFs work
+/// with `wo` in the upper hemisphere).
+#[inline]
+pub fn flip_z(w: Vec3, flip: bool) -> Vec3 {
+    if flip { Vec3::new(w.x, w.y, -w.z) } else { w }
+}
+
 /// Mirror reflection of `wo` about `m`.
 #[inline]
 pub fn reflect(wo: Vec3, m: Vec3) -> Vec3 {

@@ -445,6 +445,21 @@ pub(crate) struct LocalSample {
     pub eta: f32,
 }
 
+impl LocalSample {
+    /// A non-delta reflection to `wi` with value `f` and density `pdf`; `None` without
+    /// density.
+    pub(crate) fn glossy_reflection(wi: Vec3, f: Spectrum, pdf: f32) -> Option<LocalSample> {
+        (pdf > 0.0).then_some(LocalSample {
+            wi,
+            f,
+            pdf,
+            delta: false,
+            transmission: false,
+            eta: 1.0,
+        })
+    }
+}
+
 /// Reflection needs `wo`, `wi` on one side of `ng`; transmission on opposite sides.
 #[inline]
 fn geometry_agrees(sf: &ShadingFrame, wo: Vec3, wi: Vec3, transmission: bool) -> bool {

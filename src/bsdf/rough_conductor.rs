@@ -5,16 +5,10 @@
 //! is `F G2 / G1(wo) <= F`. A configuration with `wo` below the surface is mirrored through
 //! the tangent plane first (two-sided, like the smooth conductor).
 
-use super::microfacet::{Microfacet, Smith, reflect};
+use super::microfacet::{Microfacet, Smith, flip_z, reflect};
 use super::{ConductorFresnel, LocalSample};
 use crate::math::Spectrum;
 use glam::{Vec2, Vec3};
-
-/// Mirror through the tangent plane when `flip`.
-#[inline]
-fn flip_z(w: Vec3, flip: bool) -> Vec3 {
-    if flip { Vec3::new(w.x, w.y, -w.z) } else { w }
-}
 
 /// `(f, pdf)` of the pair, zero unless both are strictly on the same side. `f` is only
 /// computed (and otherwise zero) when a Fresnel term is given, so that `pdf` skips it; the
@@ -73,15 +67,5 @@ pub(super) fn sample(
     }
     let wi = flip_z(wi_up, flip);
     let (f, pdf) = eval_pdf(mf, Some(fr), wo, wi);
-    if pdf <= 0.0 {
-        return None;
-    }
-    Some(LocalSample {
-        wi,
-        f,
-        pdf,
-        delta: false,
-        transmission: false,
-        eta: 1.0,
-    })
+    LocalSample::glossy_reflection(wi, f, pdf)
 }

@@ -22,15 +22,10 @@
 //! density: transmitted samples are dropped. The loader should use a smooth dielectric (or no
 //! interface) for index-matched boundaries.
 
-use super::microfacet::{Microfacet, Smith, reflect, refract};
+use super::microfacet::{Microfacet, Smith, flip_z, reflect, refract};
 use super::{LocalSample, TransportMode, fresnel};
 use crate::math::Spectrum;
 use glam::{Vec2, Vec3};
-
-#[inline]
-fn flip_z(w: Vec3, flip: bool) -> Vec3 {
-    if flip { Vec3::new(w.x, w.y, -w.z) } else { w }
-}
 
 /// `(f, pdf)` of the pair (scalar: a dielectric is colourless).
 // `!(x > 0.0)` deliberately rejects NaN as well.

@@ -21,7 +21,7 @@
 //! a visible normal; else a cosine-weighted direction. The density is the mixture's.
 
 use super::fresnel;
-use super::microfacet::{Distribution, Microfacet, Smith, reflect, refract};
+use super::microfacet::{Distribution, Microfacet, Smith, flip_z, reflect, refract};
 use super::{LocalSample, diffuse};
 use crate::math::{INV_PI, Spectrum};
 use glam::{Vec2, Vec3};
@@ -216,12 +216,6 @@ fn tables(distribution: Distribution, alpha: f32, eta: f32) -> Arc<Tables> {
     t
 }
 
-/// Mirror through the tangent plane when `flip` (two-sided).
-#[inline]
-fn flip_z(w: Vec3, flip: bool) -> Vec3 {
-    if flip { Vec3::new(w.x, w.y, -w.z) } else { w }
-}
-
 /// `(f, pdf)` of the pair in the local frame, zero unless both are strictly on one side;
 /// `f` only when `value` (densities alone skip it).
 // `!(x > 0.0)` deliberately rejects NaN as well.
@@ -280,15 +274,5 @@ pub(super) fn sample(p: &RoughPlastic, wo: Vec3, u_lobe: f32, u: Vec2) -> Option
     };
     let wi = flip_z(wi_up, flip);
     let (f, pdf) = eval_pdf(p, wo, wi, true);
-    if pdf <= 0.0 {
-        return None;
-    }
-    Some(LocalSample {
-        wi,
-        f,
-        pdf,
-        delta: false,
-        transmission: false,
-        eta: 1.0,
-    })
+    LocalSample::glossy_reflection(wi, f, pdf)
 }

@@ -1,5 +1,5 @@
-//! Scene features every integrator family must handle alike: the rough plastic and the thin
-//! dielectric (the environment map's is in `envmap.rs`). Each renders a 16 x 16 Cornell box
+//! Scene features every integrator family must handle alike: the rough plastic, the thin
+//! dielectric and the rough diffuse BSDF (the environment map's is in `envmap.rs`). Each renders a 16 x 16 Cornell box
 //! with the feature by pt, bdpt, vcm, guided-bdpt and mmlt, tile by tile within noise of pt's
 //! image (`util::assert_same_image`, 5 renders a side, family-wise false-failure rate 1e-4;
 //! vcm's merging bias at its default radius is below these renders' noise); pt's images
@@ -63,16 +63,26 @@ fn every_integrator_renders_rough_plastic_alike() {
     every_integrator_agrees(&scene, "rough plastic");
 }
 
-/// The Cornell box with its glass sphere a thin dielectric shell (a bubble of eta 1.5).
+/// The Cornell box with its glass sphere a thin dielectric shell (a bubble of eta 1.5) and
+/// its red and green walls rough diffuse (alpha 0.8 and 0.3).
 #[test]
-fn every_integrator_renders_a_thin_dielectric_alike() {
+fn every_integrator_renders_a_thin_dielectric_and_rough_diffuse_alike() {
     let scene = cornell(|text| {
-        let text = text.replace(
-            "name = \"glass\"\ntype = \"dielectric\"",
-            "name = \"glass\"\ntype = \"thindielectric\"",
-        );
-        assert!(text.contains("thindielectric"));
+        let text = text
+            .replace(
+                "name = \"glass\"\ntype = \"dielectric\"",
+                "name = \"glass\"\ntype = \"thindielectric\"",
+            )
+            .replace(
+                "name = \"red\"\ntype = \"diffuse\"",
+                "name = \"red\"\ntype = \"roughdiffuse\"\nalpha = 0.8",
+            )
+            .replace(
+                "name = \"green\"\ntype = \"diffuse\"",
+                "name = \"green\"\ntype = \"roughdiffuse\"\nalpha = 0.3",
+            );
+        assert!(text.contains("thindielectric") && text.matches("roughdiffuse").count() == 2);
         text
     });
-    every_integrator_agrees(&scene, "a thin dielectric");
+    every_integrator_agrees(&scene, "a thin dielectric and rough diffuse walls");
 }

@@ -826,3 +826,39 @@ fn envmap_reads_its_file_scale_and_orientation() {
     assert!(e.starts_with("t.xml:") && e.contains("missing.exr"), "{e}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Mitsuba 0.6's `roughdiffuse` (in a 0.6 scene, upgraded: `diffuseReflectance`) reads its
+/// reflectance and `alpha` (0.2 by default); `useFastApprox` is refused with the reason.
+#[test]
+fn rough_diffuse_reads_mitsuba_0_6_names() {
+    let scene_06 = |inner: &str| {
+        wrap(&format!(
+            r#"<shape type="sphere"><bsdf type="roughdiffuse">{inner}</bsdf></shape>"#
+        ))
+        .replace("version=\"3.0.0\"", "version=\"0.6.0\"")
+    };
+    let bsdf = |text: &str| xml(text).unwrap().materials[0].bsdf.clone();
+    let b = bsdf(&scene_06(
+        r#"<rgb name="diffuseReflectance" value="0.2, 0.3, 0.4"/>"#,
+    ));
+    assert_eq!(
+        b,
+        Bsdf::RoughDiffuse {
+            albedo: Vec3::new(0.2, 0.3, 0.4),
+            alpha: 0.2
+        }
+    );
+    let b = bsdf(&scene_06(r#"<float name="alpha" value="0.5"/>"#));
+    assert_eq!(
+        b,
+        Bsdf::RoughDiffuse {
+            albedo: Vec3::splat(0.5),
+            alpha: 0.5
+        }
+    );
+    let e = xml_err(&scene_06(r#"<boolean name="useFastApprox" value="true"/>"#));
+    assert!(
+        e.contains("use_fast_approx") && e.starts_with("test.xml:"),
+        "{e}"
+    );
+}

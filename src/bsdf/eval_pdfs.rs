@@ -4,7 +4,7 @@
 use super::microfacet::Microfacet;
 use super::{
     Bsdf, ShadingFrame, TransportMode, diffuse, geometry_agrees, rough_conductor, rough_dielectric,
-    rough_plastic, shading_correction,
+    rough_diffuse, rough_plastic, shading_correction,
 };
 use crate::math::Spectrum;
 use glam::Vec3;
@@ -77,6 +77,15 @@ impl Bsdf {
         let (f, pdf_fwd, pdf_rev) = match self {
             Bsdf::Diffuse { albedo } => (
                 diffuse::eval(*albedo, wo_l, wi_l),
+                diffuse::pdf(wo_l, wi_l),
+                if reverse {
+                    diffuse::pdf(wi_l, wo_l)
+                } else {
+                    0.0
+                },
+            ),
+            Bsdf::RoughDiffuse { albedo, alpha } => (
+                rough_diffuse::eval(*albedo, *alpha, wo_l, wi_l),
                 diffuse::pdf(wo_l, wi_l),
                 if reverse {
                     diffuse::pdf(wi_l, wo_l)

@@ -32,6 +32,7 @@ pub mod fresnel;
 pub mod microfacet;
 mod rough_conductor;
 mod rough_dielectric;
+mod rough_diffuse;
 mod rough_plastic;
 
 use crate::math::{Frame, Spectrum};
@@ -100,6 +101,14 @@ pub enum Bsdf {
     Diffuse {
         /// Diffuse reflectance per channel, in [0, 1].
         albedo: Spectrum,
+    },
+    /// Rough diffuse reflection (Oren-Nayar with interreflection, Mitsuba 0.6's
+    /// `roughdiffuse`), two-sided, of facet roughness `alpha` (Beckmann-style; 0 is Lambert).
+    RoughDiffuse {
+        /// Reflectance of the facets per channel, in [0, 1].
+        albedo: Spectrum,
+        /// Roughness.
+        alpha: f32,
     },
     /// Smooth conductor: a perfect mirror with an RGB reflectance.
     Conductor {
@@ -228,7 +237,10 @@ impl Bsdf {
     pub fn roughness(&self) -> f32 {
         match self {
             // Rough plastic: its Lambertian base scatters everywhere.
-            Bsdf::Black | Bsdf::Diffuse { .. } | Bsdf::RoughPlastic(_) => 1.0,
+            Bsdf::Black
+            | Bsdf::Diffuse { .. }
+            | Bsdf::RoughDiffuse { .. }
+            | Bsdf::RoughPlastic(_) => 1.0,
             Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } | Bsdf::ThinDielectric { .. } => 0.0,
             Bsdf::RoughConductor { alpha, .. } | Bsdf::RoughDielectric { alpha, .. } => {
                 microfacet::clamp_alpha(*alpha).sqrt().min(1.0)
@@ -263,7 +275,7 @@ impl Bsdf {
     pub fn continuation(&self) -> f32 {
         let q = match self {
             Bsdf::Black => return 0.0,
-            Bsdf::Diffuse { albedo } => albedo.max_element(),
+            Bsdf::Diffuse { albedo } | Bsdf::RoughDiffuse { albedo, .. } => albedo.max_element(),
             Bsdf::Conductor { reflectance } => reflectance.max_element(),
             Bsdf::RoughConductor {
                 fresnel: ConductorFresnel::Constant(r),
@@ -295,6 +307,9 @@ impl Bsdf {
         let s = match self {
             Bsdf::Black => return None,
             Bsdf::Diffuse { albedo } => diffuse::sample(*albedo, wo_l, u)?,
+            Bsdf::RoughDiffuse { albedo, alpha } => {
+                rough_diffuse::sample(*albedo, *alpha, wo_l, u)?
+            }
             Bsdf::Conductor { reflectance } => {
                 let wi = Vec3::new(-wo_l.x, -wo_l.y, wo_l.z);
                 LocalSample {
@@ -357,6 +372,9 @@ impl Bsdf {
         }
         let f = match self {
             Bsdf::Diffuse { albedo } => diffuse::eval(*albedo, wo_l, wi_l),
+            Bsdf::RoughDiffuse { albedo, alpha } => {
+                rough_diffuse::eval(*albedo, *alpha, wo_l, wi_l)
+            }
             Bsdf::RoughConductor {
                 alpha,
                 fresnel,
@@ -403,7 +421,7 @@ impl Bsdf {
             return 0.0;
         }
         match self {
-            Bsdf::Diffuse { .. } => diffuse::pdf(wo_l, wi_l),
+            Bsdf::Diffuse { .. } | Bsdf::RoughDiffuse { .. } => diffuse::pdf(wo_l, wi_l),
             Bsdf::RoughConductor {
                 alpha,
                 distribution,

@@ -24,6 +24,7 @@ impl Builder<'_> {
         ];
         let allowed: &[&str] = match kind {
             "diffuse" => &["albedo", "one_sided"],
+            "roughdiffuse" => &["albedo", "alpha", "one_sided"],
             "conductor" => &["reflectance", "one_sided"],
             "dielectric" | "thindielectric" => &["ior"],
             "roughconductor" => &[
@@ -46,7 +47,7 @@ impl Builder<'_> {
             ],
             "black" => &[],
             other => {
-                return src.err(d.kind.span(), format!("unknown material type '{other}' (expected diffuse, conductor, dielectric, thindielectric, roughconductor, roughdielectric, roughplastic or black)"));
+                return src.err(d.kind.span(), format!("unknown material type '{other}' (expected diffuse, roughdiffuse, conductor, dielectric, thindielectric, roughconductor, roughdielectric, roughplastic or black)"));
             }
         };
         self.only(&what, &keys, allowed)?;
@@ -91,6 +92,13 @@ impl Builder<'_> {
                 albedo: src
                     .in_unit_range(src.required(&d.albedo, span, "albedo", &what)?, "albedo")?,
             },
+            "roughdiffuse" => {
+                let albedo = src.required(&d.albedo, span.clone(), "albedo", &what)?;
+                Bsdf::RoughDiffuse {
+                    albedo: src.in_unit_range(albedo, "albedo")?,
+                    alpha: alpha()?,
+                }
+            }
             "conductor" => Bsdf::Conductor {
                 reflectance: src.in_unit_range(
                     src.required(&d.reflectance, span, "reflectance", &what)?,

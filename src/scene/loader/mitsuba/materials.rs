@@ -103,6 +103,22 @@ fn bsdf_desc(xml: &Xml, n: Node, name: String, one_sided: bool) -> Result<Option
             d.albedo = Some(unit(p.color(xml, "reflectance")?, 0.5));
             d.one_sided = Some(s(n, one_sided));
         }
+        "roughdiffuse" => {
+            // Mitsuba 0.6's plugin: `reflectance` or `diffuse_reflectance`, `alpha` 0.2.
+            let r = match p.color(xml, "reflectance")? {
+                Some(c) => Some(c),
+                None => p.color(xml, "diffuse_reflectance")?,
+            };
+            d.albedo = Some(unit(r, 0.5));
+            d.alpha = Some(match p.float(xml, "alpha")? {
+                Some((at, a)) => s(at, a),
+                None => s(n, 0.2),
+            });
+            if let Some((at, true)) = p.boolean(xml, "use_fast_approx")?.map(|v| (n, v)) {
+                return xml.err(at, "roughdiffuse's 'use_fast_approx' is not supported (lodestar evaluates the full Oren-Nayar model)");
+            }
+            d.one_sided = Some(s(n, one_sided));
+        }
         "conductor" | "roughconductor" => {
             if k == "roughconductor" {
                 d.alpha = Some(rough(&mut p, &mut d)?);
@@ -163,7 +179,7 @@ fn bsdf_desc(xml: &Xml, n: Node, name: String, one_sided: bool) -> Result<Option
             d.one_sided = Some(s(n, one_sided));
         }
         "plastic" => return xml.err(n, "'plastic' is not supported (a smooth coating: a delta lobe beside a diffuse one); 'roughplastic' is, and a small 'alpha' comes close"),
-        other => return xml.err(n, format!("bsdf '{other}' is not supported (diffuse, conductor, roughconductor, dielectric, thindielectric, roughdielectric, roughplastic, twosided, null)")),
+        other => return xml.err(n, format!("bsdf '{other}' is not supported (diffuse, roughdiffuse, conductor, roughconductor, dielectric, thindielectric, roughdielectric, roughplastic, twosided, null)")),
     }
     p.finish(xml)?;
     Ok(Some(d))

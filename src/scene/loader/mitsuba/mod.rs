@@ -23,7 +23,8 @@
 //! * `integrator` `path`, `volpath`, `volpathmis` (lodestar `pt`) and `ptracer` (`lt`):
 //!   `max_depth` (-1, no limit), `rr_depth` (read: lodestar's roulette starts on its own
 //!   schedule, which changes noise, not the image), `hide_emitters` false.
-//! * BSDFs: `diffuse` (`reflectance` 0.5), `conductor` and `roughconductor` (`material`
+//! * BSDFs: `diffuse` (`reflectance` 0.5), `roughdiffuse` (Mitsuba 0.6's Oren-Nayar:
+//!   `reflectance` or `diffuse_reflectance` 0.5, `alpha` 0.2; `use_fast_approx` refused), `conductor` and `roughconductor` (`material`
 //!   "none" with `specular_reflectance`, or `eta` and `k`; rough: `distribution` "beckmann"
 //!   (Mitsuba's default) or "ggx", `alpha` 0.1 or equal `alpha_u`/`alpha_v`,
 //!   `sample_visible` read: both are sampled by visible normals), `dielectric`, `thindielectric` and `roughdielectric` (`int_ior` 1.5046 "bk7",

@@ -812,3 +812,47 @@ fn rough_diffuse_is_reciprocal_lambertian_when_smooth_and_retro_reflective() {
         }
     }
 }
+
+/// The smooth conductor with a complex index (gold's `eta` and `k`): every sample is the
+/// mirror direction, a delta sample of density 1 whose weight is the exact Fresnel reflectance
+/// per channel, from both sides; that reflectance is Mitsuba 3's `conductor`'s with the same
+/// `eta` and `k` at 0-89 degrees (`python3 benches/reference/mitsuba_conductor.py`; asserted
+/// to 1e-5, f32 rounding).
+#[test]
+// The reference values as the script prints them.
+#[allow(clippy::excessive_precision)]
+fn fresnel_conductor_reflects_as_mitsuba() {
+    #[rustfmt::skip]
+    let reference: &[(f32, [f32; 3])] = &[
+        (0.0, [0.9666874, 0.8025370, 0.3240339]),
+        (30.0, [0.9664249, 0.8021569, 0.3260911]),
+        (60.0, [0.9622195, 0.8048942, 0.3711082]),
+        (80.0, [0.9632167, 0.8759332, 0.5917102]),
+        (89.0, [0.9946344, 0.9846019, 0.9390444]),
+    ];
+    let (eta, k) = (
+        Vec3::new(0.143, 0.374, 1.442),
+        Vec3::new(3.983, 2.385, 1.603),
+    );
+    let bsdf = Bsdf::FresnelConductor { eta, k };
+    let n = ng_generic();
+    let sf = ShadingFrame::new(n, n);
+    for &(theta, expected) in reference {
+        for side in [1.0f32, -1.0] {
+            let wo = dir_around(side * n, theta, 60.0);
+            let mirror = 2.0 * wo.dot(n) * n - wo;
+            for mode in MODES {
+                let smp = bsdf
+                    .sample(&sf, wo, 0.3, Vec2::new(0.2, 0.7), mode)
+                    .unwrap_or_else(|| panic!("{theta} deg: no sample"));
+                assert!((smp.wi - mirror).length() < 1e-5 && smp.delta && smp.pdf == 1.0);
+                assert!(
+                    close3(smp.weight, Vec3::from(expected), 1e-5, 0.0),
+                    "{theta} deg, side {side}, {mode:?}: {} against Mitsuba's {expected:?}",
+                    smp.weight
+                );
+                assert_eq!(bsdf.delta_lobe_probability(&sf, wo, mirror), 1.0);
+            }
+        }
+    }
+}

@@ -1,5 +1,5 @@
-//! Scene features every integrator family must handle alike: the rough plastic, the thin
-//! dielectric and the rough diffuse BSDF (the environment map's is in `envmap.rs`). Each renders a 16 x 16 Cornell box
+//! Scene features every integrator family must handle alike: the rough plastic, the smooth
+//! conductor of complex index, the thin dielectric and the rough diffuse BSDF (the environment map's is in `envmap.rs`). Each renders a 16 x 16 Cornell box
 //! with the feature by pt, bdpt, vcm, guided-bdpt and mmlt, tile by tile within noise of pt's
 //! image (`util::assert_same_image`, 5 renders a side, family-wise false-failure rate 1e-4;
 //! vcm's merging bias at its default radius is below these renders' noise); pt's images
@@ -34,8 +34,9 @@ fn every_integrator_agrees(scene: &lodestar::scene::Scene, what: &str) {
     assert!(differs(&pt, &mirrored, 4), "{what}: mirrored pt passes");
 }
 
-/// The Cornell box with its white walls and boxes in rough plastic (GGX 0.15, eta 1.5) and
-/// red and green plastic sides.
+/// The Cornell box with its white walls and boxes in rough plastic (GGX 0.15, eta 1.5), red
+/// and green plastic sides, and its glass sphere a smooth gold mirror (a conductor of complex
+/// index).
 #[test]
 fn every_integrator_renders_rough_plastic_alike() {
     let plastic = |name: &str, albedo: &str| {
@@ -57,10 +58,15 @@ fn every_integrator_renders_rough_plastic_alike() {
                 "name = \"green\"\ntype = \"diffuse\"\nalbedo = [0.12, 0.45, 0.15]",
                 &plastic("green", "[0.12, 0.45, 0.15]"),
             );
+        let text = text.replace(
+            "name = \"glass\"\ntype = \"dielectric\"\nior = 1.5",
+            "name = \"glass\"\ntype = \"conductor\"\neta = [0.143, 0.374, 1.442]\nk = [3.983, 2.385, 1.603]",
+        );
         assert_eq!(text.matches("roughplastic").count(), 3);
+        assert!(text.contains("k = [3.983"));
         text
     });
-    every_integrator_agrees(&scene, "rough plastic");
+    every_integrator_agrees(&scene, "rough plastic and a gold mirror");
 }
 
 /// The Cornell box with its glass sphere a thin dielectric shell (a bubble of eta 1.5) and

@@ -154,6 +154,7 @@ impl Bsdf {
             }
             Bsdf::Black
             | Bsdf::Conductor { .. }
+            | Bsdf::FresnelConductor { .. }
             | Bsdf::Dielectric { .. }
             | Bsdf::ThinDielectric { .. } => {
                 return EvalPdfs::ZERO;

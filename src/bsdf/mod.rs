@@ -115,6 +115,15 @@ pub enum Bsdf {
         /// Reflectance per channel at every angle.
         reflectance: Spectrum,
     },
+    /// Smooth conductor with the exact Fresnel reflectance of complex index `eta + i k`
+    /// (relative to the outside; Mitsuba's `conductor` with `eta` and `k`): a mirror whose
+    /// reflectance rises towards grazing angles.
+    FresnelConductor {
+        /// Real part of the relative index, per channel.
+        eta: Spectrum,
+        /// Extinction coefficient, per channel.
+        k: Spectrum,
+    },
     /// Smooth dielectric interface; `eta` = index inside / index outside (front side).
     Dielectric {
         /// Index inside over index outside.
@@ -221,7 +230,10 @@ impl Bsdf {
     pub fn is_delta(&self) -> bool {
         matches!(
             self,
-            Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } | Bsdf::ThinDielectric { .. }
+            Bsdf::Conductor { .. }
+                | Bsdf::FresnelConductor { .. }
+                | Bsdf::Dielectric { .. }
+                | Bsdf::ThinDielectric { .. }
         )
     }
 
@@ -241,7 +253,10 @@ impl Bsdf {
             | Bsdf::Diffuse { .. }
             | Bsdf::RoughDiffuse { .. }
             | Bsdf::RoughPlastic(_) => 1.0,
-            Bsdf::Conductor { .. } | Bsdf::Dielectric { .. } | Bsdf::ThinDielectric { .. } => 0.0,
+            Bsdf::Conductor { .. }
+            | Bsdf::FresnelConductor { .. }
+            | Bsdf::Dielectric { .. }
+            | Bsdf::ThinDielectric { .. } => 0.0,
             Bsdf::RoughConductor { alpha, .. } | Bsdf::RoughDielectric { alpha, .. } => {
                 microfacet::clamp_alpha(*alpha).sqrt().min(1.0)
             }
@@ -253,7 +268,7 @@ impl Bsdf {
     /// 0 for BSDFs without delta lobes. Path densities of delta vertices use it.
     pub fn delta_lobe_probability(&self, sf: &ShadingFrame, wo: Vec3, wi: Vec3) -> f32 {
         match self {
-            Bsdf::Conductor { .. } => 1.0,
+            Bsdf::Conductor { .. } | Bsdf::FresnelConductor { .. } => 1.0,
             Bsdf::Dielectric { eta } => {
                 let (wo_l, wi_l) = (sf.frame.to_local(wo), sf.frame.to_local(wi));
                 let (f, _, _) = fresnel::dielectric(wo_l.z, *eta);
@@ -283,6 +298,7 @@ impl Bsdf {
             } => r.max_element(),
             Bsdf::RoughPlastic(p) => p.diffuse.max_element().max(p.specular.max_element()),
             Bsdf::RoughConductor { .. }
+            | Bsdf::FresnelConductor { .. }
             | Bsdf::Dielectric { .. }
             | Bsdf::ThinDielectric { .. }
             | Bsdf::RoughDielectric { .. } => 1.0,
@@ -315,6 +331,17 @@ impl Bsdf {
                 LocalSample {
                     wi,
                     f: *reflectance / wi.z.abs(),
+                    pdf: 1.0,
+                    delta: true,
+                    transmission: false,
+                    eta: 1.0,
+                }
+            }
+            Bsdf::FresnelConductor { eta, k } => {
+                let wi = Vec3::new(-wo_l.x, -wo_l.y, wo_l.z);
+                LocalSample {
+                    wi,
+                    f: fresnel::conductor(wo_l.z, *eta, *k) / wi.z.abs(),
                     pdf: 1.0,
                     delta: true,
                     transmission: false,
@@ -405,6 +432,7 @@ impl Bsdf {
             Bsdf::RoughPlastic(p) => rough_plastic::eval_pdf(p, wo_l, wi_l, true).0,
             Bsdf::Black
             | Bsdf::Conductor { .. }
+            | Bsdf::FresnelConductor { .. }
             | Bsdf::Dielectric { .. }
             | Bsdf::ThinDielectric { .. } => {
                 return Spectrum::ZERO;
@@ -447,6 +475,7 @@ impl Bsdf {
             Bsdf::RoughPlastic(p) => rough_plastic::eval_pdf(p, wo_l, wi_l, false).1,
             Bsdf::Black
             | Bsdf::Conductor { .. }
+            | Bsdf::FresnelConductor { .. }
             | Bsdf::Dielectric { .. }
             | Bsdf::ThinDielectric { .. } => 0.0,
         }

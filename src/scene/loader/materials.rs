@@ -25,7 +25,7 @@ impl Builder<'_> {
         let allowed: &[&str] = match kind {
             "diffuse" => &["albedo", "one_sided"],
             "roughdiffuse" => &["albedo", "alpha", "one_sided"],
-            "conductor" => &["reflectance", "one_sided"],
+            "conductor" => &["reflectance", "eta", "k", "one_sided"],
             "dielectric" | "thindielectric" => &["ior"],
             "roughconductor" => &[
                 "alpha",
@@ -99,15 +99,7 @@ impl Builder<'_> {
                     alpha: alpha()?,
                 }
             }
-            "conductor" => Bsdf::Conductor {
-                reflectance: src.in_unit_range(
-                    src.required(&d.reflectance, span, "reflectance", &what)?,
-                    "reflectance",
-                )?,
-            },
-            "dielectric" => Bsdf::Dielectric { eta: ior()? },
-            "thindielectric" => Bsdf::ThinDielectric { eta: ior()? },
-            "roughconductor" => {
+            "conductor" | "roughconductor" => {
                 let fresnel = match (&d.reflectance, &d.eta, &d.k) {
                     (Some(r), None, None) => ConductorFresnel::Constant(src.in_unit_range(r, "reflectance")?),
                     (None, Some(eta), Some(k)) => {
@@ -119,8 +111,14 @@ impl Builder<'_> {
                     }
                     _ => return src.err(span, format!("{what} needs either 'reflectance' (constant) or both 'eta' and 'k' (complex ior)")),
                 };
-                Bsdf::rough_conductor(alpha()?, fresnel)
+                match (kind, fresnel) {
+                    ("roughconductor", fresnel) => Bsdf::rough_conductor(alpha()?, fresnel),
+                    (_, ConductorFresnel::Constant(reflectance)) => Bsdf::Conductor { reflectance },
+                    (_, ConductorFresnel::Complex { eta, k }) => Bsdf::FresnelConductor { eta, k },
+                }
             }
+            "dielectric" => Bsdf::Dielectric { eta: ior()? },
+            "thindielectric" => Bsdf::ThinDielectric { eta: ior()? },
             "roughdielectric" => {
                 let eta = ior()?;
                 if eta == 1.0 {

@@ -131,14 +131,13 @@ fn bsdf_desc(xml: &Xml, n: Node, name: String, one_sided: bool) -> Result<Option
                     d.reflectance = Some(unit(spec, 1.0));
                 }
                 (Some((at, m)), None, None) => return xml.err(at, format!("conductor material '{m}' is not supported (give 'eta' and 'k', or material 'none')")),
-                (None, Some((ea, e)), Some((ka, kv))) if k == "roughconductor" => {
+                (None, Some((ea, e)), Some((ka, kv))) => {
                     if spec.is_some_and(|(_, c)| c != Vec3::ONE) {
                         return xml.err(n, "'specular_reflectance' other than 1 with 'eta' and 'k' is not supported");
                     }
                     d.eta = Some(s(ea, e.to_array()));
                     d.k = Some(s(ka, kv.to_array()));
                 }
-                (None, Some(_), Some(_)) => return xml.err(n, "a smooth conductor with 'eta' and 'k' is not supported (lodestar's smooth conductor is a mirror of constant reflectance; use roughconductor, or material 'none')"),
                 _ => return xml.err(n, "a conductor needs both 'eta' and 'k' (or neither)"),
             }
             d.one_sided = Some(s(n, one_sided));

@@ -862,3 +862,43 @@ fn rough_diffuse_reads_mitsuba_0_6_names() {
         "{e}"
     );
 }
+
+/// Named conductors (`material="Au"`) take Mitsuba's RGB `eta` and `k` (a smooth one becomes
+/// the Fresnel mirror, a rough one the complex-index rough conductor); an unknown name is an
+/// error listing the known ones.
+#[test]
+fn named_conductors_take_mitsubas_indices() {
+    let bsdf = |inner: &str| {
+        xml(&wrap(&format!(r#"<shape type="sphere">{inner}</shape>"#)))
+            .map(|s| s.materials[0].bsdf.clone())
+    };
+    let gold = bsdf(r#"<bsdf type="conductor"><string name="material" value="Au"/></bsdf>"#);
+    assert_eq!(
+        gold.unwrap(),
+        Bsdf::FresnelConductor {
+            eta: Vec3::new(0.143036, 0.375307, 1.44205),
+            k: Vec3::new(3.983, 2.38556, 1.60336)
+        }
+    );
+    let copper = bsdf(
+        r#"<bsdf type="roughconductor"><string name="material" value="Cu"/><float name="alpha" value="0.2"/></bsdf>"#,
+    );
+    match copper.unwrap() {
+        Bsdf::RoughConductor {
+            fresnel: lodestar::bsdf::ConductorFresnel::Complex { eta, k },
+            ..
+        } => {
+            assert_eq!(eta, Vec3::new(0.201005, 0.92375, 1.10222));
+            assert_eq!(k, Vec3::new(3.91326, 2.45305, 2.14209));
+        }
+        other => panic!("{other:?}"),
+    }
+    let e = bsdf(r#"<bsdf type="conductor"><string name="material" value="Unobtainium"/></bsdf>"#)
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.starts_with("test.xml:") && e.contains("'Unobtainium' is not known") && e.contains("Au"),
+        "{e}"
+    );
+}

@@ -130,7 +130,16 @@ fn bsdf_desc(xml: &Xml, n: Node, name: String, one_sided: bool) -> Result<Option
                 (m, None, None) if m.as_ref().is_none_or(|(_, m)| m == "none") => {
                     d.reflectance = Some(unit(spec, 1.0));
                 }
-                (Some((at, m)), None, None) => return xml.err(at, format!("conductor material '{m}' is not supported (give 'eta' and 'k', or material 'none')")),
+                (Some((at, m)), None, None) => {
+                    let Some((eta, kv)) = super::conductors::named(&m) else {
+                        return xml.err(at, format!("conductor material '{m}' is not known (Mitsuba's: none, {}; or give 'eta' and 'k')", super::conductors::names()));
+                    };
+                    if spec.is_some_and(|(_, c)| c != Vec3::ONE) {
+                        return xml.err(n, "'specular_reflectance' other than 1 with a named material is not supported");
+                    }
+                    d.eta = Some(s(at, eta));
+                    d.k = Some(s(at, kv));
+                }
                 (None, Some((ea, e)), Some((ka, kv))) => {
                     if spec.is_some_and(|(_, c)| c != Vec3::ONE) {
                         return xml.err(n, "'specular_reflectance' other than 1 with 'eta' and 'k' is not supported");

@@ -25,7 +25,8 @@
 //!   schedule, which changes noise, not the image), `hide_emitters` false.
 //! * BSDFs: `diffuse` (`reflectance` 0.5), `roughdiffuse` (Mitsuba 0.6's Oren-Nayar:
 //!   `reflectance` or `diffuse_reflectance` 0.5, `alpha` 0.2; `use_fast_approx` refused), `conductor` and `roughconductor` (`material`
-//!   "none" with `specular_reflectance`, or `eta` and `k`; rough: `distribution` "beckmann"
+//!   "none" with `specular_reflectance`, a named material such as "Au" (`conductors.rs`:
+//!   Mitsuba's RGB values), or `eta` and `k`; rough: `distribution` "beckmann"
 //!   (Mitsuba's default) or "ggx", `alpha` 0.1 or equal `alpha_u`/`alpha_v`,
 //!   `sample_visible` read: both are sampled by visible normals), `dielectric`, `thindielectric` and `roughdielectric` (`int_ior` 1.5046 "bk7",
 //!   `ext_ior` 1.000277 "air", numbers or Mitsuba's named media), `twosided` around one
@@ -63,6 +64,7 @@
 //! `plugins.rs` turns the scene, sensor, integrator, shapes and emitters into the scene
 //! description, `materials.rs` the BSDFs and media.
 
+mod conductors;
 mod include;
 mod materials;
 mod out;

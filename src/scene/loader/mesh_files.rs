@@ -1,4 +1,5 @@
-//! Mesh files: Wavefront OBJ (through `tobj`) and PLY (ASCII and binary, read here), each into
+//! Mesh files: Wavefront OBJ (through `tobj`), PLY (ASCII and binary, read here) and Mitsuba's
+//! serialized meshes (`serialized.rs`), each into
 //! one triangle mesh with the vertex normals the scene asks for ([`Normals`]).
 
 use crate::geometry::TriangleMesh;
@@ -17,13 +18,20 @@ pub(super) enum Normals {
     Smooth,
 }
 
-/// Load an OBJ (`kind = "obj"`) or PLY (`"ply"`) file.
-pub(super) fn load(path: &Path, kind: &str, normals: Normals) -> Result<TriangleMesh, String> {
+/// Load an OBJ (`kind = "obj"`), PLY (`"ply"`) or Mitsuba serialized (`"serialized"`, its mesh
+/// number `index`) file.
+pub(super) fn load(
+    path: &Path,
+    kind: &str,
+    index: u32,
+    normals: Normals,
+) -> Result<TriangleMesh, String> {
     if !path.is_file() {
         return Err("no such file".to_string());
     }
     let mut mesh = match kind {
         "ply" => load_ply(path)?,
+        "serialized" => super::serialized::load(path, index)?,
         _ => load_obj(path)?,
     };
     if mesh.indices.is_empty() {

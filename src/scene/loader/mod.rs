@@ -98,6 +98,7 @@ mod lights;
 mod materials;
 mod mesh_files;
 mod mitsuba;
+mod serialized;
 mod shapes;
 
 /// Largest accepted |coordinate| of any point of the scene (vertices after their transform,
@@ -243,6 +244,8 @@ struct ShapeDesc {
     /// `faces` (face normals only) or `smooth` (the file's vertex normals, or angle-weighted
     /// averages of the face normals where it has none: Mitsuba's rule).
     normals: Option<Spanned<String>>,
+    /// `serialized`: which mesh of the file (default 0).
+    shape_index: Option<Spanned<i64>>,
     /// Meshes: turn the front side over (winding and normals).
     flip_normals: Option<Spanned<bool>>,
 }

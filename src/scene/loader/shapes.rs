@@ -153,6 +153,7 @@ impl Builder<'_> {
             ("tile_material", at(&d.tile_material)),
             ("normals", at(&d.normals)),
             ("flip_normals", at(&d.flip_normals)),
+            ("shape_index", at(&d.shape_index)),
         ];
         let allowed: &[&str] =
             match kind {
@@ -161,11 +162,12 @@ impl Builder<'_> {
                 "sphere" => &["center", "radius"],
                 "disk" => &["center", "normal", "radius", "segments", "flip_normals"],
                 "obj" | "ply" => &["file", "normals", "flip_normals"],
+                "serialized" => &["file", "shape_index", "normals", "flip_normals"],
                 "heightfield" => &["size", "grid", "waves", "flip_normals"],
                 other => return src.err(
                     d.kind.span(),
                     format!(
-                        "unknown shape type '{other}' (expected quad, cube, sphere, disk, heightfield, obj or ply)"
+                        "unknown shape type '{other}' (expected quad, cube, sphere, disk, heightfield, obj, ply or serialized)"
                     ),
                 ),
             };
@@ -243,7 +245,19 @@ impl Builder<'_> {
                 }
                 ShapeGeometry::Mesh(m.transformed(&t))
             }
-            "obj" | "ply" => {
+            "obj" | "ply" | "serialized" => {
+                let index = match &d.shape_index {
+                    None => 0,
+                    Some(i) => match u32::try_from(*i.get_ref()) {
+                        Ok(v) => v,
+                        Err(_) => {
+                            return src.err(
+                                i.span(),
+                                format!("'shape_index' must be >= 0, got {}", i.get_ref()),
+                            );
+                        }
+                    },
+                };
                 let file = src.required(&d.file, span, "file", &what)?;
                 let path = match &self.dir {
                     Some(dir) => dir.join(file.get_ref()),
@@ -263,7 +277,7 @@ impl Builder<'_> {
                         }
                     },
                 };
-                let mesh = mesh_files::load(&path, kind, normals).or_else(|e| {
+                let mesh = mesh_files::load(&path, kind, index, normals).or_else(|e| {
                     src.err(
                         file.span(),
                         format!("cannot load mesh '{}': {e}", path.display()),

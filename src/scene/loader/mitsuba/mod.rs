@@ -36,7 +36,8 @@
 //!   Without `twosided`, diffuse, conductors and plastic are black from the back, as in
 //!   Mitsuba. The smooth `plastic` is refused (its delta lobe beside a diffuse one is a kind
 //!   of BSDF lodestar's path algebra does not have).
-//! * Shapes `obj`, `ply` (`filename`, `face_normals`, `flip_normals`), `rectangle`, `cube`,
+//! * Shapes `obj`, `ply`, `serialized` (`filename`, `face_normals`, `flip_normals`; serialized:
+//!   `shape_index` 0, `serialized.rs`), `rectangle`, `cube`,
 //!   `disk` (as a fan of 1024 triangles: 6e-6 less area than the disk), `sphere` (`center`,
 //!   `radius`), each with `to_world`, a BSDF (default: `diffuse` 0.5, black for emitters), an
 //!   `area` emitter (`radiance`) and `interior`/`exterior` media. A mesh without normals gets

@@ -314,6 +314,7 @@ fn shape_desc(n: Node, kind: &str) -> ShapeDesc {
         cone_delta: None,
         normals: None,
         flip_normals: None,
+        shape_index: None,
     }
 }
 
@@ -336,12 +337,17 @@ fn shape(xml: &Xml, n: Node, out: &mut Out) -> Result<()> {
     let to_world = p.take_to_world(xml)?;
     let flip = p.boolean(xml, "flip_normals")?.unwrap_or(false);
     let mut d = match k {
-        "obj" | "ply" => {
+        "obj" | "ply" | "serialized" => {
             let mut d = shape_desc(n, k);
             d.file = match p.string(xml, "filename")? {
                 Some((at, f)) => Some(s(at, xml.find_file(&f))),
                 None => return xml.err(n, format!("shape '{k}' needs 'filename'")),
             };
+            if k == "serialized"
+                && let Some((at, i)) = p.integer(xml, "shape_index")?
+            {
+                d.shape_index = Some(s(at, i));
+            }
             let faces = p.boolean(xml, "face_normals")?.unwrap_or(false);
             d.normals = Some(s(n, if faces { "faces" } else { "smooth" }.to_string()));
             // Texture coordinates are not used by lodestar.
@@ -378,7 +384,7 @@ fn shape(xml: &Xml, n: Node, out: &mut Out) -> Result<()> {
             return xml.err(
                 n,
                 format!(
-                    "shape '{other}' is not supported (obj, ply, rectangle, cube, disk, sphere)"
+                    "shape '{other}' is not supported (obj, ply, serialized, rectangle, cube, disk, sphere)"
                 ),
             );
         }

@@ -7,15 +7,7 @@ use glam::Vec3;
 pub(super) fn sample(eta: f32, wo: Vec3, u_lobe: f32, mode: TransportMode) -> Option<LocalSample> {
     let (f_r, cos_t, eta_rel) = fresnel::dielectric(wo.z, eta);
     if u_lobe < f_r {
-        let wi = Vec3::new(-wo.x, -wo.y, wo.z);
-        return Some(LocalSample {
-            wi,
-            f: Spectrum::splat(f_r / wi.z.abs()),
-            pdf: f_r,
-            delta: true,
-            transmission: false,
-            eta: 1.0,
-        });
+        return Some(LocalSample::mirror(wo, Spectrum::splat(f_r), f_r));
     }
     // Refraction to the other side: wi = -wo / eta_rel + (cos_i / eta_rel - cos_t) n.
     let sign = wo.z.signum();
@@ -48,15 +40,7 @@ pub(super) fn thin_reflectance(cos_i: f32, eta: f32) -> f32 {
 pub(super) fn thin_sample(eta: f32, wo: Vec3, u_lobe: f32) -> Option<LocalSample> {
     let r = thin_reflectance(wo.z, eta);
     if u_lobe < r {
-        let wi = Vec3::new(-wo.x, -wo.y, wo.z);
-        return Some(LocalSample {
-            wi,
-            f: Spectrum::splat(r / wi.z.abs()),
-            pdf: r,
-            delta: true,
-            transmission: false,
-            eta: 1.0,
-        });
+        return Some(LocalSample::mirror(wo, Spectrum::splat(r), r));
     }
     let wi = -wo;
     let t = 1.0 - r;

@@ -326,27 +326,9 @@ impl Bsdf {
             Bsdf::RoughDiffuse { albedo, alpha } => {
                 rough_diffuse::sample(*albedo, *alpha, wo_l, u)?
             }
-            Bsdf::Conductor { reflectance } => {
-                let wi = Vec3::new(-wo_l.x, -wo_l.y, wo_l.z);
-                LocalSample {
-                    wi,
-                    f: *reflectance / wi.z.abs(),
-                    pdf: 1.0,
-                    delta: true,
-                    transmission: false,
-                    eta: 1.0,
-                }
-            }
+            Bsdf::Conductor { reflectance } => LocalSample::mirror(wo_l, *reflectance, 1.0),
             Bsdf::FresnelConductor { eta, k } => {
-                let wi = Vec3::new(-wo_l.x, -wo_l.y, wo_l.z);
-                LocalSample {
-                    wi,
-                    f: fresnel::conductor(wo_l.z, *eta, *k) / wi.z.abs(),
-                    pdf: 1.0,
-                    delta: true,
-                    transmission: false,
-                    eta: 1.0,
-                }
+                LocalSample::mirror(wo_l, fresnel::conductor(wo_l.z, *eta, *k), 1.0)
             }
             Bsdf::Dielectric { eta } => dielectric::sample(*eta, wo_l, u_lobe, mode)?,
             Bsdf::ThinDielectric { eta } => dielectric::thin_sample(*eta, wo_l, u_lobe)?,
@@ -493,6 +475,20 @@ pub(crate) struct LocalSample {
 }
 
 impl LocalSample {
+    /// The specular reflection of `wo` (about the local normal) carrying `reflectance`, picked
+    /// with discrete probability `probability`.
+    pub(crate) fn mirror(wo: Vec3, reflectance: Spectrum, probability: f32) -> LocalSample {
+        let wi = Vec3::new(-wo.x, -wo.y, wo.z);
+        LocalSample {
+            wi,
+            f: reflectance / wi.z.abs(),
+            pdf: probability,
+            delta: true,
+            transmission: false,
+            eta: 1.0,
+        }
+    }
+
     /// A non-delta reflection to `wi` with value `f` and density `pdf`; `None` without
     /// density.
     pub(crate) fn glossy_reflection(wi: Vec3, f: Spectrum, pdf: f32) -> Option<LocalSample> {

@@ -5,8 +5,9 @@
 //! from the scene towards the sky (the escaping ray's direction, `sample_li`'s `wi`); light
 //! travels along `-w`.
 
+use super::cone::disk_origin;
 use super::{EmissionSample, LightSample};
-use crate::math::{Frame, PI, Spectrum, luminance, warp};
+use crate::math::{PI, Spectrum, luminance, warp};
 use glam::{Vec2, Vec3};
 
 /// Uniform radiance arriving from every direction at infinity.
@@ -50,9 +51,7 @@ impl EnvironmentLight {
     pub fn sample_le(&self, u_pos: Vec2, u_dir: Vec2) -> EmissionSample {
         // Direction of travel is -w where w is the direction towards the environment.
         let w = warp::square_to_uniform_sphere(u_dir);
-        let frame = Frame::from_z(w);
-        let d = warp::square_to_disk_concentric(u_pos) * self.radius;
-        let p = self.center + self.radius * w + frame.s * d.x + frame.t * d.y;
+        let p = disk_origin(self.center, self.radius, w, u_pos);
         let (pdf_pos, pdf_dir) = self.pdf_le();
         EmissionSample {
             p,

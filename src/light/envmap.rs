@@ -19,8 +19,9 @@
 //! uniformly on a disk of the scene's bounding-sphere radius facing it, like the constant
 //! environment.
 
+use super::cone::disk_origin;
 use super::{EmissionSample, LightSample};
-use crate::math::{Distribution1D, Frame, PI, Spectrum, luminance, warp};
+use crate::math::{Distribution1D, PI, Spectrum, luminance};
 use glam::{Mat3, Vec2, Vec3};
 use std::sync::Arc;
 
@@ -206,11 +207,8 @@ impl EnvMapLight {
     pub fn sample_le(&self, u_pos: Vec2, u_dir: Vec2) -> Option<EmissionSample> {
         let s = self.sample_li(u_dir)?;
         let w = s.wi;
-        let frame = Frame::from_z(w);
-        let d = warp::square_to_disk_concentric(u_pos) * self.radius;
-        let p = self.center + self.radius * w + frame.s * d.x + frame.t * d.y;
         Some(EmissionSample {
-            p,
+            p: disk_origin(self.center, self.radius, w, u_pos),
             n: -w,
             dir: -w,
             le: s.li,

@@ -7,8 +7,10 @@
 //! - the chains keep the target's distribution (a two-region target with a known answer, both
 //!   kernels, with and without large steps): lazy mutation where a dimension goes unread for
 //!   long stretches, and the acceptance (every large step accepted must fail);
-//! - mmlt's per-pixel estimate of the paths E S* L and the s = 0 technique its chains leave
-//!   out estimate the same integral, and the split only zeroes chain states;
+//! - mmlt's per-pixel estimate of the paths no connection makes and the s = 0 technique its
+//!   chains leave out estimate the same integral, and the split only zeroes chain states;
+//!   `separate_specular=auto` splits where the bootstrap misses those paths (fog-dragon) and
+//!   not where it holds them in the right share (pool);
 //! - the images converge to pt's: the error against a pt render falls with the number of
 //!   mutations; on `ajar` mmlt's mean agrees with the stored reference (tile by tile against
 //!   pt, with controls: `tests/mcmc_tiles.rs`);
@@ -598,13 +600,15 @@ fn stratified_mean_se(xs: &[f64], strata: usize) -> (f64, f64) {
     (mean, var.sqrt())
 }
 
-/// mmlt's split of the paths E S* L (s = 0 through specular vertices only) adds up.
+/// mmlt's split of the paths no connection makes (s = 0 where no two consecutive vertices
+/// are off delta surfaces) adds up.
 ///
 /// 1. The per-pixel estimate (`Target::direct`: one camera walk, every length at once) and
 ///    the s = 0 technique of every length on its own (`Tracer::sample_technique`, kept where
-///    `camera_inner_specular`, which is what the chains leave out) are two estimates of one
+///    `camera_unconnectible`, which is what the chains leave out) are two estimates of one
 ///    integral, both stratified by pixel on `pool` at 80 x 60 (the light seen in the water's
-///    surface, directly and after refractions: about a tenth of the image). They agree within
+///    surface, directly and after refractions, and the caustics on the pool's floor seen
+///    through the water: about half of the image). They agree within
 ///    `Z` standard errors (from the variance within each pixel), and the
 ///    share is at least 2 `Z` of them, so a direct part that missed a class of those paths,
 ///    counted one twice, or weighed it differently from the technique would fail.
@@ -641,7 +645,7 @@ fn mmlt_specular_split_adds_up() {
                     let mut sampler = IndependentSampler::new(4, i as u64, t as u64);
                     let r = raster(i, &mut sampler);
                     if let Some((_, c)) = tracer.sample_technique(r, 0, t, &mut sampler)
-                        && tracer.camera_inner_specular()
+                        && tracer.camera_unconnectible()
                     {
                         sum += luminance(c) as f64;
                     }
@@ -691,6 +695,38 @@ fn mmlt_specular_split_adds_up() {
         (lost - direct).abs() < Z * se,
         "chains lose {lost} +- {lost_se}, direct {direct} +- {direct_se}"
     );
+}
+
+/// mmlt's `separate_specular=auto` (the default) splits off the paths no connection makes
+/// exactly when its bootstrap cannot start the chains on them in the right share: on
+/// `fog-dragon` (the caustics and the light seen through the glass bunny) the bootstrap holds
+/// none of them and they go per pixel; on `pool` it holds them on more than 16 samples' worth,
+/// agreeing with the first pass's per-pixel estimate, and they stay in the chains. `true` and
+/// `false` force either side. (Deterministic: fixed seeds, and the decision reads sums taken
+/// in a fixed order.)
+#[test]
+fn mmlt_splits_off_what_its_bootstrap_misses() {
+    let decision = |name: &str, bootstrap: &str, split: &str| -> String {
+        let scene = util::shipped_at(name, 64, 48);
+        let opts = [bootstrap, split];
+        let r = util::render(&scene, "mmlt", 8, &opts, 1, 5, 2);
+        let stat = r
+            .stats
+            .iter()
+            .find(|(k, _)| k == "mcmc_direct_split")
+            .map(|(_, v)| v.clone())
+            .unwrap();
+        eprintln!("{name} {split}: {stat}");
+        stat
+    };
+    let fog = decision("fog-dragon", "bootstrap=20000", "separate_specular=auto");
+    assert!(fog.starts_with("per pixel"), "{fog}");
+    let pool = decision("pool", "bootstrap=100000", "separate_specular=auto");
+    assert!(pool.starts_with("chains"), "{pool}");
+    let forced = decision("pool", "bootstrap=100000", "separate_specular=true");
+    assert!(forced.starts_with("per pixel"), "{forced}");
+    let forced = decision("fog-dragon", "bootstrap=20000", "separate_specular=false");
+    assert!(forced.starts_with("chains"), "{forced}");
 }
 
 // ---- Determinism, options, degenerate scenes ----

@@ -8,10 +8,10 @@
 //! that a primary-sample mutation that changes one walk's length does not shift the others'
 //! numbers.
 //!
-//! [`Tracer::specular_emission`] is the s = 0 technique on the paths E S* L (a light seen from
-//! the camera directly or through mirrors and glass), all lengths at once from one camera
-//! walk, for `mmlt`'s per-pixel estimate of the paths its chains leave out
-//! ([`Tracer::camera_inner_specular`]).
+//! [`Tracer::unconnectible_emission`] is the s = 0 technique on the paths no connection makes
+//! ([`walk::unconnectible`]: a light seen through mirrors and glass, E S* L, and caustics seen
+//! through them, E S+ D S+ L), all lengths at once from one camera walk, for `mmlt`'s
+//! per-pixel estimate of the paths its chains leave out ([`Tracer::camera_unconnectible`]).
 
 use super::cache::cache_subpath;
 use super::{Tracer, light_nee, walk};
@@ -74,25 +74,26 @@ impl<'a> Tracer<'a> {
         out.filter(|(_, c)| *c != Spectrum::ZERO)
     }
 
-    /// Whether the camera subpath of the last [`Tracer::sample_technique`] has only delta
-    /// surfaces between the pinhole and its last vertex (for s = 0: a path E S* L).
-    pub fn camera_inner_specular(&self) -> bool {
-        walk::inner_vertices_specular(&self.camera)
+    /// Whether the camera subpath of the last [`Tracer::sample_technique`], ending on a light
+    /// (s = 0), makes a path that no connection makes ([`walk::unconnectible`]).
+    pub fn camera_unconnectible(&self) -> bool {
+        walk::unconnectible(&self.camera)
     }
 
     /// The s = 0 technique's MIS-weighted estimate, summed over every length up to
-    /// `max_depth`, of the paths E S* L through `raster`: one camera walk that stops at its
-    /// first vertex not on a delta surface, with the emission found at each of its vertices
-    /// weighed as [`Tracer::sample_technique`] weighs s = 0 (so this and the techniques
+    /// `max_depth`, of the paths through `raster` that no connection makes
+    /// ([`walk::unconnectible`]): one camera walk that stops where two consecutive vertices
+    /// are off delta surfaces, with the emission found at each of its vertices that ends
+    /// such a path weighed as [`Tracer::sample_technique`] weighs s = 0 (so this and the techniques
     /// `sample_technique` gives on all other paths add up to BDPT's estimate). Like
     /// `sample_technique`, it weighs with the explicit densities, so the settings must play
     /// no roulette along the subpath (`mmlt_bdpt_settings`: rr_depth = max_depth + 1).
-    pub fn specular_emission(&mut self, raster: Vec2, sampler: &mut impl Sampler) -> Spectrum {
+    pub fn unconnectible_emission(&mut self, raster: Vec2, sampler: &mut impl Sampler) -> Spectrum {
         let (scene, st) = (self.scene, self.settings);
         let mut camera = std::mem::take(&mut self.camera);
         let mut cc = std::mem::take(&mut self.camera_cache);
         let max_vertices = st.max_depth as usize + 1;
-        walk::camera_specular_subpath(
+        walk::camera_unconnectible_subpath(
             scene,
             raster,
             max_vertices,
@@ -105,7 +106,9 @@ impl<'a> Tracer<'a> {
         cache_subpath(scene, &camera, st.rr_depth, &mut cc);
         let mut sum = Spectrum::ZERO;
         for t in 2..=camera.len() {
-            sum += self.hit_emitter(&camera[..t], &cc[..t], None);
+            if walk::unconnectible(&camera[..t]) {
+                sum += self.hit_emitter(&camera[..t], &cc[..t], None);
+            }
         }
         self.camera = camera;
         self.camera_cache = cc;

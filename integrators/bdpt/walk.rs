@@ -25,12 +25,13 @@ pub fn camera_subpath<'a>(
     camera_walk(scene, raster, max_vertices, rr_depth, false, sampler, path);
 }
 
-/// The camera subpath through `raster` up to and including its first vertex that is not on
-/// a delta surface (a diffuse or glossy surface, an emitter's surface unless it is specular,
-/// a medium event, or the escape to a light at infinity): the paths E S* X whose every inner
-/// vertex is specular. Its vertices and densities are those [`camera_subpath`] gives for the
+/// The camera subpath through `raster` up to and including the first vertex that is, like
+/// the one before it, not on a delta surface (a diffuse or glossy surface, an emitter's
+/// surface unless it is specular, a medium event, or the escape to a light at infinity; the
+/// pinhole counts as one): the longest prefix in which a path to a light could still be
+/// [`unconnectible`]. Its vertices and densities are those [`camera_subpath`] gives for the
 /// same numbers, cut short.
-pub fn camera_specular_subpath<'a>(
+pub fn camera_unconnectible_subpath<'a>(
     scene: &'a Scene,
     raster: Vec2,
     max_vertices: usize,
@@ -46,7 +47,7 @@ fn camera_walk<'a>(
     raster: Vec2,
     max_vertices: usize,
     rr_depth: u32,
-    stop_at_non_specular: bool,
+    stop_when_connectible: bool,
     sampler: &mut impl Sampler,
     path: &mut Vec<Vertex<'a>>,
 ) {
@@ -66,15 +67,22 @@ fn camera_walk<'a>(
         scene.camera_medium,
         max_vertices,
         rr_depth,
-        stop_at_non_specular,
+        stop_when_connectible,
         sampler,
         path,
     );
 }
 
-/// Whether every inner vertex of `path` (all but its first and last) is on a delta surface.
-pub fn inner_vertices_specular(path: &[Vertex]) -> bool {
-    path.len() < 2 || path[1..path.len() - 1].iter().all(is_specular_surface)
+/// Whether the path of camera subpath `path`, whose last vertex is on a light, is one that
+/// no connection makes: of the path E x_1 ... x_(k-1) L no two consecutive vertices are off
+/// delta surfaces (the pinhole and the light counting as off), so every technique but s = 0
+/// has density zero on it (paths E S* L, a light seen through mirrors and glass, and caustics
+/// seen through them, E S+ D S+ L). The light seen directly (E L, k = 1) counts too,
+/// although light tracing onto the pinhole also makes it.
+pub fn unconnectible(path: &[Vertex]) -> bool {
+    let n = path.len();
+    let off = |i: usize| i == 0 || i + 1 == n || !is_specular_surface(&path[i]);
+    n <= 2 || (1..n).all(|i| !(off(i - 1) && off(i)))
 }
 
 fn is_specular_surface(v: &Vertex) -> bool {
@@ -133,7 +141,8 @@ pub fn light_subpath<'a>(
 }
 
 /// The random walk from `ray`, pushing vertices up to `max_vertices`; with
-/// `stop_at_non_specular` it ends after the first vertex not on a delta surface.
+/// `stop_when_connectible` it ends after the first vertex that is, like the one before it,
+/// not on a delta surface.
 #[allow(clippy::too_many_arguments)]
 fn walk<'a>(
     scene: &'a Scene,
@@ -143,7 +152,7 @@ fn walk<'a>(
     mut medium: Option<u32>,
     max_vertices: usize,
     rr_depth: u32,
-    stop_at_non_specular: bool,
+    stop_when_connectible: bool,
     sampler: &mut impl Sampler,
     path: &mut Vec<Vertex<'a>>,
 ) {
@@ -239,8 +248,8 @@ fn walk<'a>(
         }
         let escaped = found.is_none();
         path.push(v);
-        if escaped || path.len() == max_vertices || stop_at_non_specular && !is_specular_surface(&v)
-        {
+        let connectible = || !is_specular_surface(&v) && !is_specular_surface(&path[n - 1]);
+        if escaped || path.len() == max_vertices || stop_when_connectible && connectible() {
             return;
         }
 

@@ -76,25 +76,47 @@ pub struct SplitEvidence {
     pub share: f64,
     /// The effective number of bootstrap samples their importance rests on (`(Σ I)² / Σ I²`).
     pub samples: f64,
+    /// Their part of `b` (the sum over groups of their mean importance per sample).
+    pub b: f64,
+    /// The standard error of `b`.
+    pub stderr: f64,
 }
 
 impl SplitEvidence {
     /// The evidence of every group's bootstrap.
     pub fn of(boot: &[Bootstrap]) -> SplitEvidence {
         let (mut all, mut sum, mut sum2) = (0.0, 0.0, 0.0);
+        let (mut b, mut var) = (0.0, 0.0);
         for g in boot {
+            let (mut s, mut s2) = (0.0, 0.0);
             for (&x, &d) in g.importance.iter().zip(&g.direct) {
                 all += x;
                 if d {
-                    sum += x;
-                    sum2 += x * x;
+                    s += x;
+                    s2 += x * x;
                 }
             }
+            let n = g.importance.len() as f64;
+            if n > 1.0 {
+                let mean = s / n;
+                b += mean;
+                var += (s2 / n - mean * mean).max(0.0) / (n - 1.0);
+            }
+            sum += s;
+            sum2 += s2;
         }
         SplitEvidence {
             share: if all > 0.0 { sum / all } else { 0.0 },
             samples: if sum2 > 0.0 { sum * sum / sum2 } else { 0.0 },
+            b,
+            stderr: var.sqrt(),
         }
+    }
+
+    /// Whether a per-pixel estimate `direct` (with standard error `stderr`) of the same
+    /// part of `b` disagrees with the bootstrap's by more than `z` standard errors.
+    pub fn disagrees(&self, direct: f64, stderr: f64, z: f64) -> bool {
+        (direct - self.b).abs() > z * (stderr * stderr + self.stderr * self.stderr).sqrt()
     }
 }
 

@@ -16,12 +16,19 @@
 //!    start at states of positive importance and never accept a proposal of zero importance
 //!    (or NaN), so a state of zero importance does not occur; nothing is clamped.
 //!
-//! 4. **direct** (targets with [`Target::has_direct`], `mmlt`'s lights seen through specular
-//!    chains): when asked ([`Split`]), the paths the target flags
-//!    [`Contribution::direct`](super::target::Contribution::direct) leave the chains (their importance is 0 there, in the
-//!    bootstrap too) and are estimated per pixel, every pixel in pass 0 and then each pixel
-//!    every `direct_every`-th pass (interleaved, on its own stream); the image adds their
-//!    per-pixel mean.
+//! 4. **direct** (targets with [`Target::has_direct`], `mmlt`'s paths that no connection
+//!    makes): the paths the target flags
+//!    [`Contribution::direct`](super::target::Contribution::direct) may leave the chains
+//!    (their importance is 0 there, in the bootstrap too) and be estimated per pixel, every
+//!    pixel in pass 0 and then each pixel every `direct_every`-th pass (interleaved, on its
+//!    own stream); the image adds their per-pixel mean. [`Split::Auto`] decides after the
+//!    bootstrap and pass 0's per-pixel samples (taken before the chains start): it keeps
+//!    the flagged paths in the chains only when the bootstrap holds them on at least
+//!    [`SPLIT_SAMPLES`] samples' worth and its estimate of their part of `b` agrees with
+//!    pass 0's within [`SPLIT_Z`] standard errors, that is when the chains start with about
+//!    the right share of their time on them (not when the bootstrap holds none of them, or
+//!    a few far too bright).
+//!    The statistic `mcmc_direct_split` gives both estimates and the decision.
 //!
 //! A group whose bootstrap found no contribution (`b_g = 0`, e.g. a path length the 100k
 //! samples never lit) gets no chains and adds nothing to the image: the estimator is
@@ -35,7 +42,7 @@
 
 use super::bootstrap::{Bootstrap, SplitEvidence, bootstrap, rel_stderr};
 use super::chains::{Counters, advance, start_chains};
-use super::target::{Faults, McmcSettings, Split, Target};
+use super::target::{Faults, McmcSettings, SPLIT_SAMPLES, SPLIT_Z, Split, Target};
 use crate::film::Image;
 use crate::math::streams::MCMC_DIRECT as DIRECT_KEY;
 use crate::math::{IndependentSampler, Sampler, luminance};
@@ -123,6 +130,17 @@ fn direct_pass<T: Target>(
         );
 }
 
+/// The mean of `xs` and its standard error (0 for fewer than two values).
+fn mean_stderr(xs: impl ExactSizeIterator<Item = f64>) -> (f64, f64) {
+    let n = xs.len() as f64;
+    let (s, s2) = xs.fold((0.0, 0.0), |(s, s2), x| (s + x, s2 + x * x));
+    if n < 2.0 {
+        return (if n > 0.0 { s / n } else { 0.0 }, 0.0);
+    }
+    let mean = s / n;
+    (mean, ((s2 / n - mean * mean).max(0.0) / (n - 1.0)).sqrt())
+}
+
 /// Render `target` with Metropolis chains under `budget` (passes of `N_pix` mutations).
 pub fn render<T: Target>(
     target: &T,
@@ -136,7 +154,23 @@ pub fn render<T: Target>(
     let t0 = ctx.clock.now();
     let mut boot = bootstrap(target, ctx.seed, settings.bootstrap, settings);
     let evidence = SplitEvidence::of(&boot);
-    let split = target.has_direct() && settings.split == Split::Always;
+    // The per-pixel estimate's first pass, which Split::Auto weighs against the bootstrap.
+    let n_pix = (w * h) as usize;
+    let mut first = (vec![DVec3::ZERO; n_pix], vec![0; n_pix]);
+    let mut direct_seconds = 0.0;
+    let first_pass = target.has_direct() && settings.split != Split::Never;
+    if first_pass {
+        let t = Instant::now();
+        let every = settings.direct_every;
+        direct_pass(target, ctx.seed, (0, every), w, &mut first.0, &mut first.1);
+        direct_seconds += t.elapsed().as_secs_f64();
+    }
+    let (first_b, first_stderr) =
+        mean_stderr(first.0.iter().map(|v| luminance(v.as_vec3()) as f64));
+    let split = first_pass
+        && (settings.split == Split::Always
+            || evidence.samples < SPLIT_SAMPLES
+            || evidence.disagrees(first_b, first_stderr, SPLIT_Z));
     if split {
         boot.iter_mut().for_each(Bootstrap::without_direct);
     }
@@ -166,20 +200,12 @@ pub fn render<T: Target>(
             })
             .collect(),
         per_group: vec![Counters::default(); groups],
-        direct: if split {
-            vec![DVec3::ZERO; (w * h) as usize]
-        } else {
-            Vec::new()
-        },
-        direct_samples: if split {
-            vec![0; (w * h) as usize]
-        } else {
-            Vec::new()
-        },
+        direct: if split { first.0 } else { Vec::new() },
+        direct_samples: if split { first.1 } else { Vec::new() },
     };
-    let mut direct_seconds = 0.0;
     let pass = |acc: &mut Accumulated, pass: u64| {
-        if !acc.direct.is_empty() {
+        // Pass 0's samples of the split paths were taken before the chains started.
+        if !acc.direct.is_empty() && pass > 0 {
             let t = Instant::now();
             direct_pass(
                 target,
@@ -258,10 +284,23 @@ pub fn render<T: Target>(
                 "none".to_string()
             } else {
                 format!(
-                    "{} (bootstrap share {:.3e} on {:.1} samples' worth)",
+                    "{} (bootstrap: {:.3e} +- {:.1e}, share {:.3e} on {:.1} samples' worth; \
+                     first pass: {}; separate_specular={})",
                     if split { "per pixel" } else { "chains" },
+                    evidence.b,
+                    evidence.stderr,
                     evidence.share,
-                    evidence.samples
+                    evidence.samples,
+                    if first_pass {
+                        format!("{first_b:.3e} +- {first_stderr:.1e}")
+                    } else {
+                        "none".to_string()
+                    },
+                    match settings.split {
+                        Split::Auto => "auto",
+                        Split::Always => "true",
+                        Split::Never => "false",
+                    },
                 )
             },
         ),

@@ -6,29 +6,32 @@
 //! contribution is the technique's estimate times its MIS weight among the k + 1 techniques,
 //! times k + 1. Subpaths have fixed lengths, so no roulette is played.
 //!
-//! **Lights seen through specular chains** (`-O separate_specular=true`; off by default). The
-//! s = 0 technique on paths E S* L (a light seen from the camera directly or
-//! through mirrors and glass) can leave the chains and be estimated per pixel instead
-//! ([`Tracer::specular_emission`]: one camera walk up to its first non-specular vertex, every
-//! length at once), as Veach's MLT renders what the camera sees of the lights on its own.
-//! Every pixel gets a sample in the first pass and then one every `specular_every` passes
-//! (default 4; interleaved over the image, in columns when the width is a multiple of it),
-//! about 5 % of the render where the camera sees much glass (one sample per pixel and pass
-//! cost 16 % on `fog-dragon` at 80 x 60).
+//! **Paths no connection makes** (`-O separate_specular`, default `auto`). On a path where
+//! no two consecutive vertices are off delta surfaces (the pinhole and the light counting as
+//! off), every technique but s = 0 has density zero: a light seen through mirrors and glass
+//! (E S* L), a caustic seen through them (E S+ D S+ L, the floor under the glass bunny of
+//! `fog-dragon`, the pool's bottom under its water), the light seen directly (E L). Their
+//! s = 0 technique can leave the chains and be estimated per pixel instead
+//! ([`Tracer::unconnectible_emission`]: one camera walk that stops where two consecutive
+//! vertices are off delta surfaces, every length at once), as Veach's MLT renders what the
+//! camera sees of the lights on its own. Every pixel gets a sample in the first pass and
+//! then one every `specular_every` passes (default 4; interleaved over the image, in columns
+//! when the width is a multiple of it).
 //!
 //! When it pays: these paths can make small, very bright regions of the image. Chains start
 //! at bootstrap samples drawn by importance, so a region that a handful of the bootstrap's
-//! samples stand for starts far too few or far too many chains, and large steps reach it too
-//! rarely to correct that within a render: on `fog-dragon` a bootstrap sample of the light
-//! seen through the glass bunny has 8000 times the mean importance, and 240 s renders with
-//! these paths in the chains are 5 % dark. Where the regions are many sub-pixel glints
-//! (`pool`'s light in the rippled water), the chains, which find a glint and stay on it, beat
-//! one sample per pixel every few passes by far (240 s: 4.4 times the MSE with the split),
-//! hence the default. The bootstrap cannot tell the two apart: `fog-dragon`'s (100 000
-//! samples per length, seed 0) holds no such path at all, `pool`'s holds 8 % of its importance
-//! on them, on 6 samples' worth; the statistic `mcmc_direct_split` reports both figures.
-//! Caveat (as for every length): a length whose remaining techniques the bootstrap never
-//! lights gets no chains.
+//! samples stand for starts far too few or far too many chains, and one that none stands
+//! for starts none; large steps reach it too rarely to correct that within a render. On
+//! `fog-dragon` neither the bootstrap (100 000 samples per length) nor a sample per pixel
+//! finds one of these paths, yet they are about 5 % of the image, and with them in the
+//! chains 60 s renders are 4-5 % dark. Where the regions are many sub-pixel glints
+//! (`pool`'s light in the rippled water and its caustics), the chains, which find a glint and
+//! stay on it, beat one sample per pixel every few passes by far, and there the bootstrap
+//! holds them on about 20 samples' worth, in the share the first pass estimates. `auto`
+//! keeps them in the chains only then (see the driver's [`Split::Auto`]); `true` and `false`
+//! force either way. The statistic `mcmc_direct_split` reports the decision and both
+//! estimates. Caveat (as for every length): a length whose remaining techniques the
+//! bootstrap never lights gets no chains.
 
 use super::driver;
 use super::pssmlt::raster_of;
@@ -48,10 +51,10 @@ pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     let heuristic = crate::integrators::bdpt::heuristic(&o)?;
     let mut settings = super::settings(&params.options)?;
     settings.direct_every = o.int("specular_every")?;
-    settings.split = if o.flag("separate_specular")? {
-        Split::Always
-    } else {
-        Split::Never
+    settings.split = match o.word("separate_specular")? {
+        "true" => Split::Always,
+        "false" => Split::Never,
+        _ => Split::Auto,
     };
     Ok(Box::new(Mmlt {
         bdpt: mmlt_bdpt_settings(params.max_depth, heuristic),
@@ -119,11 +122,11 @@ impl Target for MmltTarget<'_> {
         let t = k + 1 - s;
         let raster = raster_of(self.scene, sampler.next_2d());
         match tracer.sample_technique(raster, s, t, sampler) {
-            // s = 0 on E S* L: what `direct` estimates when the driver splits it off.
+            // s = 0 on a path no connection makes: what `direct` estimates when the driver splits it off.
             Some((r, c)) => Contribution {
                 pixel: self.scene.camera.pixel_index(r) as u32,
                 value: c.as_dvec3() * n as f64,
-                direct: s == 0 && tracer.camera_inner_specular(),
+                direct: s == 0 && tracer.camera_unconnectible(),
             },
             None => Contribution::ZERO,
         }
@@ -134,7 +137,7 @@ impl Target for MmltTarget<'_> {
     }
 
     fn direct<S: Sampler>(&self, tracer: &mut Tracer<'_>, raster: Vec2, sampler: &mut S) -> DVec3 {
-        tracer.specular_emission(raster, sampler).as_dvec3()
+        tracer.unconnectible_emission(raster, sampler).as_dvec3()
     }
 }
 

@@ -98,10 +98,12 @@ pub const MMLT_OPTIONS: &[&[Spec]] = &[
         super::bdpt::MIS_OPTION,
         Spec {
             name: "separate_specular",
-            kind: Kind::Bool,
-            default: DefaultValue::Bool(false),
-            doc: "the s = 0 technique on paths E S* L (lights seen directly or through mirrors \
-                  and glass) estimated per pixel, not by the chains (`mmlt.rs`)",
+            kind: Kind::Choice(&["auto", "true", "false"]),
+            default: DefaultValue::Word("auto"),
+            doc: "the s = 0 technique on paths no connection makes (lights seen through mirrors \
+                  and glass, caustics seen through them) estimated per pixel, not by the \
+                  chains; `auto`: unless the bootstrap holds them on 16 samples' worth and agrees \
+                  with the first pass's per-pixel estimate of them (`mmlt.rs`)",
         },
         Spec {
             name: "specular_every",

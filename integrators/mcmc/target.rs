@@ -85,7 +85,7 @@ pub struct McmcSettings {
     /// The kernel of small steps (default Kelemen's, sizes 1/1024 to 1/64).
     pub small_step: SmallStep,
     /// Whether the paths a target flags [`Contribution::direct`] leave the chains for a
-    /// per-pixel estimate (default [`Split::Never`]; only for targets with
+    /// per-pixel estimate (default [`Split::Auto`]; only for targets with
     /// [`Target::has_direct`]).
     pub split: Split,
     /// A pixel's samples of [`Target::direct`] come every this many passes, after pass 0
@@ -112,7 +112,7 @@ impl Default for McmcSettings {
             chains: CHAINS as u64,
             large_step: LARGE_STEP,
             small_step: SmallStep::default(),
-            split: Split::Never,
+            split: Split::Auto,
             direct_every: DIRECT_EVERY as u64,
             faults: Faults::default(),
         }
@@ -127,4 +127,20 @@ pub enum Split {
     Never,
     /// Always (for targets with [`Target::has_direct`]).
     Always,
+    /// Unless the bootstrap holds the flagged paths on at least [`SPLIT_SAMPLES`] samples'
+    /// worth and its estimate of their part of `b` agrees with the first pass's per-pixel
+    /// estimate within [`SPLIT_Z`] standard errors. Otherwise the chains would start with a
+    /// wrong share of their time on those paths (none at all when the bootstrap missed them),
+    /// which large steps, reaching them too rarely, would not correct within a render.
+    Auto,
 }
+
+/// The effective number of bootstrap samples (`(Σ I)² / Σ I²`) the flagged paths must rest
+/// on for [`Split::Auto`] to leave them in the chains: their share among the chains' starts
+/// then has a relative standard error of at most a quarter.
+pub const SPLIT_SAMPLES: f64 = 16.0;
+
+/// Standard errors by which the bootstrap's and the first pass's estimates of the flagged
+/// paths' part of `b` may differ for [`Split::Auto`] to leave them in the chains (a false
+/// split, for a normal z, about 6e-5).
+pub const SPLIT_Z: f64 = 4.0;

@@ -10,8 +10,16 @@
 //! is `We = 1 / (A_img cos^4 theta)`, so that `We cos / pdf_we = 1` for every camera ray and a
 //! path traced from pixel j averages to pixel j's measurement when multiplied by `N_pix`.
 //! The pinhole's position is a delta (its area density is a discrete 1).
+//!
+//! The pixel filter (`filter.rs`) decides where a pixel's samples look: [`Camera::generate_ray`]
+//! moves a sample from its pixel to the filter's position, which for filters wider than a
+//! pixel can lie up to [`Filter::margin`] beyond the image; the image-wide mapping and
+//! densities extend over that margin (the same `We` and `pdf_we` formulas), so that a splat
+//! there still reaches the border pixels ([`Camera::splat_pixel`]).
 
+use crate::filter::Filter;
 use crate::geometry::Ray;
+use crate::math::Sampler;
 use glam::{UVec2, Vec2, Vec3};
 
 /// A pinhole camera: its frame in world space, resolution and field of view.
@@ -32,6 +40,8 @@ pub struct Camera {
     half_w: f32,
     /// Vertical field of view, in degrees.
     pub fov_y_degrees: f32,
+    /// The pixel filter (box by default).
+    pub filter: Filter,
 }
 
 /// A connection from a scene point to the camera (light tracing, BDPT t = 1).
@@ -73,7 +83,13 @@ impl Camera {
             half_h,
             half_w,
             fov_y_degrees,
+            filter: Filter::default(),
         }
+    }
+
+    /// The same camera with pixel filter `filter`.
+    pub fn with_filter(self, filter: Filter) -> Camera {
+        Camera { filter, ..self }
     }
 
     /// Number of pixels, width times height.
@@ -92,35 +108,44 @@ impl Camera {
         4.0 * self.half_w * self.half_h
     }
 
-    /// The ray through raster position `raster`.
+    /// The ray of a camera sample at raster position `raster`, which counts for the pixel
+    /// holding it: through `raster` itself for the box filter, else through the pixel's
+    /// centre moved by the filter sampled with `raster`'s place in the pixel.
     pub fn generate_ray(&self, raster: Vec2) -> Ray {
+        if self.filter.is_box() {
+            return self.ray_through(raster);
+        }
+        let pixel = raster.floor();
+        let u = (raster - pixel).clamp(Vec2::ZERO, Vec2::splat(1.0 - f32::EPSILON));
+        self.ray_through(pixel + 0.5 + self.filter.sample(u))
+    }
+
+    /// The ray through raster position `raster` (no filter).
+    pub fn ray_through(&self, raster: Vec2) -> Ray {
         let ndc_x = 2.0 * raster.x / self.resolution.x as f32 - 1.0;
         let ndc_y = 1.0 - 2.0 * raster.y / self.resolution.y as f32;
         let d = self.forward + self.right * (ndc_x * self.half_w) + self.up * (ndc_y * self.half_h);
         Ray::new(self.position, d.normalize())
     }
 
-    /// Raster position of the ray from the pinhole along unit `d`, if it is on the image.
+    /// Raster position of the ray from the pinhole along unit `d`, if it is on the image or
+    /// within the filter's margin around it.
     pub fn raster_of_direction(&self, d: Vec3) -> Option<Vec2> {
         let cos = d.dot(self.forward);
         if cos <= 0.0 {
             return None;
         }
+        let m = self.filter.margin();
+        let (w, h) = (self.resolution.x as f32, self.resolution.y as f32);
+        let (mx, my) = (1.0 + 2.0 * m / w, 1.0 + 2.0 * m / h);
         let x = d.dot(self.right) / (cos * self.half_w);
         let y = d.dot(self.up) / (cos * self.half_h);
-        if !(-1.0..1.0).contains(&x) || !(-1.0..1.0).contains(&y) {
+        if !(-mx..mx).contains(&x) || !(-my..my).contains(&y) {
             return None;
         }
-        let r = Vec2::new(
-            (x + 1.0) * 0.5 * self.resolution.x as f32,
-            (1.0 - y) * 0.5 * self.resolution.y as f32,
-        );
+        let r = Vec2::new((x + 1.0) * 0.5 * w, (1.0 - y) * 0.5 * h);
         // Guard the upper edge against rounding.
-        (r.x < self.resolution.x as f32
-            && r.y < self.resolution.y as f32
-            && r.x >= 0.0
-            && r.y >= 0.0)
-            .then_some(r)
+        (r.x < w + m && r.y < h + m && r.x >= -m && r.y >= -m).then_some(r)
     }
 
     /// Raster position of world point `p`, if it projects onto the image.
@@ -146,6 +171,29 @@ impl Camera {
         let x = (raster.x as u32).min(self.resolution.x - 1);
         let y = (raster.y as u32).min(self.resolution.y - 1);
         (y * self.resolution.x + x) as usize
+    }
+
+    /// The pixel a splat at raster position `raster` goes to and its weight
+    /// (`Filter::pick`, `u` in [0, 1)), or `None` when that pixel is off the image. For the
+    /// box filter, the pixel holding `raster` with weight 1.
+    pub fn splat_pixel(&self, raster: Vec2, u: f32) -> Option<(usize, f32)> {
+        if self.filter.is_box() {
+            return Some((self.pixel_index(raster), 1.0));
+        }
+        let ((x, y), w) = self.filter.pick(raster, u)?;
+        let res = self.resolution;
+        ((0..res.x as i64).contains(&x) && (0..res.y as i64).contains(&y))
+            .then(|| ((y as u32 * res.x + x as u32) as usize, w as f32))
+    }
+
+    /// The number [`Camera::splat_pixel`] needs: none for the box filter (0 without reading
+    /// the sampler, so box renders keep their random streams), else the sampler's next.
+    pub fn splat_number(&self, sampler: &mut impl Sampler) -> f32 {
+        if self.filter.is_box() {
+            0.0
+        } else {
+            sampler.next_1d()
+        }
     }
 
     /// Importance `We` of the ray leaving the pinhole along unit `d` (0 off the image).

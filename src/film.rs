@@ -1,4 +1,4 @@
-//! Images and films: per-pixel accumulation with a box filter, deterministic splatting,
+//! Images and films: per-pixel accumulation (each sample counts for its pixel; the pixel filter acts where samples and splats are made, `filter.rs`), deterministic splatting,
 //! EXR output (32-bit float RGB, or half) with the render's metadata in its header, PNG
 //! previews. Every file is written to a temporary name beside the target and renamed into
 //! place, so a reader never sees a half-written image.
@@ -252,7 +252,7 @@ pub fn atomic_write(
     }
 }
 
-/// Accumulates samples per pixel (box filter) plus splats; f64 sums so long renders do not
+/// Accumulates samples per pixel plus splats; f64 sums so long renders do not
 /// lose precision.
 #[derive(Debug, Clone)]
 pub struct Film {

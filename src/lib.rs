@@ -18,6 +18,7 @@ pub mod control;
 pub mod dbor;
 pub mod error;
 pub mod film;
+pub mod filter;
 pub mod geometry;
 pub mod light;
 pub mod math;

@@ -1,5 +1,6 @@
 //! Scene features every integrator family must handle alike: the rough plastic, the smooth
-//! conductor of complex index, the thin dielectric and the rough diffuse BSDF (the environment map's is in `envmap.rs`). Each renders a 16 x 16 Cornell box
+//! conductor of complex index, the thin dielectric, the rough diffuse BSDF and the tent and
+//! Gaussian pixel filters (the environment map's is in `envmap.rs`). Each renders a 16 x 16 Cornell box
 //! with the feature by pt, bdpt, vcm, guided-bdpt and mmlt, tile by tile within noise of pt's
 //! image (`util::assert_same_image`, 5 renders a side, family-wise false-failure rate 1e-4;
 //! vcm's merging bias at its default radius is below these renders' noise); pt's images
@@ -91,4 +92,58 @@ fn every_integrator_renders_a_thin_dielectric_and_rough_diffuse_alike() {
         text
     });
     every_integrator_agrees(&scene, "a thin dielectric and rough diffuse walls");
+}
+
+/// The Cornell box seen through a tent filter of radius 1.5 pixels and, in a second render, a
+/// Gaussian of standard deviation 0.9 (radius 3.6): camera samples drawn from the filter (pt)
+/// and splats spread by it (bdpt's and vcm's t = 1, mmlt's t = 1, guided samples; lt, on the
+/// box with its glass sphere diffuse, as light tracing cannot see glass) measure the same
+/// filtered pixels, the border pixels included (their filters reach beyond the image, where
+/// splats come from too); pixel by pixel (`assert_same_image` with tiles of one pixel).
+/// Controls: pt's box-filtered image must differ from its tent-filtered one, and lt's
+/// unfiltered splats from pt's filtered image (the filters blur the box's edges by more
+/// than the noise).
+#[test]
+fn every_integrator_renders_through_tent_and_gaussian_filters_alike() {
+    let with = |filter: &str, diffuse_sphere: bool| {
+        cornell(|text| {
+            let mut text = text.replace(
+                "resolution = [16, 16]",
+                &format!("resolution = [16, 16]\nfilter = {filter}"),
+            );
+            if diffuse_sphere {
+                text = text.replace(
+                    "name = \"glass\"\ntype = \"dielectric\"\nior = 1.5",
+                    "name = \"glass\"\ntype = \"diffuse\"\nalbedo = [0.5, 0.5, 0.5]",
+                );
+                assert!(!text.contains("dielectric"));
+            }
+            assert!(text.contains("filter = {"));
+            text
+        })
+    };
+    let tent = with("{ type = \"tent\", radius = 1.5 }", false);
+    every_integrator_agrees(&tent, "a tent filter");
+    let boxed = cornell(|text| text);
+    let pt_box = seeded_renders(&boxed, "pt", 6, &[], 256, 5, 10);
+    let pt_tent = seeded_renders(&tent, "pt", 6, &[], 256, 5, 30);
+    assert!(
+        differs(&pt_box, &pt_tent, 1),
+        "the tent filter changes nothing"
+    );
+    for (filter, what) in [
+        ("{ type = \"tent\", radius = 1.5 }", "a tent filter"),
+        ("{ type = \"gaussian\", stddev = 0.9 }", "a Gaussian filter"),
+    ] {
+        let scene = with(filter, true);
+        let pt = seeded_renders(&scene, "pt", 6, &[], 256, 5, 10);
+        // Control: splats that ignore the filter (lt on the same box without it) must fail.
+        let unfiltered = with("{ type = \"box\" }", true);
+        let lt_box = seeded_renders(&unfiltered, "lt", 6, &[], 256, 5, 20);
+        assert!(differs(&pt, &lt_box, 1), "{what}: unfiltered splats pass");
+        for (name, spp) in [("lt", 256), ("bdpt", 64), ("vcm", 64)] {
+            let other = seeded_renders(&scene, name, 6, &[], spp, 5, 20);
+            assert_same_image(&pt, &other, 1, &format!("{name} vs pt through {what}"));
+        }
+    }
 }

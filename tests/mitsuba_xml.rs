@@ -1040,3 +1040,64 @@ fn serialized_meshes_load_by_index() {
     assert_eq!(mesh_positions(&scene, 0), p);
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `<rfilter>`: box, tent (`radius`) and Gaussian (`stddev`) as Mitsuba 3 names them, the
+/// Gaussian of standard deviation 0.5 when a film (or the whole sensor) gives none; other
+/// filters and misplaced parameters are errors naming the line.
+#[test]
+fn film_filters_read_mitsubas_names_and_default() {
+    use lodestar::filter::FilterKind;
+    let with = |film: &str| {
+        format!(
+            r#"<scene version="3.0.0">
+    <sensor type="perspective">
+        <float name="fov" value="40"/>
+        <transform name="to_world"><lookat origin="0, 0, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
+        {film}
+    </sensor>
+</scene>"#
+        )
+    };
+    let film = |rfilter: &str| {
+        with(&format!(
+            r#"<film type="hdrfilm"><integer name="width" value="16"/><integer name="height" value="16"/>{rfilter}</film>"#
+        ))
+    };
+    let kind = |text: &str| xml(text).unwrap().camera.filter.kind();
+    assert_eq!(kind(&film(r#"<rfilter type="box"/>"#)), FilterKind::Box);
+    assert_eq!(
+        kind(&film(r#"<rfilter type="tent"/>"#)),
+        FilterKind::Tent { radius: 1.0 }
+    );
+    assert_eq!(
+        kind(&film(
+            r#"<rfilter type="tent"><float name="radius" value="1.5"/></rfilter>"#
+        )),
+        FilterKind::Tent { radius: 1.5 }
+    );
+    assert_eq!(
+        kind(&film(
+            r#"<rfilter type="gaussian"><float name="stddev" value="0.25"/></rfilter>"#
+        )),
+        FilterKind::Gaussian { stddev: 0.25 }
+    );
+    let mitsubas = FilterKind::Gaussian { stddev: 0.5 };
+    assert_eq!(kind(&film("")), mitsubas);
+    assert_eq!(kind(&with("")), mitsubas);
+    let e = xml_err(&film(r#"<rfilter type="mitchell"/>"#));
+    assert!(
+        e.contains("test.xml:5") && e.contains("rfilter 'mitchell' is not supported"),
+        "{e}"
+    );
+    let e = xml_err(&film(
+        r#"<rfilter type="tent"><float name="stddev" value="0.5"/></rfilter>"#,
+    ));
+    assert!(e.contains("test.xml:5") && e.contains("stddev"), "{e}");
+    let e = xml_err(&film(
+        r#"<rfilter type="tent"><float name="radius" value="-1"/></rfilter>"#,
+    ));
+    assert!(
+        e.contains("test.xml:5") && e.contains("'radius' must be in (0, 8]"),
+        "{e}"
+    );
+}

@@ -1196,3 +1196,47 @@ fn ply_wrong_element_counts_and_truncated_data_are_errors() {
         &["'two' in element 'face' is not a number"],
     );
 }
+
+#[test]
+fn pixel_filters() {
+    let filter = |f: &str| {
+        edit(
+            "resolution = [16, 16]",
+            &format!("resolution = [16, 16]\nfilter = {f} {MARK}"),
+        )
+    };
+    let ok = |f: &str| {
+        load_str(&filter(f), "ok.toml", None)
+            .unwrap()
+            .camera
+            .filter
+            .kind()
+    };
+    use lodestar::filter::FilterKind;
+    assert_eq!(ok("{ type = \"box\" }"), FilterKind::Box);
+    assert_eq!(ok("{ type = \"tent\" }"), FilterKind::Tent { radius: 1.0 });
+    assert_eq!(
+        ok("{ type = \"gaussian\", stddev = 0.3 }"),
+        FilterKind::Gaussian { stddev: 0.3 }
+    );
+    check(
+        &filter("{ type = \"mitchell\" }"),
+        &["unknown filter type 'mitchell'", "box, tent or gaussian"],
+    );
+    check(
+        &filter("{ type = \"tent\", radius = 0 }"),
+        &["filter 'radius' must be in (0, 8] pixels, got 0"],
+    );
+    check(
+        &filter("{ type = \"gaussian\", stddev = 3 }"),
+        &["filter 'stddev' must be in (0, 2] pixels, got 3"],
+    );
+    check(
+        &filter("{ type = \"gaussian\", radius = 1 }"),
+        &["filter 'gaussian' has no 'radius'"],
+    );
+    check(
+        &filter("{ type = \"box\", width = 1 }"),
+        &["unknown field `width`"],
+    );
+}

@@ -278,7 +278,11 @@ impl<'a> Tracer<'a> {
                     if let Some((raster, c)) =
                         self.connect_camera(&camera[..1], &cc[..1], &light[..s], &lc[..s])
                     {
-                        let pixel = scene.camera.pixel_index(raster) as u32;
+                        let u = scene.camera.splat_number(sampler);
+                        let Some((pixel, w)) = scene.camera.splat_pixel(raster, u) else {
+                            continue;
+                        };
+                        let (pixel, c) = (pixel as u32, c * w);
                         match sink.as_deref_mut() {
                             Some(sink) => {
                                 self.deliver(c, Some(pixel), sink, &camera[..1], &light[..s])

@@ -368,6 +368,13 @@ impl<'a, U: Unguided> Estimator<'a, U> {
         if g.used_chain_step() {
             stats.chain_steps += 1;
         }
+        // x_1 decides where the sample lands; the pixel filter picks the pixel it counts for
+        // (`Camera::splat_pixel`: the pixel of x_1 with weight 1 for the box).
+        let u = self.scene.camera.splat_number(sampler);
+        let Some((pixel, filter)) = self.scene.camera.splat_pixel(g.raster, u) else {
+            stats.fail(sampler::Failure::OffImage as usize);
+            return None;
+        };
         let path = &*path;
         let Some(y) = paths::from_path(self.scene, path) else {
             stats.fail(sampler::Failure::Structure as usize);
@@ -428,7 +435,7 @@ impl<'a, U: Unguided> Estimator<'a, U> {
         stats.pg_candidates += n as u64;
         stats.pg_candidates_guided += n as u64;
         stats.pg_evaluations_guided += 1;
-        let value = f / self.mix(p_u, p_g);
+        let value = f / self.mix(p_u, p_g) * filter as f64;
         if !(value.is_finite() && value.min_element() >= 0.0) {
             stats.fail(NON_FINITE);
             return None;
@@ -441,7 +448,7 @@ impl<'a, U: Unguided> Estimator<'a, U> {
             c: self.c(f_lum, p_u, p_g),
         });
         Some(GuidedValue {
-            pixel: path.pixel,
+            pixel: pixel as u32,
             value,
             guide: g.guide,
             record,

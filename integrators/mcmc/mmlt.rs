@@ -120,11 +120,24 @@ impl Target for MmltTarget<'_> {
         sampler.start_stream(0);
         let s = ((sampler.next_1d() * n as f32) as usize).min(n - 1);
         let t = k + 1 - s;
-        let raster = raster_of(self.scene, sampler.next_2d());
+        let u = sampler.next_2d();
+        let raster = raster_of(self.scene, u);
+        let camera = &self.scene.camera;
         match tracer.sample_technique(raster, s, t, sampler) {
-            // s = 0 on a path no connection makes: what `direct` estimates when the driver splits it off.
+            // t = 1 lands where the connection to the pinhole decides, and the pixel filter
+            // picks its pixel with the raster's first number, which t = 1 leaves unused.
+            Some((r, c)) if t == 1 => match camera.splat_pixel(r, u.x) {
+                Some((pixel, w)) => Contribution {
+                    pixel: pixel as u32,
+                    value: c.as_dvec3() * (n as f64 * w as f64),
+                    direct: false,
+                },
+                None => Contribution::ZERO,
+            },
+            // s = 0 on a path no connection makes: what `direct` estimates when the driver
+            // splits it off.
             Some((r, c)) => Contribution {
-                pixel: self.scene.camera.pixel_index(r) as u32,
+                pixel: camera.pixel_index(r) as u32,
                 value: c.as_dvec3() * n as f64,
                 direct: s == 0 && tracer.camera_unconnectible(),
             },

@@ -345,7 +345,8 @@ impl<'a> LightTracer<'a, '_> {
         }
         let err = gamma(8) * e.p.abs();
         if st.connect && max >= 1 && connectible_light(l) {
-            self.connect_origin(li, &e, densities.0, err, row, &origin);
+            let u = scene.camera.splat_number(sampler);
+            self.connect_origin(li, &e, densities.0, err, (row, u), &origin);
         }
         let beta = e.le * cos0 / (pick * e.pdf_pos * e.pdf_dir);
         let start = if e.n == Vec3::ZERO || infinite {
@@ -381,7 +382,8 @@ impl<'a> LightTracer<'a, '_> {
             let j = v.depth;
             if v.connectible() {
                 if st.connect && j < max {
-                    self.connect_camera(&v, row, full_start, &side);
+                    let u = scene.camera.splat_number(sampler);
+                    self.connect_camera(&v, (row, u), full_start, &side);
                 }
                 if j < max && (st.connect || v.mergeable()) {
                     row.vertices.push(v);
@@ -404,7 +406,7 @@ impl<'a> LightTracer<'a, '_> {
         e: &crate::light::EmissionSample,
         p_origin: f32,
         err: Vec3,
-        row: &mut LightRow,
+        (row, u): (&mut LightRow, f32),
         origin: &PathVertex,
     ) {
         let scene = self.scene;
@@ -455,7 +457,11 @@ impl<'a> LightTracer<'a, '_> {
         };
         let w = 1.0 / (1.0 + w_cam);
         crate::check::weight(crate::check::Technique::named("vcm light origin"), w as f64);
-        let pixel = cam.pixel_index(cs.raster) as u32;
+        // The filter's pixel for the splat (`Camera::splat_pixel`).
+        let Some((pixel, filter)) = cam.splat_pixel(cs.raster, u) else {
+            return;
+        };
+        let (pixel, c) = (pixel as u32, c * filter);
         let technique = Technique::Connect { s: 1 };
         // Two vertices: no structure (`paths::structure`), so never claimed.
         row.splats.push((pixel, c * w));
@@ -466,7 +472,7 @@ impl<'a> LightTracer<'a, '_> {
     fn connect_camera(
         &self,
         v: &Vertex<'a>,
-        row: &mut LightRow,
+        (row, u): (&mut LightRow, f32),
         full_start: usize,
         side: &LightSideHash,
     ) {
@@ -505,7 +511,10 @@ impl<'a> LightTracer<'a, '_> {
             crate::check::Technique::named("vcm light tracing"),
             w as f64,
         );
-        let pixel = cam.pixel_index(cs.raster) as u32;
+        let Some((pixel, filter)) = cam.splat_pixel(cs.raster, u) else {
+            return;
+        };
+        let (pixel, c) = (pixel as u32, c * filter);
         if self.records() {
             let full = std::mem::take(&mut row.full);
             let light = &full[full_start..];

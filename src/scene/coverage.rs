@@ -36,7 +36,7 @@ impl Scene {
             return vec![false; self.camera.pixel_count()];
         }
         let sees_emitter = |raster: Vec2| {
-            let ray = self.camera.generate_ray(raster);
+            let ray = self.camera.ray_through(raster);
             self.intersect(&ray).is_some_and(|sp| {
                 !sp.is_null()
                     && sp.light().is_some_and(|l| {

@@ -1,6 +1,7 @@
 //! `[camera]` and `[render]` tables.
 
 use super::*;
+use crate::filter::{Filter, FilterKind};
 
 impl Builder<'_> {
     pub(super) fn camera(&self, c: &Spanned<CameraDesc>) -> Result<Camera> {
@@ -57,7 +58,63 @@ impl Builder<'_> {
                 "'up' must not be zero or parallel to the viewing direction",
             );
         }
-        Ok(Camera::new(position, look_at, up, fov, UVec2::new(w, h)))
+        let filter = match &d.filter {
+            Some(f) => self.filter(f)?,
+            None => Filter::default(),
+        };
+        Ok(Camera::new(position, look_at, up, fov, UVec2::new(w, h)).with_filter(filter))
+    }
+
+    /// `filter = { type = "box" | "tent" | "gaussian", radius, stddev }`.
+    fn filter(&self, f: &Spanned<FilterDesc>) -> Result<Filter> {
+        let src = self.src;
+        let d = f.get_ref();
+        // A parameter in (0, max] pixels: supports up to 8 pixels wide (wider filters only
+        // blur, at a cost per splat).
+        let param = |v: &Option<Spanned<f32>>, key: &str, default: f32, max: f32| -> Result<f32> {
+            let Some(v) = v else { return Ok(default) };
+            let x = *v.get_ref();
+            if !(x > 0.0 && x <= max) {
+                return src.err(
+                    v.span(),
+                    format!("filter '{key}' must be in (0, {max}] pixels, got {x}"),
+                );
+            }
+            Ok(x)
+        };
+        let refuse = |v: &Option<Spanned<f32>>, key: &str, kind: &str| -> Result<()> {
+            match v {
+                Some(v) => src.err(v.span(), format!("filter '{kind}' has no '{key}'")),
+                None => Ok(()),
+            }
+        };
+        let kind = d.kind.get_ref().as_str();
+        let kind = match kind {
+            "box" => {
+                refuse(&d.radius, "radius", kind)?;
+                refuse(&d.stddev, "stddev", kind)?;
+                FilterKind::Box
+            }
+            "tent" => {
+                refuse(&d.stddev, "stddev", kind)?;
+                FilterKind::Tent {
+                    radius: param(&d.radius, "radius", 1.0, 8.0)?,
+                }
+            }
+            "gaussian" => {
+                refuse(&d.radius, "radius", kind)?;
+                FilterKind::Gaussian {
+                    stddev: param(&d.stddev, "stddev", 0.5, 2.0)?,
+                }
+            }
+            other => {
+                return src.err(
+                    d.kind.span(),
+                    format!("unknown filter type '{other}' (expected box, tent or gaussian)"),
+                );
+            }
+        };
+        Ok(Filter::new(kind))
     }
 
     pub(super) fn render(&self, r: Option<&RenderDesc>) -> Result<RenderDefaults> {

@@ -10,6 +10,8 @@
 //! up = [0, 1, 0]
 //! fov = 39.3077            # degrees, vertical axis, in (0, 180)
 //! resolution = [256, 256]
+//! filter = { type = "box" } # pixel filter (`filter.rs`): box (default), tent (radius 1 px),
+//!                          # gaussian (stddev 0.5 px, radius 4 stddev)
 //!
 //! [render]                 # defaults; the command line overrides them
 //! max_depth = 8            # maximum number of path segments
@@ -160,6 +162,20 @@ struct CameraDesc {
     up: Option<V3>,
     fov: Spanned<f32>,
     resolution: Spanned<[u32; 2]>,
+    #[serde(default)]
+    filter: Option<Spanned<FilterDesc>>,
+}
+
+/// `[camera] filter = { type = "tent", radius = 1 }` (`filter.rs`).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FilterDesc {
+    #[serde(rename = "type")]
+    kind: Spanned<String>,
+    #[serde(default)]
+    radius: Option<Spanned<f32>>,
+    #[serde(default)]
+    stddev: Option<Spanned<f32>>,
 }
 
 #[derive(Deserialize)]

@@ -8,11 +8,12 @@
 //!   overrides a default); `id` and
 //!   `<ref id>` (also `<ref name="interior" id>`) for BSDFs and media.
 //! * `sensor` `perspective`: `fov`, `fov_axis` (x, y, diagonal, smaller, larger; default x),
-//!   `to_world`, `near_clip`/`far_clip` (read; lodestar does not clip), a nested or referenced
+//!   `to_world`, `near_clip`/`far_clip` (read; lodestar does not clip), `focus_distance` (read,
+//!   as the pinhole does), a nested or referenced
 //!   medium (the medium the camera is in); `film` `hdrfilm` (or Mitsuba 0.x's `ldrfilm`, its
 //!   tone mapping read and the linear image written) `width`/`height` (768 x 576) with
-//!   `rfilter` `box` or none (lodestar's film is a box filter; Mitsuba's default Gaussian only
-//!   blurs), `pixel_format`/`component_format`/`file_format` (output only); `sampler`
+//!   `rfilter` `box`, `tent` (`radius` 1) or `gaussian` (`stddev` 0.5), the Gaussian when none
+//!   is given (`filter.rs`), `pixel_format`/`component_format`/`file_format` (output only); `sampler`
 //!   `independent`, `stratified`, `multijitter`, `orthogonal`, `ldsampler`, `sobol`, `halton`
 //!   or `hammersley`: `sample_count` (4) becomes the default spp (`seed`, `jitter`,
 //!   `strength`, `dimension`, `scramble` are read; lodestar draws its own numbers).

@@ -3,7 +3,9 @@
 //! function reads its plugin's properties through [`Props`], which makes any property it did
 //! not read an error.
 
-use super::super::{CameraDesc, LightDesc, RenderDesc, SceneDesc, ShapeDesc, TransformDesc};
+use super::super::{
+    CameraDesc, FilterDesc, LightDesc, RenderDesc, SceneDesc, ShapeDesc, TransformDesc,
+};
 use super::materials::{bsdf, material_desc, medium};
 use super::out::{Out, kind, s};
 use super::{Props, SensorMedium, Xml, span};
@@ -105,6 +107,16 @@ fn default_camera() -> CameraDesc {
         up: None,
         fov: Spanned::new(0..0, 39.6),
         resolution: Spanned::new(0..0, [768, 576]),
+        filter: Some(Spanned::new(0..0, mitsuba_default_filter(0..0))),
+    }
+}
+
+/// Mitsuba's film filter when the scene gives none: a Gaussian of standard deviation 0.5.
+fn mitsuba_default_filter(at: std::ops::Range<usize>) -> FilterDesc {
+    FilterDesc {
+        kind: Spanned::new(at, "gaussian".to_string()),
+        radius: None,
+        stddev: None,
     }
 }
 
@@ -147,11 +159,14 @@ fn sensor_plugin(xml: &Xml, n: Node, out: &mut Out, render: &mut RenderDesc) -> 
     let axis = p.string(xml, "fov_axis")?;
     p.float(xml, "near_clip")?;
     p.float(xml, "far_clip")?;
+    // A thin lens's focus; Mitsuba's pinhole accepts and ignores it (everything is in focus).
+    p.float(xml, "focus_distance")?;
     let to_world = p.take_to_world(xml)?;
     // Film.
     let films = p.nested(xml, "film")?;
     let (mut w, mut h) = (768u32, 576u32);
     let mut res_at = n;
+    let mut filter = None;
     if films.len() > 1 {
         return xml.err(films[1], "a sensor has one <film>");
     }
@@ -187,13 +202,15 @@ fn sensor_plugin(xml: &Xml, n: Node, out: &mut Out, render: &mut RenderDesc) -> 
                 fp.boolean(xml, key)?;
             }
         }
-        // A box filter of radius 1/2 never reaches past its pixel: the border changes nothing.
+        // Whether Mitsuba traces samples for the border beyond the image: lodestar's
+        // camera samples always look as far as the filter reaches (`filter.rs`).
         fp.boolean(xml, "sample_border")?;
-        for r in fp.nested(xml, "rfilter")? {
-            if kind(xml, r)? != "box" {
-                return xml.err(r, format!("rfilter '{}' is not supported: lodestar's film is a box filter (write <rfilter type=\"box\"/>)", kind(xml, r)?));
-            }
-            xml.props(r)?.finish(xml)?;
+        let rfilters = fp.nested(xml, "rfilter")?;
+        if rfilters.len() > 1 {
+            return xml.err(rfilters[1], "a film has one <rfilter>");
+        }
+        if let Some(&r) = rfilters.first() {
+            filter = Some(rfilter_plugin(xml, r)?);
         }
         fp.finish(xml)?;
     }
@@ -283,9 +300,39 @@ fn sensor_plugin(xml: &Xml, n: Node, out: &mut Out, render: &mut RenderDesc) -> 
             up: Some(s(t_at, up.to_array())),
             fov: s(fov_at, 2.0 * tan_y.atan().to_degrees()),
             resolution: s(res_at, [w, h]),
+            filter: Some(s(
+                res_at,
+                filter.unwrap_or_else(|| mitsuba_default_filter(span(res_at))),
+            )),
         },
     );
     Ok(())
+}
+
+/// `<rfilter type="box|tent|gaussian">` (`radius` for the tent, `stddev` for the Gaussian).
+fn rfilter_plugin(xml: &Xml, r: Node) -> Result<FilterDesc> {
+    let k = kind(xml, r)?;
+    if !["box", "tent", "gaussian"].contains(&k.as_str()) {
+        return xml.err(
+            r,
+            format!("rfilter '{k}' is not supported (box, tent or gaussian)"),
+        );
+    }
+    let mut p = xml.props(r)?;
+    let mut number = |key: &str| -> Result<Option<Spanned<f32>>> {
+        Ok(p.float(xml, key)?.map(|(at, v)| s(at, v)))
+    };
+    let (radius, stddev) = match k.as_str() {
+        "tent" => (number("radius")?, None),
+        "gaussian" => (None, number("stddev")?),
+        _ => (None, None),
+    };
+    p.finish(xml)?;
+    Ok(FilterDesc {
+        kind: s(r, k),
+        radius,
+        stddev,
+    })
 }
 
 fn shape_desc(n: Node, kind: &str) -> ShapeDesc {

@@ -1,5 +1,6 @@
-//! Images and films: per-pixel accumulation (each sample counts for its pixel; the pixel filter acts where samples and splats are made, `filter.rs`), deterministic splatting,
-//! EXR output (32-bit float RGB, or half) with the render's metadata in its header, PNG
+//! Images and films: per-pixel accumulation (each sample counts for its pixel; the pixel
+//! filter acts where samples and splats are made, `filter.rs`), deterministic splatting, EXR
+//! output (32-bit float RGB, or half) with the render's metadata in its header, PNG
 //! previews. Every file is written to a temporary name beside the target and renamed into
 //! place, so a reader never sees a half-written image.
 

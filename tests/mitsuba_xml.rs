@@ -1101,3 +1101,65 @@ fn film_filters_read_mitsubas_names_and_default() {
         "{e}"
     );
 }
+
+/// `shapegroup` and `instance`: each instance places the group's shapes under its
+/// `to_world` (after their own), as writing them out would; the group alone draws nothing;
+/// nested groups, an instance without a group and emitters in a group are errors.
+#[test]
+fn shapegroups_are_drawn_by_their_instances() {
+    let group = r#"<shape type="shapegroup" id="g">
+        <shape type="sphere"><float name="radius" value="0.25"/><point name="center" x="0" y="0" z="0.5"/></shape>
+        <shape type="rectangle"><transform name="to_world"><scale value="0.3"/></transform></shape>
+    </shape>"#;
+    let placed = |tx: f32| {
+        format!(
+            r#"<shape type="instance"><ref id="g"/><transform name="to_world"><translate x="{tx}" y="0.1" z="0"/></transform></shape>"#
+        )
+    };
+    let scene = xml(&wrap(&format!(
+        "{group}\n{}\n{}",
+        placed(-0.5),
+        placed(0.5)
+    )))
+    .unwrap();
+    assert_eq!(scene.shapes.len(), 4);
+    let written = xml(&wrap(
+        r#"<shape type="sphere"><float name="radius" value="0.25"/><point name="center" x="0" y="0" z="0.5"/><transform name="to_world"><translate x="-0.5" y="0.1" z="0"/></transform></shape>
+        <shape type="rectangle"><transform name="to_world"><scale value="0.3"/><translate x="-0.5" y="0.1" z="0"/></transform></shape>
+        <shape type="sphere"><float name="radius" value="0.25"/><point name="center" x="0" y="0" z="0.5"/><transform name="to_world"><translate x="0.5" y="0.1" z="0"/></transform></shape>
+        <shape type="rectangle"><transform name="to_world"><scale value="0.3"/><translate x="0.5" y="0.1" z="0"/></transform></shape>"#,
+    ))
+    .unwrap();
+    // The same surfaces: rays through the image hit at the same distances.
+    for i in 0..64 {
+        let r = glam::Vec2::new((i % 8) as f32 * 2.0 + 1.0, (i / 8) as f32 * 2.0 + 1.0);
+        let ray = scene.camera.ray_through(r);
+        let (a, b) = (scene.intersect(&ray), written.intersect(&ray));
+        assert_eq!(a.is_some(), b.is_some(), "{r}");
+        if let (Some(a), Some(b)) = (a, b) {
+            assert!(
+                (a.hit.t - b.hit.t).abs() < 1e-5 * a.hit.t,
+                "{r}: {} vs {}",
+                a.hit.t,
+                b.hit.t
+            );
+        }
+    }
+    assert_eq!(xml(&wrap(group)).unwrap().shapes.len(), 0);
+    let e = xml_err(&wrap(
+        r#"<shape type="instance"><transform name="to_world"><translate x="1"/></transform></shape>"#,
+    ));
+    assert!(
+        e.contains("an instance needs one <ref id> to a shapegroup"),
+        "{e}"
+    );
+    let e = xml_err(&wrap(
+        r#"<shape type="shapegroup" id="h"><shape type="shapegroup" id="i"/></shape>"#,
+    ));
+    assert!(e.contains("no nested groups"), "{e}");
+    let e = xml_err(&wrap(
+        r#"<shape type="shapegroup" id="h"><shape type="sphere"><emitter type="area"><rgb name="radiance" value="1"/></emitter></shape></shape>
+        <shape type="instance"><ref id="h"/></shape>"#,
+    ));
+    assert!(e.contains("a shape in group 'h' cannot emit"), "{e}");
+}

@@ -1240,3 +1240,109 @@ fn pixel_filters() {
         &["unknown field `width`"],
     );
 }
+
+/// Groups and instances: each instance draws its group's members under its transform, the
+/// same shapes (bit for bit in the image) as writing each placement out; the group's
+/// members alone are not drawn; errors name the key.
+#[test]
+fn groups_draw_where_instances_place_them() {
+    let head = r#"[camera]
+position = [0, 0, 3.9]
+look_at = [0, 0, 0]
+fov = 40
+resolution = [16, 16]
+
+[[material]]
+name = "white"
+type = "diffuse"
+albedo = [0.7, 0.7, 0.7]
+
+[[light]]
+type = "point"
+position = [0, 0.9, 1]
+intensity = [3, 3, 3]
+"#;
+    let quad = "type = \"quad\"\norigin = [-0.3, -0.3, 0]\nedge_u = [0.6, 0, 0]\nedge_v = [0, 0.6, 0]\nmaterial = \"white\"";
+    let ball = "type = \"sphere\"\ncenter = [0, 0, 0.3]\nradius = 0.2\nmaterial = \"white\"";
+    let places = [
+        "{ translate = [-0.5, 0.2, 0] }",
+        "{ scale = 0.5, rotate = { axis = [0, 1, 0], degrees = 30 }, translate = [0.5, -0.3, 0] }",
+    ];
+    let grouped = format!(
+        "{head}\n[[shape]]\n{quad}\ngroup = \"pair\"\n\n[[shape]]\n{ball}\ngroup = \"pair\"\n\n[[shape]]\ntype = \"instance\"\ngroup = \"pair\"\ntransform = {}\n\n[[shape]]\ntype = \"instance\"\nname = \"second\"\ngroup = \"pair\"\ntransform = {}\n",
+        places[0], places[1]
+    );
+    let mut explicit = head.to_string();
+    for t in places {
+        for shape in [quad, ball] {
+            explicit += &format!("\n[[shape]]\n{shape}\ntransform = {t}\n");
+        }
+    }
+    let a = load_str(&grouped, "grouped.toml", None).unwrap();
+    let b = load_str(&explicit, "explicit.toml", None).unwrap();
+    assert_eq!(a.shapes.len(), 4);
+    let render = |s: &Scene| {
+        let p = lodestar::integrators::IntegratorParams {
+            max_depth: 4,
+            options: lodestar::integrators::Options::default(),
+        };
+        let r = lodestar::integrators::render_named(
+            s,
+            "pt",
+            &p,
+            lodestar::render::Budget::Spp(4),
+            1,
+            1,
+            false,
+        )
+        .unwrap();
+        r.result
+            .image
+            .pixels
+            .iter()
+            .map(|p| p.to_array().map(f32::to_bits))
+            .collect::<Vec<_>>()
+    };
+    assert_eq!(
+        render(&a),
+        render(&b),
+        "instances differ from the shapes written out"
+    );
+    // Members alone are not drawn.
+    let members_only = grouped
+        .split("\n[[shape]]\ntype = \"instance\"")
+        .next()
+        .unwrap();
+    assert_eq!(
+        load_str(members_only, "m.toml", None).unwrap().shapes.len(),
+        0
+    );
+
+    let bad = |from: &str, to: &str| {
+        assert!(grouped.contains(from), "{from}");
+        grouped.replacen(from, to, 1)
+    };
+    let e = load_err(&bad(
+        "type = \"instance\"\ngroup = \"pair\"",
+        &format!("type = \"instance\"\ngroup = \"pairs\" {MARK}"),
+    ));
+    assert!(
+        e.contains("no shape belongs to group 'pairs' (groups: pair)"),
+        "{e}"
+    );
+    let e = load_err(&bad(
+        "type = \"instance\"\ngroup = \"pair\"",
+        &format!("type = \"instance\" {MARK}"),
+    ));
+    assert!(e.contains("an instance needs 'group'"), "{e}");
+    let e = load_err(&bad(
+        "type = \"instance\"\ngroup = \"pair\"",
+        &format!("type = \"instance\"\ngroup = \"pair\"\nmaterial = \"white\" {MARK}"),
+    ));
+    assert!(e.contains("does not take the key 'material'"), "{e}");
+    let e = load_err(&bad(
+        "radius = 0.2\nmaterial = \"white\"\ngroup",
+        &format!("radius = 0.2\nmaterial = \"white\"\nemission = [1, 1, 1] {MARK}\ngroup"),
+    ));
+    assert!(e.contains("a shape in group 'pair' cannot emit"), "{e}");
+}

@@ -53,6 +53,14 @@ impl Transform {
         normal_m.is_finite().then_some(Transform { m, normal_m })
     }
 
+    /// `self` applied after `inner` (an instance's placement after a member's own transform).
+    pub fn after(&self, inner: &Transform) -> Transform {
+        Transform {
+            m: self.m * inner.m,
+            normal_m: self.normal_m * inner.normal_m,
+        }
+    }
+
     /// The point `p` transformed.
     pub fn point(&self, p: Vec3) -> Vec3 {
         self.m.transform_point3(p)

@@ -97,16 +97,20 @@ impl Builder<'_> {
                 }
             }
         };
-        for (i, s) in desc.shape.iter().enumerate() {
+        for placed in self.placed_shapes(&desc.shape)? {
+            let (i, s) = (placed.index, &desc.shape[placed.index]);
             let d = s.get_ref();
-            let label = d
+            let mut label = d
                 .name
                 .clone()
                 .unwrap_or_else(|| format!("shape #{} ({})", i + 1, d.kind.get_ref()));
+            if let Some(instance) = &placed.instance {
+                label = format!("{label} in {instance}");
+            }
             // A tiled quad is one quad whose material follows a checkerboard.
-            let (geometry, tiling) = match self.tiled_quad(s)? {
+            let (geometry, tiling) = match self.tiled_quad(s, &placed.placement)? {
                 Some(t) => (t.quad, Some((t.corner_edges, t.tiles, t.tile_material))),
-                None => (self.shape(s)?, None),
+                None => (self.shape(s, &placed.placement)?, None),
             };
             {
                 if let ShapeGeometry::Mesh(m) = &geometry {

@@ -50,6 +50,9 @@
 //! transform = { scale = [1, 1, 1], rotate = { axis = [0, 1, 0], degrees = 0 }, translate = [0, 0, 0] }
 //!                          # or transform = { matrix = [[1, 0, 0, 0], ...] } (4 rows, affine)
 //! flip_normals = false     # meshes: turn the front side over
+//! group = "chairs"         # optional: drawn only where an instance of the group places it
+//!                          # (`groups.rs`); type = "instance" with group and transform places
+//!                          # every member, the instance's transform after the member's own
 //!
 //! [[light]]
 //! type = "point"           # point (position, intensity), spot (position, direction,
@@ -96,6 +99,7 @@ use toml::Spanned;
 
 mod build;
 mod camera;
+mod groups;
 mod lights;
 mod materials;
 mod mesh_files;
@@ -264,6 +268,9 @@ struct ShapeDesc {
     shape_index: Option<Spanned<i64>>,
     /// Meshes: turn the front side over (winding and normals).
     flip_normals: Option<Spanned<bool>>,
+    /// On any shape: it belongs to this group and is drawn only where an `instance` of the
+    /// group places it. On an `instance`: the group it draws (under its `transform`).
+    group: Option<Spanned<String>>,
 }
 
 #[derive(Deserialize)]

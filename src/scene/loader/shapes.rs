@@ -79,6 +79,7 @@ impl Builder<'_> {
     pub(super) fn tiled_quad<'a>(
         &self,
         s: &'a Spanned<ShapeDesc>,
+        placement: &Transform,
     ) -> Result<Option<TiledQuad<'a>>> {
         let src = self.src;
         let d = s.get_ref();
@@ -117,7 +118,7 @@ impl Builder<'_> {
             );
         }
         // The quad itself (its keys, edges and transform) is checked by `shape`.
-        let quad = self.shape(s)?;
+        let quad = self.shape(s, placement)?;
         let ShapeGeometry::Mesh(m) = &quad else {
             unreachable!("a quad is a mesh")
         };
@@ -130,13 +131,19 @@ impl Builder<'_> {
         }))
     }
 
-    pub(super) fn shape(&self, s: &Spanned<ShapeDesc>) -> Result<ShapeGeometry> {
+    /// The geometry of shape `s`, its own transform applied and then `placement` (an
+    /// instance's, for a member of a group; the identity otherwise).
+    pub(super) fn shape(
+        &self,
+        s: &Spanned<ShapeDesc>,
+        placement: &Transform,
+    ) -> Result<ShapeGeometry> {
         let src = self.src;
         let d = s.get_ref();
         let span = s.span();
         let kind = d.kind.get_ref().as_str();
         let what = format!("shape of type '{kind}'");
-        let t = self.transform(d.transform.as_ref())?;
+        let t = placement.after(&self.transform(d.transform.as_ref())?);
         let keys = [
             ("origin", at(&d.origin)),
             ("edge_u", at(&d.edge_u)),

@@ -42,7 +42,9 @@
 //!   `disk` (as a fan of 1024 triangles: 6e-6 less area than the disk), `sphere` (`center`,
 //!   `radius`), each with `to_world`, a BSDF (default: `diffuse` 0.5, black for emitters), an
 //!   `area` emitter (`radiance`) and `interior`/`exterior` media. A mesh without normals gets
-//!   Mitsuba's angle-weighted vertex normals unless `face_normals` is true.
+//!   Mitsuba's angle-weighted vertex normals unless `face_normals` is true. `shapegroup`
+//!   (its shapes, no emitters, no nesting) and `instance` (a `<ref>` to one, `to_world`):
+//!   each placement becomes copies of the group's shapes (`groups.rs`).
 //! * Emitters `point` (`intensity`, `position` or `to_world`), `spot` (`intensity`,
 //!   `cutoff_angle` 20, `beam_width` 3/4 of it, Mitsuba's edge linear in the angle,
 //!   `to_world`), `directional`

@@ -57,7 +57,11 @@ pub(super) fn scene(xml: &Xml, root: Node) -> Result<(SceneDesc, Option<SensorMe
             "medium" => {
                 medium(xml, n, &mut out)?;
             }
-            "shape" => shape(xml, n, &mut out)?,
+            "shape" => match kind(xml, n)?.as_str() {
+                "shapegroup" => shapegroup(xml, n, &mut out)?,
+                "instance" => instance(xml, n, &mut out)?,
+                _ => shape(xml, n, &mut out, None)?,
+            },
             "emitter" => emitter(xml, n, &mut out)?,
             "texture" => return xml.err(n, "textures are not supported (lodestar takes constant colours)"),
             // Read before the plugins (`<path>`) or expanded before the document is read.
@@ -361,6 +365,7 @@ fn shape_desc(n: Node, kind: &str) -> ShapeDesc {
         cone_delta: None,
         normals: None,
         flip_normals: None,
+        group: None,
         shape_index: None,
     }
 }
@@ -377,7 +382,51 @@ fn matrix_desc(at: Node, m: Mat4) -> Spanned<TransformDesc> {
     )
 }
 
-fn shape(xml: &Xml, n: Node, out: &mut Out) -> Result<()> {
+/// `<shape type="shapegroup" id>`: its shapes belong to the group, drawn where instances
+/// place it (`groups.rs`).
+fn shapegroup(xml: &Xml, n: Node, out: &mut Out) -> Result<()> {
+    let Some(id) = xml.attr(n, "id")? else {
+        return xml.err(n, "a shapegroup needs an 'id' (its instances refer to it)");
+    };
+    let mut p = xml.props(n)?;
+    let members = p.nested(xml, "shape")?;
+    p.finish(xml)?;
+    for m in members {
+        match kind(xml, m)?.as_str() {
+            "shapegroup" | "instance" => {
+                return xml.err(
+                    m,
+                    "a shapegroup holds plain shapes (no nested groups or instances)",
+                );
+            }
+            _ => shape(xml, m, out, Some(s(n, id.clone())))?,
+        }
+    }
+    Ok(())
+}
+
+/// `<shape type="instance">`: a `<ref>` to a shapegroup, placed by `to_world`.
+fn instance(xml: &Xml, n: Node, out: &mut Out) -> Result<()> {
+    let mut p = xml.props(n)?;
+    let to_world = p.take_to_world(xml)?;
+    let groups = p.nested(xml, "shape")?;
+    p.finish(xml)?;
+    let group = match groups.as_slice() {
+        [g] if kind(xml, *g)? == "shapegroup" => *g,
+        _ => return xml.err(n, "an instance needs one <ref id> to a shapegroup"),
+    };
+    let id = xml.attr(group, "id")?.unwrap_or_default();
+    let mut d = shape_desc(n, "instance");
+    d.name = xml.attr(n, "id")?;
+    d.group = Some(s(n, id));
+    if let Some((at, m)) = to_world {
+        d.transform = Some(matrix_desc(at, m));
+    }
+    out.desc.shape.push(s(n, d));
+    Ok(())
+}
+
+fn shape(xml: &Xml, n: Node, out: &mut Out, group: Option<toml::Spanned<String>>) -> Result<()> {
     let k = kind(xml, n)?;
     let k = k.as_str();
     let mut p = xml.props(n)?;
@@ -506,6 +555,7 @@ fn shape(xml: &Xml, n: Node, out: &mut Out) -> Result<()> {
         }
     };
     d.material = material;
+    d.group = group;
     out.desc.shape.push(s(n, d));
     Ok(())
 }

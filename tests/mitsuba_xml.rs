@@ -393,7 +393,7 @@ fn errors_name_the_line_and_the_plugin() {
         ),
         (
             r#"<shape type="shapegroup"/>"#,
-            "shape 'shapegroup' is not supported",
+            "a shapegroup needs an 'id'",
         ),
         (
             r#"<shape type="cube"><bsdf type="null"/></shape>"#,

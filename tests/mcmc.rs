@@ -392,7 +392,7 @@ impl Target for TwoRegions {
             return Contribution {
                 pixel: 0,
                 value: DVec3::ONE,
-                direct: false,
+                direct: DVec3::ZERO,
             };
         }
         let f = if (sampler.next_1d() - 0.5).abs() < 0.01 {
@@ -403,7 +403,7 @@ impl Target for TwoRegions {
         Contribution {
             pixel: 1,
             value: DVec3::splat(f),
-            direct: false,
+            direct: DVec3::ZERO,
         }
     }
 }

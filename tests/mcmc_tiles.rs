@@ -16,7 +16,7 @@ use crate::util;
 use lodestar::film::Image;
 use lodestar::integrators::mcmc::faults::Faults;
 use lodestar::integrators::mcmc::mmlt::mmlt_bdpt_settings;
-use lodestar::integrators::mcmc::{McmcSettings, Mmlt, Pssmlt};
+use lodestar::integrators::mcmc::{McmcSettings, Mmlt, Pssmlt, Split};
 use lodestar::integrators::paths::Heuristic;
 use lodestar::integrators::pt::{PathTracer, PtSettings};
 use lodestar::render::{Budget, Integrator, RenderContext};
@@ -57,6 +57,10 @@ fn render_with(scene: &Scene, make: &dyn Fn() -> Box<dyn Integrator>, seed: u64)
 }
 
 fn pssmlt(faults: Faults) -> Box<dyn Integrator> {
+    pssmlt_split(faults, McmcSettings::default().split)
+}
+
+fn pssmlt_split(faults: Faults, split: Split) -> Box<dyn Integrator> {
     Box::new(Pssmlt {
         pt: PathTracer {
             settings: PtSettings {
@@ -64,7 +68,10 @@ fn pssmlt(faults: Faults) -> Box<dyn Integrator> {
                 ..PtSettings::default()
             },
         },
-        settings: settings(faults),
+        settings: McmcSettings {
+            split,
+            ..settings(faults)
+        },
     })
 }
 
@@ -100,6 +107,17 @@ fn pssmlt_renders_pt_image_and_its_faults_do_not() {
     util::assert_same_image(&ok, &pt, BLOCK, "pssmlt against pt");
     // The whole image as one tile: the renders' means (b's estimate included) agree.
     util::assert_same_image(&ok, &pt, 16, "pssmlt against pt, image means");
+    // With the paths only a continued walk finds (through the glass sphere, the light seen
+    // directly) split off to the per-pixel estimate, and kept in the chains.
+    for split in [Split::Always, Split::Never] {
+        let other = renders(&scene, &|| pssmlt_split(Faults::default(), split), 100);
+        util::assert_same_image(
+            &other,
+            &pt,
+            BLOCK,
+            &format!("pssmlt ({split:?}) against pt"),
+        );
+    }
     for (what, faults) in [
         (
             "pssmlt, every large step accepted (control)",

@@ -15,19 +15,16 @@ pub struct Bootstrap {
     pub b: f64,
     /// Importance of each bootstrap sample, by sample index (chain starts are drawn from it).
     pub importance: Vec<f64>,
-    /// Whether each sample's path is flagged [`Contribution::direct`](super::target::Contribution::direct).
-    pub direct: Vec<bool>,
+    /// Importance of each sample without its
+    /// [`Contribution::direct`](super::target::Contribution::direct) part.
+    pub rest: Vec<f64>,
 }
 
 impl Bootstrap {
     /// Leave the flagged samples out (they are estimated per pixel): their importance is 0
     /// and `b` the mean of the rest (over every sample).
     pub fn without_direct(&mut self) {
-        for (x, &d) in self.importance.iter_mut().zip(&self.direct) {
-            if d {
-                *x = 0.0;
-            }
-        }
+        self.importance.copy_from_slice(&self.rest);
         self.b = self.importance.iter().sum::<f64>() / self.importance.len().max(1) as f64;
     }
 }
@@ -41,7 +38,7 @@ pub fn bootstrap_key(seed: u64, group: usize, i: u64) -> u64 {
 pub fn bootstrap<T: Target>(target: &T, seed: u64, n: u64, s: &McmcSettings) -> Vec<Bootstrap> {
     (0..target.groups())
         .map(|g| {
-            let (importance, direct): (Vec<f64>, Vec<bool>) = (0..n)
+            let (importance, rest): (Vec<f64>, Vec<f64>) = (0..n)
                 .into_par_iter()
                 .map_init(
                     || {
@@ -52,7 +49,7 @@ pub fn bootstrap<T: Target>(target: &T, seed: u64, n: u64, s: &McmcSettings) -> 
                     |(scratch, sampler), i| {
                         sampler.reset(bootstrap_key(seed, g, i));
                         let c = target.eval(scratch, g, sampler);
-                        (c.importance(), c.direct)
+                        (c.importance(), c.without_direct().importance())
                     },
                 )
                 .unzip();
@@ -60,7 +57,7 @@ pub fn bootstrap<T: Target>(target: &T, seed: u64, n: u64, s: &McmcSettings) -> 
             Bootstrap {
                 b,
                 importance,
-                direct,
+                rest,
             }
         })
         .collect()
@@ -89,12 +86,12 @@ impl SplitEvidence {
         let (mut b, mut var) = (0.0, 0.0);
         for g in boot {
             let (mut s, mut s2) = (0.0, 0.0);
-            for (&x, &d) in g.importance.iter().zip(&g.direct) {
+            for (&x, &r) in g.importance.iter().zip(&g.rest) {
                 all += x;
-                if d {
-                    s += x;
-                    s2 += x * x;
-                }
+                // The flagged part's importance (luminance is linear in the value).
+                let d = (x - r).max(0.0);
+                s += d;
+                s2 += d * d;
             }
             let n = g.importance.len() as f64;
             if n > 1.0 {

@@ -64,8 +64,8 @@ fn eval_split<T: Target, S: Sampler>(
     split: bool,
 ) -> Contribution {
     let c = target.eval(scratch, group, sampler);
-    if split && c.direct {
-        Contribution::ZERO
+    if split && c.direct != glam::DVec3::ZERO {
+        c.without_direct()
     } else {
         c
     }

@@ -27,7 +27,8 @@
 //!    [`SPLIT_SAMPLES`] samples' worth and its estimate of their part of `b` agrees with
 //!    pass 0's within [`SPLIT_Z`] standard errors, that is when the chains start with about
 //!    the right share of their time on them (not when the bootstrap holds none of them, or
-//!    a few far too bright).
+//!    a few far too bright), nor where neither estimate saw one and the scene has no delta
+//!    surface (lights seen directly are in every pixel's first sample).
 //!    The statistic `mcmc_direct_split` gives both estimates and the decision.
 //!
 //! A group whose bootstrap found no contribution (`b_g = 0`, e.g. a path length the 100k
@@ -167,10 +168,14 @@ pub fn render<T: Target>(
     }
     let (first_b, first_stderr) =
         mean_stderr(first.0.iter().map(|v| luminance(v.as_vec3()) as f64));
+    // Nothing to split where neither estimate saw such a path and no delta surface can make
+    // one beyond the lights the camera sees (which the first pass samples in every pixel).
+    let none_possible = evidence.b == 0.0 && first_b == 0.0 && !scene.features.specular_surfaces;
     let split = first_pass
         && (settings.split == Split::Always
-            || evidence.samples < SPLIT_SAMPLES
-            || evidence.disagrees(first_b, first_stderr, SPLIT_Z));
+            || !none_possible
+                && (evidence.samples < SPLIT_SAMPLES
+                    || evidence.disagrees(first_b, first_stderr, SPLIT_Z)));
     if split {
         boot.iter_mut().for_each(Bootstrap::without_direct);
     }

@@ -35,7 +35,7 @@
 
 use super::driver;
 use super::pssmlt::raster_of;
-use super::target::{Contribution, McmcSettings, Split, Target};
+use super::target::{Contribution, McmcSettings, Target};
 use crate::error::Result;
 use crate::integrators::IntegratorParams;
 use crate::integrators::bdpt::{BdptSettings, TECHNIQUE_STREAMS, Tracer};
@@ -49,13 +49,7 @@ use glam::{DVec3, Vec2};
 pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     let o = params.options.declared(super::MMLT_OPTIONS);
     let heuristic = crate::integrators::bdpt::heuristic(&o)?;
-    let mut settings = super::settings(&params.options)?;
-    settings.direct_every = o.int("specular_every")?;
-    settings.split = match o.word("separate_specular")? {
-        "true" => Split::Always,
-        "false" => Split::Never,
-        _ => Split::Auto,
-    };
+    let settings = super::settings(&params.options)?;
     Ok(Box::new(Mmlt {
         bdpt: mmlt_bdpt_settings(params.max_depth, heuristic),
         settings,
@@ -130,17 +124,21 @@ impl Target for MmltTarget<'_> {
                 Some((pixel, w)) => Contribution {
                     pixel: pixel as u32,
                     value: c.as_dvec3() * (n as f64 * w as f64),
-                    direct: false,
+                    direct: DVec3::ZERO,
                 },
                 None => Contribution::ZERO,
             },
             // s = 0 on a path no connection makes: what `direct` estimates when the driver
             // splits it off.
-            Some((r, c)) => Contribution {
-                pixel: camera.pixel_index(r) as u32,
-                value: c.as_dvec3() * n as f64,
-                direct: s == 0 && tracer.camera_unconnectible(),
-            },
+            Some((r, c)) => {
+                let value = c.as_dvec3() * n as f64;
+                let flagged = s == 0 && tracer.camera_unconnectible();
+                Contribution {
+                    pixel: camera.pixel_index(r) as u32,
+                    value,
+                    direct: if flagged { value } else { DVec3::ZERO },
+                }
+            }
             None => Contribution::ZERO,
         }
     }

@@ -85,39 +85,40 @@ const CHAIN_OPTIONS: &[Spec] = &[
     },
 ];
 
-/// The options of pssmlt: the chains', and pt's `rr_depth` and `strategy`.
+/// The per-pixel split of the paths a chain start cannot represent (`driver.rs`, step 4).
+const SPLIT_OPTIONS: &[Spec] = &[
+    Spec {
+        name: "separate_specular",
+        kind: Kind::Choice(&["auto", "true", "false"]),
+        default: DefaultValue::Word("auto"),
+        doc: "estimate per pixel, not by the chains, the paths only a camera walk continuing \
+              through mirrors and glass finds (mmlt: s = 0 where no connection makes the path, \
+              `mmlt.rs`; pssmlt: emission reached from a delta vertex or by the camera ray); \
+              `auto`: unless the bootstrap holds them on 16 samples' worth and agrees with the \
+              first pass's per-pixel estimate of them",
+    },
+    Spec {
+        name: "specular_every",
+        kind: Kind::Int { min: 1 },
+        default: DefaultValue::Int(target::DIRECT_EVERY),
+        doc: "with `separate_specular`: a pixel's sample of those paths every this many \
+              passes (every pixel in the first)",
+    },
+];
+
+/// The options of pssmlt: the chains', the split's, and pt's `rr_depth` and `strategy`.
 pub const PSSMLT_OPTIONS: &[&[Spec]] = &[
     CHAIN_OPTIONS,
+    SPLIT_OPTIONS,
     &[super::pt::RR_DEPTH_OPTION, super::pt::STRATEGY_OPTION],
 ];
 
 /// The options of mmlt (which walks fixed lengths and never plays roulette).
-pub const MMLT_OPTIONS: &[&[Spec]] = &[
-    CHAIN_OPTIONS,
-    &[
-        super::bdpt::MIS_OPTION,
-        Spec {
-            name: "separate_specular",
-            kind: Kind::Choice(&["auto", "true", "false"]),
-            default: DefaultValue::Word("auto"),
-            doc: "the s = 0 technique on paths no connection makes (lights seen through mirrors \
-                  and glass, caustics seen through them) estimated per pixel, not by the \
-                  chains; `auto`: unless the bootstrap holds them on 16 samples' worth and agrees \
-                  with the first pass's per-pixel estimate of them (`mmlt.rs`)",
-        },
-        Spec {
-            name: "specular_every",
-            kind: Kind::Int { min: 1 },
-            default: DefaultValue::Int(target::DIRECT_EVERY),
-            doc: "with `separate_specular`: a pixel's sample of those paths every this many \
-                  passes (every pixel in the first)",
-        },
-    ],
-];
+pub const MMLT_OPTIONS: &[&[Spec]] = &[CHAIN_OPTIONS, SPLIT_OPTIONS, &[super::bdpt::MIS_OPTION]];
 
-/// The chain settings common to both integrators.
+/// The chain settings common to both integrators, the split's included.
 pub fn settings(o: &Options) -> Result<McmcSettings> {
-    let o = o.declared(&[CHAIN_OPTIONS]);
+    let o = o.declared(&[CHAIN_OPTIONS, SPLIT_OPTIONS]);
     let d = McmcSettings::default();
     let bootstrap = o.int("bootstrap")?;
     let chains = o.int("chains")?;
@@ -147,8 +148,12 @@ pub fn settings(o: &Options) -> Result<McmcSettings> {
         chains,
         large_step,
         small_step,
-        split: d.split,
-        direct_every: d.direct_every,
+        split: match o.word("separate_specular")? {
+            "true" => Split::Always,
+            "false" => Split::Never,
+            _ => Split::Auto,
+        },
+        direct_every: o.int("specular_every")?,
         faults: d.faults,
     })
 }

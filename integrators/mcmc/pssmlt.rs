@@ -11,7 +11,7 @@ use crate::integrators::pt::PathTracer;
 use crate::math::Sampler;
 use crate::render::{Budget, Integrator, RenderContext, RenderResult};
 use crate::scene::Scene;
-use glam::Vec2;
+use glam::{DVec3, Vec2};
 
 /// Build pssmlt from its parameters (pt's options plus the Metropolis ones).
 pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
@@ -62,12 +62,20 @@ impl Target for PssTarget<'_> {
 
     fn eval<S: Sampler>(&self, _: &mut (), _: usize, sampler: &mut S) -> Contribution {
         let raster = raster_of(self.scene, sampler.next_2d());
-        let l = self.pt.li(self.scene, raster, sampler);
+        let (l, direct) = self.pt.li_split(self.scene, raster, sampler);
         Contribution {
             pixel: self.scene.camera.pixel_index(raster) as u32,
             value: l.as_dvec3(),
-            direct: false,
+            direct: direct.as_dvec3(),
         }
+    }
+
+    fn has_direct(&self) -> bool {
+        true
+    }
+
+    fn direct<S: Sampler>(&self, _: &mut (), raster: Vec2, sampler: &mut S) -> DVec3 {
+        self.pt.li_split(self.scene, raster, sampler).1.as_dvec3()
     }
 }
 

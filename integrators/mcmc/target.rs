@@ -14,9 +14,9 @@ pub struct Contribution {
     pub pixel: u32,
     /// The path's contribution f / p to that pixel, in pixel units.
     pub value: DVec3,
-    /// The path is one [`Target::direct`] estimates per pixel when the driver splits them
-    /// off ([`Split`]).
-    pub direct: bool,
+    /// The part of `value` that [`Target::direct`] estimates per pixel, which the chains
+    /// leave out when the driver splits those paths off ([`Split`]); zero for most samples.
+    pub direct: DVec3,
 }
 
 impl Contribution {
@@ -24,17 +24,30 @@ impl Contribution {
     pub const ZERO: Contribution = Contribution {
         pixel: 0,
         value: DVec3::ZERO,
-        direct: false,
+        direct: DVec3::ZERO,
     };
 
     /// The chain's target density (up to b): luminance, 0 for invalid values.
     pub fn importance(&self) -> f64 {
-        let v = self.value;
-        if v.is_finite() && v.min_element() >= 0.0 {
-            luminance(v.as_vec3()) as f64
-        } else {
-            0.0
+        importance_of(self.value)
+    }
+
+    /// The same contribution without its [`Contribution::direct`] part.
+    pub fn without_direct(&self) -> Contribution {
+        Contribution {
+            value: self.value - self.direct,
+            direct: DVec3::ZERO,
+            ..*self
         }
+    }
+}
+
+/// Luminance of `v`, 0 for invalid (non-finite or negative) values.
+pub fn importance_of(v: DVec3) -> f64 {
+    if v.is_finite() && v.min_element() >= 0.0 {
+        luminance(v.as_vec3()) as f64
+    } else {
+        0.0
     }
 }
 

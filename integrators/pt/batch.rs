@@ -213,6 +213,7 @@ impl PathTracer {
                     guide: None,
                     trail: None,
                     deferred: Some(&mut b.deferred),
+                    direct: None,
                 };
                 let alive = self.advance(scene, path, sp.as_ref(), &mut samplers[*i], &mut extras);
                 b.alive.push(alive);

@@ -66,6 +66,11 @@ impl PathTracer {
         }
         let w = self.emission_weight(scene, li, prev, path.pass, pdf_li);
         path.l += path.beta * le * w;
+        if prev.delta
+            && let Some(d) = &mut extras.direct
+        {
+            *d += path.beta * le * w;
+        }
     }
 
     /// MIS weight of emission found by continuing the path (or by the camera ray).

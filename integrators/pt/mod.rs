@@ -207,6 +207,20 @@ impl PathTracer {
         self.li_with(scene, raster, sampler, None, Some(guide), trail)
     }
 
+    /// As [`Self::li`], and the part of it that only continuing the path finds: emission
+    /// reached from a delta vertex or by the camera ray (next-event estimation cannot make
+    /// those paths, so their MIS weight is 1). `pssmlt` splits this part off its chains.
+    pub fn li_split(
+        &self,
+        scene: &Scene,
+        raster: Vec2,
+        sampler: &mut impl Sampler,
+    ) -> (Spectrum, Spectrum) {
+        let mut direct = Spectrum::ZERO;
+        let l = self.li_inner(scene, raster, sampler, None, None, None, Some(&mut direct));
+        (l, direct)
+    }
+
     fn li_with(
         &self,
         scene: &Scene,
@@ -214,7 +228,21 @@ impl PathTracer {
         sampler: &mut impl Sampler,
         recorder: Option<&mut dyn PathRecorder>,
         guide: Option<&Guide>,
+        trail: Option<&mut Trail>,
+    ) -> Spectrum {
+        self.li_inner(scene, raster, sampler, recorder, guide, trail, None)
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn li_inner(
+        &self,
+        scene: &Scene,
+        raster: Vec2,
+        sampler: &mut impl Sampler,
+        recorder: Option<&mut dyn PathRecorder>,
+        guide: Option<&Guide>,
         mut trail: Option<&mut Trail>,
+        direct: Option<&mut Spectrum>,
     ) -> Spectrum {
         let mut path = PathState::new(scene, raster);
         // Built in place (a path of 64 vertices): `Extras` only borrows it.
@@ -227,12 +255,16 @@ impl PathTracer {
             guide,
             trail: trail.as_deref_mut(),
             deferred: None,
+            direct: direct.as_ref().map(|_| Spectrum::ZERO),
         };
         loop {
             let sp = scene.intersect(&path.ray);
             if !self.advance(scene, &mut path, sp.as_ref(), sampler, &mut extras) {
                 break;
             }
+        }
+        if let (Some(out), Some(d)) = (direct, extras.direct) {
+            *out = d;
         }
         if let (Some(t), Some(g)) = (trail, guide) {
             t.record(g.tree, path.l);
@@ -550,6 +582,9 @@ struct Extras<'e, 'r, 'g, 't, 'q> {
     guide: Option<&'g Guide<'g>>,
     trail: Option<&'t mut Trail>,
     deferred: Option<&'q mut Vec<Deferred>>,
+    /// With `Some`, the sum of the emission only continuing the path finds (from a delta
+    /// vertex or the camera ray; [`PathTracer::li_split`]).
+    direct: Option<Spectrum>,
 }
 
 /// A next-event sample waiting for its shadow ray: `path.l += beta * value` if `query`

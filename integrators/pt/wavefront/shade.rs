@@ -195,6 +195,7 @@ impl PathTracer {
             guide: None,
             trail: None,
             deferred: None,
+            direct: None,
         };
         for (k, ((i, path), hit)) in paths.iter_mut().zip(hits.iter_mut()).enumerate() {
             let Some(h) = hit.take() else {

@@ -2,6 +2,16 @@
 //! a state is one pt sample: its first two numbers place the sample on the image, the rest
 //! drive `PathTracer::li`. Options: the chain options of the module above and pt's own
 //! (`rr_depth`, `strategy`).
+//!
+//! **Emission only a continued walk finds** (`-O separate_specular`, default `auto`): the
+//! part of a sample that is emission reached from a delta vertex or by the camera ray (no
+//! next-event estimate makes it: caustics, lights seen through glass, the light seen
+//! directly; `PathTracer::li_split`) can leave the chains and be estimated per pixel by pt
+//! itself, every `specular_every` passes, as mmlt's split (`mmlt.rs`). On `fog-dragon` the
+//! bootstrap holds those paths on one sample's worth (one sample carries 5 % of its
+//! importance, and draws that share of the chains to a few caustic paths), so `auto` splits
+//! them; on `pool` it holds them on about 190 samples' worth and keeps them in the chains,
+//! whose exploration of the caustics is pssmlt's strength there.
 
 use super::driver;
 use super::target::{Contribution, McmcSettings, Target};

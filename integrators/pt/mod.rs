@@ -191,7 +191,7 @@ impl PathTracer {
         sampler: &mut impl Sampler,
         recorder: Option<&mut dyn PathRecorder>,
     ) -> Spectrum {
-        self.li_with(scene, raster, sampler, recorder, None, None)
+        self.li_inner(scene, raster, sampler, recorder, None, None, None)
     }
 
     /// As [`Self::li`], the continuation guided by `guide` (`guiding.rs`); with `trail`
@@ -204,7 +204,7 @@ impl PathTracer {
         guide: &Guide,
         trail: Option<&mut Trail>,
     ) -> Spectrum {
-        self.li_with(scene, raster, sampler, None, Some(guide), trail)
+        self.li_inner(scene, raster, sampler, None, Some(guide), trail, None)
     }
 
     /// As [`Self::li`], and the part of it that only continuing the path finds: emission
@@ -219,18 +219,6 @@ impl PathTracer {
         let mut direct = Spectrum::ZERO;
         let l = self.li_inner(scene, raster, sampler, None, None, None, Some(&mut direct));
         (l, direct)
-    }
-
-    fn li_with(
-        &self,
-        scene: &Scene,
-        raster: Vec2,
-        sampler: &mut impl Sampler,
-        recorder: Option<&mut dyn PathRecorder>,
-        guide: Option<&Guide>,
-        trail: Option<&mut Trail>,
-    ) -> Spectrum {
-        self.li_inner(scene, raster, sampler, recorder, guide, trail, None)
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -275,7 +263,7 @@ impl PathTracer {
     /// One segment of the path: from what `path.ray` found (`sp`, `None` for a miss) to the
     /// next ray. Returns false when the path ends. Next-event estimation either traces its
     /// shadow ray here or, with `extras.deferred`, queues it for a batch (`batch.rs`).
-    /// Inlined into both loops (`li_with`, `li_row`), as is `next_event`: pt on the Cornell
+    /// Inlined into both loops (`li_inner`, `li_row`), as is `next_event`: pt on the Cornell
     /// box ran 5-10 % slower with them as calls (the state round-trips through memory).
     #[inline(always)]
     fn advance(

@@ -52,30 +52,15 @@ impl Builder<'_> {
                 }
                 continue;
             }
-            let keys = [
+            let mut keys = vec![
                 ("material", at(&d.material)),
                 ("emission", at(&d.emission)),
-                ("origin", at(&d.origin)),
-                ("edge_u", at(&d.edge_u)),
-                ("edge_v", at(&d.edge_v)),
-                ("center", at(&d.center)),
-                ("normal", at(&d.normal)),
-                ("radius", at(&d.radius)),
-                ("segments", at(&d.segments)),
-                ("file", at(&d.file)),
-                ("size", at(&d.size)),
-                ("grid", at(&d.grid)),
-                ("waves", at(&d.waves)),
-                ("tiles", at(&d.tiles)),
-                ("tile_material", at(&d.tile_material)),
                 ("interior", at(&d.interior)),
                 ("exterior", at(&d.exterior)),
                 ("cone_angle", at(&d.cone_angle)),
                 ("cone_delta", at(&d.cone_delta)),
-                ("normals", at(&d.normals)),
-                ("shape_index", at(&d.shape_index)),
-                ("flip_normals", at(&d.flip_normals)),
             ];
+            keys.extend(d.geometry_keys());
             self.only(
                 "an instance (it takes 'group', 'transform' and 'name')",
                 &keys,

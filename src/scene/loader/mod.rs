@@ -539,6 +539,32 @@ struct Builder<'a> {
 }
 
 /// Where an optional key is, if it is present.
+impl ShapeDesc {
+    /// The keys that describe a shape's geometry, each with where it is given (if it is):
+    /// what `Builder::only` checks against the keys a shape type takes.
+    fn geometry_keys(&self) -> [(&'static str, Option<std::ops::Range<usize>>); 16] {
+        let d = self;
+        [
+            ("origin", at(&d.origin)),
+            ("edge_u", at(&d.edge_u)),
+            ("edge_v", at(&d.edge_v)),
+            ("center", at(&d.center)),
+            ("normal", at(&d.normal)),
+            ("radius", at(&d.radius)),
+            ("segments", at(&d.segments)),
+            ("file", at(&d.file)),
+            ("size", at(&d.size)),
+            ("grid", at(&d.grid)),
+            ("waves", at(&d.waves)),
+            ("tiles", at(&d.tiles)),
+            ("tile_material", at(&d.tile_material)),
+            ("normals", at(&d.normals)),
+            ("flip_normals", at(&d.flip_normals)),
+            ("shape_index", at(&d.shape_index)),
+        ]
+    }
+}
+
 fn at<T>(v: &Option<Spanned<T>>) -> Option<std::ops::Range<usize>> {
     v.as_ref().map(Spanned::span)
 }

@@ -144,24 +144,7 @@ impl Builder<'_> {
         let kind = d.kind.get_ref().as_str();
         let what = format!("shape of type '{kind}'");
         let t = placement.after(&self.transform(d.transform.as_ref())?);
-        let keys = [
-            ("origin", at(&d.origin)),
-            ("edge_u", at(&d.edge_u)),
-            ("edge_v", at(&d.edge_v)),
-            ("center", at(&d.center)),
-            ("normal", at(&d.normal)),
-            ("radius", at(&d.radius)),
-            ("segments", at(&d.segments)),
-            ("file", at(&d.file)),
-            ("size", at(&d.size)),
-            ("grid", at(&d.grid)),
-            ("waves", at(&d.waves)),
-            ("tiles", at(&d.tiles)),
-            ("tile_material", at(&d.tile_material)),
-            ("normals", at(&d.normals)),
-            ("flip_normals", at(&d.flip_normals)),
-            ("shape_index", at(&d.shape_index)),
-        ];
+        let keys = d.geometry_keys();
         let allowed: &[&str] =
             match kind {
                 "quad" => &["origin", "edge_u", "edge_v", "tiles", "tile_material", "flip_normals"],

@@ -16,8 +16,8 @@
 //!    start at states of positive importance and never accept a proposal of zero importance
 //!    (or NaN), so a state of zero importance does not occur; nothing is clamped.
 //!
-//! 4. **direct** (targets with [`Target::has_direct`], `mmlt`'s paths that no connection
-//!    makes): the paths the target flags
+//! 4. **direct** (targets with [`Target::has_direct`]: `mmlt`'s paths that no connection
+//!    makes, `pssmlt`'s emission that only a continued walk finds): the paths the target flags
 //!    [`Contribution::direct`](super::target::Contribution::direct) may leave the chains
 //!    (their importance is 0 there, in the bootstrap too) and be estimated per pixel, every
 //!    pixel in pass 0 and then each pixel every `direct_every`-th pass (interleaved, on its

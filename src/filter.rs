@@ -52,9 +52,9 @@ pub struct Filter {
     radius: f64,
     /// The 1-D profile at `values.len()` evenly spaced points on [-radius, radius],
     /// normalised to unit integral (piecewise linear between them); empty for the box.
-    values: Vec<f64>,
+    values: Box<[f64]>,
     /// Integral of the profile from -radius to each of those points.
-    cdf: Vec<f64>,
+    cdf: Box<[f64]>,
 }
 
 impl Default for Filter {
@@ -82,24 +82,24 @@ impl Filter {
                 (r, v)
             }
         };
-        let mut f = Filter {
-            kind,
-            radius,
-            values: profile,
-            cdf: Vec::new(),
-        };
-        if !f.values.is_empty() {
-            let h = f.segment();
-            let mut cdf = vec![0.0];
-            for w in f.values.windows(2) {
+        let mut values = profile;
+        let mut cdf = Vec::new();
+        if !values.is_empty() {
+            let h = 2.0 * radius / (values.len() - 1) as f64;
+            cdf.push(0.0);
+            for w in values.windows(2) {
                 cdf.push(cdf.last().unwrap() + 0.5 * (w[0] + w[1]) * h);
             }
             let total = *cdf.last().unwrap();
-            f.values.iter_mut().for_each(|v| *v /= total);
+            values.iter_mut().for_each(|v| *v /= total);
             cdf.iter_mut().for_each(|c| *c /= total);
-            f.cdf = cdf;
         }
-        f
+        Filter {
+            kind,
+            radius,
+            values: values.into(),
+            cdf: cdf.into(),
+        }
     }
 
     /// Which filter this is.

@@ -9,7 +9,7 @@
 //! numbers.
 //!
 //! [`Tracer::unconnectible_emission`] is the s = 0 technique on the paths no connection makes
-//! ([`walk::unconnectible`]: a light seen through mirrors and glass, E S* L, and caustics seen
+//! (`walk::unconnectible`: a light seen through mirrors and glass, E S* L, and caustics seen
 //! through them, E S+ D S+ L), all lengths at once from one camera walk, for `mmlt`'s
 //! per-pixel estimate of the paths its chains leave out ([`Tracer::camera_unconnectible`]).
 
@@ -75,14 +75,14 @@ impl<'a> Tracer<'a> {
     }
 
     /// Whether the camera subpath of the last [`Tracer::sample_technique`], ending on a light
-    /// (s = 0), makes a path that no connection makes ([`walk::unconnectible`]).
+    /// (s = 0), makes a path that no connection makes (`walk::unconnectible`).
     pub fn camera_unconnectible(&self) -> bool {
         walk::unconnectible(&self.camera)
     }
 
     /// The s = 0 technique's MIS-weighted estimate, summed over every length up to
     /// `max_depth`, of the paths through `raster` that no connection makes
-    /// ([`walk::unconnectible`]): one camera walk that stops where two consecutive vertices
+    /// (`walk::unconnectible`): one camera walk that stops where two consecutive vertices
     /// are off delta surfaces, with the emission found at each of its vertices that ends
     /// such a path weighed as [`Tracer::sample_technique`] weighs s = 0 (so this and the techniques
     /// `sample_technique` gives on all other paths add up to BDPT's estimate). Like

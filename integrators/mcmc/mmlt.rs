@@ -28,7 +28,7 @@
 //! (`pool`'s light in the rippled water and its caustics), the chains, which find a glint and
 //! stay on it, beat one sample per pixel every few passes by far, and there the bootstrap
 //! holds them on about 20 samples' worth, in the share the first pass estimates. `auto`
-//! keeps them in the chains only then (see the driver's [`Split::Auto`]); `true` and `false`
+//! keeps them in the chains only then (see the driver's `Split::Auto`); `true` and `false`
 //! force either way. The statistic `mcmc_direct_split` reports the decision and both
 //! estimates. Caveat (as for every length): a length whose remaining techniques the
 //! bootstrap never lights gets no chains.

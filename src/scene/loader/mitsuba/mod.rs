@@ -65,14 +65,15 @@
 //! wavelengths) is an error naming the file, the line and the plugin: nothing is skipped.
 //!
 //! Files: this one reads the document (parameters, references, property values, transforms);
-//! `plugins.rs` turns the scene, sensor, integrator, shapes and emitters into the scene
-//! description, `materials.rs` the BSDFs and media.
+//! `plugins.rs` turns the scene, sensor, integrator and emitters into the scene description,
+//! `shapes.rs` the shapes (groups and instances included), `materials.rs` the BSDFs and media.
 
 mod conductors;
 mod include;
 mod materials;
 mod out;
 mod plugins;
+mod shapes;
 mod transform;
 mod upgrade;
 

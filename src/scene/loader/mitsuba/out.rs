@@ -1,5 +1,5 @@
 //! What the Mitsuba plugins produce (the scene description and the elements already
-//! converted), shared by `plugins.rs` and `materials.rs`, and the two helpers both use.
+//! converted), shared by `plugins.rs`, `shapes.rs` and `materials.rs`, and the two helpers both use.
 
 use super::super::SceneDesc;
 use super::{SensorMedium, Xml, span};

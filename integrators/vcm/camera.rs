@@ -15,12 +15,13 @@
 
 use super::light::{LightPaths, Photon};
 use super::vertex::{
-    Edge, Mis, Scatter, Vertex, connectible_light, emission_densities, hittable, nee_density,
+    Edge, Mis, MisVertex, connectible_light, emission_densities, hittable, nee_density,
 };
 use super::walk::{Step, Walk};
 use super::{Claims, Inspector, PassConstants, Record, Technique, VcmSettings, joined};
 use crate::bsdf::TransportMode;
 use crate::geometry::{HashGrid, gamma};
+use crate::integrators::paths::Kind;
 use crate::integrators::paths::structure::{CameraSideHash, HeldKey, emitter_hash};
 use crate::integrators::unguided::HeldPaths;
 use crate::math::{Sampler, Spectrum};
@@ -184,7 +185,7 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
     /// segment that crossed no medium if `vacuum`.
     fn emitter_hit(
         &self,
-        v: &Vertex<'a>,
+        v: &MisVertex<'a>,
         li: usize,
         prev_p: Vec3,
         vacuum: bool,
@@ -265,7 +266,7 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
     }
 
     /// s = 1: next-event estimation from `v`.
-    fn next_event(&self, v: &Vertex<'a>, sampler: &mut impl Sampler) -> Spectrum {
+    fn next_event(&self, v: &MisVertex<'a>, sampler: &mut impl Sampler) -> Spectrum {
         let scene = self.scene;
         let (u_light, u) = (sampler.next_1d(), sampler.next_2d());
         let Some((li, pick)) = scene.light_sampler.sample(u_light) else {
@@ -288,9 +289,12 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
             n: ls.n,
             err: gamma(8) * ls.p.abs(),
         });
-        let Some(tr) =
-            scene.transmittance(&v.endpoint(), end.as_ref(), ls.wi, v.medium_towards(ls.wi))
-        else {
+        let Some(tr) = scene.transmittance(
+            &v.endpoint(),
+            end.as_ref(),
+            ls.wi,
+            v.medium_towards(scene, ls.wi),
+        ) else {
             return Spectrum::ZERO;
         };
         let c = v.beta * f * ls.li * tr.tr / (pick * ls.pdf);
@@ -308,7 +312,7 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
         };
         let edge = Edge::along(&tr);
         // (44): the BSDF sampling the light point (s = 0).
-        let w_light = if hittable(l) {
+        let w_light = if hittable(scene, li) {
             pdf_to_light * cos_y / d2 * edge.pass / p_nee
         } else {
             0.0
@@ -337,7 +341,7 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
     }
 
     /// s, t >= 2: connect camera vertex `v` with light vertex `y`.
-    fn connect(&self, v: &Vertex<'a>, y: &Vertex<'a>, k: usize, key: HeldKey) -> Spectrum {
+    fn connect(&self, v: &MisVertex<'a>, y: &MisVertex<'a>, k: usize, key: HeldKey) -> Spectrum {
         let scene = self.scene;
         let d = y.p - v.p;
         let d2 = d.length_squared();
@@ -358,7 +362,7 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
             &v.endpoint(),
             Some(&y.endpoint()),
             dir,
-            v.medium_towards(dir),
+            v.medium_towards(scene, dir),
         ) else {
             return Spectrum::ZERO;
         };
@@ -391,14 +395,14 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
 
     /// Merge at `v` with every stored light vertex within the radius (whose path is not too
     /// long), normalised by 1 / (pi r^2 N).
-    fn merge(&self, v: &Vertex<'a>, grid: &HashGrid<Photon>) -> Spectrum {
+    fn merge(&self, v: &MisVertex<'a>, grid: &HashGrid<Photon>) -> Spectrum {
         let max = self.settings.max_depth;
         let vc = self.pc.factors.vc;
         let mut sum = Spectrum::ZERO;
-        let Scatter::Surface { bsdf, frame, .. } = v.scatter else {
+        let Kind::Surface { bsdf, frame, .. } = v.kind else {
             return Spectrum::ZERO;
         };
-        // Both directions' densities at v, as `Vertex::pdf_w` gives them (v is not delta).
+        // Both directions' densities at v, as `MisVertex::f_pdfs` gives them (v is not delta).
         let q = bsdf.continuation().min(v.q_cap);
         let w_cam_vertex = v.mis.d_vcm * vc;
         let mut photons = 0u64;

@@ -9,7 +9,7 @@
 //! is kept beside its stored vertices (`LightRow::keys`), which the camera tracer's claims
 //! test first.
 
-use super::vertex::{Edge, Vertex, connectible_light, emission, emission_densities, hittable};
+use super::vertex::{Edge, MisVertex, connectible_light, emission, emission_densities, hittable};
 use super::walk::{Step, Walk};
 use super::{Claimed, Claims, Inspector, PassConstants, Record, Technique, VcmSettings, joined};
 use crate::bsdf::TransportMode;
@@ -26,7 +26,7 @@ use rayon::prelude::*;
 /// The light subpaths of one row of path indices.
 #[derive(Default)]
 pub struct LightRow<'a> {
-    pub vertices: Vec<Vertex<'a>>,
+    pub vertices: Vec<MisVertex<'a>>,
     /// The row's i-th path has vertices `starts[i] .. starts[i + 1]`.
     pub starts: Vec<u32>,
     /// Light-tracing contributions (pixel, value), in path order; the i-th path's are
@@ -99,7 +99,7 @@ pub struct Photon {
 
 impl Photon {
     /// What merging needs of light vertex `v`, global index `index`.
-    pub fn of(v: &Vertex, index: usize, held: HeldKey) -> Photon {
+    pub fn of(v: &MisVertex, index: usize, held: HeldKey) -> Photon {
         Photon {
             wo: v.wo,
             beta: v.beta,
@@ -204,13 +204,13 @@ impl<'a> LightPaths<'a> {
 
     /// The stored vertices of light path `k`.
     #[inline]
-    pub fn path(&self, k: usize) -> &[Vertex<'a>] {
+    pub fn path(&self, k: usize) -> &[MisVertex<'a>] {
         let (row, i) = (&self.rows[k / self.row_len], k % self.row_len);
         &row.vertices[row.starts[i] as usize..row.starts[i + 1] as usize]
     }
 
     /// Every stored vertex with its global index.
-    pub fn vertices(&self) -> impl Iterator<Item = (usize, &Vertex<'a>)> {
+    pub fn vertices(&self) -> impl Iterator<Item = (usize, &MisVertex<'a>)> {
         self.rows.iter().zip(&self.offsets).flat_map(|(row, &o)| {
             row.vertices
                 .iter()
@@ -221,7 +221,7 @@ impl<'a> LightPaths<'a> {
 
     /// Every stored vertex with its global index and the [`HeldKey`] of the subpath before
     /// it (`HeldKey::NONE` when no claims were tested).
-    pub fn vertices_with_keys(&self) -> impl Iterator<Item = (usize, &Vertex<'a>, HeldKey)> {
+    pub fn vertices_with_keys(&self) -> impl Iterator<Item = (usize, &MisVertex<'a>, HeldKey)> {
         self.rows.iter().zip(&self.offsets).flat_map(|(row, &o)| {
             row.vertices.iter().enumerate().map(move |(i, v)| {
                 let key = row.keys.get(i).map_or(HeldKey::NONE, |k| k[0]);
@@ -363,7 +363,7 @@ impl<'a> LightTracer<'a, '_> {
             densities,
             cos0,
             infinite,
-            hittable(l),
+            hittable(scene, li),
             self.pc.factors,
         );
         walk.medium = scene.light_medium(li, n0, e.dir);
@@ -450,7 +450,7 @@ impl<'a> LightTracer<'a, '_> {
         let cos_cam = cam.forward.dot(-cs.wi);
         let c = le * tr.tr * (cs.we * cos_cam / (cs.dist * cs.dist)) / p_origin;
         // The camera ray hitting the emitter (s = 0) is the only other technique.
-        let w_cam = if hittable(l) {
+        let w_cam = if hittable(scene, li) {
             cs.pdf_we * cos0 / (cs.dist * cs.dist) * tr.pass / p_origin
         } else {
             0.0
@@ -471,7 +471,7 @@ impl<'a> LightTracer<'a, '_> {
     /// t = 1, s >= 2: light vertex `v` seen by the pinhole.
     fn connect_camera(
         &self,
-        v: &Vertex<'a>,
+        v: &MisVertex<'a>,
         (row, u): (&mut LightRow, f32),
         full_start: usize,
         side: &LightSideHash,
@@ -489,7 +489,7 @@ impl<'a> LightTracer<'a, '_> {
             &v.endpoint(),
             Some(&Endpoint::point(cam.position)),
             cs.wi,
-            v.medium_towards(cs.wi),
+            v.medium_towards(scene, cs.wi),
         ) else {
             return;
         };

@@ -1,5 +1,12 @@
-//! Subpath vertices of `vcm`, the free flight along the edges between them, and the densities
+//! vcm's subpath vertices, the free flight along the edges between them, and the densities
 //! of light vertices (origin, next-event estimation, emission towards a point).
+//!
+//! A vcm vertex is the vertex every estimator shares ([`paths::Vertex`]: a surface or medium
+//! point with its scattering function, position, normals and throughput) together with what
+//! vcm's recursion carries along a walk: the direction back along the walk and the recursive
+//! MIS quantities ([`Mis`]). The explicit densities of `paths::Vertex` (`pdf_fwd`, `pdf_rev`)
+//! are left 0: vcm weighs recursively, and where explicit densities are needed (guided-vcm)
+//! they are computed from the whole path (`densities.rs`).
 //!
 //! Measures as everywhere in lodestar (DESIGN.md §3): area for surfaces and finite lights,
 //! volume in media, solid angle for lights at infinity. Cosines of measure conversions use
@@ -7,10 +14,11 @@
 //! direction density of a surface is `Bsdf::pdf` in radiance mode (delta surfaces: the lobe
 //! probability), exactly as in `bdpt`, so that with merging off the MIS weights are BDPT's.
 
-use crate::bsdf::{Bsdf, ShadingFrame, TransportMode};
+use crate::bsdf::TransportMode;
+use crate::integrators::paths::{self, Kind};
 use crate::light::Light;
 use crate::math::Spectrum;
-use crate::scene::{Endpoint, Scene, ShapeInfo};
+use crate::scene::{Endpoint, Scene};
 use glam::Vec3;
 
 /// The recursive MIS quantities of a subpath vertex (Georgiev et al. 2012, tech. report
@@ -34,70 +42,50 @@ pub struct Mis {
 /// segment, and the free-flight factor of reaching either end).
 pub use crate::integrators::paths::vertex::Edge;
 
-/// What scatters at a vertex.
+/// A scattering vertex of a camera or light subpath: the shared vertex and vcm's recursion
+/// state. Reads of the shared vertex's fields go through `Deref` (`v.p`, `v.beta`, `v.kind`).
 #[derive(Clone, Copy)]
-pub enum Scatter<'a> {
-    Surface {
-        bsdf: &'a Bsdf,
-        frame: ShadingFrame,
-        info: &'a ShapeInfo,
-        /// The material at the vertex (differs from `info.material` on a checkerboard).
-        material: u32,
-    },
-    Medium {
-        medium: u32,
-    },
-}
-
-/// A scattering vertex of a camera or light subpath.
-#[derive(Clone, Copy)]
-pub struct Vertex<'a> {
-    pub p: Vec3,
-    /// Geometric normal (zero in media).
-    pub n: Vec3,
-    /// Position error bound (surfaces).
-    pub p_err: Vec3,
+pub struct MisVertex<'a> {
+    /// The vertex: a `Kind::Surface` or `Kind::Medium` point (normal zero in media), with the
+    /// subpath's throughput up to it (no scattering at it yet), the medium the walk arrived
+    /// through, `delta` and the free flight of the edge that reached it.
+    pub v: paths::Vertex<'a>,
     /// Unit direction towards the previous vertex of the walk.
     pub wo: Vec3,
-    /// Throughput of the subpath up to here (no scattering at this vertex yet).
-    pub beta: Spectrum,
     pub mis: Mis,
-    pub scatter: Scatter<'a>,
-    /// The medium the walk arrived through (the medium itself for medium vertices).
-    pub medium: Option<u32>,
     /// Segments from the subpath's origin (the pinhole or the light).
     pub depth: u32,
     /// Cap on the continuation probability (the walk's `q_cap`).
     pub q_cap: f32,
 }
 
-impl<'a> Vertex<'a> {
+impl<'a> std::ops::Deref for MisVertex<'a> {
+    type Target = paths::Vertex<'a>;
     #[inline]
-    pub fn is_medium(&self) -> bool {
-        matches!(self.scatter, Scatter::Medium { .. })
+    fn deref(&self) -> &paths::Vertex<'a> {
+        &self.v
     }
+}
 
+impl<'a> MisVertex<'a> {
     #[inline]
     pub fn is_delta(&self) -> bool {
-        matches!(self.scatter, Scatter::Surface { bsdf, .. } if bsdf.is_delta())
+        self.v.delta
     }
 
     /// A connection can end here (medium points, non-delta non-black surfaces).
     #[inline]
     pub fn connectible(&self) -> bool {
-        match self.scatter {
-            Scatter::Surface { bsdf, .. } => !bsdf.is_delta() && !bsdf.is_black(),
-            Scatter::Medium { .. } => true,
+        match self.v.kind {
+            Kind::Surface { bsdf, .. } => !bsdf.is_delta() && !bsdf.is_black(),
+            _ => true,
         }
     }
 
     /// Merging is done here: non-delta, non-black surfaces (not in media).
     #[inline]
     pub fn mergeable(&self) -> bool {
-        match self.scatter {
-            Scatter::Surface { bsdf, .. } => !bsdf.is_delta() && !bsdf.is_black(),
-            Scatter::Medium { .. } => false,
-        }
+        matches!(self.v.kind, Kind::Surface { bsdf, .. } if !bsdf.is_delta() && !bsdf.is_black())
     }
 
     /// |cos| between the geometric normal and `d` (1 in media): the measure conversion.
@@ -106,71 +94,27 @@ impl<'a> Vertex<'a> {
         if self.is_medium() {
             1.0
         } else {
-            self.n.dot(d).abs()
+            self.v.n.dot(d).abs()
         }
     }
 
-    /// Scattering value from `wo` into `wi`, times |cos(wi)| at the shading normal on surfaces;
-    /// the phase function in media.
-    #[inline]
-    pub fn f(&self, scene: &Scene, wi: Vec3, mode: TransportMode) -> Spectrum {
-        match self.scatter {
-            Scatter::Surface { bsdf, frame, .. } => {
-                bsdf.eval(&frame, self.wo, wi, mode) * wi.dot(frame.frame.n).abs()
-            }
-            Scatter::Medium { medium } => {
-                Spectrum::splat(scene.media[medium as usize].phase.eval(self.wo, wi))
-            }
-        }
-    }
-
-    /// `(self.f(wi), self.pdf_w(wo, wi), self.pdf_w(wi, wo))` with `wo` this vertex's own,
-    /// bit for bit, in one BSDF (or phase) evaluation except on delta surfaces: what a
-    /// connection or next-event estimation needs at each end, and a walk's MIS update.
+    /// `(f(wi), p(wo -> wi), p(wi -> wo))` with `wo` this vertex's own: the scattering
+    /// value (|cos(wi)| at the shading normal on surfaces, the phase function in media) and
+    /// both direction densities times the continuation probability, in one BSDF (or phase)
+    /// evaluation except on delta surfaces (there the lobe probabilities): what a connection
+    /// or next-event estimation needs at each end, and a walk's MIS update.
     #[inline]
     pub fn f_pdfs(&self, scene: &Scene, wi: Vec3, mode: TransportMode) -> (Spectrum, f32, f32) {
-        match self.scatter {
-            Scatter::Surface { bsdf, frame, .. } if !bsdf.is_delta() => {
-                let e = bsdf.eval_pdfs(&frame, self.wo, wi, mode);
-                let q = bsdf.continuation().min(self.q_cap);
-                (
-                    e.f * wi.dot(frame.frame.n).abs(),
-                    e.pdf_fwd * q,
-                    e.pdf_rev * q,
-                )
-            }
-            Scatter::Medium { medium } => {
-                // Henyey-Greenstein depends on wo . wi only: one value for both directions.
-                let m = &scene.media[medium as usize];
-                let p = m.phase.eval(self.wo, wi);
-                let q = m.continuation().min(self.q_cap);
-                (Spectrum::splat(p), p * q, p * q)
-            }
-            Scatter::Surface { .. } => (
-                self.f(scene, wi, mode),
-                self.pdf_w(scene, self.wo, wi),
-                self.pdf_w(scene, wi, self.wo),
+        let q = self.continuation(scene);
+        match self.v.kind {
+            Kind::Surface { bsdf, frame, .. } if bsdf.is_delta() => (
+                bsdf.eval(&frame, self.wo, wi, mode) * wi.dot(frame.frame.n).abs(),
+                bsdf.delta_lobe_probability(&frame, self.wo, wi) * q,
+                bsdf.delta_lobe_probability(&frame, wi, self.wo) * q,
             ),
-        }
-    }
-
-    /// Solid-angle density of scattering from `wo` into `wi` (radiance-mode BSDF density, or
-    /// the delta lobe's probability), times the continuation probability: the direction
-    /// density every technique uses for this vertex.
-    #[inline]
-    pub fn pdf_w(&self, scene: &Scene, wo: Vec3, wi: Vec3) -> f32 {
-        match self.scatter {
-            Scatter::Surface { bsdf, frame, .. } => {
-                let p = if bsdf.is_delta() {
-                    bsdf.delta_lobe_probability(&frame, wo, wi)
-                } else {
-                    bsdf.pdf(&frame, wo, wi, TransportMode::Radiance)
-                };
-                p * bsdf.continuation().min(self.q_cap)
-            }
-            Scatter::Medium { medium } => {
-                let m = &scene.media[medium as usize];
-                m.phase.eval(wo, wi) * m.continuation().min(self.q_cap)
+            _ => {
+                let e = paths::vertex::connection_end(scene, &self.v, self.wo, wi, mode);
+                (e.f, e.pdf_other * q, e.pdf_prev * q)
             }
         }
     }
@@ -179,82 +123,28 @@ impl<'a> Vertex<'a> {
     /// bounce on, a property of the surface or medium alone).
     #[inline]
     pub fn continuation(&self, scene: &Scene) -> f32 {
-        match self.scatter {
-            Scatter::Surface { bsdf, .. } => bsdf.continuation(),
-            Scatter::Medium { medium } => scene.media[medium as usize].continuation(),
-        }
-        .min(self.q_cap)
+        paths::local_continuation(scene, &self.v).min(self.q_cap)
     }
 
     /// The vertex as one end of a visibility test.
     #[inline]
     pub fn endpoint(&self) -> Endpoint {
-        match self.scatter {
-            Scatter::Surface { .. } => Endpoint {
-                p: self.p,
-                n: self.n,
-                err: self.p_err,
-            },
-            Scatter::Medium { .. } => Endpoint::point(self.p),
-        }
+        paths::endpoint(&self.v)
     }
 
     /// Medium a ray leaving along `d` starts in.
     #[inline]
-    pub fn medium_towards(&self, d: Vec3) -> Option<u32> {
-        match self.scatter {
-            Scatter::Medium { medium } => Some(medium),
-            Scatter::Surface { info, .. } => info
-                .interface
-                .map_or(self.medium, |mi| mi.crossing(d, self.n)),
-        }
+    pub fn medium_towards(&self, scene: &Scene, d: Vec3) -> Option<u32> {
+        paths::medium_towards(scene, &self.v, d)
     }
 
     /// The vertex as a `Path` vertex (for inspection).
     pub fn path_vertex(&self) -> crate::path::Vertex {
-        use crate::path::VertexKind;
-        match self.scatter {
-            Scatter::Surface {
-                bsdf,
-                frame,
-                info,
-                material,
-            } => crate::path::Vertex {
-                p: self.p,
-                n: self.n,
-                ns: frame.frame.n,
-                kind: VertexKind::Surface {
-                    material,
-                    shape: info.index,
-                    delta: bsdf.is_delta(),
-                },
-            },
-            Scatter::Medium { medium } => crate::path::Vertex {
-                p: self.p,
-                n: Vec3::ZERO,
-                ns: Vec3::ZERO,
-                kind: VertexKind::Medium { medium },
-            },
-        }
+        paths::path_vertex(&self.v)
     }
 }
 
-/// Emitted radiance (area lights; intensity for point and spot lights) towards `w`.
-pub fn emission(light: &Light, n: Vec3, w: Vec3) -> Spectrum {
-    match light {
-        Light::Point(p) => p.intensity,
-        Light::Spot(s) => s.intensity_towards(w),
-        other => other.le(n, w),
-    }
-}
-
-/// Whether a camera walk can hit the light (it has area, or extent at infinity).
-pub fn hittable(light: &Light) -> bool {
-    matches!(
-        light,
-        Light::Area(_) | Light::Environment(_) | Light::EnvMap(_) | Light::Sun(_)
-    )
-}
+pub use crate::integrators::paths::{emission, hittable};
 
 /// Whether a light's origin can be connected to the camera (not at infinity).
 pub fn connectible_light(light: &Light) -> bool {

@@ -8,9 +8,10 @@
 //! direction densities and the cosine at the scattering vertex now, the distance, cosine and
 //! free-flight factors of the next vertex once it is found).
 
-use super::vertex::{Edge, Mis, Scatter, Vertex, nee_density};
+use super::vertex::{Edge, Mis, MisVertex, nee_density};
 use crate::bsdf::TransportMode;
 use crate::geometry::{Ray, offset_origin};
+use crate::integrators::paths::{self, Kind};
 use crate::math::{Sampler, Spectrum};
 use crate::scene::Scene;
 use glam::Vec3;
@@ -28,7 +29,10 @@ pub struct MisFactors {
 /// What tracing a segment found.
 pub enum Step<'a> {
     /// A scattering vertex; `light` when it lies on an emitter.
-    Vertex { v: Vertex<'a>, light: Option<usize> },
+    Vertex {
+        v: MisVertex<'a>,
+        light: Option<usize>,
+    },
     /// The ray left the scene (with a non-zero chance of passing every medium): lights at
     /// infinity are seen along `dir`, with these quantities.
     Escaped { dir: Vec3, mis: Mis },
@@ -160,7 +164,7 @@ impl Walk {
                         self.ray.at(flight.t),
                         Vec3::ZERO,
                         Vec3::ZERO,
-                        Scatter::Medium { medium: m },
+                        Kind::Medium { medium: m },
                         None,
                     ));
                 }
@@ -180,7 +184,7 @@ impl Walk {
                 sp.hit.p,
                 sp.hit.ng,
                 sp.hit.p_err,
-                Scatter::Surface {
+                Kind::Surface {
                     bsdf: sp.bsdf,
                     frame: sp.frame,
                     info: sp.info,
@@ -195,7 +199,7 @@ impl Walk {
         self.depth += 1;
         self.vacuum = edge.first.is_none();
         let ff_rev = edge.factor(scene, self.prev_is_medium, false);
-        let Some((p, n, p_err, scatter, light)) = found else {
+        let Some((p, n, p_err, kind, light)) = found else {
             let ff = edge.pass;
             if ff <= 0.0 || self.mode == TransportMode::Importance {
                 return Step::Dead;
@@ -210,15 +214,18 @@ impl Walk {
                 mis,
             };
         };
-        let mut v = Vertex {
-            p,
-            n,
-            p_err,
+        let delta = matches!(kind, Kind::Surface { bsdf, .. } if bsdf.is_delta());
+        let mut v = MisVertex {
+            v: paths::Vertex {
+                p_err,
+                beta: self.beta,
+                delta,
+                edge,
+                medium: self.medium,
+                ..paths::Vertex::new(kind, p, n)
+            },
             wo: -self.ray.d,
-            beta: self.beta,
             mis: Mis::default(),
-            scatter,
-            medium: self.medium,
             depth: self.depth,
             q_cap: self.q_cap,
         };
@@ -254,13 +261,13 @@ impl Walk {
     pub fn scatter(
         &mut self,
         scene: &Scene,
-        v: &Vertex,
+        v: &MisVertex,
         factors: MisFactors,
         sampler: &mut impl Sampler,
     ) -> bool {
         let wo = v.wo;
-        let wi = match v.scatter {
-            Scatter::Surface { bsdf, frame, .. } => {
+        let wi = match v.kind {
+            Kind::Surface { bsdf, frame, .. } => {
                 let (u_lobe, u) = (sampler.next_1d(), sampler.next_2d());
                 let Some(bs) = bsdf.sample(&frame, wo, u_lobe, u, self.mode) else {
                     return false;
@@ -268,12 +275,14 @@ impl Walk {
                 self.beta *= bs.weight;
                 bs.wi
             }
-            Scatter::Medium { medium } => {
+            Kind::Medium { medium } => {
                 scene.media[medium as usize]
                     .phase
                     .sample(wo, sampler.next_2d())
                     .0
             }
+            // Walks reach surfaces and medium points only.
+            Kind::Camera | Kind::Light { .. } => return false,
         };
         let q = v.continuation(scene);
         if q < 1.0 {
@@ -303,14 +312,14 @@ impl Walk {
                 d_vm: c * (m.d_vm * pdf_rev + m.d_vcm * factors.vc + merge),
             }
         };
-        self.ray = match v.scatter {
-            Scatter::Surface { info, .. } => {
+        self.ray = match v.kind {
+            Kind::Surface { info, .. } => {
                 if let Some(mi) = &info.interface {
                     self.medium = mi.crossing(wi, v.n);
                 }
                 Ray::new(offset_origin(v.p, v.p_err, v.n, wi), wi)
             }
-            Scatter::Medium { .. } => Ray::new(v.p, wi),
+            _ => Ray::new(v.p, wi),
         };
         self.prev_p = v.p;
         self.prev_is_medium = v.is_medium();

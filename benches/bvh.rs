@@ -88,6 +88,7 @@ fn data(dir: &Path, rays: usize) -> (TriangleMesh, Vec<[f32; 6]>) {
             TriangleMesh {
                 positions,
                 normals: None,
+                uvs: None,
                 grid: None,
                 indices,
             },

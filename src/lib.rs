@@ -30,6 +30,7 @@ pub mod prefetch;
 pub mod render;
 pub mod scene;
 pub mod snapshot;
+pub mod texture;
 
 #[path = "../integrators/mod.rs"]
 pub mod integrators;

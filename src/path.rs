@@ -8,7 +8,7 @@
 //! medium interfaces need them).
 
 use crate::math::Spectrum;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 /// Maximum number of vertices of a stored path: what keeps whole paths (the guided
 /// integrators, mmlt) take `max_depth` up to `MAX_VERTICES - 1`; pt, lt, bdpt and vcm take any.
@@ -81,6 +81,8 @@ pub struct Vertex {
     /// Shading normal of surface vertices (zero otherwise): needed to re-evaluate BSDF
     /// densities, so a path's density can be recomputed exactly from the path.
     pub ns: Vec3,
+    /// Texture coordinates of surface vertices whose material reads them (zero otherwise).
+    pub uv: Vec2,
     /// What the vertex is (camera, surface, medium, emitter) with its scene indices.
     pub kind: VertexKind,
 }
@@ -91,6 +93,7 @@ impl Vertex {
         p: Vec3::ZERO,
         n: Vec3::ZERO,
         ns: Vec3::ZERO,
+        uv: Vec2::ZERO,
         kind: VertexKind::Camera,
     };
 }

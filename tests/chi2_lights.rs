@@ -88,6 +88,7 @@ fn irregular_fan() -> TriangleMesh {
     TriangleMesh {
         positions,
         normals: None,
+        uvs: None,
         grid: None,
         indices,
     }

@@ -119,6 +119,7 @@ fn disk_mesh() -> TriangleMesh {
     let m = TriangleMesh {
         positions,
         normals: None,
+        uvs: None,
         grid: None,
         indices,
     };

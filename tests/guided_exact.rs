@@ -78,6 +78,7 @@ fn p_g_weighs_guides_by_their_selection_probability() {
                 p: light.0,
                 n: light.1,
                 ns: glam::Vec3::ZERO,
+                uv: glam::Vec2::ZERO,
                 kind: lodestar::path::VertexKind::Emitter {
                     light: 0,
                     delta: false,
@@ -222,6 +223,85 @@ emission = [1e6, 1e6, 1e6]
         c.long
     );
     assert!(c.bad.is_empty(), "{}", c.bad.join("\n"));
+}
+
+/// A stored path keeps its vertices' texture coordinates: in a box whose walls are a
+/// checkerboard (0.9 against 0.1), f(X) from a recorded path's vertices is pt's f to rounding
+/// (it would take the texture at (0, 0) for every vertex without them, wrong by up to 9x per
+/// vertex: checked by hand with the stored coordinates left out of `paths::from_path`).
+#[test]
+fn textured_paths_keep_their_contribution_when_stored() {
+    let scene = util::scene(
+        r#"
+[camera]
+position = [0, 0, 0.9]
+look_at = [0, 0, 0]
+up = [0, 1, 0]
+fov = 60
+resolution = [8, 8]
+
+[[material]]
+name = "checker"
+type = "diffuse"
+albedo_texture = { type = "checkerboard", color0 = [0.9, 0.9, 0.9], color1 = [0.1, 0.1, 0.1], scale = [3, 3] }
+
+[[material]]
+name = "black"
+type = "black"
+
+[[shape]]
+type = "cube"
+material = "checker"
+
+[[shape]]
+type = "quad"
+origin = [-0.3, 0.99, -0.3]
+edge_u = [0.6, 0, 0]
+edge_v = [0, 0, 0.6]
+material = "black"
+emission = [10, 10, 10]
+"#,
+    );
+    struct Check<'a> {
+        scene: &'a Scene,
+        paths: usize,
+        worst: f64,
+    }
+    impl PathRecorder for Check<'_> {
+        fn record(&mut self, path: &Path, f: DVec3, _: usize, _: f64, _: f64) {
+            if path.segments() < 2 || f == DVec3::ZERO {
+                return;
+            }
+            self.paths += 1;
+            let y = paths::from_path(self.scene, path).unwrap();
+            let fx = contribution::contribution(self.scene, &y, 0);
+            // As in the long-paths test: within 4 times what moving the vertices within
+            // their error bounds changes (near the box's corners that reaches 1e-2).
+            let bound = crate::util::rounding_sensitivity(&y, |y| {
+                contribution::contribution(self.scene, y, 0).x
+            });
+            self.worst = self
+                .worst
+                .max((f - fx).abs().max_element() / (4.0 * bound).max(1e-300));
+        }
+    }
+    let mut c = Check {
+        scene: &scene,
+        paths: 0,
+        worst: 0.0,
+    };
+    let tracer = pt(6);
+    for i in 0..2000u64 {
+        let mut s = IndependentSampler::new(9, 0, i);
+        let raster = glam::Vec2::new((i % 8) as f32, ((i / 8) % 8) as f32) + s.next_2d();
+        tracer.li_recorded(&scene, raster, &mut s, Some(&mut c));
+    }
+    assert!(c.paths > 1000, "only {} paths", c.paths);
+    assert!(
+        c.worst <= 1.0,
+        "f from the stored vertices is off by {} times what rounding explains",
+        c.worst
+    );
 }
 
 /// Where a path's p_g is non-zero, the unguided side's p_u is `pdf_unguided`'s value, the one

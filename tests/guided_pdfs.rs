@@ -102,6 +102,7 @@ fn path_vertex(p: Vec3, n: Vec3) -> PathVertex {
         p,
         n,
         ns: Vec3::ZERO,
+        uv: glam::Vec2::ZERO,
         kind: VertexKind::Medium { medium: 0 },
     }
 }

@@ -286,6 +286,7 @@ fn surface(p: DVec3, n: DVec3, material: u32, shape: u32, delta: bool) -> PathVe
         p: p.as_vec3(),
         n: n.as_vec3(),
         ns: n.as_vec3(),
+        uv: glam::Vec2::ZERO,
         kind: VertexKind::Surface {
             material,
             shape,
@@ -316,6 +317,7 @@ fn two_spheres_cache(scene: &Scene, xa: DVec3, settings: ManifoldSettings) -> Gu
             p: cam,
             n: Vec3::ZERO,
             ns: Vec3::ZERO,
+            uv: glam::Vec2::ZERO,
             kind: VertexKind::Camera,
         },
         surface(xa, DVec3::Y, 0, 0, false),
@@ -325,6 +327,7 @@ fn two_spheres_cache(scene: &Scene, xa: DVec3, settings: ManifoldSettings) -> Gu
             p: (x2 + w).as_vec3(),
             n: w.as_vec3(),
             ns: Vec3::ZERO,
+            uv: glam::Vec2::ZERO,
             kind: VertexKind::Emitter {
                 light: 0,
                 delta: false,

@@ -56,4 +56,5 @@ mod scenes;
 mod sobol_sampler;
 mod stress_gaussian;
 mod stress_scenes;
+mod textures;
 mod vcm;

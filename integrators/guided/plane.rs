@@ -108,6 +108,7 @@ mod tests {
             p,
             n: Vec3::Y,
             ns: Vec3::Y,
+            uv: glam::Vec2::ZERO,
             kind: VertexKind::Surface {
                 material: 0,
                 shape: 0,

@@ -22,7 +22,7 @@ use crate::light::Light;
 use crate::math::Spectrum;
 use crate::path::{MAX_VERTICES, Path, VertexKind};
 use crate::scene::{Endpoint, Scene};
-use glam::{DVec3, Vec3};
+use glam::{DVec3, Vec2, Vec3};
 use vertex::{pdf, to_measure};
 
 /// `|cos θ_x| / d²` at `x` (normal `n`; zero in a medium, giving `1 / d²`) seen from `from`:
@@ -230,7 +230,7 @@ pub fn from_path<'a>(scene: &'a Scene, path: &Path) -> Option<Vec<Vertex<'a>>> {
             } => {
                 let info = &scene.shape_info[shape as usize];
                 let ns = if pv.ns == Vec3::ZERO { pv.n } else { pv.ns };
-                let frame = crate::bsdf::ShadingFrame::new(ns, pv.n);
+                let frame = crate::bsdf::ShadingFrame::new(ns, pv.n).with_uv(pv.uv);
                 (
                     Kind::Surface {
                         bsdf: &scene.materials[material as usize].bsdf,
@@ -302,8 +302,8 @@ pub fn to_path_into(vertices: &[Vertex], f: Spectrum, pixel: u32, path: &mut Pat
 
 /// One vertex of a [`Path`] from a BDPT vertex.
 pub fn path_vertex(v: &Vertex) -> crate::path::Vertex {
-    let (kind, ns) = match v.kind {
-        Kind::Camera => (VertexKind::Camera, Vec3::ZERO),
+    let (kind, ns, uv) = match v.kind {
+        Kind::Camera => (VertexKind::Camera, Vec3::ZERO, Vec2::ZERO),
         Kind::Surface {
             bsdf,
             frame,
@@ -316,20 +316,23 @@ pub fn path_vertex(v: &Vertex) -> crate::path::Vertex {
                 delta: bsdf.is_delta(),
             },
             frame.frame.n,
+            frame.uv,
         ),
-        Kind::Medium { medium } => (VertexKind::Medium { medium }, Vec3::ZERO),
+        Kind::Medium { medium } => (VertexKind::Medium { medium }, Vec3::ZERO, Vec2::ZERO),
         Kind::Light { light } => (
             VertexKind::Emitter {
                 light: light as u32,
                 delta: v.delta,
             },
             Vec3::ZERO,
+            Vec2::ZERO,
         ),
     };
     crate::path::Vertex {
         p: v.p,
         n: v.n,
         ns,
+        uv,
         kind,
     }
 }

@@ -65,6 +65,7 @@ impl PathTracer {
                 p,
                 n,
                 ns: Vec3::ZERO,
+                uv: glam::Vec2::ZERO,
                 kind: VertexKind::Emitter {
                     light: light_id as u32,
                     delta: l.is_delta(),

@@ -52,6 +52,7 @@ impl PathTracer {
                 p,
                 n,
                 ns: Vec3::ZERO,
+                uv: glam::Vec2::ZERO,
                 kind: VertexKind::Emitter {
                     light: li as u32,
                     delta: false,

@@ -298,6 +298,7 @@ impl PathTracer {
                         p,
                         n: Vec3::ZERO,
                         ns: Vec3::ZERO,
+                        uv: glam::Vec2::ZERO,
                         kind: VertexKind::Medium { medium: mi },
                     };
                     r.arrive(scene, v, path.pass * flight.pdf);
@@ -368,6 +369,7 @@ impl PathTracer {
                 p: hit.p,
                 n: hit.ng,
                 ns: hit.ns,
+                uv: sp.frame.uv,
                 kind,
             };
             r.arrive(scene, v, path.pass);

@@ -38,6 +38,7 @@ impl<'r> Recording<'r> {
             p: scene.camera.position,
             n: Vec3::ZERO,
             ns: Vec3::ZERO,
+            uv: glam::Vec2::ZERO,
             kind: VertexKind::Camera,
         });
         path.pixel = pixel;

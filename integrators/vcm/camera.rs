@@ -109,6 +109,7 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
                 p: cam.position,
                 n: Vec3::ZERO,
                 ns: Vec3::ZERO,
+                uv: glam::Vec2::ZERO,
                 kind: VertexKind::Camera,
             });
             if self.claims.is_some() {
@@ -523,6 +524,7 @@ fn emitter_vertex(li: usize, p: Vec3, n: Vec3, delta: bool) -> PathVertex {
         p,
         n,
         ns: Vec3::ZERO,
+        uv: glam::Vec2::ZERO,
         kind: VertexKind::Emitter {
             light: li as u32,
             delta,

@@ -326,6 +326,7 @@ impl<'a> LightTracer<'a, '_> {
             p: e.p,
             n: n0,
             ns: Vec3::ZERO,
+            uv: glam::Vec2::ZERO,
             kind: VertexKind::Emitter {
                 light: li as u32,
                 delta: l.is_delta(),
@@ -543,6 +544,7 @@ impl<'a> LightTracer<'a, '_> {
             p: self.scene.camera.position,
             n: Vec3::ZERO,
             ns: Vec3::ZERO,
+            uv: glam::Vec2::ZERO,
             kind: VertexKind::Camera,
         }
     }

@@ -75,6 +75,15 @@ impl Bsdf {
             return EvalPdfs::ZERO;
         }
         let (f, pdf_fwd, pdf_rev) = match self {
+            Bsdf::TexturedDiffuse { albedo } => (
+                diffuse::eval(albedo.eval(sf.uv), wo_l, wi_l),
+                diffuse::pdf(wo_l, wi_l),
+                if reverse {
+                    diffuse::pdf(wi_l, wo_l)
+                } else {
+                    0.0
+                },
+            ),
             Bsdf::Diffuse { albedo } => (
                 diffuse::eval(*albedo, wo_l, wi_l),
                 diffuse::pdf(wo_l, wi_l),

@@ -61,6 +61,8 @@ pub struct ShadingFrame {
     pub frame: Frame,
     /// Geometric normal (front side of the shape).
     pub ng: Vec3,
+    /// Texture coordinates of the point (zero where no texture looks at them).
+    pub uv: Vec2,
 }
 
 impl ShadingFrame {
@@ -69,7 +71,13 @@ impl ShadingFrame {
         ShadingFrame {
             frame: Frame::from_z(ns),
             ng,
+            uv: Vec2::ZERO,
         }
+    }
+
+    /// The same frame at texture coordinates `uv`.
+    pub fn with_uv(self, uv: Vec2) -> ShadingFrame {
+        ShadingFrame { uv, ..self }
     }
 }
 
@@ -101,6 +109,12 @@ pub enum Bsdf {
     Diffuse {
         /// Diffuse reflectance per channel, in [0, 1].
         albedo: Spectrum,
+    },
+    /// Lambertian reflection with an albedo looked up in a texture at the point's texture
+    /// coordinates (`ShadingFrame::uv`).
+    TexturedDiffuse {
+        /// Diffuse reflectance per channel, in [0, 1].
+        albedo: std::sync::Arc<crate::texture::Texture>,
     },
     /// Rough diffuse reflection (Oren-Nayar with interreflection, Mitsuba 0.6's
     /// `roughdiffuse`), two-sided, of facet roughness `alpha` (Beckmann-style; 0 is Lambert).
@@ -237,6 +251,12 @@ impl Bsdf {
         )
     }
 
+    /// True if the BSDF reads the point's texture coordinates (`ShadingFrame::uv`).
+    #[inline]
+    pub fn is_textured(&self) -> bool {
+        matches!(self, Bsdf::TexturedDiffuse { .. })
+    }
+
     /// True if the BSDF scatters no light at all.
     pub fn is_black(&self) -> bool {
         matches!(self, Bsdf::Black)
@@ -251,6 +271,7 @@ impl Bsdf {
             // Rough plastic: its Lambertian base scatters everywhere.
             Bsdf::Black
             | Bsdf::Diffuse { .. }
+            | Bsdf::TexturedDiffuse { .. }
             | Bsdf::RoughDiffuse { .. }
             | Bsdf::RoughPlastic(_) => 1.0,
             Bsdf::Conductor { .. }
@@ -291,6 +312,7 @@ impl Bsdf {
         let q = match self {
             Bsdf::Black => return 0.0,
             Bsdf::Diffuse { albedo } | Bsdf::RoughDiffuse { albedo, .. } => albedo.max_element(),
+            Bsdf::TexturedDiffuse { albedo } => albedo.max(),
             Bsdf::Conductor { reflectance } => reflectance.max_element(),
             Bsdf::RoughConductor {
                 fresnel: ConductorFresnel::Constant(r),
@@ -323,6 +345,7 @@ impl Bsdf {
         let s = match self {
             Bsdf::Black => return None,
             Bsdf::Diffuse { albedo } => diffuse::sample(*albedo, wo_l, u)?,
+            Bsdf::TexturedDiffuse { albedo } => diffuse::sample(albedo.eval(sf.uv), wo_l, u)?,
             Bsdf::RoughDiffuse { albedo, alpha } => {
                 rough_diffuse::sample(*albedo, *alpha, wo_l, u)?
             }
@@ -381,6 +404,7 @@ impl Bsdf {
         }
         let f = match self {
             Bsdf::Diffuse { albedo } => diffuse::eval(*albedo, wo_l, wi_l),
+            Bsdf::TexturedDiffuse { albedo } => diffuse::eval(albedo.eval(sf.uv), wo_l, wi_l),
             Bsdf::RoughDiffuse { albedo, alpha } => {
                 rough_diffuse::eval(*albedo, *alpha, wo_l, wi_l)
             }
@@ -431,7 +455,9 @@ impl Bsdf {
             return 0.0;
         }
         match self {
-            Bsdf::Diffuse { .. } | Bsdf::RoughDiffuse { .. } => diffuse::pdf(wo_l, wi_l),
+            Bsdf::Diffuse { .. } | Bsdf::TexturedDiffuse { .. } | Bsdf::RoughDiffuse { .. } => {
+                diffuse::pdf(wo_l, wi_l)
+            }
             Bsdf::RoughConductor {
                 alpha,
                 distribution,

@@ -44,6 +44,17 @@ pub enum ShapeGeometry {
     Sphere(Sphere),
 }
 
+impl ShapeGeometry {
+    /// Texture coordinates of `hit` on this shape ([`TriangleMesh::tex_coords`],
+    /// [`Sphere::tex_coords`]).
+    pub fn tex_coords(&self, hit: &Hit) -> Vec2 {
+        match self {
+            ShapeGeometry::Mesh(m) => m.tex_coords(hit.prim as usize, hit.uv),
+            ShapeGeometry::Sphere(s) => s.tex_coords(hit.p),
+        }
+    }
+}
+
 /// How the primitives are searched.
 pub(super) enum Index {
     /// Every primitive tested (scenes of at most [`FLAT_MAX_PRIMS`] primitives, none included).

@@ -78,6 +78,7 @@ pub fn heightfield(size: Vec2, resolution: UVec2, waves: &[Wave]) -> TriangleMes
     TriangleMesh {
         positions,
         normals: Some(normals),
+        uvs: None,
         indices,
         grid: Some(Box::new(GridLayout {
             cells: resolution,

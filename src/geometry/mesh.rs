@@ -14,6 +14,8 @@ pub struct TriangleMesh {
     pub positions: Vec<Vec3>,
     /// Per-vertex shading normals (optional; same length as `positions`).
     pub normals: Option<Vec<Vec3>>,
+    /// Per-vertex texture coordinates (optional; same length as `positions`).
+    pub uvs: Option<Vec<Vec2>>,
     /// Vertex indices of each triangle (their winding gives the front side, see
     /// [`Self::geometric_normal`]).
     pub indices: Vec<[u32; 3]>,
@@ -23,6 +25,18 @@ pub struct TriangleMesh {
 }
 
 impl TriangleMesh {
+    /// Texture coordinates at barycentric coordinates `b = (b1, b2)` of triangle `i`: the
+    /// vertices' interpolated, or `b` itself for a mesh without them (as Mitsuba).
+    pub fn tex_coords(&self, i: usize, b: Vec2) -> Vec2 {
+        match &self.uvs {
+            None => b,
+            Some(uv) => {
+                let [a, p, c] = self.indices[i].map(|k| uv[k as usize]);
+                a * (1.0 - b.x - b.y) + p * b.x + c * b.y
+            }
+        }
+    }
+
     /// The corner positions of triangle `i`.
     pub fn triangle(&self, i: usize) -> [Vec3; 3] {
         let [a, b, c] = self.indices[i];
@@ -106,6 +120,13 @@ impl TriangleMesh {
                 origin + edge_v,
             ],
             normals: None,
+            // Mitsuba's rectangle: (0, 0) at the origin corner, u along edge_u, v along edge_v.
+            uvs: Some(vec![
+                Vec2::ZERO,
+                Vec2::new(1.0, 0.0),
+                Vec2::ONE,
+                Vec2::new(0.0, 1.0),
+            ]),
             grid: None,
             indices: vec![[0, 1, 2], [0, 2, 3]],
         }
@@ -150,6 +171,7 @@ impl TriangleMesh {
         TriangleMesh {
             positions,
             normals: None,
+            uvs: None,
             grid: None,
             indices,
         }
@@ -201,6 +223,14 @@ impl TriangleMesh {
     /// Add `other`'s triangles (shading normals are kept only if neither mesh has any).
     pub fn append(&mut self, other: &TriangleMesh) {
         let base = self.positions.len() as u32;
+        self.uvs = match (self.uvs.take(), &other.uvs) {
+            (Some(mut a), Some(b)) => {
+                a.extend_from_slice(b);
+                Some(a)
+            }
+            (None, Some(b)) if base == 0 => Some(b.clone()),
+            _ => None,
+        };
         self.positions.extend_from_slice(&other.positions);
         self.indices.extend(
             other

@@ -48,6 +48,22 @@ impl Sphere {
         (p, n, err)
     }
 
+    /// Texture coordinates of the surface point `p`: (φ / 2π, θ / π) with θ measured from +z
+    /// and φ from +x towards +y in [0, 2π), as Mitsuba's sphere.
+    pub fn tex_coords(&self, p: Vec3) -> glam::Vec2 {
+        let d = (p - self.center) / self.radius;
+        let phi = d.y.atan2(d.x);
+        let phi = if phi < 0.0 {
+            phi + 2.0 * std::f32::consts::PI
+        } else {
+            phi
+        };
+        glam::Vec2::new(
+            phi / (2.0 * std::f32::consts::PI),
+            d.z.clamp(-1.0, 1.0).acos() / std::f32::consts::PI,
+        )
+    }
+
     /// Surface area, `4 pi r^2`.
     pub fn area(&self) -> f32 {
         4.0 * std::f32::consts::PI * self.radius * self.radius

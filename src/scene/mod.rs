@@ -324,9 +324,13 @@ impl Scene {
         let material_id = info.material_at(hit.p);
         let material = &self.materials[material_id as usize];
         let back = material.one_sided && ray.d.dot(hit.ng) > 0.0;
+        let mut frame = ShadingFrame::new(hit.ns, hit.ng);
+        if material.bsdf.is_textured() {
+            frame.uv = self.shapes[hit.shape as usize].tex_coords(&hit);
+        }
         SurfacePoint {
             bsdf: if back { &BLACK } else { &material.bsdf },
-            frame: ShadingFrame::new(hit.ns, hit.ng),
+            frame,
             info,
             material: material_id,
             hit,

@@ -331,6 +331,7 @@ impl GuideCache {
                 p: scene.camera.position,
                 n: Vec3::ZERO,
                 ns: Vec3::ZERO,
+                uv: glam::Vec2::ZERO,
                 kind: VertexKind::Camera,
             };
         }

@@ -23,6 +23,7 @@ impl<'s> At<'s> {
                 p,
                 n: Vec3::ZERO,
                 ns: Vec3::ZERO,
+                uv: glam::Vec2::ZERO,
                 kind: VertexKind::Medium { medium },
             },
             sp: None,
@@ -38,6 +39,7 @@ impl<'s> At<'s> {
                 p,
                 n,
                 ns: Vec3::ZERO,
+                uv: glam::Vec2::ZERO,
                 kind: VertexKind::Emitter {
                     light,
                     delta: false,
@@ -112,6 +114,7 @@ pub(super) fn surface_vertex(sp: &SurfacePoint) -> PathVertex {
         p: sp.hit.p,
         n: sp.hit.ng,
         ns: sp.hit.ns,
+        uv: sp.frame.uv,
         kind: VertexKind::Surface {
             material: sp.material,
             shape: sp.info.index,

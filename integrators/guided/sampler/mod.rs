@@ -216,6 +216,7 @@ pub fn sample_path_into(
                 p,
                 n,
                 ns: Vec3::ZERO,
+                uv: glam::Vec2::ZERO,
                 kind: VertexKind::Emitter { light, delta: true },
             });
             break;

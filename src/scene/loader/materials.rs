@@ -21,9 +21,10 @@ impl Builder<'_> {
             ("one_sided", at(&d.one_sided)),
             ("specular", at(&d.specular)),
             ("nonlinear", at(&d.nonlinear)),
+            ("albedo_texture", at(&d.albedo_texture)),
         ];
         let allowed: &[&str] = match kind {
-            "diffuse" => &["albedo", "one_sided"],
+            "diffuse" => &["albedo", "albedo_texture", "one_sided"],
             "roughdiffuse" => &["albedo", "alpha", "one_sided"],
             "conductor" => &["reflectance", "eta", "k", "one_sided"],
             "dielectric" | "thindielectric" => &["ior"],
@@ -88,9 +89,20 @@ impl Builder<'_> {
         };
         let one_sided = d.one_sided.as_ref().is_some_and(|o| *o.get_ref());
         let bsdf = match kind {
-            "diffuse" => Bsdf::Diffuse {
-                albedo: src
-                    .in_unit_range(src.required(&d.albedo, span, "albedo", &what)?, "albedo")?,
+            "diffuse" => match (&d.albedo, &d.albedo_texture) {
+                (Some(_), Some(t)) => {
+                    return src.err(
+                        t.span(),
+                        format!("{what} has both 'albedo' and 'albedo_texture' (expected one)"),
+                    );
+                }
+                (None, Some(t)) => Bsdf::TexturedDiffuse {
+                    albedo: std::sync::Arc::new(self.texture(t, true)?),
+                },
+                _ => Bsdf::Diffuse {
+                    albedo: src
+                        .in_unit_range(src.required(&d.albedo, span, "albedo", &what)?, "albedo")?,
+                },
             },
             "roughdiffuse" => {
                 let albedo = src.required(&d.albedo, span.clone(), "albedo", &what)?;
@@ -154,5 +166,100 @@ impl Builder<'_> {
             _ => unreachable!("material types are checked above"),
         };
         Ok((bsdf.with_distribution(distribution), one_sided))
+    }
+
+    /// The texture of a `{ type = ... }` table; `reflectance`: every value must lie in [0, 1].
+    fn texture(&self, t: &Spanned<TextureDesc>, reflectance: bool) -> Result<Texture> {
+        let src = self.src;
+        let d = t.get_ref();
+        let kind = d.kind.get_ref().as_str();
+        let what = format!("texture of type '{kind}'");
+        let keys = [
+            ("filename", at(&d.filename)),
+            ("raw", d.raw.map(|_| t.span())),
+            ("filter", at(&d.filter)),
+            ("wrap", at(&d.wrap)),
+            ("color0", at(&d.color0)),
+            ("color1", at(&d.color1)),
+        ];
+        let allowed: &[&str] = match kind {
+            "bitmap" => &["filename", "raw", "filter", "wrap"],
+            "checkerboard" => &["color0", "color1"],
+            other => {
+                return src.err(
+                    d.kind.span(),
+                    format!("unknown texture type '{other}' (expected bitmap or checkerboard)"),
+                );
+            }
+        };
+        self.only(&what, &keys, allowed)?;
+        let pair = |v: &Option<Spanned<[f32; 2]>>, key: &str, default: Vec2| -> Result<Vec2> {
+            match v {
+                None => Ok(default),
+                Some(v) if v.get_ref().iter().all(|x| x.is_finite()) => {
+                    Ok(Vec2::from(*v.get_ref()))
+                }
+                Some(v) => src.err(v.span(), format!("'{key}' must be two finite numbers")),
+            }
+        };
+        let to_uv = match d.to_uv {
+            Some(m) => m,
+            None => glam::Affine2::from_scale_angle_translation(
+                pair(&d.scale, "scale", Vec2::ONE)?,
+                0.0,
+                pair(&d.offset, "offset", Vec2::ZERO)?,
+            ),
+        };
+        let choice = |v: &Option<Spanned<String>>, options: &[&str]| -> Result<usize> {
+            let Some(v) = v else { return Ok(0) };
+            options.iter().position(|o| o == v.get_ref()).map_or_else(
+                || {
+                    src.err(
+                        v.span(),
+                        format!("'{}' is not one of {}", v.get_ref(), options.join(", ")),
+                    )
+                },
+                Ok,
+            )
+        };
+        let texture = match kind {
+            "bitmap" => {
+                let file = src.required(&d.filename, t.span(), "filename", &what)?;
+                let path = match &self.dir {
+                    Some(dir) => dir.join(file.get_ref()),
+                    None => std::path::PathBuf::from(file.get_ref()),
+                };
+                let bilinear = choice(&d.filter, &["bilinear", "nearest"])? == 0;
+                let wrap = [Wrap::Repeat, Wrap::Mirror, Wrap::Clamp]
+                    [choice(&d.wrap, &["repeat", "mirror", "clamp"])?];
+                let mut bitmap = crate::texture::Bitmap::read(&path, d.raw.unwrap_or(false))
+                    .or_else(|e| src.err(file.span(), e))?;
+                bitmap.bilinear = bilinear;
+                bitmap.wrap = wrap;
+                Texture::Bitmap {
+                    bitmap: std::sync::Arc::new(bitmap),
+                    to_uv,
+                }
+            }
+            _ => {
+                let color = |v: &Option<V3>, key: &str, default: f32| match v {
+                    None => Ok(Vec3::splat(default)),
+                    Some(v) => src.finite3(v, key),
+                };
+                Texture::Checkerboard {
+                    color0: color(&d.color0, "color0", 0.4)?,
+                    color1: color(&d.color1, "color1", 0.2)?,
+                    to_uv,
+                }
+            }
+        };
+        let (lo, hi) = texture.range();
+        if reflectance && !(lo >= 0.0 && hi <= 1.0) {
+            return src.err(
+                t.span(),
+                format!("{what}: a reflectance must lie in [0, 1], the texture holds values in [{lo}, {hi}]"),
+            );
+        }
+        Ok(texture)
     }
 }

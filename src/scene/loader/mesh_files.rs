@@ -3,7 +3,7 @@
 //! one triangle mesh with the vertex normals the scene asks for ([`Normals`]).
 
 use crate::geometry::TriangleMesh;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use std::path::Path;
 
 /// Which vertex normals a loaded mesh gets.
@@ -51,6 +51,18 @@ pub(super) fn load(
     {
         mesh.normals = None;
     }
+    if let Some(uvs) = &mut mesh.uvs {
+        if uvs.iter().any(|uv| !uv.is_finite()) {
+            return Err("the file has non-finite texture coordinates".to_string());
+        }
+        // OBJ and PLY texture coordinates have v up, images their top row first: Mitsuba's
+        // readers flip v (`flip_tex_coords`, default true), and so does lodestar.
+        if kind != "serialized" {
+            for uv in uvs.iter_mut() {
+                uv.y = 1.0 - uv.y;
+            }
+        }
+    }
     Ok(match normals {
         Normals::File => mesh,
         Normals::Faces => TriangleMesh {
@@ -69,6 +81,7 @@ fn load_obj(path: &Path) -> Result<TriangleMesh, String> {
         tobj::load_obj(path, &tobj::GPU_LOAD_OPTIONS).map_err(|e| e.to_string())?;
     let mut mesh = TriangleMesh {
         normals: Some(Vec::new()),
+        uvs: Some(Vec::new()),
         ..Default::default()
     };
     for m in &models {
@@ -89,6 +102,13 @@ fn load_obj(path: &Path) -> Result<TriangleMesh, String> {
             }
         } else {
             mesh.normals = None;
+        }
+        if 3 * m.texcoords.len() == 2 * m.positions.len() {
+            if let Some(uvs) = &mut mesh.uvs {
+                uvs.extend(m.texcoords.chunks_exact(2).map(Vec2::from_slice));
+            }
+        } else {
+            mesh.uvs = None;
         }
         mesh.indices.extend(
             m.indices
@@ -418,11 +438,21 @@ fn load_ply(path: &Path) -> Result<TriangleMesh, String> {
     }
     let mut mesh = TriangleMesh::default();
     let mut normals = Vec::new();
+    let mut uvs = Vec::new();
     for e in &elements {
         let find = |n: &str| e.properties.iter().position(|p| p.name == n);
         let xyz = [find("x"), find("y"), find("z")];
         let nxyz = [find("nx"), find("ny"), find("nz")];
         let has_normals = nxyz.iter().all(Option::is_some);
+        // Texture coordinates under the names Mitsuba reads.
+        let uv = [
+            ("u", "v"),
+            ("s", "t"),
+            ("texture_u", "texture_v"),
+            ("texture_s", "texture_t"),
+        ]
+        .iter()
+        .find_map(|(a, b)| Some((find(a)?, find(b)?)));
         let list = find("vertex_indices").or(find("vertex_index"));
         if e.name == "vertex" && xyz.iter().any(Option::is_none) {
             return Err("the 'vertex' element has no x, y and z".to_string());
@@ -477,6 +507,9 @@ fn load_ply(path: &Path) -> Result<TriangleMesh, String> {
                 if has_normals {
                     normals.push(v(nxyz).normalize_or_zero());
                 }
+                if let Some((a, b)) = uv {
+                    uvs.push(Vec2::new(values[a] as f32, values[b] as f32));
+                }
             } else if e.name == "face" {
                 for k in 1..polygon.len().saturating_sub(1) {
                     mesh.indices.push([polygon[0], polygon[k], polygon[k + 1]]);
@@ -487,6 +520,9 @@ fn load_ply(path: &Path) -> Result<TriangleMesh, String> {
     body.expect_end()?;
     if !normals.is_empty() {
         mesh.normals = Some(normals);
+    }
+    if !uvs.is_empty() {
+        mesh.uvs = Some(uvs);
     }
     Ok(mesh)
 }

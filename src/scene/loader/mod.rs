@@ -91,6 +91,7 @@ use crate::light::{
 };
 use crate::math::Frame;
 use crate::medium::{HomogeneousMedium, MediumInterface};
+use crate::texture::{Texture, Wrap};
 use glam::{UVec2, Vec2, Vec3};
 use serde::Deserialize;
 use std::collections::HashMap;
@@ -210,6 +211,30 @@ struct MaterialDesc {
     specular: Option<V3>,
     /// `roughplastic`: the base's reflectance inside the interreflection sum (default false).
     nonlinear: Option<Spanned<bool>>,
+    /// `diffuse`: the albedo as a texture, in place of `albedo`.
+    albedo_texture: Option<Spanned<TextureDesc>>,
+}
+
+/// A texture (`src/texture.rs`): `type = "bitmap"` with `filename` and optionally `raw`,
+/// `filter` (`bilinear`, `nearest`), `wrap` (`repeat`, `mirror`, `clamp`); or
+/// `type = "checkerboard"` with `color0`, `color1` (defaults 0.4, 0.2); both with `scale` and
+/// `offset` of the texture coordinates (`to_uv`: uv * scale + offset).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct TextureDesc {
+    #[serde(rename = "type")]
+    kind: Spanned<String>,
+    filename: Option<Spanned<String>>,
+    raw: Option<bool>,
+    filter: Option<Spanned<String>>,
+    wrap: Option<Spanned<String>>,
+    color0: Option<V3>,
+    color1: Option<V3>,
+    scale: Option<Spanned<[f32; 2]>>,
+    offset: Option<Spanned<[f32; 2]>>,
+    /// A Mitsuba `to_uv` transform (in place of `scale` and `offset`; not a TOML key).
+    #[serde(skip)]
+    to_uv: Option<glam::Affine2>,
 }
 
 #[derive(Deserialize)]

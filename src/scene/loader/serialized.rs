@@ -7,7 +7,7 @@
 //! Texture coordinates and colours are read past (lodestar has no textures yet).
 
 use crate::geometry::TriangleMesh;
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 use std::io::Read;
 use std::path::Path;
 
@@ -101,9 +101,16 @@ pub(super) fn load(path: &Path, index: u32) -> Result<TriangleMesh, String> {
     } else {
         None
     };
-    if flags & HAS_TEXCOORDS != 0 {
-        floats(2 * nv)?;
-    }
+    let uvs = if flags & HAS_TEXCOORDS != 0 {
+        Some(
+            floats(2 * nv)?
+                .chunks_exact(2)
+                .map(Vec2::from_slice)
+                .collect(),
+        )
+    } else {
+        None
+    };
     if flags & HAS_COLORS != 0 {
         floats(3 * nv)?;
     }
@@ -114,6 +121,7 @@ pub(super) fn load(path: &Path, index: u32) -> Result<TriangleMesh, String> {
     Ok(TriangleMesh {
         positions,
         normals,
+        uvs,
         indices,
         grid: None,
     })

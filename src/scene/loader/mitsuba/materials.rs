@@ -2,7 +2,7 @@
 //! converted once (references share it). See the module documentation of `mitsuba` for the
 //! subset and its defaults.
 
-use super::super::{MaterialDesc, MediumDesc};
+use super::super::{MaterialDesc, MediumDesc, TextureDesc};
 use super::out::{Out, kind, s};
 use super::{Props, Xml, span};
 use crate::error::Result;
@@ -24,7 +24,63 @@ pub(super) fn material_desc(n: Node, name: String, kind: &str) -> MaterialDesc {
         one_sided: None,
         specular: None,
         nonlinear: None,
+        albedo_texture: None,
     }
+}
+
+/// A `<texture>`: `bitmap` (`filename`, `raw` false, `filter_type` "bilinear" or "nearest",
+/// `wrap_mode` "repeat", "mirror" or "clamp", `to_uv`) or `checkerboard` (`color0` 0.4,
+/// `color1` 0.2, `to_uv`); `to_uv` keeps the transform's action on (u, v).
+fn texture_desc(xml: &Xml, n: Node) -> Result<TextureDesc> {
+    let k = kind(xml, n)?;
+    let mut p = xml.props(n)?;
+    let mut d = TextureDesc {
+        kind: s(n, k.clone()),
+        filename: None,
+        raw: None,
+        filter: None,
+        wrap: None,
+        color0: None,
+        color1: None,
+        scale: None,
+        offset: None,
+        to_uv: None,
+    };
+    match k.as_str() {
+        "bitmap" => {
+            d.filename = match p.string(xml, "filename")? {
+                Some((at, f)) => Some(s(at, xml.find_file(&f))),
+                None => return xml.err(n, "texture 'bitmap' needs 'filename'"),
+            };
+            d.raw = p.boolean(xml, "raw")?;
+            d.filter = p.string(xml, "filter_type")?.map(|(at, v)| s(at, v));
+            d.wrap = p.string(xml, "wrap_mode")?.map(|(at, v)| s(at, v));
+            // Read: the lookup is the same in every precision and colour format.
+            p.string(xml, "format")?;
+        }
+        "checkerboard" => {
+            for (key, slot) in [("color0", &mut d.color0), ("color1", &mut d.color1)] {
+                *slot = p.color(xml, key)?.map(|(at, c)| s(at, c.to_array()));
+            }
+        }
+        other => {
+            return xml.err(
+                n,
+                format!("texture '{other}' is not supported (expected bitmap or checkerboard)"),
+            );
+        }
+    }
+    if let Some(t) = p.take("to_uv") {
+        if t.tag_name().name() != "transform" {
+            return xml.err(t, "'to_uv' must be a <transform>");
+        }
+        let m = xml.transform(t)?;
+        d.to_uv = Some(glam::Affine2::from_cols_array(&[
+            m.x_axis.x, m.x_axis.y, m.y_axis.x, m.y_axis.y, m.w_axis.x, m.w_axis.y,
+        ]));
+    }
+    p.finish(xml)?;
+    Ok(d)
 }
 
 /// The material name of a `<bsdf>` (converted once per element), `None` for `null`.
@@ -100,7 +156,10 @@ fn bsdf_desc(xml: &Xml, n: Node, name: String, one_sided: bool) -> Result<Option
     };
     match k {
         "diffuse" => {
-            d.albedo = Some(unit(p.color(xml, "reflectance")?, 0.5));
+            match p.texture(xml, "reflectance")? {
+                Some(t) => d.albedo_texture = Some(s(t, texture_desc(xml, t)?)),
+                None => d.albedo = Some(unit(p.color(xml, "reflectance")?, 0.5)),
+            }
             d.one_sided = Some(s(n, one_sided));
         }
         "roughdiffuse" => {

@@ -24,7 +24,7 @@
 //! * `integrator` `path`, `volpath`, `volpathmis` (lodestar `pt`) and `ptracer` (`lt`):
 //!   `max_depth` (-1, no limit), `rr_depth` (read: lodestar's roulette starts on its own
 //!   schedule, which changes noise, not the image), `hide_emitters` false.
-//! * BSDFs: `diffuse` (`reflectance` 0.5), `roughdiffuse` (Mitsuba 0.6's Oren-Nayar:
+//! * BSDFs: `diffuse` (`reflectance` 0.5, or a texture), `roughdiffuse` (Mitsuba 0.6's Oren-Nayar:
 //!   `reflectance` or `diffuse_reflectance` 0.5, `alpha` 0.2; `use_fast_approx` refused), `conductor` and `roughconductor` (`material`
 //!   "none" with `specular_reflectance`, a named material such as "Au" (`conductors.rs`:
 //!   Mitsuba's RGB values), or `eta` and `k`; rough: `distribution` "beckmann"
@@ -51,6 +51,12 @@
 //!   (`irradiance`, `direction` or `to_world`), `constant` (`radiance`), `envmap`
 //!   (`filename`, an OpenEXR image found like mesh files, `scale` 1, `to_world` a rotation;
 //!   `mis_compensation` read: it changes sampling, not the image).
+//! * Textures (for a `diffuse` BSDF's `reflectance`, nested or by `<ref>` to a top-level
+//!   `<texture id>`; `src/texture.rs`): `bitmap` (`filename`, found like mesh files; `raw`
+//!   false; `filter_type` "bilinear" or "nearest"; `wrap_mode` "repeat", "mirror" or "clamp";
+//!   `format` read) and `checkerboard` (`color0` 0.4, `color1` 0.2), both with `to_uv` (its
+//!   action on (u, v)). OBJ and PLY texture coordinates are flipped in v, as Mitsuba's
+//!   `flip_tex_coords` default does.
 //! * Media `homogeneous`: `sigma_t` (1), `albedo` (0.75), `scale` (1), `sample_emitters`,
 //!   `phase` `isotropic` or `hg` (`g` 0.8).
 //! * Values: `float`, `integer`, `boolean`, `string`, `rgb` (one or three numbers),
@@ -61,8 +67,8 @@
 //! * `<include filename>` (its scene's contents in place of the element, recursively;
 //!   `include.rs`) and `<path value>` (a directory searched first for mesh files).
 //!
-//! Anything else (another plugin, an unknown property, a texture, a spectrum given by
-//! wavelengths) is an error naming the file, the line and the plugin: nothing is skipped.
+//! Anything else (another plugin, an unknown property, a texture elsewhere, a spectrum given
+//! by wavelengths) is an error naming the file, the line and the plugin: nothing is skipped.
 //!
 //! Files: this one reads the document (parameters, references, property values, transforms);
 //! `plugins.rs` turns the scene, sensor, integrator and emitters into the scene description,
@@ -480,6 +486,27 @@ impl<'a, 'input> Props<'a, 'input> {
         self.value(xml, name, &["string"])
     }
 
+    /// A `<texture>` (nested, or a `<ref>` to one) given as property `name`, marked as used;
+    /// `None` when the property is absent or not a texture.
+    fn texture(&mut self, xml: &Xml<'a, 'input>, name: &str) -> Result<Option<Node<'a, 'input>>> {
+        let Some(it) = self
+            .items
+            .iter_mut()
+            .find(|it| it.name.as_deref() == Some(name))
+        else {
+            return Ok(None);
+        };
+        if !matches!(it.node.tag_name().name(), "texture" | "ref") {
+            return Ok(None);
+        }
+        let target = xml.deref(it.node)?;
+        if target.tag_name().name() != "texture" {
+            return Ok(None);
+        }
+        it.used = true;
+        Ok(Some(target))
+    }
+
     /// An RGB value from `<rgb>` (one or three numbers), `<spectrum>` or `<float>` (one
     /// number: uniform).
     fn color(&mut self, xml: &Xml, name: &str) -> Result<Option<(Node<'a, 'input>, Vec3)>> {
@@ -487,9 +514,10 @@ impl<'a, 'input> Props<'a, 'input> {
             .items
             .iter()
             .find(|it| it.name.as_deref() == Some(name))
-            && it.node.tag_name().name() == "texture"
+            && (it.node.tag_name().name() == "texture"
+                || xml.deref(it.node)?.tag_name().name() == "texture")
         {
-            return xml.err(it.node, format!("{}: '{name}' is a texture; lodestar takes constant colours only (rgb, spectrum or float)", self.plugin));
+            return xml.err(it.node, format!("{}: '{name}' is a texture; lodestar reads textures for a diffuse BSDF's reflectance only, and constant colours (rgb, spectrum or float) here", self.plugin));
         }
         let Some((n, v)) = self.value(xml, name, &["rgb", "spectrum", "float"])? else {
             return Ok(None);

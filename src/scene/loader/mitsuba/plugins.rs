@@ -60,7 +60,8 @@ pub(super) fn scene(xml: &Xml, root: Node) -> Result<(SceneDesc, Option<SensorMe
                 _ => shape(xml, n, &mut out, None)?,
             },
             "emitter" => emitter(xml, n, &mut out)?,
-            "texture" => return xml.err(n, "textures are not supported (lodestar takes constant colours)"),
+            // Read where a BSDF refers to it (`materials.rs`), and checked there.
+            "texture" => {}
             // Read before the plugins (`<path>`) or expanded before the document is read.
             "path" | "include" => {}
             other => return xml.err(n, format!("<{other}> is not supported at the top level of a scene (expected default, integrator, sensor, bsdf, medium, shape or emitter)")),

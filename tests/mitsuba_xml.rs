@@ -211,6 +211,49 @@ fn fov_axis_converts_to_the_vertical_field_of_view() {
     assert!((fov_y("diagonal") - y_of(half(40.0) / 5f32.sqrt())).abs() < 1e-4);
 }
 
+/// Without `fov`, Mitsuba's lens: `focal_length` (default 50 mm) on 36 x 24 mm film gives a
+/// diagonal field of view; both given is an error naming the line.
+#[test]
+fn focal_length_gives_mitsubas_diagonal_field_of_view() {
+    let fov_y = |lens: &str| {
+        let text = wrap("").replace(r#"<float name="fov" value="40"/>"#, lens);
+        xml(&text.replace(
+            r#"<integer name="width" value="16"/>"#,
+            r#"<integer name="width" value="32"/>"#,
+        ))
+        .map(|s| s.camera.fov_y_degrees)
+    };
+    let diagonal = |f: f32| 2.0 * (36f32.hypot(24.0) / (2.0 * f)).atan();
+    // On a 2:1 film the vertical extent is 1 / sqrt(5) of the diagonal.
+    let y = |f: f32| {
+        2.0 * ((diagonal(f) / 2.0).tan() / 5f32.sqrt())
+            .atan()
+            .to_degrees()
+    };
+    assert!((fov_y("").unwrap() - y(50.0)).abs() < 1e-4);
+    let f35 = fov_y(r#"<string name="focal_length" value="35mm"/>"#).unwrap();
+    assert!((f35 - y(35.0)).abs() < 1e-4);
+    let e = fov_y(r#"<float name="fov" value="40"/><string name="focal_length" value="35mm"/>"#)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("test.xml:3") && e.contains("not both"), "{e}");
+    let e = fov_y(r#"<string name="focal_length" value="wide"/>"#)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("'focal_length' must be a length"), "{e}");
+}
+
+/// Mitsuba's `direct` integrator is direct illumination: lodestar's pt with two segments.
+#[test]
+fn the_direct_integrator_is_pt_with_two_segments() {
+    let text = wrap(
+        r#"<integrator type="direct"><integer name="emitter_samples" value="4"/></integrator>"#,
+    );
+    let scene = xml(&text).unwrap();
+    assert_eq!(scene.render.integrator, "pt");
+    assert_eq!(scene.render.max_depth, 2);
+}
+
 /// A diffuse rectangle seen from its back: black unless wrapped in `twosided` (Mitsuba's rule;
 /// lodestar's TOML materials are two-sided).
 #[test]

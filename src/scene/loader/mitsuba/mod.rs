@@ -7,7 +7,8 @@
 //!   in any attribute, plugin types included (`-D name=value` on `render`, `info` and `bench`
 //!   overrides a default); `id` and
 //!   `<ref id>` (also `<ref name="interior" id>`) for BSDFs and media.
-//! * `sensor` `perspective`: `fov`, `fov_axis` (x, y, diagonal, smaller, larger; default x),
+//! * `sensor` `perspective`: `fov`, `fov_axis` (x, y, diagonal, smaller, larger; default x)
+//!   or `focal_length` ("50mm" by default, on 36 x 24 mm film, diagonal),
 //!   `to_world`, `near_clip`/`far_clip` (read; lodestar does not clip), `focus_distance` (read,
 //!   as the pinhole does), a nested or referenced
 //!   medium (the medium the camera is in); `film` `hdrfilm` (or Mitsuba 0.x's `ldrfilm`, its
@@ -21,7 +22,9 @@
 //!   property names from camelCase to snake_case (`maxDepth`, `intIOR`, `sampleCount`),
 //!   `<lookAt>` read as `<lookat>`, the diffuse BSDF's `diffuse_reflectance` as
 //!   `reflectance`.
-//! * `integrator` `path`, `volpath`, `volpathmis` (lodestar `pt`) and `ptracer` (`lt`):
+//! * `integrator` `direct` (lodestar `pt` with `max_depth` 2; `emitter_samples`,
+//!   `bsdf_samples` read: they change noise, not the image),
+//!   `path`, `volpath`, `volpathmis` (lodestar `pt`) and `ptracer` (`lt`):
 //!   `max_depth` (-1, no limit), `rr_depth` (read: lodestar's roulette starts on its own
 //!   schedule, which changes noise, not the image), `hide_emitters` false.
 //! * BSDFs: `diffuse` (`reflectance` 0.5, or a texture), `roughdiffuse` (Mitsuba 0.6's Oren-Nayar:

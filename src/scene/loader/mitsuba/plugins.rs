@@ -123,15 +123,28 @@ fn mitsuba_default_filter(at: std::ops::Range<usize>) -> FilterDesc {
 }
 
 fn integrator_plugin(xml: &Xml, n: Node, render: &mut RenderDesc) -> Result<()> {
-    let name = match kind(xml, n)?.as_str() {
-        "path" | "volpath" | "volpathmis" => "pt",
+    let k = kind(xml, n)?;
+    let name = match k.as_str() {
+        "path" | "volpath" | "volpathmis" | "direct" => "pt",
         "ptracer" => "lt",
         other => {
-            return xml.err(n, format!("integrator '{other}' is not supported (path, volpath and volpathmis become lodestar's pt, ptracer its lt; pick others with --integrator)"));
+            return xml.err(n, format!("integrator '{other}' is not supported (path, volpath and volpathmis become lodestar's pt, direct its pt with max_depth 2, ptracer its lt; pick others with --integrator)"));
         }
     };
     let mut p = xml.props(n)?;
     render.integrator = Some(s(n, name.to_string()));
+    if k == "direct" {
+        // Direct illumination: emitters seen directly and light scattered once.
+        render.max_depth = Some(s(n, 2));
+        // How many samples of each strategy change the noise, not the image.
+        p.integer(xml, "emitter_samples")?;
+        p.integer(xml, "bsdf_samples")?;
+        p.integer(xml, "shading_samples")?;
+        if p.boolean(xml, "hide_emitters")? == Some(true) {
+            return xml.err(n, "'hide_emitters' = true is not supported");
+        }
+        return p.finish(xml);
+    }
     if let Some((at, d)) = p.integer(xml, "max_depth")? {
         render.max_depth = Some(s(at, d));
     }
@@ -154,11 +167,33 @@ fn sensor_plugin(xml: &Xml, n: Node, out: &mut Out, render: &mut RenderDesc) -> 
         );
     }
     let mut p = xml.props(n)?;
-    let (fov_at, fov) = match p.float(xml, "fov")? {
-        Some(f) => f,
-        None => return xml.err(n, "the perspective sensor needs 'fov' (degrees)"),
+    let focal = p.string(xml, "focal_length")?;
+    let mut axis = p.string(xml, "fov_axis")?;
+    let (fov_at, fov) = match (p.float(xml, "fov")?, focal) {
+        (Some(_), Some((at, _))) => {
+            return xml.err(at, "give either 'fov' or 'focal_length', not both");
+        }
+        (Some(f), None) => f,
+        // Mitsuba's default: a 50 mm lens on 36 x 24 mm film, its field of view diagonal.
+        (None, focal) => {
+            let (at, text) = focal.unwrap_or((n, "50mm".to_string()));
+            let mm = text.strip_suffix("mm").unwrap_or(&text).trim();
+            let f: f32 = match mm.parse() {
+                Ok(f) if f > 0.0 && f32::is_finite(f) => f,
+                _ => {
+                    return xml.err(
+                        at,
+                        format!("'focal_length' must be a length such as \"50mm\", got '{text}'"),
+                    );
+                }
+            };
+            axis = Some((at, "diagonal".to_string()));
+            (
+                at,
+                2.0 * (36f32.hypot(24.0) / (2.0 * f)).atan().to_degrees(),
+            )
+        }
     };
-    let axis = p.string(xml, "fov_axis")?;
     p.float(xml, "near_clip")?;
     p.float(xml, "far_clip")?;
     // A thin lens's focus; Mitsuba's pinhole accepts and ignores it (everything is in focus).

@@ -229,6 +229,16 @@ impl Texture {
         }
     }
 
+    /// The mean value over the texture (per channel).
+    pub fn mean(&self) -> Spectrum {
+        match self {
+            Texture::Bitmap { bitmap, .. } => {
+                bitmap.texels.iter().copied().sum::<Spectrum>() / bitmap.texels.len() as f32
+            }
+            Texture::Checkerboard { color0, color1, .. } => (*color0 + *color1) * 0.5,
+        }
+    }
+
     /// The smallest and largest channel value anywhere.
     pub fn range(&self) -> (f32, f32) {
         match self {

@@ -164,8 +164,9 @@ fn gradient_png(tag: &str) -> std::path::PathBuf {
     path
 }
 
-/// The Cornell box with a checkerboard floor (4 x 4 squares) and its back wall a bitmap
-/// (bilinear, repeated twice across): textured diffuse albedos, looked up at the texture
+/// The Cornell box with a checkerboard floor (4 x 4 squares, diffuse) and its back wall a
+/// rough plastic over a bitmap (bilinear, repeated twice across): textured albedos, looked up
+/// at the texture
 /// coordinates every integrator carries with its vertices (guided-bdpt through its stored
 /// guide paths too). Control: the checkerboard at 6 x 6 squares must change pt's image pixel by
 /// pixel (tile means average the squares away).
@@ -181,8 +182,8 @@ fn every_integrator_renders_textures_alike() {
                         "[[material]]\nname = \"checker\"\ntype = \"diffuse\"\nalbedo_texture = \
                          {{ type = \"checkerboard\", color0 = [0.8, 0.8, 0.8], color1 = [0.1, \
                          0.1, 0.5], scale = [{checks}, {checks}] }}\n\n[[material]]\nname = \
-                         \"picture\"\ntype = \"diffuse\"\nalbedo_texture = {{ type = \"bitmap\", \
-                         filename = \"{}\", scale = [2, 1] }}\n\n[[material]]",
+                         \"picture\"\ntype = \"roughplastic\"\nior = 1.5\nalpha = 0.2\nalbedo_texture = \
+                         {{ type = \"bitmap\", filename = \"{}\", scale = [2, 1] }}\n\n[[material]]",
                         png.display()
                     ),
                     1,

@@ -224,7 +224,7 @@ fn texture_errors_name_the_file_line_and_what_was_expected() {
         "diffuse\">\n<texture type=\"bitmap\" name=\"reflectance\">\n<string name=\"filename\" value=\"/no/such.png\"/>\n</texture>",
     );
     assert!(e.contains("t.xml:5") && e.contains("/no/such.png"), "{e}");
-    let e = xml("roughplastic\">\n<texture type=\"checkerboard\" name=\"diffuse_reflectance\"/>");
+    let e = xml("roughplastic\">\n<texture type=\"checkerboard\" name=\"specular_reflectance\"/>");
     assert!(e.contains("t.xml:4") && e.contains("is a texture"), "{e}");
     let e = xml(
         "diffuse\">\n<texture type=\"checkerboard\" name=\"reflectance\">\n<float name=\"colour0\" value=\"1\"/>\n</texture>",

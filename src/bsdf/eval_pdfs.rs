@@ -153,9 +153,9 @@ impl Bsdf {
                 (Spectrum::splat(f), pdf_fwd, pdf_rev)
             }
             Bsdf::RoughPlastic(p) => {
-                let (f, pdf_fwd) = rough_plastic::eval_pdf(p, wo_l, wi_l, true);
+                let (f, pdf_fwd) = rough_plastic::eval_pdf(p, wo_l, wi_l, true, sf.uv);
                 let pdf_rev = if reverse {
-                    rough_plastic::eval_pdf(p, wi_l, wo_l, false).1
+                    rough_plastic::eval_pdf(p, wi_l, wo_l, false, sf.uv).1
                 } else {
                     0.0
                 };

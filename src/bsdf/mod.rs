@@ -254,7 +254,11 @@ impl Bsdf {
     /// True if the BSDF reads the point's texture coordinates (`ShadingFrame::uv`).
     #[inline]
     pub fn is_textured(&self) -> bool {
-        matches!(self, Bsdf::TexturedDiffuse { .. })
+        match self {
+            Bsdf::TexturedDiffuse { .. } => true,
+            Bsdf::RoughPlastic(p) => p.diffuse_texture.is_some(),
+            _ => false,
+        }
     }
 
     /// True if the BSDF scatters no light at all.
@@ -318,7 +322,7 @@ impl Bsdf {
                 fresnel: ConductorFresnel::Constant(r),
                 ..
             } => r.max_element(),
-            Bsdf::RoughPlastic(p) => p.diffuse.max_element().max(p.specular.max_element()),
+            Bsdf::RoughPlastic(p) => p.diffuse_max().max(p.specular.max_element()),
             Bsdf::RoughConductor { .. }
             | Bsdf::FresnelConductor { .. }
             | Bsdf::Dielectric { .. }
@@ -372,7 +376,7 @@ impl Bsdf {
                 u,
                 mode,
             )?,
-            Bsdf::RoughPlastic(p) => rough_plastic::sample(p, wo_l, u_lobe, u)?,
+            Bsdf::RoughPlastic(p) => rough_plastic::sample(p, wo_l, u_lobe, u, sf.uv)?,
         };
         let wi = sf.frame.to_world(s.wi);
         if !geometry_agrees(sf, wo, wi, s.transmission) {
@@ -435,7 +439,7 @@ impl Bsdf {
                 )
                 .0,
             ),
-            Bsdf::RoughPlastic(p) => rough_plastic::eval_pdf(p, wo_l, wi_l, true).0,
+            Bsdf::RoughPlastic(p) => rough_plastic::eval_pdf(p, wo_l, wi_l, true, sf.uv).0,
             Bsdf::Black
             | Bsdf::Conductor { .. }
             | Bsdf::FresnelConductor { .. }
@@ -480,7 +484,7 @@ impl Bsdf {
                 )
                 .1
             }
-            Bsdf::RoughPlastic(p) => rough_plastic::eval_pdf(p, wo_l, wi_l, false).1,
+            Bsdf::RoughPlastic(p) => rough_plastic::eval_pdf(p, wo_l, wi_l, false, sf.uv).1,
             Bsdf::Black
             | Bsdf::Conductor { .. }
             | Bsdf::FresnelConductor { .. }

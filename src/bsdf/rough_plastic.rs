@@ -24,6 +24,7 @@ use super::fresnel;
 use super::microfacet::{Distribution, Microfacet, Smith, flip_z, reflect, refract};
 use super::{LocalSample, diffuse};
 use crate::math::{INV_PI, Spectrum};
+use crate::texture::Texture;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 use std::sync::{Arc, Mutex};
@@ -50,6 +51,9 @@ struct Tables {
 pub struct RoughPlastic {
     /// Reflectance of the Lambertian base.
     pub diffuse: Spectrum,
+    /// The base's reflectance as a texture, in place of `diffuse` (set by
+    /// [`RoughPlastic::with_diffuse_texture`]).
+    pub diffuse_texture: Option<Arc<Texture>>,
     /// Scale of the coating's reflection.
     pub specular: Spectrum,
     /// Index inside over index outside.
@@ -81,6 +85,7 @@ impl RoughPlastic {
         let (d, s) = (diffuse.element_sum() / 3.0, specular.element_sum() / 3.0);
         RoughPlastic {
             diffuse,
+            diffuse_texture: None,
             specular,
             eta,
             alpha,
@@ -88,6 +93,35 @@ impl RoughPlastic {
             nonlinear,
             tables,
             specular_weight: if d + s > 0.0 { s / (d + s) } else { 0.5 },
+        }
+    }
+
+    /// The plastic with its base's reflectance looked up in `texture` at the point's texture
+    /// coordinates; the lobe choice takes the texture's mean as Mitsuba's does.
+    pub fn with_diffuse_texture(mut self, texture: Arc<Texture>) -> RoughPlastic {
+        let (d, s) = (
+            texture.mean().element_sum() / 3.0,
+            self.specular.element_sum() / 3.0,
+        );
+        self.specular_weight = if d + s > 0.0 { s / (d + s) } else { 0.5 };
+        self.diffuse_texture = Some(texture);
+        self
+    }
+
+    /// The base's reflectance at texture coordinates `uv`.
+    #[inline]
+    fn diffuse_at(&self, uv: Vec2) -> Spectrum {
+        match &self.diffuse_texture {
+            Some(t) => t.eval(uv),
+            None => self.diffuse,
+        }
+    }
+
+    /// The base's largest reflectance anywhere (for roulette).
+    pub fn diffuse_max(&self) -> f32 {
+        match &self.diffuse_texture {
+            Some(t) => t.max(),
+            None => self.diffuse.max_element(),
         }
     }
 
@@ -113,12 +147,13 @@ impl RoughPlastic {
     }
 
     /// The base's value: `rho / (1 - R_int) t_o t_i / (pi eta^2)` (or the nonlinear sum).
-    fn base(&self, cos_o: f32, cos_i: f32) -> Spectrum {
+    fn base(&self, cos_o: f32, cos_i: f32, uv: Vec2) -> Spectrum {
         let r = self.tables.internal_reflectance;
+        let diffuse = self.diffuse_at(uv);
         let rho = if self.nonlinear {
-            self.diffuse / (Spectrum::ONE - self.diffuse * r)
+            diffuse / (Spectrum::ONE - diffuse * r)
         } else {
-            self.diffuse / (1.0 - r)
+            diffuse / (1.0 - r)
         };
         rho * (INV_PI * self.t(cos_o) * self.t(cos_i) / (self.eta * self.eta))
     }
@@ -216,11 +251,17 @@ fn tables(distribution: Distribution, alpha: f32, eta: f32) -> Arc<Tables> {
     t
 }
 
-/// `(f, pdf)` of the pair in the local frame, zero unless both are strictly on one side;
-/// `f` only when `value` (densities alone skip it).
+/// `(f, pdf)` of the pair in the local frame at texture coordinates `uv`, zero unless both
+/// are strictly on one side; `f` only when `value` (densities alone skip it).
 // `!(x > 0.0)` deliberately rejects NaN as well.
 #[allow(clippy::neg_cmp_op_on_partial_ord)]
-pub(super) fn eval_pdf(p: &RoughPlastic, wo: Vec3, wi: Vec3, value: bool) -> (Spectrum, f32) {
+pub(super) fn eval_pdf(
+    p: &RoughPlastic,
+    wo: Vec3,
+    wi: Vec3,
+    value: bool,
+    uv: Vec2,
+) -> (Spectrum, f32) {
     const ZERO: (Spectrum, f32) = (Spectrum::ZERO, 0.0);
     if !(wo.z * wi.z > 0.0) {
         return ZERO;
@@ -230,7 +271,7 @@ pub(super) fn eval_pdf(p: &RoughPlastic, wo: Vec3, wi: Vec3, value: bool) -> (Sp
     let p_coating = p.p_coating(wo.z);
     let mut pdf = (1.0 - p_coating) * diffuse::pdf(wo, wi);
     let mut f = if value {
-        p.base(wo.z, wi.z)
+        p.base(wo.z, wi.z, uv)
     } else {
         Spectrum::ZERO
     };
@@ -259,7 +300,13 @@ pub(super) fn eval_pdf(p: &RoughPlastic, wo: Vec3, wi: Vec3, value: bool) -> (Sp
     (f, pdf)
 }
 
-pub(super) fn sample(p: &RoughPlastic, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<LocalSample> {
+pub(super) fn sample(
+    p: &RoughPlastic,
+    wo: Vec3,
+    u_lobe: f32,
+    u: Vec2,
+    uv: Vec2,
+) -> Option<LocalSample> {
     let flip = wo.z < 0.0;
     let wo_up = flip_z(wo, flip);
     let wi_up = if u_lobe < p.p_coating(wo_up.z) {
@@ -273,6 +320,6 @@ pub(super) fn sample(p: &RoughPlastic, wo: Vec3, u_lobe: f32, u: Vec2) -> Option
         diffuse::sample(Spectrum::ONE, wo_up, u)?.wi
     };
     let wi = flip_z(wi_up, flip);
-    let (f, pdf) = eval_pdf(p, wo, wi, true);
+    let (f, pdf) = eval_pdf(p, wo, wi, true, uv);
     LocalSample::glossy_reflection(wi, f, pdf)
 }

@@ -39,6 +39,7 @@ impl Builder<'_> {
             "roughdielectric" => &["alpha", "distribution", "ior"],
             "roughplastic" => &[
                 "albedo",
+                "albedo_texture",
                 "specular",
                 "ior",
                 "alpha",
@@ -89,17 +90,9 @@ impl Builder<'_> {
         };
         let one_sided = d.one_sided.as_ref().is_some_and(|o| *o.get_ref());
         let bsdf = match kind {
-            "diffuse" => match (&d.albedo, &d.albedo_texture) {
-                (Some(_), Some(t)) => {
-                    return src.err(
-                        t.span(),
-                        format!("{what} has both 'albedo' and 'albedo_texture' (expected one)"),
-                    );
-                }
-                (None, Some(t)) => Bsdf::TexturedDiffuse {
-                    albedo: std::sync::Arc::new(self.texture(t, true)?),
-                },
-                _ => Bsdf::Diffuse {
+            "diffuse" => match self.albedo_texture(d, &what)? {
+                Some(albedo) => Bsdf::TexturedDiffuse { albedo },
+                None => Bsdf::Diffuse {
                     albedo: src
                         .in_unit_range(src.required(&d.albedo, span, "albedo", &what)?, "albedo")?,
                 },
@@ -152,20 +145,47 @@ impl Builder<'_> {
                     Some(c) => src.in_unit_range(c, "specular")?,
                     None => glam::Vec3::ONE,
                 };
-                let albedo = src.required(&d.albedo, span.clone(), "albedo", &what)?;
-                Bsdf::RoughPlastic(Box::new(crate::bsdf::RoughPlastic::new(
-                    src.in_unit_range(albedo, "albedo")?,
+                let texture = self.albedo_texture(d, &what)?;
+                let albedo = match texture {
+                    Some(_) => glam::Vec3::ZERO,
+                    None => src.in_unit_range(
+                        src.required(&d.albedo, span.clone(), "albedo", &what)?,
+                        "albedo",
+                    )?,
+                };
+                let plastic = crate::bsdf::RoughPlastic::new(
+                    albedo,
                     specular,
                     eta,
                     alpha()?,
                     distribution,
                     d.nonlinear.as_ref().is_some_and(|n| *n.get_ref()),
-                )))
+                );
+                Bsdf::RoughPlastic(Box::new(match texture {
+                    Some(t) => plastic.with_diffuse_texture(t),
+                    None => plastic,
+                }))
             }
             "black" => Bsdf::Black,
             _ => unreachable!("material types are checked above"),
         };
         Ok((bsdf.with_distribution(distribution), one_sided))
+    }
+
+    /// A material's `albedo_texture`, if it has one (and not `albedo` as well).
+    fn albedo_texture(
+        &self,
+        d: &MaterialDesc,
+        what: &str,
+    ) -> Result<Option<std::sync::Arc<Texture>>> {
+        match (&d.albedo, &d.albedo_texture) {
+            (Some(_), Some(t)) => self.src.err(
+                t.span(),
+                format!("{what} has both 'albedo' and 'albedo_texture' (expected one)"),
+            ),
+            (_, Some(t)) => Ok(Some(std::sync::Arc::new(self.texture(t, true)?))),
+            _ => Ok(None),
+        }
     }
 
     /// The texture of a `{ type = ... }` table; `reflectance`: every value must lie in [0, 1].

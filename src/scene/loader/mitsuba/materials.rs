@@ -240,7 +240,10 @@ fn bsdf_desc(xml: &Xml, n: Node, name: String, one_sided: bool) -> Result<Option
                 return xml.err(n, "'int_ior' and 'ext_ior' must be > 0 and differ");
             }
             d.ior = Some(s(n, int / ext));
-            d.albedo = Some(unit(p.color(xml, "diffuse_reflectance")?, 0.5));
+            match p.texture(xml, "diffuse_reflectance")? {
+                Some(t) => d.albedo_texture = Some(s(t, texture_desc(xml, t)?)),
+                None => d.albedo = Some(unit(p.color(xml, "diffuse_reflectance")?, 0.5)),
+            }
             d.specular = Some(unit(p.color(xml, "specular_reflectance")?, 1.0));
             d.nonlinear = Some(s(n, p.boolean(xml, "nonlinear")?.unwrap_or(false)));
             d.one_sided = Some(s(n, one_sided));

@@ -54,7 +54,8 @@
 //!   (`irradiance`, `direction` or `to_world`), `constant` (`radiance`), `envmap`
 //!   (`filename`, an OpenEXR image found like mesh files, `scale` 1, `to_world` a rotation;
 //!   `mis_compensation` read: it changes sampling, not the image).
-//! * Textures (for a `diffuse` BSDF's `reflectance`, nested or by `<ref>` to a top-level
+//! * Textures (for a `diffuse` BSDF's `reflectance` and a `roughplastic`'s
+//!   `diffuse_reflectance`, nested or by `<ref>` to a top-level
 //!   `<texture id>`; `src/texture.rs`): `bitmap` (`filename`, found like mesh files; `raw`
 //!   false; `filter_type` "bilinear" or "nearest"; `wrap_mode` "repeat", "mirror" or "clamp";
 //!   `format` read) and `checkerboard` (`color0` 0.4, `color1` 0.2), both with `to_uv` (its
@@ -520,7 +521,7 @@ impl<'a, 'input> Props<'a, 'input> {
             && (it.node.tag_name().name() == "texture"
                 || xml.deref(it.node)?.tag_name().name() == "texture")
         {
-            return xml.err(it.node, format!("{}: '{name}' is a texture; lodestar reads textures for a diffuse BSDF's reflectance only, and constant colours (rgb, spectrum or float) here", self.plugin));
+            return xml.err(it.node, format!("{}: '{name}' is a texture; lodestar reads textures for a diffuse BSDF's reflectance and a rough plastic's diffuse_reflectance, and constant colours (rgb, spectrum or float) here", self.plugin));
         }
         let Some((n, v)) = self.value(xml, name, &["rgb", "spectrum", "float"])? else {
             return Ok(None);

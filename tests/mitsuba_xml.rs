@@ -601,8 +601,10 @@ fn parameters_substitute_in_plugin_types() {
     assert!(e.contains("'plastic' is not supported"), "{e}");
 }
 
-/// A Mitsuba 0.5 scene (camelCase names, `<lookAt>`, `ldrfilm`, `diffuseReflectance`, a
-/// `halton` sampler) loads as the same scene written for Mitsuba 3.
+/// A Mitsuba 0.5 scene (camelCase names, `<lookAt>`, `ldrfilm` with its `banner`,
+/// `diffuseReflectance` as a three-sample spectrum (RGB), a checkerboard's `uscale`, `vscale`
+/// and `uoffset`, `strictNormals`, a `halton` sampler) loads as the same scene written for
+/// Mitsuba 3.
 #[test]
 fn mitsuba_0_5_scenes_are_upgraded_on_load() {
     let scene_v = |version: &str, body: &str| {
@@ -614,14 +616,15 @@ fn mitsuba_0_5_scenes_are_upgraded_on_load() {
     };
     let old = scene_v(
         "0.5.0",
-        r#"<integrator type="path"><integer name="maxDepth" value="6"/></integrator>
+        r#"<integrator type="path"><integer name="maxDepth" value="6"/><boolean name="strictNormals" value="true"/></integrator>
     <sensor type="perspective">
         <float name="fov" value="40"/><string name="fovAxis" value="y"/>
         <transform name="toWorld"><lookAt origin="0, 0, 4" target="0, 0, 0" up="0, 1, 0"/></transform>
         <sampler type="halton"><integer name="sampleCount" value="32"/><integer name="scramble" value="-1"/></sampler>
-        <film type="ldrfilm"><integer name="width" value="16"/><integer name="height" value="8"/><float name="gamma" value="2.2"/><rfilter type="box"/></film>
+        <film type="ldrfilm"><integer name="width" value="16"/><integer name="height" value="8"/><float name="gamma" value="2.2"/><boolean name="banner" value="false"/><rfilter type="box"/></film>
     </sensor>
-    <shape type="sphere"><bsdf type="diffuse"><rgb name="diffuseReflectance" value="0.2, 0.4, 0.6"/></bsdf></shape>
+    <shape type="sphere"><bsdf type="diffuse"><spectrum name="diffuseReflectance" value="0.2 0.4 0.6"/></bsdf></shape>
+    <shape type="sphere"><point name="center" x="-2" y="0" z="0"/><bsdf type="diffuse"><texture type="checkerboard" name="reflectance"><float name="uscale" value="4"/><float name="vscale" value="2"/><float name="uoffset" value="0.5"/></texture></bsdf></shape>
     <shape type="sphere"><point name="center" x="2" y="0" z="0"/><bsdf type="roughdielectric"><float name="intIOR" value="1.33"/><float name="extIOR" value="1"/></bsdf></shape>"#,
     );
     let new = scene_v(
@@ -634,6 +637,7 @@ fn mitsuba_0_5_scenes_are_upgraded_on_load() {
         <film type="hdrfilm"><integer name="width" value="16"/><integer name="height" value="8"/><rfilter type="box"/></film>
     </sensor>
     <shape type="sphere"><bsdf type="diffuse"><rgb name="reflectance" value="0.2, 0.4, 0.6"/></bsdf></shape>
+    <shape type="sphere"><point name="center" x="-2" y="0" z="0"/><bsdf type="diffuse"><texture type="checkerboard" name="reflectance"><transform name="to_uv"><scale x="4" y="2"/><translate x="0.5"/></transform></texture></bsdf></shape>
     <shape type="sphere"><point name="center" x="2" y="0" z="0"/><bsdf type="roughdielectric"><float name="int_ior" value="1.33"/><float name="ext_ior" value="1"/></bsdf></shape>"#,
     );
     let (a, b) = (xml(&old).unwrap(), xml(&new).unwrap());

@@ -53,7 +53,15 @@ fn texture_desc(xml: &Xml, n: Node) -> Result<TextureDesc> {
                 None => return xml.err(n, "texture 'bitmap' needs 'filename'"),
             };
             d.raw = p.boolean(xml, "raw")?;
-            d.filter = p.string(xml, "filter_type")?.map(|(at, v)| s(at, v));
+            // Mitsuba 0.x's MIP-mapped lookups ("trilinear", "ewa") are bilinear in Mitsuba 3.
+            d.filter = p
+                .string(xml, "filter_type")?
+                .map(|(at, v)| match v.as_str() {
+                    "trilinear" | "ewa" if xml.before_2 => s(at, "bilinear".to_string()),
+                    _ => s(at, v),
+                });
+            p.float(xml, "max_anisotropy")?;
+            p.float(xml, "gamma")?;
             d.wrap = p.string(xml, "wrap_mode")?.map(|(at, v)| s(at, v));
             // Read: the lookup is the same in every precision and colour format.
             p.string(xml, "format")?;
@@ -69,6 +77,25 @@ fn texture_desc(xml: &Xml, n: Node) -> Result<TextureDesc> {
                 format!("texture '{other}' is not supported (expected bitmap or checkerboard)"),
             );
         }
+    }
+    // Mitsuba 0.x: `uscale`, `vscale`, `uoffset`, `voffset` (Mitsuba 3 makes them `to_uv`).
+    let mut legacy = [1.0f32, 1.0, 0.0, 0.0];
+    let mut given = false;
+    for (key, slot) in ["uscale", "vscale", "uoffset", "voffset"]
+        .iter()
+        .zip(&mut legacy)
+    {
+        if let Some((_, v)) = p.float(xml, key)? {
+            *slot = v;
+            given = true;
+        }
+    }
+    if given {
+        d.to_uv = Some(glam::Affine2::from_scale_angle_translation(
+            glam::Vec2::new(legacy[0], legacy[1]),
+            0.0,
+            glam::Vec2::new(legacy[2], legacy[3]),
+        ));
     }
     if let Some(t) = p.take("to_uv") {
         if t.tag_name().name() != "transform" {

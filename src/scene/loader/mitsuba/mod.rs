@@ -21,7 +21,8 @@
 //! * Mitsuba 0.x scenes (`version` below 2.0.0) are upgraded as Mitsuba 3 upgrades them:
 //!   property names from camelCase to snake_case (`maxDepth`, `intIOR`, `sampleCount`),
 //!   `<lookAt>` read as `<lookat>`, the diffuse BSDF's `diffuse_reflectance` as
-//!   `reflectance`.
+//!   `reflectance`, a `<spectrum>` of three values as RGB, textures' `uscale`, `vscale`,
+//!   `uoffset`, `voffset` as `to_uv` and their "trilinear" or "ewa" filter as bilinear.
 //! * `integrator` `direct` (lodestar `pt` with `max_depth` 2; `emitter_samples`,
 //!   `bsdf_samples` read: they change noise, not the image),
 //!   `path`, `volpath`, `volpathmis` (lodestar `pt`) and `ptracer` (`lt`):
@@ -532,6 +533,8 @@ impl<'a, 'input> Props<'a, 'input> {
         let c = match xml.numbers(n, &v)?.as_slice() {
             [s] => Vec3::splat(*s),
             [r, g, b] if n.tag_name().name() == "rgb" => Vec3::new(*r, *g, *b),
+            // Mitsuba 0.x in RGB mode: a spectrum of three samples is red, green, blue.
+            [r, g, b] if xml.before_2 => Vec3::new(*r, *g, *b),
             _ => {
                 return xml.err(
                     n,

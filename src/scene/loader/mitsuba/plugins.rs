@@ -150,6 +150,9 @@ fn integrator_plugin(xml: &Xml, n: Node, render: &mut RenderDesc) -> Result<()> 
     }
     // Russian roulette's start changes noise, not the expected image.
     p.integer(xml, "rr_depth")?;
+    // Paths where the geometric and shading normals disagree about a side: lodestar's BSDFs
+    // give them no value either way (`bsdf/mod.rs`), as Mitsuba's `strict_normals` does.
+    p.boolean(xml, "strict_normals")?;
     if p.boolean(xml, "hide_emitters")? == Some(true) {
         return xml.err(n, "'hide_emitters' = true is not supported");
     }
@@ -235,10 +238,10 @@ fn sensor_plugin(xml: &Xml, n: Node, out: &mut Out, render: &mut RenderDesc) -> 
             for key in ["gamma", "exposure", "key", "burn"] {
                 fp.float(xml, key)?;
             }
-            for key in ["banner", "high_quality_edges"] {
-                fp.boolean(xml, key)?;
-            }
+            fp.boolean(xml, "high_quality_edges")?;
         }
+        // Mitsuba 0.x's text stamped on the image: lodestar writes none.
+        fp.boolean(xml, "banner")?;
         // Whether Mitsuba traces samples for the border beyond the image: lodestar's
         // camera samples always look as far as the filter reaches (`filter.rs`).
         fp.boolean(xml, "sample_border")?;

@@ -29,6 +29,8 @@ Usage
     pip install mitsuba numpy; apt-get install libllvm19   (for llvm_ad_rgb)
     cargo build --profile timed
     python3 benches/reference/mitsuba_xml.py --variant llvm_ad_rgb --res 128 --spp 64 --renders 8
+    python3 benches/reference/mitsuba_xml.py --variant scalar_rgb --renders 16 --control \
+        --scenes scenes/public/bitterli-cornell-box/scene_v3.xml --define resx=64 --define resy=64 --define spp=64
 """
 import argparse
 import glob
@@ -53,6 +55,9 @@ def main():
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--lodestar", default=os.path.join(ROOT, "target/timed/lodestar"))
     ap.add_argument("--control", action="store_true", help="also compare lodestar with itself")
+    ap.add_argument("--define", action="append", default=None, metavar="NAME=VALUE",
+                    help="scene parameters to set instead of res and spp (repeatable; for scenes "
+                         "with other parameters or none: --define none)")
     args = ap.parse_args()
 
     if args.variant.startswith("llvm") and "DRJIT_LIBLLVM_PATH" not in os.environ:
@@ -67,14 +72,20 @@ def main():
     except Exception:
         pass
 
-    print(f"# Mitsuba {mi.__version__} {args.variant} vs lodestar; {args.res}x{args.res}, "
-          f"{args.spp} spp, {args.renders} renders a side, {args.threads} threads")
+    shown = (f"{args.res}x{args.res}, {args.spp} spp" if args.define is None
+             else "parameters " + (" ".join(args.define)))
+    print(f"# Mitsuba {mi.__version__} {args.variant} vs lodestar; {shown}, "
+          f"{args.renders} renders a side, {args.threads} threads")
     print("| scene | channel means lodestar | channel means Mitsuba | max abs z (means) | 8x8 blocks: mean z^2, max abs z (Bonferroni p) | per-pixel MSE / noise floor | s/render lodestar | s/render Mitsuba |")
     print("|---|---|---|---|---|---|---|---|")
     tmp = tempfile.mkdtemp(prefix="lodestar-mitsuba-xml-")
+    if args.define is None:
+        defines = {"res": str(args.res), "spp": str(args.spp)}
+    else:
+        defines = dict(d.split("=", 1) for d in args.define if d != "none")
     for path in args.scenes:
         name = os.path.splitext(os.path.basename(path))[0]
-        scene = mi.load_file(path, res=args.res, spp=args.spp)
+        scene = mi.load_file(path, **defines)
         np.array(mi.render(scene, seed=999))  # warm-up (JIT compilation)
         mits, mt = [], []
         for k in range(args.renders):
@@ -87,7 +98,8 @@ def main():
             for k in seeds:
                 out = os.path.join(tmp, f"{name}-{k}.exr")
                 t = time.perf_counter()
-                subprocess.run([args.lodestar, "render", path, "-D", f"res={args.res}", "-D", f"spp={args.spp}",
+                flags = [x for k_, v in defines.items() for x in ("-D", f"{k_}={v}")]
+                subprocess.run([args.lodestar, "render", path, *flags,
                                 "--seed", str(k), "--threads", str(args.threads), "--quiet", "-o", out],
                                check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
                 times.append(time.perf_counter() - t)

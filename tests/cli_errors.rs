@@ -898,6 +898,10 @@ impl GuideFile {
                 for x in [v.p, v.n, v.n].concat() {
                     b.extend(x.to_le_bytes());
                 }
+                // Texture coordinates.
+                for x in [0f32, 0f32] {
+                    b.extend(x.to_le_bytes());
+                }
                 b.push(v.tag);
                 b.extend(v.ids[0].to_le_bytes());
                 b.extend(v.ids[1].to_le_bytes());
@@ -968,7 +972,7 @@ fn bad_guide_caches_name_the_file_and_the_fault() {
         (
             "version",
             edited(&|f| f.version = 4),
-            vec!["guide cache format version 4, this lodestar reads version 5"],
+            vec!["guide cache format version 4, this lodestar reads version 6"],
         ),
         (
             "fingerprint",

@@ -287,7 +287,12 @@ fn cornell_glossy_has_rough_materials() {
 fn public_scenes_load_as_published() {
     let v3 = load("public/bitterli-cornell-box/scene_v3.xml");
     let v06 = load("public/bitterli-cornell-box/scene_v0.6.xml");
-    let bsdfs = |s: &Scene| s.materials.iter().map(|m| m.bsdf.clone()).collect::<Vec<_>>();
+    let bsdfs = |s: &Scene| {
+        s.materials
+            .iter()
+            .map(|m| m.bsdf.clone())
+            .collect::<Vec<_>>()
+    };
     assert_eq!(bsdfs(&v3), bsdfs(&v06));
     assert_eq!(v3.shapes.len(), v06.shapes.len());
     assert_eq!(v3.lights.len(), v06.lights.len());
@@ -298,6 +303,9 @@ fn public_scenes_load_as_published() {
         assert!((a.d - b.d).abs().max_element() < 1e-5, "{a:?} {b:?}");
     }
     let spheres = load("public/okapi-cornell-spheres/scene.xml");
-    assert!(spheres.features.specular_surfaces, "the spheres are glass and a mirror");
+    assert!(
+        spheres.features.specular_surfaces,
+        "the spheres are glass and a mirror"
+    );
     assert_eq!(spheres.lights.len(), 1);
 }

@@ -27,7 +27,8 @@
 //!   `bsdf_samples` read: they change noise, not the image),
 //!   `path`, `volpath`, `volpathmis` (lodestar `pt`) and `ptracer` (`lt`):
 //!   `max_depth` (-1, no limit), `rr_depth` (read: lodestar's roulette starts on its own
-//!   schedule, which changes noise, not the image), `hide_emitters` false.
+//!   schedule, which changes noise, not the image), `strict_normals` (read: lodestar's BSDFs
+//!   are strict either way), `hide_emitters` false.
 //! * BSDFs: `diffuse` (`reflectance` 0.5, or a texture), `roughdiffuse` (Mitsuba 0.6's Oren-Nayar:
 //!   `reflectance` or `diffuse_reflectance` 0.5, `alpha` 0.2; `use_fast_approx` refused), `conductor` and `roughconductor` (`material`
 //!   "none" with `specular_reflectance`, a named material such as "Au" (`conductors.rs`:

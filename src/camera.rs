@@ -12,10 +12,11 @@
 //! The pinhole's position is a delta (its area density is a discrete 1).
 //!
 //! The pixel filter (`filter.rs`) decides where a pixel's samples look: [`Camera::generate_ray`]
-//! moves a sample from its pixel to the filter's position, which for filters wider than a
-//! pixel can lie up to [`Filter::margin`] beyond the image; the image-wide mapping and
-//! densities extend over that margin (the same `We` and `pdf_we` formulas), so that a splat
-//! there still reaches the border pixels ([`Camera::splat_pixel`]).
+//! moves a sample from its pixel to the filter's position, cut at the image's edges as
+//! Mitsuba does; splats reach the pixels around them by the filter, renormalised the same way
+//! ([`Camera::splat_pixel`]). The image-wide mapping and densities extend over a margin of
+//! [`Filter::margin`] around the image (the same `We` and `pdf_we` formulas) that no sample
+//! counts in.
 
 use crate::filter::Filter;
 use crate::geometry::Ray;
@@ -117,7 +118,23 @@ impl Camera {
         }
         let pixel = raster.floor();
         let u = (raster - pixel).clamp(Vec2::ZERO, Vec2::splat(1.0 - f32::EPSILON));
-        self.ray_through(pixel + 0.5 + self.filter.sample(u))
+        let c = pixel + 0.5;
+        let res = self.resolution.as_vec2();
+        // The filter cut at the image's edges (module doc of `filter.rs`).
+        let d = Vec2::new(
+            self.filter
+                .sample_1d_within(u.x as f64, -c.x as f64, (res.x - c.x) as f64) as f32,
+            self.filter
+                .sample_1d_within(u.y as f64, -c.y as f64, (res.y - c.y) as f64) as f32,
+        );
+        self.ray_through(c + d)
+    }
+
+    /// The part of pixel (x, y)'s filter inside the image, `N_c` (`filter.rs`).
+    fn filter_mass(&self, x: i64, y: i64) -> f64 {
+        let (cx, cy) = (x as f64 + 0.5, y as f64 + 0.5);
+        let (w, h) = (self.resolution.x as f64, self.resolution.y as f64);
+        self.filter.mass_1d(-cx, w - cx) * self.filter.mass_1d(-cy, h - cy)
     }
 
     /// The ray through raster position `raster` (no filter).
@@ -174,16 +191,26 @@ impl Camera {
     }
 
     /// The pixel a splat at raster position `raster` goes to and its weight
-    /// (`Filter::pick`, `u` in [0, 1)), or `None` when that pixel is off the image. For the
-    /// box filter, the pixel holding `raster` with weight 1.
+    /// (`Filter::pick`, `u` in [0, 1), divided by the pixel's filter mass on the image), or
+    /// `None` when `raster` or that pixel is off the image. For the box filter, the pixel
+    /// holding `raster` with weight 1.
     pub fn splat_pixel(&self, raster: Vec2, u: f32) -> Option<(usize, f32)> {
         if self.filter.is_box() {
             return Some((self.pixel_index(raster), 1.0));
         }
-        let ((x, y), w) = self.filter.pick(raster, u)?;
         let res = self.resolution;
-        ((0..res.x as i64).contains(&x) && (0..res.y as i64).contains(&y))
-            .then(|| ((y as u32 * res.x + x as u32) as usize, w as f32))
+        if !(raster.x >= 0.0
+            && raster.y >= 0.0
+            && raster.x < res.x as f32
+            && raster.y < res.y as f32)
+        {
+            return None;
+        }
+        let ((x, y), w) = self.filter.pick(raster, u)?;
+        ((0..res.x as i64).contains(&x) && (0..res.y as i64).contains(&y)).then(|| {
+            let n = self.filter_mass(x, y);
+            ((y as u32 * res.x + x as u32) as usize, (w / n) as f32)
+        })
     }
 
     /// The number [`Camera::splat_pixel`] needs: none for the box filter (0 without reading

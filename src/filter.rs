@@ -5,16 +5,19 @@
 //! pixel's centre (x + 0.5, y + 0.5) and `f` the filter: the box of one pixel is the plain
 //! pixel integral. Every filter is separable, `f(d) = f1(d.x) f1(d.y)`.
 //!
+//! As in Mitsuba, a pixel sees the image only: near the border its filter is cut at the
+//! image's edge and renormalised, `I = ∫_image f(r - c) L(r) dr / N_c` with
+//! `N_c = ∫_image f(r - c) dr` (1 wherever the filter lies inside the image).
+//!
 //! * **Camera samples** are drawn from the filter itself (filter importance sampling, as in
-//!   pbrt-v4): the ray of a sample in pixel c goes through `c + d` with `d ~ f`, and the sample
-//!   counts for pixel c with weight `f / pdf = 1`. Samples near the image's edge can look
-//!   beyond it, up to the filter's radius: a border pixel's filter reaches outside the image
-//!   (Mitsuba instead renormalises the filter to the part inside; the two differ only in the
-//!   outermost `radius - 1/2` pixels).
+//!   pbrt-v4): the ray of a sample in pixel c goes through `c + d` with `d ~ f / N_c` on the
+//!   image ([`Filter::sample_1d_within`] per axis), and the sample counts for pixel c with
+//!   weight 1.
 //! * **Splats** (light tracing, bdpt's and vcm's t = 1, guided samples, mmlt's t = 1) land at
 //!   a raster position r that no pixel chose: [`Filter::pick`] sends each to one pixel c, with
 //!   probability `f(r - c) / W(r)` and weight `W(r) = Σ_c f(r - c)`, so that every pixel gets
-//!   `f(r - c)` times the contribution in expectation, one splat per contribution.
+//!   `f(r - c)` times the contribution in expectation, one splat per contribution; the camera
+//!   divides by the pixel's `N_c` and drops splats off the image.
 //!
 //! Profiles (`f1`, before normalisation): box 1 on [-1/2, 1/2]; tent `1 - |x| / R` (Mitsuba's
 //! `radius` R, default 1); Gaussian `exp(-x² / 2σ²) - exp(-R² / 2σ²)` on |x| < R = 4σ
@@ -177,6 +180,44 @@ impl Filter {
         )
     }
 
+    /// Integral of the normalised 1-D profile from `-radius` to `x`.
+    pub fn cdf_1d(&self, x: f64) -> f64 {
+        if x <= -self.radius {
+            return 0.0;
+        }
+        if x >= self.radius {
+            return 1.0;
+        }
+        if self.is_box() {
+            return x + 0.5;
+        }
+        let h = self.segment();
+        let t = (x + self.radius) / h;
+        let i = (t as usize).min(self.values.len() - 2);
+        let d = x + self.radius - i as f64 * h;
+        let (a, b) = (self.values[i], self.values[i + 1]);
+        self.cdf[i] + a * d + (b - a) * d * d / (2.0 * h)
+    }
+
+    /// The profile's integral over offsets in `[lo, hi]`: 1 when the filter lies inside.
+    pub fn mass_1d(&self, lo: f64, hi: f64) -> f64 {
+        if lo <= -self.radius && hi >= self.radius {
+            1.0
+        } else {
+            (self.cdf_1d(hi) - self.cdf_1d(lo)).max(0.0)
+        }
+    }
+
+    /// An offset with density [`Filter::eval_1d`] restricted to `[lo, hi]` (and renormalised),
+    /// for `u` in [0, 1): [`Filter::sample_1d`] itself when the filter lies inside.
+    pub fn sample_1d_within(&self, u: f64, lo: f64, hi: f64) -> f64 {
+        if lo <= -self.radius && hi >= self.radius {
+            return self.sample_1d(u);
+        }
+        let (a, b) = (self.cdf_1d(lo), self.cdf_1d(hi));
+        self.sample_1d(a + u * (b - a)).clamp(lo, hi)
+    }
+
     /// One axis of [`Filter::pick`]: the pixel column (or row) i, chosen with probability
     /// `f1(x - i - 1/2) / W1(x)`, `W1(x)` and the number `u` rescaled for reuse.
     fn pick_1d(&self, x: f64, u: f64) -> Option<(i64, f64, f64)> {
@@ -267,6 +308,45 @@ mod tests {
                     f.kind()
                 );
             }
+        }
+    }
+
+    /// Cut at [lo, hi], sampling follows the profile renormalised to the cut: the fraction of
+    /// samples below x is (C(x) - C(lo)) / (C(hi) - C(lo)), every sample lies in the cut, the
+    /// mass is that denominator, and an uncut filter samples as before.
+    #[test]
+    fn samples_within_a_cut_follow_the_renormalised_profile() {
+        for f in filters() {
+            let r = f.radius;
+            let (lo, hi) = (-0.3 * r, 2.0 * r);
+            let n = 100_000;
+            let xs: Vec<f64> = (0..n)
+                .map(|i| f.sample_1d_within((i as f64 + 0.5) / n as f64, lo, hi))
+                .collect();
+            assert!(xs.iter().all(|&x| (lo..=hi).contains(&x)));
+            let m = 100_000;
+            let integral = |a: f64, b: f64| -> f64 {
+                let h = (b - a) / m as f64;
+                (0..m)
+                    .map(|i| f.eval_1d(a + (i as f64 + 0.5) * h) * h)
+                    .sum()
+            };
+            let mass = integral(lo, r);
+            assert!((f.mass_1d(lo, hi) - mass).abs() < 1e-6, "{:?}", f.kind());
+            for q in [-0.2, 0.0, 0.3, 0.77] {
+                let x = q * r;
+                let below = xs.iter().filter(|&&s| s < x).count() as f64 / n as f64;
+                let want = integral(lo, x) / mass;
+                assert!(
+                    (below - want).abs() < 3e-5,
+                    "{:?} at {x}: {below} vs {want}",
+                    f.kind()
+                );
+            }
+            for u in [0.0, 0.3, 0.999] {
+                assert_eq!(f.sample_1d_within(u, -r - 1.0, r), f.sample_1d(u));
+            }
+            assert_eq!(f.mass_1d(-r, r + 3.0), 1.0);
         }
     }
 

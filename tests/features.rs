@@ -225,3 +225,57 @@ fn every_integrator_renders_textures_alike() {
     );
     std::fs::remove_dir_all(png.parent().unwrap()).ok();
 }
+
+/// An emitting quad that just covers the image (a 90-degree view of a 2.02-wide quad at
+/// distance 1), black beyond it. As in Mitsuba, a pixel's filter is cut at the image's edge
+/// and renormalised, so every pixel, the border ones included, is the quad's radiance: pt's
+/// camera rays all hit the quad (exactly 3 in every pixel, through a tent of radius 1.5 and a
+/// Gaussian of 0.9: a filter reaching past the edge uncut would make the border pixels about
+/// a quarter darker), and lt's splats measure the same pixel by pixel.
+#[test]
+fn border_pixels_renormalise_their_filter_to_the_image() {
+    for filter in [
+        "{ type = \"tent\", radius = 1.5 }",
+        "{ type = \"gaussian\", stddev = 0.9 }",
+    ] {
+        let scene = util::scene(&format!(
+            r#"
+[camera]
+position = [0, 0, 1]
+look_at = [0, 0, 0]
+up = [0, 1, 0]
+fov = 90
+resolution = [12, 12]
+filter = {filter}
+
+[[material]]
+name = "black"
+type = "black"
+
+[[shape]]
+type = "quad"
+origin = [-1.01, -1.01, 0]
+edge_u = [2.02, 0, 0]
+edge_v = [0, 2.02, 0]
+material = "black"
+emission = [3, 3, 3]
+"#
+        ));
+        let pt = seeded_renders(&scene, "pt", 4, &[], 16, 5, 10);
+        for img in &pt {
+            for (i, p) in img.pixels.iter().enumerate() {
+                assert!(
+                    (*p - glam::Vec3::splat(3.0)).abs().max_element() < 1e-4,
+                    "{filter}: pixel {i} is {p}"
+                );
+            }
+        }
+        let lt = seeded_renders(&scene, "lt", 4, &[], 256, 5, 20);
+        assert_same_image(
+            &pt,
+            &lt,
+            1,
+            &format!("lt vs pt through {filter} at the border"),
+        );
+    }
+}

@@ -98,8 +98,8 @@ fn every_integrator_renders_a_thin_dielectric_and_rough_diffuse_alike() {
 /// Gaussian of standard deviation 0.9 (radius 3.6): camera samples drawn from the filter (pt)
 /// and splats spread by it (bdpt's and vcm's t = 1, mmlt's t = 1, guided samples; lt, on the
 /// box with its glass sphere diffuse, as light tracing cannot see glass) measure the same
-/// filtered pixels, the border pixels included (their filters reach beyond the image, where
-/// splats come from too); pixel by pixel (`assert_same_image` with tiles of one pixel).
+/// filtered pixels, the border pixels included (their filters cut at the image's edge and
+/// renormalised); pixel by pixel (`assert_same_image` with tiles of one pixel).
 /// Controls: pt's box-filtered image must differ from its tent-filtered one, and lt's
 /// unfiltered splats from pt's filtered image (the filters blur the box's edges by more
 /// than the noise).

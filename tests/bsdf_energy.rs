@@ -49,6 +49,7 @@ fn gold() -> ConductorFresnel {
     ConductorFresnel::Complex {
         eta: Vec3::new(0.143, 0.374, 1.442),
         k: Vec3::new(3.983, 2.385, 1.603),
+        scale: Vec3::ONE,
     }
 }
 

@@ -834,7 +834,11 @@ fn fresnel_conductor_reflects_as_mitsuba() {
         Vec3::new(0.143, 0.374, 1.442),
         Vec3::new(3.983, 2.385, 1.603),
     );
-    let bsdf = Bsdf::FresnelConductor { eta, k };
+    let bsdf = Bsdf::FresnelConductor {
+        eta,
+        k,
+        scale: Vec3::ONE,
+    };
     let n = ng_generic();
     let sf = ShadingFrame::new(n, n);
     for &(theta, expected) in reference {

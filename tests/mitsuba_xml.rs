@@ -928,15 +928,42 @@ fn named_conductors_take_mitsubas_indices() {
         gold.unwrap(),
         Bsdf::FresnelConductor {
             eta: Vec3::new(0.143036, 0.375307, 1.44205),
-            k: Vec3::new(3.983, 2.38556, 1.60336)
+            k: Vec3::new(3.983, 2.38556, 1.60336),
+            scale: Vec3::ONE,
         }
+    );
+    // Mitsuba's `specular_reflectance` scales the Fresnel reflectance.
+    let tinted = bsdf(
+        r#"<bsdf type="conductor"><string name="material" value="Au"/><rgb name="specular_reflectance" value="0.5, 0.6, 0.7"/></bsdf>"#,
+    );
+    let tinted = tinted.unwrap();
+    let Bsdf::FresnelConductor { eta, k, scale } = tinted.clone() else {
+        panic!("{tinted:?}")
+    };
+    assert_eq!(scale, Vec3::new(0.5, 0.6, 0.7));
+    let frame = lodestar::bsdf::ShadingFrame::new(Vec3::Z, Vec3::Z);
+    let wo = Vec3::new(0.6, 0.0, 0.8);
+    let s = tinted
+        .sample(
+            &frame,
+            wo,
+            0.5,
+            glam::Vec2::splat(0.5),
+            lodestar::bsdf::TransportMode::Radiance,
+        )
+        .unwrap();
+    let want = lodestar::bsdf::fresnel::conductor(0.8, eta, k) * scale;
+    assert!(
+        (s.weight - want).abs().max_element() < 1e-5,
+        "{} vs {want}",
+        s.weight
     );
     let copper = bsdf(
         r#"<bsdf type="roughconductor"><string name="material" value="Cu"/><float name="alpha" value="0.2"/></bsdf>"#,
     );
     match copper.unwrap() {
         Bsdf::RoughConductor {
-            fresnel: lodestar::bsdf::ConductorFresnel::Complex { eta, k },
+            fresnel: lodestar::bsdf::ConductorFresnel::Complex { eta, k, .. },
             ..
         } => {
             assert_eq!(eta, Vec3::new(0.201005, 0.92375, 1.10222));

@@ -710,6 +710,18 @@ fn rough_conductor_needs_one_kind_of_fresnel() {
 }
 
 #[test]
+fn conductor_specular_scales_only_the_complex_fresnel() {
+    let text = with(&format!(
+        "[[material]]\nname = \"m\"\ntype = \"conductor\"\nreflectance = [0.9, 0.9, 0.9]\nspecular = [0.5, 0.5, 0.5] {MARK}\n"
+    ));
+    check(&text, &["'specular'", "'eta' and 'k'"]);
+    let text = with(&format!(
+        "[[material]]\nname = \"m\"\ntype = \"conductor\"\neta = [0.2, 0.4, 1.4]\nk = [3, 2.4, 1.8]\nspecular = [1.5, 0.5, 0.5] {MARK}\n"
+    ));
+    check(&text, &["'specular'", "[0, 1]"]);
+}
+
+#[test]
 fn sun_needs_exactly_one_of_radiance_and_irradiance() {
     let text = with(&format!(
         "[[light]] {MARK}\ntype = \"sun\"\ndirection = [0, 1, 0]\nradiance = [1, 1, 1]\nirradiance = [1, 1, 1]\n"

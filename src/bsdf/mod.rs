@@ -137,6 +137,8 @@ pub enum Bsdf {
         eta: Spectrum,
         /// Extinction coefficient, per channel.
         k: Spectrum,
+        /// Factor on the reflectance per channel (Mitsuba's `specular_reflectance`).
+        scale: Spectrum,
     },
     /// Smooth dielectric interface; `eta` = index inside / index outside (front side).
     Dielectric {
@@ -190,6 +192,9 @@ pub enum ConductorFresnel {
         eta: Spectrum,
         /// Extinction coefficient (imaginary part), per channel.
         k: Spectrum,
+        /// Factor on the reflectance per channel (Mitsuba's `specular_reflectance`; 1
+        /// physically).
+        scale: Spectrum,
     },
 }
 
@@ -198,7 +203,9 @@ impl ConductorFresnel {
     pub fn eval(&self, cos: f32) -> Spectrum {
         match self {
             ConductorFresnel::Constant(r) => *r,
-            ConductorFresnel::Complex { eta, k } => fresnel::conductor(cos, *eta, *k),
+            ConductorFresnel::Complex { eta, k, scale } => {
+                fresnel::conductor(cos, *eta, *k) * *scale
+            }
         }
     }
 }
@@ -323,9 +330,12 @@ impl Bsdf {
                 ..
             } => r.max_element(),
             Bsdf::RoughPlastic(p) => p.diffuse_max().max(p.specular.max_element()),
-            Bsdf::RoughConductor { .. }
-            | Bsdf::FresnelConductor { .. }
-            | Bsdf::Dielectric { .. }
+            Bsdf::RoughConductor {
+                fresnel: ConductorFresnel::Complex { scale, .. },
+                ..
+            }
+            | Bsdf::FresnelConductor { scale, .. } => scale.max_element(),
+            Bsdf::Dielectric { .. }
             | Bsdf::ThinDielectric { .. }
             | Bsdf::RoughDielectric { .. } => 1.0,
         };
@@ -354,8 +364,8 @@ impl Bsdf {
                 rough_diffuse::sample(*albedo, *alpha, wo_l, u)?
             }
             Bsdf::Conductor { reflectance } => LocalSample::mirror(wo_l, *reflectance, 1.0),
-            Bsdf::FresnelConductor { eta, k } => {
-                LocalSample::mirror(wo_l, fresnel::conductor(wo_l.z, *eta, *k), 1.0)
+            Bsdf::FresnelConductor { eta, k, scale } => {
+                LocalSample::mirror(wo_l, fresnel::conductor(wo_l.z, *eta, *k) * *scale, 1.0)
             }
             Bsdf::Dielectric { eta } => dielectric::sample(*eta, wo_l, u_lobe, mode)?,
             Bsdf::ThinDielectric { eta } => dielectric::thin_sample(*eta, wo_l, u_lobe)?,
@@ -579,6 +589,7 @@ mod tests {
                 ConductorFresnel::Complex {
                     eta: Spectrum::new(0.2, 0.9, 1.1),
                     k: Spectrum::new(3.9, 2.4, 2.2),
+                    scale: Spectrum::ONE,
                 },
             ),
             Bsdf::rough_dielectric(1.5, 0.2),

@@ -26,7 +26,7 @@ impl Builder<'_> {
         let allowed: &[&str] = match kind {
             "diffuse" => &["albedo", "albedo_texture", "one_sided"],
             "roughdiffuse" => &["albedo", "alpha", "one_sided"],
-            "conductor" => &["reflectance", "eta", "k", "one_sided"],
+            "conductor" => &["reflectance", "eta", "k", "specular", "one_sided"],
             "dielectric" | "thindielectric" => &["ior"],
             "roughconductor" => &[
                 "alpha",
@@ -34,6 +34,7 @@ impl Builder<'_> {
                 "reflectance",
                 "eta",
                 "k",
+                "specular",
                 "one_sided",
             ],
             "roughdielectric" => &["alpha", "distribution", "ior"],
@@ -106,20 +107,29 @@ impl Builder<'_> {
             }
             "conductor" | "roughconductor" => {
                 let fresnel = match (&d.reflectance, &d.eta, &d.k) {
+                    (Some(_), None, None) if d.specular.is_some() => {
+                        return src.err(at(&d.specular).unwrap_or(span), "'specular' scales the Fresnel reflectance of 'eta' and 'k'; with 'reflectance', give the reflectance itself");
+                    }
                     (Some(r), None, None) => ConductorFresnel::Constant(src.in_unit_range(r, "reflectance")?),
                     (None, Some(eta), Some(k)) => {
                         let e = src.finite3(eta, "eta")?;
                         if e.min_element() <= 0.0 {
                             return src.err(eta.span(), "'eta' must be > 0 per channel");
                         }
-                        ConductorFresnel::Complex { eta: e, k: src.non_negative3(k, "k")? }
+                        let scale = match &d.specular {
+                            Some(c) => src.in_unit_range(c, "specular")?,
+                            None => glam::Vec3::ONE,
+                        };
+                        ConductorFresnel::Complex { eta: e, k: src.non_negative3(k, "k")?, scale }
                     }
                     _ => return src.err(span, format!("{what} needs either 'reflectance' (constant) or both 'eta' and 'k' (complex ior)")),
                 };
                 match (kind, fresnel) {
                     ("roughconductor", fresnel) => Bsdf::rough_conductor(alpha()?, fresnel),
                     (_, ConductorFresnel::Constant(reflectance)) => Bsdf::Conductor { reflectance },
-                    (_, ConductorFresnel::Complex { eta, k }) => Bsdf::FresnelConductor { eta, k },
+                    (_, ConductorFresnel::Complex { eta, k, scale }) => {
+                        Bsdf::FresnelConductor { eta, k, scale }
+                    }
                 }
             }
             "dielectric" => Bsdf::Dielectric { eta: ior()? },

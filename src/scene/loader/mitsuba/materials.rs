@@ -220,15 +220,15 @@ fn bsdf_desc(xml: &Xml, n: Node, name: String, one_sided: bool) -> Result<Option
                     let Some((eta, kv)) = super::conductors::named(&m) else {
                         return xml.err(at, format!("conductor material '{m}' is not known (Mitsuba's: none, {}; or give 'eta' and 'k')", super::conductors::names()));
                     };
-                    if spec.is_some_and(|(_, c)| c != Vec3::ONE) {
-                        return xml.err(n, "'specular_reflectance' other than 1 with a named material is not supported");
+                    if let Some((sat, c)) = spec {
+                        d.specular = Some(s(sat, c.to_array()));
                     }
                     d.eta = Some(s(at, eta));
                     d.k = Some(s(at, kv));
                 }
                 (None, Some((ea, e)), Some((ka, kv))) => {
-                    if spec.is_some_and(|(_, c)| c != Vec3::ONE) {
-                        return xml.err(n, "'specular_reflectance' other than 1 with 'eta' and 'k' is not supported");
+                    if let Some((at, c)) = spec {
+                        d.specular = Some(s(at, c.to_array()));
                     }
                     d.eta = Some(s(ea, e.to_array()));
                     d.k = Some(s(ka, kv.to_array()));

@@ -32,7 +32,8 @@
 //! * BSDFs: `diffuse` (`reflectance` 0.5, or a texture), `roughdiffuse` (Mitsuba 0.6's Oren-Nayar:
 //!   `reflectance` or `diffuse_reflectance` 0.5, `alpha` 0.2; `use_fast_approx` refused), `conductor` and `roughconductor` (`material`
 //!   "none" with `specular_reflectance`, a named material such as "Au" (`conductors.rs`:
-//!   Mitsuba's RGB values), or `eta` and `k`; rough: `distribution` "beckmann"
+//!   Mitsuba's RGB values), or `eta` and `k`, both scaled by `specular_reflectance` (1);
+//!   rough: `distribution` "beckmann"
 //!   (Mitsuba's default) or "ggx", `alpha` 0.1 or equal `alpha_u`/`alpha_v`,
 //!   `sample_visible` read: both are sampled by visible normals), `dielectric`, `thindielectric` and `roughdielectric` (`int_ior` 1.5046 "bk7",
 //!   `ext_ior` 1.000277 "air", numbers or Mitsuba's named media), `twosided` around one

@@ -166,10 +166,10 @@ fn gradient_png(tag: &str) -> std::path::PathBuf {
 
 /// The Cornell box with a checkerboard floor (4 x 4 squares, diffuse) and its back wall a
 /// rough plastic over a bitmap (bilinear, repeated twice across): textured albedos, looked up
-/// at the texture
-/// coordinates every integrator carries with its vertices (guided-bdpt through its stored
-/// guide paths too). Control: the checkerboard at 6 x 6 squares must change pt's image pixel by
-/// pixel (tile means average the squares away).
+/// at the texture coordinates every integrator carries with its vertices. bdpt, vcm, mmlt and
+/// guided-bdpt (guiding kept on, so that its stored guide paths carry them too) render pt's
+/// image tile by tile. Control: the checkerboard at 6 x 6 squares must change pt's image
+/// pixel by pixel (tile means average the squares away).
 #[test]
 fn every_integrator_renders_textures_alike() {
     let png = gradient_png("textures");
@@ -204,19 +204,18 @@ fn every_integrator_renders_textures_alike() {
         })
     };
     let scene = with(2);
-    every_integrator_agrees(&scene, "textures");
     let pt = seeded_renders(&scene, "pt", 6, &[], 256, 5, 10);
-    // Guiding kept on (its `auto` share turns it off where it does not pay, as here), so that
-    // guided paths rebuilt from the cache look their textures up too.
-    let guided = ["learn_fraction=0.25", "share=fixed", "alpha=0.5"];
-    for name in ["guided-pt", "guided-bdpt"] {
-        let other = seeded_renders(&scene, name, 6, &guided, 64, 5, 20);
-        assert_same_image(
-            &pt,
-            &other,
-            4,
-            &format!("{name} vs pt on textures, guiding on"),
-        );
+    // guided-bdpt with guiding kept on (its `auto` share turns it off where it does not pay,
+    // as here), so that guided paths rebuilt from the cache look their textures up too.
+    let guided = &["learn_fraction=0.25", "share=fixed", "alpha=0.5"][..];
+    for (name, options, spp) in [
+        ("bdpt", &[][..], 64),
+        ("vcm", &[][..], 64),
+        ("guided-bdpt", guided, 64),
+        ("mmlt", &[][..], 256),
+    ] {
+        let other = seeded_renders(&scene, name, 6, options, spp, 5, 20);
+        assert_same_image(&pt, &other, 4, &format!("{name} vs pt on textures"));
     }
     let other = seeded_renders(&with(3), "pt", 6, &[], 256, 5, 30);
     assert!(

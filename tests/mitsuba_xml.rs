@@ -243,6 +243,22 @@ fn focal_length_gives_mitsubas_diagonal_field_of_view() {
     assert!(e.contains("'focal_length' must be a length"), "{e}");
 }
 
+/// An area emitter declared at the top level with an id and referenced from a shape (as in
+/// Mitsuba 3's own `cbox-rgb.xml`) makes that shape emit; one no shape refers to is an error
+/// naming its line.
+#[test]
+fn top_level_area_emitters_are_read_where_shapes_refer_to_them() {
+    let body = r#"<emitter type="area" id="lamp"><rgb name="radiance" value="2, 3, 4"/></emitter>
+    <shape type="rectangle"><ref id="lamp"/></shape>"#;
+    let scene = xml(&wrap(body)).unwrap();
+    assert_eq!(scene.lights.len(), 1);
+    let unused = xml_err(&wrap(&body.replace(r#"<ref id="lamp"/>"#, "")));
+    assert!(
+        unused.contains("test.xml:7") && unused.contains("belongs inside a <shape>"),
+        "{unused}"
+    );
+}
+
 /// Mitsuba's `direct` integrator is direct illumination: lodestar's pt with two segments.
 #[test]
 fn the_direct_integrator_is_pt_with_two_segments() {

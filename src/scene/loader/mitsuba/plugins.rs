@@ -59,6 +59,9 @@ pub(super) fn scene(xml: &Xml, root: Node) -> Result<(SceneDesc, Option<SensorMe
                 "instance" => instance(xml, n, &mut out)?,
                 _ => shape(xml, n, &mut out, None)?,
             },
+            // An area emitter declared at the top level and referenced from shapes by its id
+            // (as Mitsuba 3's own Cornell box does) is read where a shape refers to it.
+            "emitter" if kind(xml, n)? == "area" && referenced(xml, n)? => {}
             "emitter" => emitter(xml, n, &mut out)?,
             // Read where a BSDF refers to it (`materials.rs`), and checked there.
             "texture" => {}
@@ -463,10 +466,23 @@ fn emitter(xml: &Xml, n: Node, out: &mut Out) -> Result<()> {
             p.boolean(xml, "mis_compensation")?;
             d
         }
-        "area" => return xml.err(n, "an area emitter belongs inside a <shape>"),
+        "area" => return xml.err(n, "an area emitter belongs inside a <shape> (or, with an id, is referenced from one by <ref id>)"),
         other => return xml.err(n, format!("emitter '{other}' is not supported (point, spot, directional, constant, envmap; area inside shapes)")),
     };
     p.finish(xml)?;
     out.desc.light.push(s(n, d));
     Ok(())
+}
+
+/// Whether some `<ref id>` in the document refers to element `n` by its id.
+fn referenced(xml: &Xml, n: Node) -> Result<bool> {
+    let Some(id) = xml.attr(n, "id")? else {
+        return Ok(false);
+    };
+    for r in n.document().descendants().filter(|r| r.has_tag_name("ref")) {
+        if xml.attr(r, "id")?.as_deref() == Some(id.as_str()) {
+            return Ok(true);
+        }
+    }
+    Ok(false)
 }

@@ -58,9 +58,32 @@ pub struct Bitmap {
     pub bilinear: bool,
     /// Lookups outside [0, 1]².
     pub wrap: Wrap,
+    /// The smallest and largest channel value of any texel, and the mean texel (computed
+    /// once: roulette asks for the largest at every vertex).
+    lo: f32,
+    hi: f32,
+    mean: Spectrum,
 }
 
 impl Bitmap {
+    /// A bitmap of `width * height` row-major texels, bilinear and repeating.
+    pub fn new(width: u32, height: u32, texels: Vec<Spectrum>) -> Bitmap {
+        let (lo, hi) = texels.iter().fold((f32::INFINITY, 0.0f32), |(lo, hi), t| {
+            (lo.min(t.min_element()), hi.max(t.max_element()))
+        });
+        let mean = texels.iter().copied().sum::<Spectrum>() / texels.len().max(1) as f32;
+        Bitmap {
+            width,
+            height,
+            texels,
+            bilinear: true,
+            wrap: Wrap::Repeat,
+            lo,
+            hi,
+            mean,
+        }
+    }
+
     /// The value at texture coordinates `uv` (image space: u right, v down, the image in
     /// [0, 1]²), as Mitsuba's `bitmap` filters it: texel centres at `(i + 1/2) / width`.
     pub fn eval(&self, uv: Vec2) -> Spectrum {
@@ -99,18 +122,7 @@ impl Bitmap {
         if width == 0 || height == 0 {
             return Err(err("the image is empty".into()));
         }
-        Ok(Bitmap {
-            width,
-            height,
-            texels,
-            bilinear: true,
-            wrap: Wrap::Repeat,
-        })
-    }
-
-    /// The largest channel value of any texel.
-    fn max(&self) -> f32 {
-        self.texels.iter().fold(0.0, |m, t| m.max(t.max_element()))
+        Ok(Bitmap::new(width, height, texels))
     }
 }
 
@@ -222,7 +234,7 @@ impl Texture {
     /// where on the surface a path is).
     pub fn max(&self) -> f32 {
         match self {
-            Texture::Bitmap { bitmap, .. } => bitmap.max(),
+            Texture::Bitmap { bitmap, .. } => bitmap.hi,
             Texture::Checkerboard { color0, color1, .. } => {
                 color0.max_element().max(color1.max_element())
             }
@@ -232,9 +244,7 @@ impl Texture {
     /// The mean value over the texture (per channel).
     pub fn mean(&self) -> Spectrum {
         match self {
-            Texture::Bitmap { bitmap, .. } => {
-                bitmap.texels.iter().copied().sum::<Spectrum>() / bitmap.texels.len() as f32
-            }
+            Texture::Bitmap { bitmap, .. } => bitmap.mean,
             Texture::Checkerboard { color0, color1, .. } => (*color0 + *color1) * 0.5,
         }
     }
@@ -242,12 +252,7 @@ impl Texture {
     /// The smallest and largest channel value anywhere.
     pub fn range(&self) -> (f32, f32) {
         match self {
-            Texture::Bitmap { bitmap, .. } => bitmap
-                .texels
-                .iter()
-                .fold((f32::INFINITY, 0.0f32), |(lo, hi), t| {
-                    (lo.min(t.min_element()), hi.max(t.max_element()))
-                }),
+            Texture::Bitmap { bitmap, .. } => (bitmap.lo, bitmap.hi),
             Texture::Checkerboard { color0, color1, .. } => {
                 (color0.min_element().min(color1.min_element()), self.max())
             }
@@ -261,11 +266,13 @@ mod tests {
 
     fn bitmap(w: u32, h: u32, wrap: Wrap, bilinear: bool) -> Bitmap {
         Bitmap {
-            width: w,
-            height: h,
-            texels: (0..w * h).map(|i| Spectrum::splat(i as f32)).collect(),
             bilinear,
             wrap,
+            ..Bitmap::new(
+                w,
+                h,
+                (0..w * h).map(|i| Spectrum::splat(i as f32)).collect(),
+            )
         }
     }
 
@@ -285,6 +292,11 @@ mod tests {
     fn nearest_lookups_take_the_texel_under_the_point() {
         let b = bitmap(4, 2, Wrap::Repeat, false);
         assert_eq!(b.eval(Vec2::new(0.3, 0.1)).x, 1.0);
+        let t = Texture::Bitmap {
+            bitmap: std::sync::Arc::new(b.clone()),
+            to_uv: Affine2::IDENTITY,
+        };
+        assert_eq!((t.max(), t.range(), t.mean().x), (7.0, (0.0, 7.0), 3.5));
         assert_eq!(b.eval(Vec2::new(0.99, 0.99)).x, 7.0);
         // Repeat: one period on.
         assert_eq!(b.eval(Vec2::new(1.3, -0.9)).x, 1.0);

@@ -78,7 +78,8 @@
 //! Anything else (another plugin, an unknown property, a texture elsewhere, a spectrum given
 //! by wavelengths) is an error naming the file, the line and the plugin: nothing is skipped.
 //!
-//! Files: this one reads the document (parameters, references, property values, transforms);
+//! Files: this one reads the document (parameters, references, transforms); `props.rs` a
+//! plugin's property values;
 //! `plugins.rs` turns the scene, sensor, integrator and emitters into the scene description,
 //! `shapes.rs` the shapes (groups and instances included), `materials.rs` the BSDFs and media.
 
@@ -87,6 +88,7 @@ mod include;
 mod materials;
 mod out;
 mod plugins;
+mod props;
 mod shapes;
 mod transform;
 mod upgrade;
@@ -95,7 +97,8 @@ pub(super) use include::{Origins, expand as expand_includes};
 
 use super::{SceneDesc, Source};
 use crate::error::{Error, Result};
-use glam::{Mat4, Vec3};
+use glam::Vec3;
+use props::{Item, Props};
 use roxmltree::{Document, Node};
 use std::collections::{HashMap, HashSet};
 use std::ops::Range;
@@ -340,282 +343,6 @@ impl<'a, 'input> Xml<'a, 'input> {
         match self.numbers(node, text)?.as_slice() {
             [v] => Ok(*v),
             _ => self.err(node, format!("expected one number, got '{text}'")),
-        }
-    }
-}
-
-/// A plugin's children: named properties (used at most once each) and nested objects.
-struct Props<'a, 'input> {
-    plugin: String,
-    items: Vec<Item<'a, 'input>>,
-}
-
-struct Item<'a, 'input> {
-    node: Node<'a, 'input>,
-    name: Option<String>,
-    used: bool,
-}
-
-/// Mitsuba's named indices of refraction (its `ior.h`).
-const NAMED_IOR: &[(&str, f32)] = &[
-    ("vacuum", 1.0),
-    ("helium", 1.00004),
-    ("hydrogen", 1.00013),
-    ("air", 1.000277),
-    ("carbon dioxide", 1.00045),
-    ("water", 1.333),
-    ("acetone", 1.36),
-    ("ethanol", 1.361),
-    ("carbon tetrachloride", 1.461),
-    ("glycerol", 1.4729),
-    ("benzene", 1.501),
-    ("silicone oil", 1.52045),
-    ("bromine", 1.661),
-    ("water ice", 1.31),
-    ("fused quartz", 1.458),
-    ("pyrex", 1.47),
-    ("acrylic glass", 1.49),
-    ("polypropylene", 1.49),
-    ("bk7", 1.5046),
-    ("sodium chloride", 1.544),
-    ("amber", 1.55),
-    ("pet", 1.575),
-    ("diamond", 2.419),
-];
-
-impl<'a, 'input> Props<'a, 'input> {
-    /// The property element called `name`, marked as used.
-    fn take(&mut self, name: &str) -> Option<Node<'a, 'input>> {
-        let it = self
-            .items
-            .iter_mut()
-            .find(|it| it.name.as_deref() == Some(name))?;
-        it.used = true;
-        Some(it.node)
-    }
-
-    /// Unnamed nested objects with tag `tag` (after `<ref>`s are resolved), marked as used.
-    fn nested(&mut self, xml: &Xml<'a, 'input>, tag: &str) -> Result<Vec<Node<'a, 'input>>> {
-        let mut out = Vec::new();
-        for it in &mut self.items {
-            // Named children are properties (or named objects such as `interior`).
-            if it.name.as_deref().is_some_and(|n| n != tag) {
-                continue;
-            }
-            let target = xml.deref(it.node)?;
-            if target.tag_name().name() == tag {
-                it.used = true;
-                out.push(target);
-            }
-        }
-        Ok(out)
-    }
-
-    /// A named nested object (e.g. `<medium name="interior">` or `<ref name="interior">`).
-    fn named_object(
-        &mut self,
-        xml: &Xml<'a, 'input>,
-        name: &str,
-        tag: &str,
-    ) -> Result<Option<Node<'a, 'input>>> {
-        let Some(n) = self.take(name) else {
-            return Ok(None);
-        };
-        let target = xml.deref(n)?;
-        if target.tag_name().name() != tag {
-            return xml.err(
-                n,
-                format!(
-                    "{}: '{name}' must be a <{tag}>, got <{}>",
-                    self.plugin,
-                    target.tag_name().name()
-                ),
-            );
-        }
-        Ok(Some(target))
-    }
-
-    fn value(
-        &mut self,
-        xml: &Xml,
-        name: &str,
-        tags: &[&str],
-    ) -> Result<Option<(Node<'a, 'input>, String)>> {
-        let Some(n) = self.take(name) else {
-            return Ok(None);
-        };
-        let tag = n.tag_name().name();
-        if !tags.contains(&tag) {
-            return xml.err(
-                n,
-                format!(
-                    "{}: '{name}' must be given as <{}>, got <{tag}>",
-                    self.plugin,
-                    tags.join("> or <")
-                ),
-            );
-        }
-        let v = match xml.attr(n, "value")? {
-            Some(v) => v,
-            None => return xml.err(n, format!("<{tag} name=\"{name}\"> needs a 'value'")),
-        };
-        Ok(Some((n, v)))
-    }
-
-    fn float(&mut self, xml: &Xml, name: &str) -> Result<Option<(Node<'a, 'input>, f32)>> {
-        match self.value(xml, name, &["float", "integer"])? {
-            Some((n, v)) => Ok(Some((n, xml.number(n, &v)?))),
-            None => Ok(None),
-        }
-    }
-
-    fn integer(&mut self, xml: &Xml, name: &str) -> Result<Option<(Node<'a, 'input>, i64)>> {
-        match self.value(xml, name, &["integer"])? {
-            Some((n, v)) => match v.trim().parse::<i64>() {
-                Ok(i) => Ok(Some((n, i))),
-                Err(_) => xml.err(n, format!("'{name}' must be an integer, got '{v}'")),
-            },
-            None => Ok(None),
-        }
-    }
-
-    fn boolean(&mut self, xml: &Xml, name: &str) -> Result<Option<bool>> {
-        match self.value(xml, name, &["boolean"])? {
-            Some((n, v)) => match v.trim() {
-                "true" => Ok(Some(true)),
-                "false" => Ok(Some(false)),
-                _ => xml.err(n, format!("'{name}' must be true or false, got '{v}'")),
-            },
-            None => Ok(None),
-        }
-    }
-
-    fn string(&mut self, xml: &Xml, name: &str) -> Result<Option<(Node<'a, 'input>, String)>> {
-        self.value(xml, name, &["string"])
-    }
-
-    /// A `<texture>` (nested, or a `<ref>` to one) given as property `name`, marked as used;
-    /// `None` when the property is absent or not a texture.
-    fn texture(&mut self, xml: &Xml<'a, 'input>, name: &str) -> Result<Option<Node<'a, 'input>>> {
-        let Some(it) = self
-            .items
-            .iter_mut()
-            .find(|it| it.name.as_deref() == Some(name))
-        else {
-            return Ok(None);
-        };
-        if !matches!(it.node.tag_name().name(), "texture" | "ref") {
-            return Ok(None);
-        }
-        let target = xml.deref(it.node)?;
-        if target.tag_name().name() != "texture" {
-            return Ok(None);
-        }
-        it.used = true;
-        Ok(Some(target))
-    }
-
-    /// An RGB value from `<rgb>` (one or three numbers), `<spectrum>` or `<float>` (one
-    /// number: uniform).
-    fn color(&mut self, xml: &Xml, name: &str) -> Result<Option<(Node<'a, 'input>, Vec3)>> {
-        if let Some(it) = self
-            .items
-            .iter()
-            .find(|it| it.name.as_deref() == Some(name))
-            && (it.node.tag_name().name() == "texture"
-                || xml.deref(it.node)?.tag_name().name() == "texture")
-        {
-            return xml.err(it.node, format!("{}: '{name}' is a texture; lodestar reads textures for a diffuse BSDF's reflectance and a rough plastic's diffuse_reflectance, and constant colours (rgb, spectrum or float) here", self.plugin));
-        }
-        let Some((n, v)) = self.value(xml, name, &["rgb", "spectrum", "float"])? else {
-            return Ok(None);
-        };
-        if n.tag_name().name() == "spectrum" && v.contains(':') {
-            return xml.err(n, format!("{}: '{name}' is a spectrum given by wavelengths; lodestar renders in RGB (give <rgb> or one uniform value)", self.plugin));
-        }
-        let c = match xml.numbers(n, &v)?.as_slice() {
-            [s] => Vec3::splat(*s),
-            [r, g, b] if n.tag_name().name() == "rgb" => Vec3::new(*r, *g, *b),
-            // Mitsuba 0.x in RGB mode: a spectrum of three samples is red, green, blue.
-            [r, g, b] if xml.before_2 => Vec3::new(*r, *g, *b),
-            _ => {
-                return xml.err(
-                    n,
-                    format!("'{name}' must be one number (or three for <rgb>), got '{v}'"),
-                );
-            }
-        };
-        Ok(Some((n, c)))
-    }
-
-    /// A `<point>` or `<vector>`.
-    fn point(&mut self, xml: &Xml, name: &str) -> Result<Option<(Node<'a, 'input>, Vec3)>> {
-        let Some(n) = self.take(name) else {
-            return Ok(None);
-        };
-        if !matches!(n.tag_name().name(), "point" | "vector") {
-            return xml.err(
-                n,
-                format!("{}: '{name}' must be a <point> or <vector>", self.plugin),
-            );
-        }
-        Ok(Some((n, xml.xyz(n, 0.0)?)))
-    }
-
-    /// The `to_world` transform, if given.
-    fn take_to_world(&mut self, xml: &Xml) -> Result<Option<(Node<'a, 'input>, Mat4)>> {
-        let Some(n) = self.take("to_world") else {
-            return Ok(None);
-        };
-        if n.tag_name().name() != "transform" {
-            return xml.err(
-                n,
-                format!("{}: 'to_world' must be a <transform>", self.plugin),
-            );
-        }
-        Ok(Some((n, xml.transform(n)?)))
-    }
-
-    /// An index of refraction: a number or one of Mitsuba's named media.
-    fn ior(&mut self, xml: &Xml, name: &str, default: f32) -> Result<f32> {
-        let Some(n) = self.take(name) else {
-            return Ok(default);
-        };
-        let v = xml.attr(n, "value")?.unwrap_or_default();
-        match n.tag_name().name() {
-            "float" => xml.number(n, &v),
-            "string" => match NAMED_IOR.iter().find(|(k, _)| *k == v.to_lowercase()) {
-                Some((_, ior)) => Ok(*ior),
-                None => {
-                    let names: Vec<&str> = NAMED_IOR.iter().map(|(k, _)| *k).collect();
-                    xml.err(
-                        n,
-                        format!(
-                            "unknown medium '{v}' for '{name}' (known: {})",
-                            names.join(", ")
-                        ),
-                    )
-                }
-            },
-            t => xml.err(
-                n,
-                format!("'{name}' must be a <float> or a <string>, got <{t}>"),
-            ),
-        }
-    }
-
-    /// Fail on the first child nothing read.
-    fn finish(&self, xml: &Xml) -> Result<()> {
-        match self.items.iter().find(|it| !it.used) {
-            None => Ok(()),
-            Some(it) => {
-                let tag = it.node.tag_name().name();
-                let what = match &it.name {
-                    Some(n) => format!("the property '{n}' (<{tag}>)"),
-                    None => format!("a nested <{tag}>"),
-                };
-                xml.err(it.node, format!("{} does not take {what} (see `lodestar render --help` and the Mitsuba subset in src/scene/loader/mitsuba/mod.rs)", self.plugin))
-            }
         }
     }
 }

@@ -104,7 +104,7 @@ impl Bitmap {
         top * (1.0 - fy) + bottom * fy
     }
 
-    /// Read an image file: PNG, JPEG (by content) or OpenEXR (by its `.exr` name); 8- and
+    /// Read an image file: PNG, JPEG or OpenEXR, told apart by their first bytes; 8- and
     /// 16-bit values sRGB-decoded unless `raw`. Errors name the file.
     pub fn read(path: &Path, raw: bool) -> Result<Bitmap> {
         let err = |what: String| Error::new(format!("{}: {what}", path.display()));

@@ -164,8 +164,9 @@ fn gradient_png(tag: &str) -> std::path::PathBuf {
     path
 }
 
-/// The Cornell box with a checkerboard floor (4 x 4 squares, diffuse) and its back wall a
-/// rough plastic over a bitmap (bilinear, repeated twice across): textured albedos, looked up
+/// The Cornell box with a checkerboard floor (4 x 4 squares, diffuse), its back wall a rough
+/// plastic over a bitmap (bilinear, repeated twice across) and its left wall a rough
+/// conductor tinted by a checkerboard (`specular_texture`): textured reflectances, looked up
 /// at the texture coordinates every integrator carries with its vertices. bdpt, vcm, mmlt and
 /// guided-bdpt (guiding kept on, so that its stored guide paths carry them too) render pt's
 /// image tile by tile. Control: the checkerboard at 6 x 6 squares must change pt's image
@@ -183,7 +184,11 @@ fn every_integrator_renders_textures_alike() {
                          {{ type = \"checkerboard\", color0 = [0.8, 0.8, 0.8], color1 = [0.1, \
                          0.1, 0.5], scale = [{checks}, {checks}] }}\n\n[[material]]\nname = \
                          \"picture\"\ntype = \"roughplastic\"\nior = 1.5\nalpha = 0.2\nalbedo_texture = \
-                         {{ type = \"bitmap\", filename = \"{}\", scale = [2, 1] }}\n\n[[material]]",
+                         {{ type = \"bitmap\", filename = \"{}\", scale = [2, 1] }}\n\n[[material]]\nname \
+                         = \"tinted\"\ntype = \"roughconductor\"\nalpha = 0.3\neta = [0.2, 0.9, \
+                         1.1]\nk = [3.9, 2.4, 2.1]\nspecular_texture = {{ type = \"checkerboard\", \
+                         color0 = [0.9, 0.3, 0.3], color1 = [0.2, 0.2, 0.9], scale = [3, 3] \
+                         }}\n\n[[material]]",
                         png.display()
                     ),
                     1,
@@ -197,9 +202,15 @@ fn every_integrator_renders_textures_alike() {
                     "edge_v = [0, 2, 0]\nmaterial = \"white\"",
                     "edge_v = [0, 2, 0]\nmaterial = \"picture\"",
                     1,
+                )
+                .replacen(
+                    "edge_v = [0, 0, 2]\nmaterial = \"red\"",
+                    "edge_v = [0, 0, 2]\nmaterial = \"tinted\"",
+                    1,
                 );
             assert_eq!(text.matches("material = \"checker\"").count(), 1);
             assert_eq!(text.matches("material = \"picture\"").count(), 1);
+            assert_eq!(text.matches("material = \"tinted\"").count(), 1);
             text
         })
     };

@@ -419,8 +419,16 @@ fn errors_name_the_line_and_the_plugin() {
             "texture",
         ),
         (
-            r#"<shape type="cube"><bsdf type="diffuse"><spectrum name="reflectance" value="400:0.1, 700:0.5"/></bsdf></shape>"#,
-            "wavelengths",
+            r#"<shape type="cube"><bsdf type="diffuse"><spectrum name="reflectance" value="400:0.1, 700"/></bsdf></shape>"#,
+            "'wavelength:value' pairs, got '700'",
+        ),
+        (
+            r#"<shape type="cube"><bsdf type="diffuse"><spectrum name="reflectance" value="500:0.1, 400:0.5"/></bsdf></shape>"#,
+            "wavelengths must increase",
+        ),
+        (
+            r#"<shape type="cube"><bsdf type="roughconductor"><texture type="checkerboard" name="eta"/></bsdf></shape>"#,
+            "'eta' is a texture",
         ),
         (
             r#"<shape type="serialized"/>"#,
@@ -995,6 +1003,67 @@ fn named_conductors_take_mitsubas_indices() {
         e.starts_with("test.xml:") && e.contains("'Unobtainium' is not known") && e.contains("Au"),
         "{e}"
     );
+}
+
+/// Spectra given by wavelengths become the linear sRGB colours Mitsuba 3.9.1's RGB variants
+/// make of them (`mi.traverse` of the loaded scene): D65-weighted and clamped to [0, 1] for a
+/// reflectance, unweighted for an emitter's radiance or intensity.
+#[test]
+fn sampled_spectra_convert_as_mitsuba_does() {
+    let scene = xml(&wrap(
+        r#"<shape type="sphere"><bsdf type="diffuse"><spectrum name="reflectance" value="400:0.5, 500:0.6, 600:0.7, 700:0.8"/></bsdf></shape>
+    <shape type="rectangle"><emitter type="area"><spectrum name="radiance" value="400:0.5 500:0.6 600:0.7 700:0.8"/></emitter></shape>
+    <emitter type="point"><spectrum name="intensity" value="400:5, 500:6, 600:7, 700:8"/><point name="position" x="0" y="0" z="5"/></emitter>"#,
+    ))
+    .unwrap();
+    let close = |got: Vec3, want: [f32; 3]| (got - Vec3::from(want)).abs().max_element() < 1e-5;
+    let Bsdf::Diffuse { albedo } = scene.materials[0].bsdf else {
+        panic!("{:?}", scene.materials[0].bsdf)
+    };
+    assert!(close(albedo, [0.738916, 0.642815, 0.538267]), "{albedo}");
+    use lodestar::light::Light;
+    let find = |f: fn(&Light) -> Option<Vec3>| scene.lights.iter().find_map(f).unwrap();
+    let radiance = find(|l| match l {
+        Light::Area(a) => Some(a.radiance),
+        _ => None,
+    });
+    assert!(
+        close(radiance, [0.881939, 0.611176, 0.485831]),
+        "{radiance}"
+    );
+    let intensity = find(|l| match l {
+        Light::Point(p) => Some(p.intensity),
+        _ => None,
+    });
+    assert!(close(intensity, [8.81939, 6.11176, 4.85831]), "{intensity}");
+}
+
+/// A conductor's `specular_reflectance` given as a texture tints its value point by point
+/// (`Bsdf::Tinted` over the conductor Mitsuba's other properties make).
+#[test]
+fn conductors_take_a_textured_specular_reflectance() {
+    let scene = xml(&wrap(
+        r#"<shape type="sphere"><bsdf type="roughconductor"><float name="alpha" value="0.1"/><string name="distribution" value="ggx"/>
+        <texture name="specular_reflectance" type="checkerboard"><rgb name="color0" value="0.8, 0.8, 0.8"/><rgb name="color1" value="0.2, 0.2, 0.2"/></texture>
+        <rgb name="eta" value="1.65746, 0.880369, 0.521229"/><rgb name="k" value="9.22387, 6.26952, 4.837"/></bsdf></shape>"#,
+    ))
+    .unwrap();
+    let Bsdf::Tinted { base, tint } = &scene.materials[0].bsdf else {
+        panic!("{:?}", scene.materials[0].bsdf)
+    };
+    assert!(matches!(
+        **base,
+        Bsdf::RoughConductor {
+            alpha: 0.1,
+            fresnel: lodestar::bsdf::ConductorFresnel::Complex {
+                scale: Vec3::ONE,
+                ..
+            },
+            distribution: lodestar::bsdf::Distribution::Ggx,
+        }
+    ));
+    assert_eq!(tint.eval(glam::Vec2::new(0.1, 0.1)), Vec3::splat(0.8));
+    assert_eq!(tint.eval(glam::Vec2::new(0.6, 0.1)), Vec3::splat(0.2));
 }
 
 /// Writes a Mitsuba serialized file (version 4) of two meshes: a unit quad in single precision

@@ -75,6 +75,13 @@ impl Bsdf {
             return EvalPdfs::ZERO;
         }
         let (f, pdf_fwd, pdf_rev) = match self {
+            Bsdf::Tinted { base, tint } => {
+                let e = base.eval_with_pdfs(sf, wo, wi, mode, reverse);
+                return EvalPdfs {
+                    f: e.f * tint.eval(sf.uv),
+                    ..e
+                };
+            }
             Bsdf::TexturedDiffuse { albedo } => (
                 diffuse::eval(albedo.eval(sf.uv), wo_l, wi_l),
                 diffuse::pdf(wo_l, wi_l),

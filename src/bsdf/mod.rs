@@ -177,6 +177,15 @@ pub enum Bsdf {
     /// Rough plastic (Mitsuba's `roughplastic`): a rough dielectric coating over a
     /// Lambertian base, two-sided ([`RoughPlastic`]; boxed for its tables).
     RoughPlastic(Box<RoughPlastic>),
+    /// A conductor (smooth or rough) whose value is multiplied per channel by a texture at
+    /// the point's texture coordinates (Mitsuba's textured `specular_reflectance`): sampling
+    /// and densities are the conductor's. Build with [`Bsdf::tinted`].
+    Tinted {
+        /// A `Conductor`, `FresnelConductor` or `RoughConductor`.
+        base: Box<Bsdf>,
+        /// Factor on the value per channel, in [0, 1].
+        tint: std::sync::Arc<crate::texture::Texture>,
+    },
 }
 
 /// The Fresnel reflectance of a (rough) conductor.
@@ -229,10 +238,27 @@ impl Bsdf {
         }
     }
 
+    /// The conductor `base` with its value multiplied by `tint` at the point's texture
+    /// coordinates ([`Bsdf::Tinted`]).
+    pub fn tinted(base: Bsdf, tint: std::sync::Arc<crate::texture::Texture>) -> Bsdf {
+        debug_assert!(matches!(
+            base,
+            Bsdf::Conductor { .. } | Bsdf::FresnelConductor { .. } | Bsdf::RoughConductor { .. }
+        ));
+        Bsdf::Tinted {
+            base: Box::new(base),
+            tint,
+        }
+    }
+
     /// This BSDF with microfacet distribution `d` (rough BSDFs; others are returned as they
     /// are).
     pub fn with_distribution(self, d: Distribution) -> Bsdf {
         match self {
+            Bsdf::Tinted { base, tint } => Bsdf::Tinted {
+                base: Box::new(base.with_distribution(d)),
+                tint,
+            },
             Bsdf::RoughConductor { alpha, fresnel, .. } => Bsdf::RoughConductor {
                 alpha,
                 fresnel,
@@ -249,20 +275,23 @@ impl Bsdf {
 
     /// True if the BSDF only has delta lobes (no direction has a non-zero density).
     pub fn is_delta(&self) -> bool {
-        matches!(
-            self,
-            Bsdf::Conductor { .. }
-                | Bsdf::FresnelConductor { .. }
-                | Bsdf::Dielectric { .. }
-                | Bsdf::ThinDielectric { .. }
-        )
+        match self {
+            Bsdf::Tinted { base, .. } => base.is_delta(),
+            _ => matches!(
+                self,
+                Bsdf::Conductor { .. }
+                    | Bsdf::FresnelConductor { .. }
+                    | Bsdf::Dielectric { .. }
+                    | Bsdf::ThinDielectric { .. }
+            ),
+        }
     }
 
     /// True if the BSDF reads the point's texture coordinates (`ShadingFrame::uv`).
     #[inline]
     pub fn is_textured(&self) -> bool {
         match self {
-            Bsdf::TexturedDiffuse { .. } => true,
+            Bsdf::TexturedDiffuse { .. } | Bsdf::Tinted { .. } => true,
             Bsdf::RoughPlastic(p) => p.diffuse_texture.is_some(),
             _ => false,
         }
@@ -292,6 +321,7 @@ impl Bsdf {
             Bsdf::RoughConductor { alpha, .. } | Bsdf::RoughDielectric { alpha, .. } => {
                 microfacet::clamp_alpha(*alpha).sqrt().min(1.0)
             }
+            Bsdf::Tinted { base, .. } => base.roughness(),
         }
     }
 
@@ -301,6 +331,7 @@ impl Bsdf {
     pub fn delta_lobe_probability(&self, sf: &ShadingFrame, wo: Vec3, wi: Vec3) -> f32 {
         match self {
             Bsdf::Conductor { .. } | Bsdf::FresnelConductor { .. } => 1.0,
+            Bsdf::Tinted { base, .. } => base.delta_lobe_probability(sf, wo, wi),
             Bsdf::Dielectric { eta } => {
                 let (wo_l, wi_l) = (sf.frame.to_local(wo), sf.frame.to_local(wi));
                 let (f, _, _) = fresnel::dielectric(wo_l.z, *eta);
@@ -335,6 +366,8 @@ impl Bsdf {
                 ..
             }
             | Bsdf::FresnelConductor { scale, .. } => scale.max_element(),
+            // The base's largest reflectance (at most 1) times the texture's largest texel.
+            Bsdf::Tinted { base, tint } => base.continuation() * tint.max(),
             Bsdf::Dielectric { .. }
             | Bsdf::ThinDielectric { .. }
             | Bsdf::RoughDielectric { .. } => 1.0,
@@ -387,6 +420,12 @@ impl Bsdf {
                 mode,
             )?,
             Bsdf::RoughPlastic(p) => rough_plastic::sample(p, wo_l, u_lobe, u, sf.uv)?,
+            Bsdf::Tinted { base, tint } => {
+                let mut s = base.sample(sf, wo, u_lobe, u, mode)?;
+                let t = tint.eval(sf.uv);
+                (s.f, s.weight) = (s.f * t, s.weight * t);
+                return (s.weight != Vec3::ZERO).then_some(s);
+            }
         };
         let wi = sf.frame.to_world(s.wi);
         if !geometry_agrees(sf, wo, wi, s.transmission) {
@@ -417,6 +456,7 @@ impl Bsdf {
             return Spectrum::ZERO;
         }
         let f = match self {
+            Bsdf::Tinted { base, tint } => return base.eval(sf, wo, wi, mode) * tint.eval(sf.uv),
             Bsdf::Diffuse { albedo } => diffuse::eval(*albedo, wo_l, wi_l),
             Bsdf::TexturedDiffuse { albedo } => diffuse::eval(albedo.eval(sf.uv), wo_l, wi_l),
             Bsdf::RoughDiffuse { albedo, alpha } => {
@@ -495,6 +535,7 @@ impl Bsdf {
                 .1
             }
             Bsdf::RoughPlastic(p) => rough_plastic::eval_pdf(p, wo_l, wi_l, false, sf.uv).1,
+            Bsdf::Tinted { base, .. } => base.pdf(sf, wo, wi, mode),
             Bsdf::Black
             | Bsdf::Conductor { .. }
             | Bsdf::FresnelConductor { .. }

@@ -3,6 +3,7 @@
 
 pub mod alias;
 pub mod any_sampler;
+pub mod cie;
 pub mod distribution;
 pub mod frame;
 pub mod rng;

@@ -22,11 +22,19 @@ impl Builder<'_> {
             ("specular", at(&d.specular)),
             ("nonlinear", at(&d.nonlinear)),
             ("albedo_texture", at(&d.albedo_texture)),
+            ("specular_texture", at(&d.specular_texture)),
         ];
         let allowed: &[&str] = match kind {
             "diffuse" => &["albedo", "albedo_texture", "one_sided"],
             "roughdiffuse" => &["albedo", "alpha", "one_sided"],
-            "conductor" => &["reflectance", "eta", "k", "specular", "one_sided"],
+            "conductor" => &[
+                "reflectance",
+                "eta",
+                "k",
+                "specular",
+                "specular_texture",
+                "one_sided",
+            ],
             "dielectric" | "thindielectric" => &["ior"],
             "roughconductor" => &[
                 "alpha",
@@ -35,6 +43,7 @@ impl Builder<'_> {
                 "eta",
                 "k",
                 "specular",
+                "specular_texture",
                 "one_sided",
             ],
             "roughdielectric" => &["alpha", "distribution", "ior"],
@@ -124,12 +133,24 @@ impl Builder<'_> {
                     }
                     _ => return src.err(span, format!("{what} needs either 'reflectance' (constant) or both 'eta' and 'k' (complex ior)")),
                 };
-                match (kind, fresnel) {
+                let conductor = match (kind, fresnel) {
                     ("roughconductor", fresnel) => Bsdf::rough_conductor(alpha()?, fresnel),
                     (_, ConductorFresnel::Constant(reflectance)) => Bsdf::Conductor { reflectance },
                     (_, ConductorFresnel::Complex { eta, k, scale }) => {
                         Bsdf::FresnelConductor { eta, k, scale }
                     }
+                };
+                match &d.specular_texture {
+                    Some(t) if d.specular.is_some() => {
+                        return src.err(
+                            t.span(),
+                            format!(
+                                "{what} has both 'specular' and 'specular_texture' (expected one)"
+                            ),
+                        );
+                    }
+                    Some(t) => Bsdf::tinted(conductor, std::sync::Arc::new(self.texture(t, true)?)),
+                    None => conductor,
                 }
             }
             "dielectric" => Bsdf::Dielectric { eta: ior()? },

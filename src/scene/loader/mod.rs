@@ -213,6 +213,9 @@ struct MaterialDesc {
     nonlinear: Option<Spanned<bool>>,
     /// `diffuse`: the albedo as a texture, in place of `albedo`.
     albedo_texture: Option<Spanned<TextureDesc>>,
+    /// `conductor`, `roughconductor`: a texture multiplying the reflectance, in place of
+    /// `specular`.
+    specular_texture: Option<Spanned<TextureDesc>>,
 }
 
 /// A texture (`src/texture.rs`): `type = "bitmap"` with `filename` and optionally `raw`,

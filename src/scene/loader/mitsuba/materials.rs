@@ -25,6 +25,7 @@ pub(super) fn material_desc(n: Node, name: String, kind: &str) -> MaterialDesc {
         specular: None,
         nonlinear: None,
         albedo_texture: None,
+        specular_texture: None,
     }
 }
 
@@ -211,7 +212,13 @@ fn bsdf_desc(xml: &Xml, n: Node, name: String, one_sided: bool) -> Result<Option
             }
             let material = p.string(xml, "material")?;
             let (eta, kk) = (p.color(xml, "eta")?, p.color(xml, "k")?);
-            let spec = p.color(xml, "specular_reflectance")?;
+            let spec = match p.texture(xml, "specular_reflectance")? {
+                Some(t) => {
+                    d.specular_texture = Some(s(t, texture_desc(xml, t)?));
+                    None
+                }
+                None => p.color(xml, "specular_reflectance")?,
+            };
             match (material, eta, kk) {
                 (m, None, None) if m.as_ref().is_none_or(|(_, m)| m == "none") => {
                     d.reflectance = Some(unit(spec, 1.0));

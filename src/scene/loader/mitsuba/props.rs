@@ -3,6 +3,7 @@
 
 use super::Xml;
 use crate::error::Result;
+use crate::math::cie::{SpectrumUse, spectrum_to_srgb};
 use glam::{Mat4, Vec3};
 use roxmltree::Node;
 
@@ -211,13 +212,18 @@ impl<'a, 'input> Props<'a, 'input> {
             && (it.node.tag_name().name() == "texture"
                 || xml.deref(it.node)?.tag_name().name() == "texture")
         {
-            return xml.err(it.node, format!("{}: '{name}' is a texture; lodestar reads textures for a diffuse BSDF's reflectance and a rough plastic's diffuse_reflectance, and constant colours (rgb, spectrum or float) here", self.plugin));
+            return xml.err(it.node, format!("{}: '{name}' is a texture; lodestar reads textures for a diffuse BSDF's reflectance, a rough plastic's diffuse_reflectance and a conductor's specular_reflectance, and constant colours (rgb, spectrum or float) here", self.plugin));
         }
         let Some((n, v)) = self.value(xml, name, &["rgb", "spectrum", "float"])? else {
             return Ok(None);
         };
         if n.tag_name().name() == "spectrum" && v.contains(':') {
-            return xml.err(n, format!("{}: '{name}' is a spectrum given by wavelengths; lodestar renders in RGB (give <rgb> or one uniform value)", self.plugin));
+            let usage = if self.plugin.starts_with("emitter") {
+                SpectrumUse::Emission
+            } else {
+                SpectrumUse::Reflectance
+            };
+            return Ok(Some((n, sampled_spectrum(xml, n, &v, usage)?)));
         }
         let c = match xml.numbers(n, &v)?.as_slice() {
             [s] => Vec3::splat(*s),
@@ -308,4 +314,42 @@ impl<'a, 'input> Props<'a, 'input> {
             }
         }
     }
+}
+
+/// A `<spectrum>` given as `wavelength:value` pairs (nm, increasing; separated by commas or
+/// spaces) in linear sRGB, as Mitsuba 3's RGB variants convert it ([`spectrum_to_srgb`]).
+fn sampled_spectrum(xml: &Xml, n: Node, v: &str, usage: SpectrumUse) -> Result<Vec3> {
+    let (mut wavelengths, mut values) = (Vec::new(), Vec::new());
+    for pair in v
+        .split([',', ' ', '\t', '\n', '\r'])
+        .filter(|t| !t.is_empty())
+    {
+        let parsed = pair.split_once(':').and_then(|(w, x)| {
+            Some((w.trim().parse::<f64>().ok()?, x.trim().parse::<f64>().ok()?))
+        });
+        let Some((w, x)) = parsed.filter(|(w, x)| w.is_finite() && x.is_finite()) else {
+            return xml.err(
+                n,
+                format!("a sampled spectrum is 'wavelength:value' pairs, got '{pair}'"),
+            );
+        };
+        if wavelengths.last().is_some_and(|&last| w <= last) {
+            return xml.err(
+                n,
+                format!(
+                    "a sampled spectrum's wavelengths must increase, got {w} after {}",
+                    wavelengths.last().unwrap()
+                ),
+            );
+        }
+        wavelengths.push(w);
+        values.push(x);
+    }
+    if wavelengths.len() < 2 {
+        return xml.err(
+            n,
+            format!("a sampled spectrum needs at least two 'wavelength:value' pairs, got '{v}'"),
+        );
+    }
+    Ok(spectrum_to_srgb(&wavelengths, &values, usage).as_vec3())
 }

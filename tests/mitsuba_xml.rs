@@ -747,6 +747,20 @@ fn includes_and_search_paths() {
     let scene = load_file(&dir.join("main.xml")).unwrap();
     assert_eq!(scene.shapes.len(), 2);
     assert_eq!(mesh_positions(&scene, 0).len(), 3);
+    // The same scene named by a path relative to the working directory (the test's is the
+    // crate's root): the search directory is relative too, and a file found there is not
+    // resolved against the scene's directory a second time.
+    let rel = PathBuf::from(format!(
+        "target/lodestar-xml-relative-{}",
+        std::process::id()
+    ));
+    std::fs::create_dir_all(rel.join("elsewhere")).unwrap();
+    for f in ["main.xml", "geometry.xml", "elsewhere/tri.obj"] {
+        std::fs::copy(dir.join(f), rel.join(f)).unwrap();
+    }
+    let scene = load_file(&rel.join("main.xml"));
+    std::fs::remove_dir_all(&rel).ok();
+    assert_eq!(mesh_positions(&scene.unwrap(), 0).len(), 3);
     // An error in the included file names it and its line.
     std::fs::write(
         dir.join("geometry.xml"),

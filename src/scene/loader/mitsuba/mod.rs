@@ -247,6 +247,9 @@ impl<'a, 'input> Xml<'a, 'input> {
             .iter()
             .map(|d| d.join(name))
             .find(|p| p.exists())
+            // Absolute, so that the loaders do not resolve it against the scene's directory
+            // once more (the search directories already include it when it is relative).
+            .and_then(|p| std::path::absolute(p).ok())
             .map_or_else(|| name.to_string(), |p| p.display().to_string())
     }
 

@@ -258,3 +258,114 @@ fn texture_errors_name_the_file_line_and_what_was_expected() {
     let e = toml("albedo_texture = { type = \"noise\" }");
     assert!(e.contains("unknown texture type 'noise'"), "{e}");
 }
+
+/// A normal map's value `c` is the direction `2 c - 1` in the frame of the shading normal and
+/// the tangent along u (projected perpendicular to the normal): flat blue keeps the normal, a
+/// tilt towards the tangent turns it, and a map leaning behind the geometric normal keeps the
+/// surface's own normal.
+#[test]
+fn normal_maps_turn_the_shading_normal_in_the_tangent_frame() {
+    use lodestar::scene::perturbed_normal;
+    let close = |a: Vec3, b: Vec3| (a - b).abs().max_element() < 1e-6;
+    let (z, x) = (Vec3::Z, Vec3::X);
+    assert!(close(
+        perturbed_normal(Vec3::new(0.5, 0.5, 1.0), z, z, x),
+        z
+    ));
+    // (1, 0.5, 1) is the local (1, 0, 1): half-way between the tangent and the normal; a
+    // tangent with a component along the normal is projected first.
+    let tilted = perturbed_normal(Vec3::new(1.0, 0.5, 1.0), z, z, Vec3::new(3.0, 0.0, 2.0));
+    assert!(
+        close(tilted, Vec3::new(1.0, 0.0, 1.0).normalize()),
+        "{tilted}"
+    );
+    // Towards the bitangent n x s = +y.
+    let tilted = perturbed_normal(Vec3::new(0.5, 1.0, 1.0), z, z, x);
+    assert!(
+        close(tilted, Vec3::new(0.0, 1.0, 1.0).normalize()),
+        "{tilted}"
+    );
+    // Below the surface, or no tangent at all: the normal stays, or any tangent serves.
+    assert_eq!(perturbed_normal(Vec3::new(1.0, 0.5, 0.2), z, z, x), z);
+    let any = perturbed_normal(Vec3::new(1.0, 0.5, 1.0), z, z, Vec3::ZERO);
+    assert!((any.dot(z) - 0.5f32.sqrt()).abs() < 1e-6, "{any}");
+}
+
+/// The scenes' normal maps: TOML's `normal_map` and Mitsuba's `normalmap` around a BSDF put
+/// the map on the material, and a hit's shading normal (the frame's and the hit's alike) is
+/// the perturbed one, its tangent from the mesh's texture coordinates (Mitsuba's `dp_du`).
+#[test]
+fn normal_maps_perturb_the_hits_shading_frame() {
+    // The rectangle's u runs along +x: a constant map tilted towards the tangent.
+    let xml = r#"<scene version="3.0.0">
+    <sensor type="perspective"><float name="fov" value="40"/><film type="hdrfilm"><rfilter type="box"/></film></sensor>
+    <shape type="rectangle">
+        <bsdf type="normalmap">
+            <texture name="normalmap" type="checkerboard"><rgb name="color0" value="1, 0.5, 1"/><rgb name="color1" value="1, 0.5, 1"/></texture>
+            <bsdf type="twosided"><bsdf type="diffuse"/></bsdf>
+        </bsdf>
+    </shape>
+</scene>"#;
+    let scene = load_mitsuba_str(xml, "t.xml", None, &[]).unwrap();
+    assert!(scene.materials[0].normal_map.is_some());
+    assert!(!scene.materials[0].one_sided);
+    let sp = scene
+        .intersect(&Ray::new(Vec3::new(0.2, 0.3, 10.0), -Vec3::Z))
+        .unwrap();
+    let want = Vec3::new(1.0, 0.0, 1.0).normalize();
+    assert!(
+        (sp.hit.ns - want).abs().max_element() < 1e-6,
+        "{}",
+        sp.hit.ns
+    );
+    assert!((sp.frame.frame.n - want).abs().max_element() < 1e-6);
+    assert_eq!(sp.hit.ng, Vec3::Z);
+    // TOML: the same map on a quad; black takes none.
+    let toml = |material: &str| {
+        let text = format!(
+            "[camera]\nposition = [0, 0, 5]\nlook_at = [0, 0, 0]\nup = [0, 1, 0]\nfov = 40\n\
+             resolution = [4, 4]\n\n[[material]]\nname = \"w\"\n{material}\n\n[[shape]]\n\
+             type = \"quad\"\norigin = [-1, -1, 0]\nedge_u = [2, 0, 0]\nedge_v = [0, 2, 0]\n\
+             material = \"w\"\n"
+        );
+        lodestar::scene::loader::load_str(&text, "t.toml", None)
+    };
+    let map =
+        "normal_map = { type = \"checkerboard\", color0 = [1, 0.5, 1], color1 = [1, 0.5, 1] }";
+    let scene = toml(&format!(
+        "type = \"diffuse\"\nalbedo = [0.5, 0.5, 0.5]\n{map}"
+    ))
+    .unwrap();
+    let sp = scene
+        .intersect(&Ray::new(Vec3::new(0.2, 0.3, 10.0), -Vec3::Z))
+        .unwrap();
+    assert!(
+        (sp.hit.ns - want).abs().max_element() < 1e-6,
+        "{}",
+        sp.hit.ns
+    );
+    let e = toml(&format!("type = \"black\"\n{map}"))
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("t.toml:") && e.contains("normal_map"), "{e}");
+    let bad = |inner: &str| {
+        let text = format!(
+            "<scene version=\"3.0.0\">\n<shape type=\"sphere\">\n<bsdf type=\"normalmap\">\n{inner}\n</bsdf>\n</shape>\n</scene>"
+        );
+        load_mitsuba_str(&text, "t.xml", None, &[])
+            .err()
+            .unwrap()
+            .to_string()
+    };
+    let e = bad("<bsdf type=\"diffuse\"/>");
+    assert!(
+        e.contains("t.xml:3") && e.contains("needs a <texture name=\"normalmap\">"),
+        "{e}"
+    );
+    let e = bad("<texture name=\"normalmap\" type=\"checkerboard\"/>");
+    assert!(
+        e.contains("t.xml:3") && e.contains("one nested <bsdf>"),
+        "{e}"
+    );
+}

@@ -53,6 +53,16 @@ impl ShapeGeometry {
             ShapeGeometry::Sphere(s) => s.tex_coords(hit.p),
         }
     }
+
+    /// The derivative of position by the first texture coordinate at `hit`
+    /// ([`TriangleMesh::dp_du`], [`Sphere::dp_du`]): the tangent a normal map's first axis
+    /// follows.
+    pub fn dp_du(&self, hit: &Hit) -> Vec3 {
+        match self {
+            ShapeGeometry::Mesh(m) => m.dp_du(hit.prim as usize),
+            ShapeGeometry::Sphere(s) => s.dp_du(hit.p),
+        }
+    }
 }
 
 /// How the primitives are searched.

@@ -37,6 +37,23 @@ impl TriangleMesh {
         }
     }
 
+    /// The derivative of position by the first texture coordinate on triangle `i` (Mitsuba's
+    /// `dp_du`): from the vertices' texture coordinates, or the edge from the first vertex to
+    /// the second for a mesh without them (where the coordinates are the barycentrics); zero
+    /// where the coordinates are degenerate.
+    pub fn dp_du(&self, i: usize) -> Vec3 {
+        let [p0, p1, p2] = self.triangle(i);
+        let (dp0, dp1) = (p1 - p0, p2 - p0);
+        let Some(uv) = &self.uvs else { return dp0 };
+        let [a, b, c] = self.indices[i].map(|k| uv[k as usize]);
+        let (d10, d20) = (b - a, c - a);
+        let det = d10.x * d20.y - d10.y * d20.x;
+        if det == 0.0 || !det.is_finite() {
+            return Vec3::ZERO;
+        }
+        (dp0 * d20.y - dp1 * d10.y) / det
+    }
+
     /// The corner positions of triangle `i`.
     pub fn triangle(&self, i: usize) -> [Vec3; 3] {
         let [a, b, c] = self.indices[i];

@@ -64,6 +64,13 @@ impl Sphere {
         )
     }
 
+    /// The direction of increasing first texture coordinate at surface point `p` (φ grows
+    /// about +z; zero at the poles).
+    pub fn dp_du(&self, p: Vec3) -> Vec3 {
+        let d = p - self.center;
+        Vec3::new(-d.y, d.x, 0.0) * (2.0 * std::f32::consts::PI)
+    }
+
     /// Surface area, `4 pi r^2`.
     pub fn area(&self) -> f32 {
         4.0 * std::f32::consts::PI * self.radius * self.radius

@@ -140,7 +140,8 @@ impl Chain {
 /// The chain of guide `l` after its vertex `a`, if the step solves it (module doc).
 pub fn chain_at(scene: &Scene, cache: &GuideCache, l: usize, a: usize) -> Option<Chain> {
     let len = cache.guides[l].len as usize;
-    if a == 0 || a + 2 >= len {
+    // The Newton walk follows the geometry's normals, not a normal map's.
+    if a == 0 || a + 2 >= len || scene.materials.iter().any(|m| m.normal_map.is_some()) {
         return None;
     }
     match cache.node(l, a) {

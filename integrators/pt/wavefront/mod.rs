@@ -56,10 +56,14 @@ impl Isa {
 /// lanes sample and every option one they follow.
 pub fn supports(pt: &PathTracer, scene: &Scene) -> bool {
     let materials = scene.materials.iter().all(|m| {
-        matches!(
-            m.bsdf,
-            Bsdf::Black | Bsdf::Diffuse { .. } | Bsdf::Conductor { .. } | Bsdf::Dielectric { .. }
-        )
+        m.normal_map.is_none()
+            && matches!(
+                m.bsdf,
+                Bsdf::Black
+                    | Bsdf::Diffuse { .. }
+                    | Bsdf::Conductor { .. }
+                    | Bsdf::Dielectric { .. }
+            )
     });
     materials
         && !scene.features.media

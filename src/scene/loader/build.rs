@@ -22,11 +22,16 @@ impl Builder<'_> {
                 );
             }
             let (bsdf, one_sided) = self.material(m)?;
+            let normal_map = match &m.get_ref().normal_map {
+                Some(t) => Some(std::sync::Arc::new(self.texture(t, true)?)),
+                None => None,
+            };
             by_name.insert(name.clone(), materials.len() as u32);
             materials.push(Material {
                 name,
                 bsdf,
                 one_sided,
+                normal_map,
             });
         }
         let mut black = None;
@@ -167,6 +172,7 @@ impl Builder<'_> {
                             name: "<black>".into(),
                             bsdf: Bsdf::Black,
                             one_sided: false,
+                            normal_map: None,
                         });
                         materials.len() as u32 - 1
                     }),

@@ -23,6 +23,7 @@ impl Builder<'_> {
             ("nonlinear", at(&d.nonlinear)),
             ("albedo_texture", at(&d.albedo_texture)),
             ("specular_texture", at(&d.specular_texture)),
+            ("normal_map", at(&d.normal_map)),
         ];
         let allowed: &[&str] = match kind {
             "diffuse" => &["albedo", "albedo_texture", "one_sided"],
@@ -62,7 +63,13 @@ impl Builder<'_> {
                 return src.err(d.kind.span(), format!("unknown material type '{other}' (expected diffuse, roughdiffuse, conductor, dielectric, thindielectric, roughconductor, roughdielectric, roughplastic or black)"));
             }
         };
-        self.only(&what, &keys, allowed)?;
+        // A normal map goes with every material that scatters.
+        let allowed: Vec<&str> = allowed
+            .iter()
+            .copied()
+            .chain((kind != "black").then_some("normal_map"))
+            .collect();
+        self.only(&what, &keys, &allowed)?;
         let ior = || -> Result<f32> {
             let ior = src.required(&d.ior, span.clone(), "ior", &what)?;
             let eta = *ior.get_ref();
@@ -220,7 +227,7 @@ impl Builder<'_> {
     }
 
     /// The texture of a `{ type = ... }` table; `reflectance`: every value must lie in [0, 1].
-    fn texture(&self, t: &Spanned<TextureDesc>, reflectance: bool) -> Result<Texture> {
+    pub(super) fn texture(&self, t: &Spanned<TextureDesc>, reflectance: bool) -> Result<Texture> {
         let src = self.src;
         let d = t.get_ref();
         let kind = d.kind.get_ref().as_str();

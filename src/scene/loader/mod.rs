@@ -216,6 +216,8 @@ struct MaterialDesc {
     /// `conductor`, `roughconductor`: a texture multiplying the reflectance, in place of
     /// `specular`.
     specular_texture: Option<Spanned<TextureDesc>>,
+    /// Any material but `black`: a tangent-space normal map (`scene::perturbed_normal`).
+    normal_map: Option<Spanned<TextureDesc>>,
 }
 
 /// A texture (`src/texture.rs`): `type = "bitmap"` with `filename` and optionally `raw`,

@@ -26,6 +26,7 @@ pub(super) fn material_desc(n: Node, name: String, kind: &str) -> MaterialDesc {
         nonlinear: None,
         albedo_texture: None,
         specular_texture: None,
+        normal_map: None,
     }
 }
 
@@ -252,6 +253,26 @@ fn bsdf_desc(xml: &Xml, n: Node, name: String, one_sided: bool) -> Result<Option
             white_only(&mut p, "specular_reflectance")?;
             white_only(&mut p, "specular_transmittance")?;
         }
+        "normalmap" => {
+            // The nested BSDF with the map on its material (`scene::perturbed_normal`).
+            let Some(t) = p.texture(xml, "normalmap")? else {
+                return xml.err(n, "normalmap needs a <texture name=\"normalmap\">");
+            };
+            let map = s(t, texture_desc(xml, t)?);
+            let inner = p.nested(xml, "bsdf")?;
+            p.finish(xml)?;
+            let [b] = inner.as_slice() else {
+                return xml.err(n, "normalmap needs one nested <bsdf>");
+            };
+            let Some(mut desc) = bsdf_desc(xml, *b, d.name.into_inner(), one_sided)? else {
+                return xml.err(*b, "normalmap cannot wrap a 'null' BSDF");
+            };
+            if desc.normal_map.is_some() {
+                return xml.err(*b, "normalmap cannot wrap another normalmap");
+            }
+            desc.normal_map = Some(map);
+            return Ok(Some(desc));
+        }
         "twosided" => {
             let inner = p.nested(xml, "bsdf")?;
             p.finish(xml)?;
@@ -283,7 +304,7 @@ fn bsdf_desc(xml: &Xml, n: Node, name: String, one_sided: bool) -> Result<Option
             d.one_sided = Some(s(n, one_sided));
         }
         "plastic" => return xml.err(n, "'plastic' is not supported (a smooth coating: a delta lobe beside a diffuse one); 'roughplastic' is, and a small 'alpha' comes close"),
-        other => return xml.err(n, format!("bsdf '{other}' is not supported (diffuse, roughdiffuse, conductor, roughconductor, dielectric, thindielectric, roughdielectric, roughplastic, twosided, null)")),
+        other => return xml.err(n, format!("bsdf '{other}' is not supported (diffuse, roughdiffuse, conductor, roughconductor, dielectric, thindielectric, roughdielectric, roughplastic, twosided, normalmap, null)")),
     }
     p.finish(xml)?;
     Ok(Some(d))

@@ -32,7 +32,8 @@
 //! * BSDFs: `diffuse` (`reflectance` 0.5, or a texture), `roughdiffuse` (Mitsuba 0.6's Oren-Nayar:
 //!   `reflectance` or `diffuse_reflectance` 0.5, `alpha` 0.2; `use_fast_approx` refused), `conductor` and `roughconductor` (`material`
 //!   "none" with `specular_reflectance`, a named material such as "Au" (`conductors.rs`:
-//!   Mitsuba's RGB values), or `eta` and `k`, both scaled by `specular_reflectance` (1);
+//!   Mitsuba's RGB values), or `eta` and `k`, both scaled by `specular_reflectance` (1, or a
+//!   texture: `Bsdf::Tinted`);
 //!   rough: `distribution` "beckmann"
 //!   (Mitsuba's default) or "ggx", `alpha` 0.1 or equal `alpha_u`/`alpha_v`,
 //!   `sample_visible` read: both are sampled by visible normals), `dielectric`, `thindielectric` and `roughdielectric` (`int_ior` 1.5046 "bk7",
@@ -41,7 +42,8 @@
 //!   above, `int_ior` 1.49 "polypropylene", `ext_ior` "air", `diffuse_reflectance` 0.5,
 //!   `specular_reflectance` 1, `nonlinear` false (Mitsuba 3's model, `bsdf/rough_plastic.rs`).
 //!   Without `twosided`, diffuse, conductors and plastic are black from the back, as in
-//!   Mitsuba. The smooth `plastic` is refused (its delta lobe beside a diffuse one is a kind
+//!   Mitsuba. `normalmap` around one BSDF (its `normalmap` texture: `scene::perturbed_normal`).
+//!   The smooth `plastic` is refused (its delta lobe beside a diffuse one is a kind
 //!   of BSDF lodestar's path algebra does not have).
 //! * Shapes `obj`, `ply`, `serialized` (`filename`, `face_normals`, `flip_normals`; serialized:
 //!   `shape_index` 0, `serialized.rs`), `rectangle`, `cube`,
@@ -58,8 +60,9 @@
 //!   (`irradiance`, `direction` or `to_world`), `constant` (`radiance`), `envmap`
 //!   (`filename`, an OpenEXR image found like mesh files, `scale` 1, `to_world` a rotation;
 //!   `mis_compensation` read: it changes sampling, not the image).
-//! * Textures (for a `diffuse` BSDF's `reflectance` and a `roughplastic`'s
-//!   `diffuse_reflectance`, nested or by `<ref>` to a top-level
+//! * Textures (for a `diffuse` BSDF's `reflectance`, a `roughplastic`'s
+//!   `diffuse_reflectance`, a conductor's `specular_reflectance` and a `normalmap`'s
+//!   `normalmap`, nested or by `<ref>` to a top-level
 //!   `<texture id>`; `src/texture.rs`): `bitmap` (`filename`, found like mesh files; `raw`
 //!   false; `filter_type` "bilinear" or "nearest"; `wrap_mode` "repeat", "mirror" or "clamp";
 //!   `format` read) and `checkerboard` (`color0` 0.4, `color1` 0.2), both with `to_uv` (its
@@ -68,15 +71,16 @@
 //! * Media `homogeneous`: `sigma_t` (1), `albedo` (0.75), `scale` (1), `sample_emitters`,
 //!   `phase` `isotropic` or `hg` (`g` 0.8).
 //! * Values: `float`, `integer`, `boolean`, `string`, `rgb` (one or three numbers),
-//!   `spectrum` (one number: uniform), `point`, `vector` (`x`/`y`/`z` or `value`),
+//!   `spectrum` (one number: uniform, or `wavelength:value` pairs: linear sRGB as Mitsuba's
+//!   RGB variants make it, `math/cie.rs`), `point`, `vector` (`x`/`y`/`z` or `value`),
 //!   `transform` with `translate`, `rotate`, `scale`, `matrix` (16 or 9 numbers) and `lookat`,
 //!   applied in the order written.
 //!
 //! * `<include filename>` (its scene's contents in place of the element, recursively;
 //!   `include.rs`) and `<path value>` (a directory searched first for mesh files).
 //!
-//! Anything else (another plugin, an unknown property, a texture elsewhere, a spectrum given
-//! by wavelengths) is an error naming the file, the line and the plugin: nothing is skipped.
+//! Anything else (another plugin, an unknown property, a texture elsewhere) is an error naming
+//! the file, the line and the plugin: nothing is skipped.
 //!
 //! Files: this one reads the document (parameters, references, transforms); `props.rs` a
 //! plugin's property values;

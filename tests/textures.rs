@@ -291,9 +291,10 @@ fn normal_maps_turn_the_shading_normal_in_the_tangent_frame() {
     assert!((any.dot(z) - 0.5f32.sqrt()).abs() < 1e-6, "{any}");
 }
 
-/// The scenes' normal maps: TOML's `normal_map` and Mitsuba's `normalmap` around a BSDF put
-/// the map on the material, and a hit's shading normal (the frame's and the hit's alike) is
-/// the perturbed one, its tangent from the mesh's texture coordinates (Mitsuba's `dp_du`).
+/// The scenes' normal maps: TOML's `normal_map` and Mitsuba's `normalmap` around a BSDF (with
+/// Mitsuba's view-dependent flip and shadowing term off; on, the default, they are refused)
+/// put the map on the material, and a hit's shading normal (the frame's and the hit's alike)
+/// is the perturbed one, its tangent from the mesh's texture coordinates (Mitsuba's `dp_du`).
 #[test]
 fn normal_maps_perturb_the_hits_shading_frame() {
     // The rectangle's u runs along +x: a constant map tilted towards the tangent.
@@ -301,6 +302,7 @@ fn normal_maps_perturb_the_hits_shading_frame() {
     <sensor type="perspective"><float name="fov" value="40"/><film type="hdrfilm"><rfilter type="box"/></film></sensor>
     <shape type="rectangle">
         <bsdf type="normalmap">
+            <boolean name="flip_invalid_normals" value="false"/><boolean name="use_shadowing_function" value="false"/>
             <texture name="normalmap" type="checkerboard"><rgb name="color0" value="1, 0.5, 1"/><rgb name="color1" value="1, 0.5, 1"/></texture>
             <bsdf type="twosided"><bsdf type="diffuse"/></bsdf>
         </bsdf>
@@ -363,7 +365,17 @@ fn normal_maps_perturb_the_hits_shading_frame() {
         e.contains("t.xml:3") && e.contains("needs a <texture name=\"normalmap\">"),
         "{e}"
     );
-    let e = bad("<texture name=\"normalmap\" type=\"checkerboard\"/>");
+    let plain = "<boolean name=\"flip_invalid_normals\" value=\"false\"/>\n\
+                 <boolean name=\"use_shadowing_function\" value=\"false\"/>";
+    // Mitsuba's defaults (the flip towards the viewer, the shadowing term) are refused.
+    let e = bad("<texture name=\"normalmap\" type=\"checkerboard\"/><bsdf type=\"diffuse\"/>");
+    assert!(
+        e.contains("t.xml:3") && e.contains("'flip_invalid_normals' true"),
+        "{e}"
+    );
+    let e = bad(&format!(
+        "{plain}<texture name=\"normalmap\" type=\"checkerboard\"/>"
+    ));
     assert!(
         e.contains("t.xml:3") && e.contains("one nested <bsdf>"),
         "{e}"

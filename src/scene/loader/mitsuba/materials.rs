@@ -259,6 +259,15 @@ fn bsdf_desc(xml: &Xml, n: Node, name: String, one_sided: bool) -> Result<Option
                 return xml.err(n, "normalmap needs a <texture name=\"normalmap\">");
             };
             let map = s(t, texture_desc(xml, t)?);
+            // Mitsuba 3 by default mirrors a normal that faces away from the viewer and damps
+            // the response by a shadowing term (Estevez et al. 2019): both make the BSDF depend
+            // on which side the camera is, which lodestar's normal maps (a perturbed shading
+            // normal, the same for both directions of transport) do not model.
+            for key in ["flip_invalid_normals", "use_shadowing_function"] {
+                if p.boolean(xml, key)?.unwrap_or(true) {
+                    return xml.err(n, format!("normalmap: '{key}' true (Mitsuba's default) is not supported: lodestar's normal map perturbs the shading normal only; give <boolean name=\"{key}\" value=\"false\"/> to render that"));
+                }
+            }
             let inner = p.nested(xml, "bsdf")?;
             p.finish(xml)?;
             let [b] = inner.as_slice() else {

@@ -42,7 +42,9 @@
 //!   above, `int_ior` 1.49 "polypropylene", `ext_ior` "air", `diffuse_reflectance` 0.5,
 //!   `specular_reflectance` 1, `nonlinear` false (Mitsuba 3's model, `bsdf/rough_plastic.rs`).
 //!   Without `twosided`, diffuse, conductors and plastic are black from the back, as in
-//!   Mitsuba. `normalmap` around one BSDF (its `normalmap` texture: `scene::perturbed_normal`).
+//!   Mitsuba. `normalmap` around one BSDF (its `normalmap` texture: `scene::perturbed_normal`),
+//!   with `flip_invalid_normals` and `use_shadowing_function` false (Mitsuba's defaults, true,
+//!   make the BSDF depend on the viewer's side; refused).
 //!   The smooth `plastic` is refused (its delta lobe beside a diffuse one is a kind
 //!   of BSDF lodestar's path algebra does not have).
 //! * Shapes `obj`, `ply`, `serialized` (`filename`, `face_normals`, `flip_normals`; serialized:

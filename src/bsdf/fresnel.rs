@@ -1,4 +1,4 @@
-//! Fresnel equations.
+//! Fresnel equations, and the reflectance models of conductors built on them.
 
 use crate::math::Spectrum;
 
@@ -178,6 +178,35 @@ mod tests {
                     "eta {eta} cos {c}: dielectric {d}, conductor {f}"
                 );
             }
+        }
+    }
+}
+
+/// The Fresnel reflectance of a (rough) conductor.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ConductorFresnel {
+    /// A constant RGB reflectance at every angle (no Fresnel falloff), like
+    /// [`super::Bsdf::Conductor`].
+    Constant(Spectrum),
+    /// The exact conductor Fresnel equations per channel, complex index `eta + i k` relative
+    /// to the outside medium (see [`conductor`]).
+    Complex {
+        /// Real part of the relative index of refraction, per channel.
+        eta: Spectrum,
+        /// Extinction coefficient (imaginary part), per channel.
+        k: Spectrum,
+        /// Factor on the reflectance per channel (Mitsuba's `specular_reflectance`; 1
+        /// physically).
+        scale: Spectrum,
+    },
+}
+
+impl ConductorFresnel {
+    /// Reflectance at the cosine `cos` between the incident direction and the microfacet.
+    pub fn eval(&self, cos: f32) -> Spectrum {
+        match self {
+            ConductorFresnel::Constant(r) => *r,
+            ConductorFresnel::Complex { eta, k, scale } => conductor(cos, *eta, *k) * *scale,
         }
     }
 }

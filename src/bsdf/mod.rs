@@ -37,6 +37,7 @@ mod rough_plastic;
 
 use crate::math::{Frame, Spectrum};
 pub use eval_pdfs::EvalPdfs;
+pub use fresnel::ConductorFresnel;
 use glam::{Vec2, Vec3};
 pub use microfacet::Distribution;
 use microfacet::Microfacet;
@@ -186,37 +187,6 @@ pub enum Bsdf {
         /// Factor on the value per channel, in [0, 1].
         tint: std::sync::Arc<crate::texture::Texture>,
     },
-}
-
-/// The Fresnel reflectance of a (rough) conductor.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum ConductorFresnel {
-    /// A constant RGB reflectance at every angle (no Fresnel falloff), like
-    /// [`Bsdf::Conductor`].
-    Constant(Spectrum),
-    /// The exact conductor Fresnel equations per channel, complex index `eta + i k` relative
-    /// to the outside medium (see [`fresnel::conductor`]).
-    Complex {
-        /// Real part of the relative index of refraction, per channel.
-        eta: Spectrum,
-        /// Extinction coefficient (imaginary part), per channel.
-        k: Spectrum,
-        /// Factor on the reflectance per channel (Mitsuba's `specular_reflectance`; 1
-        /// physically).
-        scale: Spectrum,
-    },
-}
-
-impl ConductorFresnel {
-    /// Reflectance at the cosine `cos` between the incident direction and the microfacet.
-    pub fn eval(&self, cos: f32) -> Spectrum {
-        match self {
-            ConductorFresnel::Constant(r) => *r,
-            ConductorFresnel::Complex { eta, k, scale } => {
-                fresnel::conductor(cos, *eta, *k) * *scale
-            }
-        }
-    }
 }
 
 impl Bsdf {

@@ -2,6 +2,16 @@
 
 use super::*;
 
+/// The keys of a smooth conductor; a rough one adds `alpha` and `distribution`.
+const CONDUCTOR_KEYS: &[&str] = &[
+    "reflectance",
+    "eta",
+    "k",
+    "specular",
+    "specular_texture",
+    "one_sided",
+];
+
 impl Builder<'_> {
     /// The BSDF of a material, and whether it is one-sided (black seen from the back).
     pub(super) fn material(&self, m: &Spanned<MaterialDesc>) -> Result<(Bsdf, bool)> {
@@ -28,25 +38,10 @@ impl Builder<'_> {
         let allowed: &[&str] = match kind {
             "diffuse" => &["albedo", "albedo_texture", "one_sided"],
             "roughdiffuse" => &["albedo", "alpha", "one_sided"],
-            "conductor" => &[
-                "reflectance",
-                "eta",
-                "k",
-                "specular",
-                "specular_texture",
-                "one_sided",
-            ],
+            "conductor" => CONDUCTOR_KEYS,
             "dielectric" | "thindielectric" => &["ior"],
-            "roughconductor" => &[
-                "alpha",
-                "distribution",
-                "reflectance",
-                "eta",
-                "k",
-                "specular",
-                "specular_texture",
-                "one_sided",
-            ],
+            // A conductor's keys, added below.
+            "roughconductor" => &["alpha", "distribution"],
             "roughdielectric" => &["alpha", "distribution", "ior"],
             "roughplastic" => &[
                 "albedo",
@@ -66,6 +61,11 @@ impl Builder<'_> {
         // A normal map goes with every material that scatters.
         let allowed: Vec<&str> = allowed
             .iter()
+            .chain(if kind == "roughconductor" {
+                CONDUCTOR_KEYS
+            } else {
+                &[]
+            })
             .copied()
             .chain((kind != "black").then_some("normal_map"))
             .collect();

@@ -5,7 +5,8 @@ What it compares
     Every scene in scenes/mitsuba/ (or --scenes) is loaded from the same file by both
     renderers, at the resolution and spp given here (the files' `$res` and `$spp` parameters:
     `mi.load_file(path, res=..., spp=...)` and `lodestar render path -D res=... -D spp=...`).
-    lodestar renders with the integrator the file names (path/volpath -> pt).
+    lodestar renders with the integrator the file names (path/volpath -> pt), or the one
+    --integrator gives (bdpt, vcm, ...: the same image by other estimators).
 
     1. Means: N renders a side (seeds 0..N-1); per channel the mean over renders of the image
        mean, its standard error, and z = (lodestar - mitsuba) / sqrt(SE_l^2 + SE_m^2).  |z| > 4
@@ -55,6 +56,9 @@ def main():
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--lodestar", default=os.path.join(ROOT, "target/timed/lodestar"))
     ap.add_argument("--control", action="store_true", help="also compare lodestar with itself")
+    ap.add_argument("--integrator", default=None,
+                    help="lodestar's integrator instead of the one the file names (e.g. bdpt, "
+                         "vcm: Mitsuba's path against lodestar's other estimators)")
     ap.add_argument("--define", action="append", default=None, metavar="NAME=VALUE",
                     help="scene parameters to set instead of res and spp (repeatable; for scenes "
                          "with other parameters or none: --define none)")
@@ -74,7 +78,8 @@ def main():
 
     shown = (f"{args.res}x{args.res}, {args.spp} spp" if args.define is None
              else "parameters " + (" ".join(args.define)))
-    print(f"# Mitsuba {mi.__version__} {args.variant} vs lodestar; {shown}, "
+    which = f"lodestar {args.integrator}" if args.integrator else "lodestar"
+    print(f"# Mitsuba {mi.__version__} {args.variant} vs {which}; {shown}, "
           f"{args.renders} renders a side, {args.threads} threads")
     print("| scene | channel means lodestar | channel means Mitsuba | max abs z (means) | 8x8 blocks: mean z^2, max abs z (Bonferroni p) | per-pixel MSE / noise floor | s/render lodestar | s/render Mitsuba |")
     print("|---|---|---|---|---|---|---|---|")
@@ -99,6 +104,8 @@ def main():
                 out = os.path.join(tmp, f"{name}-{k}.exr")
                 t = time.perf_counter()
                 flags = [x for k_, v in defines.items() for x in ("-D", f"{k_}={v}")]
+                if args.integrator:
+                    flags += ["--integrator", args.integrator]
                 subprocess.run([args.lodestar, "render", path, *flags,
                                 "--seed", str(k), "--threads", str(args.threads), "--quiet", "-o", out],
                                check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)

@@ -309,7 +309,7 @@ fn normal_maps_perturb_the_hits_shading_frame() {
     </shape>
 </scene>"#;
     let scene = load_mitsuba_str(xml, "t.xml", None, &[]).unwrap();
-    assert!(scene.materials[0].normal_map.is_some());
+    assert!(scene.materials[0].normal_map.is_some() && scene.features.normal_maps);
     assert!(!scene.materials[0].one_sided);
     let sp = scene
         .intersect(&Ray::new(Vec3::new(0.2, 0.3, 10.0), -Vec3::Z))

@@ -3,7 +3,7 @@
 use std::fmt;
 
 /// Which kinds of content a scene has (media, delta lights, specular surfaces, an
-/// environment, emissive shapes).
+/// environment, emissive shapes, normal maps).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct SceneFeatures {
     /// Participating media (a world medium or a shape's interior or exterior).
@@ -16,6 +16,8 @@ pub struct SceneFeatures {
     pub environment: bool,
     /// Emissive shapes (area lights).
     pub emissive_geometry: bool,
+    /// Materials with a normal map (`Material::normal_map`).
+    pub normal_maps: bool,
 }
 
 impl fmt::Display for SceneFeatures {
@@ -26,6 +28,7 @@ impl fmt::Display for SceneFeatures {
             (self.specular_surfaces, "specular-surfaces"),
             (self.environment, "environment"),
             (self.emissive_geometry, "emissive-geometry"),
+            (self.normal_maps, "normal-maps"),
         ];
         let on: Vec<&str> = names.iter().filter(|(b, _)| *b).map(|(_, n)| *n).collect();
         if on.is_empty() {

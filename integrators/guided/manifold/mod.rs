@@ -141,7 +141,7 @@ impl Chain {
 pub fn chain_at(scene: &Scene, cache: &GuideCache, l: usize, a: usize) -> Option<Chain> {
     let len = cache.guides[l].len as usize;
     // The Newton walk follows the geometry's normals, not a normal map's.
-    if a == 0 || a + 2 >= len || scene.materials.iter().any(|m| m.normal_map.is_some()) {
+    if a == 0 || a + 2 >= len || scene.features.normal_maps {
         return None;
     }
     match cache.node(l, a) {

@@ -56,16 +56,13 @@ impl Isa {
 /// lanes sample and every option one they follow.
 pub fn supports(pt: &PathTracer, scene: &Scene) -> bool {
     let materials = scene.materials.iter().all(|m| {
-        m.normal_map.is_none()
-            && matches!(
-                m.bsdf,
-                Bsdf::Black
-                    | Bsdf::Diffuse { .. }
-                    | Bsdf::Conductor { .. }
-                    | Bsdf::Dielectric { .. }
-            )
+        matches!(
+            m.bsdf,
+            Bsdf::Black | Bsdf::Diffuse { .. } | Bsdf::Conductor { .. } | Bsdf::Dielectric { .. }
+        )
     });
     materials
+        && !scene.features.normal_maps
         && !scene.features.media
         && !scene.shape_info.iter().any(|s| s.null)
         && pt.settings.strategy == Strategy::Mis

@@ -298,6 +298,7 @@ impl Builder<'_> {
                 .any(|m| materials[m as usize].bsdf.is_delta()),
             environment: !infinite_lights.is_empty(),
             emissive_geometry: lights.iter().any(|l| matches!(l, Light::Area(_))),
+            normal_maps: materials.iter().any(|m| m.normal_map.is_some()),
         };
         let accel = Accel::build(&shapes);
         let light_count = lights.len();

@@ -147,6 +147,7 @@ impl Camera {
 
     /// Raster position of the ray from the pinhole along unit `d`, if it is on the image or
     /// within the filter's margin around it.
+    #[inline]
     pub fn raster_of_direction(&self, d: Vec3) -> Option<Vec2> {
         let cos = d.dot(self.forward);
         if cos <= 0.0 {

@@ -227,7 +227,8 @@ pub struct ConnectionEnd {
 /// [`ConnectionEnd`] of a surface or medium vertex `v`, with unit directions `wo` towards the
 /// walk's previous vertex and `wi` towards the other end; one BSDF (or phase) evaluation
 /// gives all three. Zero at the pinhole and on lights, which connections treat themselves.
-#[inline]
+/// Inlined into every connection: the three values then stay in registers.
+#[inline(always)]
 pub fn connection_end(
     scene: &Scene,
     v: &Vertex,

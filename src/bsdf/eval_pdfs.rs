@@ -75,12 +75,9 @@ impl Bsdf {
             return EvalPdfs::ZERO;
         }
         let (f, pdf_fwd, pdf_rev) = match self {
+            // Both densities (`reverse` only saves work).
             Bsdf::Tinted { base, tint } => {
-                let e = base.eval_with_pdfs(sf, wo, wi, mode, reverse);
-                return EvalPdfs {
-                    f: e.f * tint.eval(sf.uv),
-                    ..e
-                };
+                return super::tinted::eval_pdfs(base, tint, sf, wo, wi, mode);
             }
             Bsdf::TexturedDiffuse { albedo } => (
                 diffuse::eval(albedo.eval(sf.uv), wo_l, wi_l),

@@ -34,6 +34,7 @@ mod rough_conductor;
 mod rough_dielectric;
 mod rough_diffuse;
 mod rough_plastic;
+mod tinted;
 
 use crate::math::{Frame, Spectrum};
 pub use eval_pdfs::EvalPdfs;
@@ -244,9 +245,15 @@ impl Bsdf {
     }
 
     /// True if the BSDF only has delta lobes (no direction has a non-zero density).
+    #[inline]
     pub fn is_delta(&self) -> bool {
         match self {
-            Bsdf::Tinted { base, .. } => base.is_delta(),
+            Bsdf::Tinted { base, .. } => {
+                matches!(
+                    **base,
+                    Bsdf::Conductor { .. } | Bsdf::FresnelConductor { .. }
+                )
+            }
             _ => matches!(
                 self,
                 Bsdf::Conductor { .. }
@@ -291,17 +298,25 @@ impl Bsdf {
             Bsdf::RoughConductor { alpha, .. } | Bsdf::RoughDielectric { alpha, .. } => {
                 microfacet::clamp_alpha(*alpha).sqrt().min(1.0)
             }
-            Bsdf::Tinted { base, .. } => base.roughness(),
+            // The base is a conductor, smooth or rough.
+            Bsdf::Tinted { base, .. } => match **base {
+                Bsdf::RoughConductor { alpha, .. } => {
+                    microfacet::clamp_alpha(alpha).sqrt().min(1.0)
+                }
+                _ => 0.0,
+            },
         }
     }
 
     /// Discrete probability with which `sample` picks the delta lobe that takes `wo` to `wi`
     /// (`wi` being that lobe's direction): 1 for a mirror, F or 1 - F for a smooth dielectric;
     /// 0 for BSDFs without delta lobes. Path densities of delta vertices use it.
+    #[inline]
     pub fn delta_lobe_probability(&self, sf: &ShadingFrame, wo: Vec3, wi: Vec3) -> f32 {
         match self {
             Bsdf::Conductor { .. } | Bsdf::FresnelConductor { .. } => 1.0,
-            Bsdf::Tinted { base, .. } => base.delta_lobe_probability(sf, wo, wi),
+            // The base is a conductor: one lobe when smooth (else the `_` arm: none).
+            Bsdf::Tinted { .. } if self.is_delta() => 1.0,
             Bsdf::Dielectric { eta } => {
                 let (wo_l, wi_l) = (sf.frame.to_local(wo), sf.frame.to_local(wi));
                 let (f, _, _) = fresnel::dielectric(wo_l.z, *eta);
@@ -320,6 +335,7 @@ impl Bsdf {
     /// channel of its reflectance (1 for dielectrics and Fresnel conductors), at least
     /// [`MIN_CONTINUATION`]. It depends on the surface only, not on the directions or the path,
     /// so the density of any complete path, roulette included, can be computed from either end.
+    #[inline]
     pub fn continuation(&self) -> f32 {
         let q = match self {
             Bsdf::Black => return 0.0,
@@ -337,7 +353,7 @@ impl Bsdf {
             }
             | Bsdf::FresnelConductor { scale, .. } => scale.max_element(),
             // The base's largest reflectance (at most 1) times the texture's largest texel.
-            Bsdf::Tinted { base, tint } => base.continuation() * tint.max(),
+            Bsdf::Tinted { base, tint } => tinted::continuation(base, tint),
             Bsdf::Dielectric { .. }
             | Bsdf::ThinDielectric { .. }
             | Bsdf::RoughDielectric { .. } => 1.0,
@@ -391,10 +407,7 @@ impl Bsdf {
             )?,
             Bsdf::RoughPlastic(p) => rough_plastic::sample(p, wo_l, u_lobe, u, sf.uv)?,
             Bsdf::Tinted { base, tint } => {
-                let mut s = base.sample(sf, wo, u_lobe, u, mode)?;
-                let t = tint.eval(sf.uv);
-                (s.f, s.weight) = (s.f * t, s.weight * t);
-                return (s.weight != Vec3::ZERO).then_some(s);
+                return tinted::sample(base, tint, sf, wo, u_lobe, u, mode);
             }
         };
         let wi = sf.frame.to_world(s.wi);
@@ -426,7 +439,7 @@ impl Bsdf {
             return Spectrum::ZERO;
         }
         let f = match self {
-            Bsdf::Tinted { base, tint } => return base.eval(sf, wo, wi, mode) * tint.eval(sf.uv),
+            Bsdf::Tinted { base, tint } => return tinted::eval(base, tint, sf, wo, wi, mode),
             Bsdf::Diffuse { albedo } => diffuse::eval(*albedo, wo_l, wi_l),
             Bsdf::TexturedDiffuse { albedo } => diffuse::eval(albedo.eval(sf.uv), wo_l, wi_l),
             Bsdf::RoughDiffuse { albedo, alpha } => {
@@ -505,7 +518,7 @@ impl Bsdf {
                 .1
             }
             Bsdf::RoughPlastic(p) => rough_plastic::eval_pdf(p, wo_l, wi_l, false, sf.uv).1,
-            Bsdf::Tinted { base, .. } => base.pdf(sf, wo, wi, mode),
+            Bsdf::Tinted { base, .. } => tinted::pdf(base, sf, wo, wi, mode),
             Bsdf::Black
             | Bsdf::Conductor { .. }
             | Bsdf::FresnelConductor { .. }

@@ -45,13 +45,15 @@ pub fn depth_label(d: u32) -> String {
 pub enum VertexKind {
     /// The pinhole.
     Camera,
-    /// A scattering surface of scene shape `shape`; `delta` if its BSDF is specular.
+    /// A scattering surface of scene shape `shape`; `delta` if the path takes a delta lobe
+    /// of its BSDF here (always on a mirror or smooth glass; by the lobe taken on smooth
+    /// plastic).
     Surface {
         /// Index of the surface's material in `Scene::materials`.
         material: u32,
         /// Index of the shape in `Scene::shapes` and `Scene::shape_info`.
         shape: u32,
-        /// Whether the BSDF is a Dirac delta (perfect mirror or glass).
+        /// Whether the path takes a Dirac lobe here (`paths::Vertex::delta`).
         delta: bool,
     },
     /// A scattering point inside a medium.
@@ -96,6 +98,14 @@ impl Vertex {
         uv: Vec2::ZERO,
         kind: VertexKind::Camera,
     };
+
+    /// Mark a surface vertex as one where the path takes a delta lobe (a walk that recorded
+    /// the vertex on arrival and then left it through smooth plastic's coating).
+    pub fn set_delta(&mut self, on: bool) {
+        if let VertexKind::Surface { delta, .. } = &mut self.kind {
+            *delta = on;
+        }
+    }
 }
 
 /// A complete path x_0 (camera) .. x_k (emitter), vertices stored inline, with its
@@ -126,6 +136,11 @@ impl Path {
     pub fn clear(&mut self) {
         self.len = 0;
         self.f = Spectrum::ZERO;
+    }
+
+    /// The last vertex, to be changed.
+    pub fn last_mut(&mut self) -> Option<&mut Vertex> {
+        self.vertices[..self.len].last_mut()
     }
 
     /// Append a vertex; returns false (and leaves the path unchanged) when full.

@@ -1,5 +1,5 @@
-//! Scene features every integrator family must handle alike: the rough plastic, the smooth
-//! conductor of complex index, the thin dielectric, the rough diffuse BSDF and the tent and
+//! Scene features every integrator family must handle alike: the rough plastic, smooth
+//! plastic (a delta lobe beside a diffuse one), the smooth conductor of complex index, the thin dielectric, the rough diffuse BSDF and the tent and
 //! Gaussian pixel filters (the environment map's is in `envmap.rs`). Each renders a 16 x 16 Cornell box
 //! with the feature by pt, bdpt, vcm, guided-bdpt and mmlt, tile by tile within noise of pt's
 //! image (`util::assert_same_image`, 5 renders a side, family-wise false-failure rate 1e-4;
@@ -68,6 +68,31 @@ fn every_integrator_renders_rough_plastic_alike() {
         text
     });
     every_integrator_agrees(&scene, "rough plastic and a gold mirror");
+}
+
+/// The Cornell box with its white walls, boxes and red wall in smooth plastic (eta 1.5): the
+/// light and the glass sphere mirrored in the coating, paths that take the coating's delta
+/// lobe at some vertices and the base's diffuse lobe at others.
+#[test]
+fn every_integrator_renders_smooth_plastic_alike() {
+    let plastic = |name: &str, albedo: &str| {
+        format!("name = \"{name}\"\ntype = \"plastic\"\nalbedo = {albedo}\nior = 1.5")
+    };
+    let scene = cornell(|text| {
+        let text = text
+            .replace(
+                "name = \"white\"\ntype = \"diffuse\"\nalbedo = [0.73, 0.73, 0.73]",
+                &plastic("white", "[0.73, 0.73, 0.73]"),
+            )
+            .replace(
+                "name = \"red\"\ntype = \"diffuse\"\nalbedo = [0.65, 0.05, 0.05]",
+                &plastic("red", "[0.65, 0.05, 0.05]"),
+            );
+        assert_eq!(text.matches("type = \"plastic\"").count(), 2);
+        text
+    });
+    assert!(scene.features.specular_surfaces);
+    every_integrator_agrees(&scene, "smooth plastic");
 }
 
 /// The Cornell box with its glass sphere a thin dielectric shell (a bubble of eta 1.5) and

@@ -403,8 +403,8 @@ fn ply_and_obj_meshes_load_the_same_geometry() {
 fn errors_name_the_line_and_the_plugin() {
     let cases: &[(&str, &str)] = &[
         (
-            r#"<shape type="cube"><bsdf type="plastic"/></shape>"#,
-            "'plastic' is not supported",
+            r#"<shape type="cube"><bsdf type="hair"/></shape>"#,
+            "bsdf 'hair' is not supported",
         ),
         (
             r#"<shape type="cube"><bsdf type="diffuse"><float name="roughness" value="1"/></bsdf></shape>"#,
@@ -617,12 +617,12 @@ fn parameters_substitute_in_plugin_types() {
     let d = [("integrator".to_string(), "ptracer".to_string())];
     let scene = load_mitsuba_str(&text, "t.xml", None, &d).unwrap();
     assert_eq!(scene.render.integrator, "lt");
-    let d = [("bsdf".to_string(), "plastic".to_string())];
+    let d = [("bsdf".to_string(), "hair".to_string())];
     let e = load_mitsuba_str(&text, "t.xml", None, &d)
         .err()
         .unwrap()
         .to_string();
-    assert!(e.contains("'plastic' is not supported"), "{e}");
+    assert!(e.contains("'hair' is not supported"), "{e}");
 }
 
 /// A Mitsuba 0.5 scene (camelCase names, `<lookAt>`, `ldrfilm` with its `banner`,
@@ -1050,6 +1050,66 @@ fn sampled_spectra_convert_as_mitsuba_does() {
         _ => None,
     });
     assert!(close(intensity, [8.81939, 6.11176, 4.85831]), "{intensity}");
+}
+
+/// A `<spectrum>` of one value is uniform: a grey reflectance, and on an emitter the
+/// equal-energy white, XYZ (1, 1, 1) in sRGB (Mitsuba 3.9.1's loaded values: radiance 2 ->
+/// (2.40959, 1.89658, 1.81783), intensity 3 -> (3.61438, 2.84487, 2.72675)).
+#[test]
+fn uniform_spectra_convert_as_mitsuba_does() {
+    let scene = xml(&wrap(
+        r#"<shape type="sphere"><bsdf type="diffuse"><spectrum name="reflectance" value="0.5"/></bsdf></shape>
+    <shape type="rectangle"><emitter type="area"><spectrum name="radiance" value="2"/></emitter></shape>
+    <emitter type="point"><spectrum name="intensity" value="3"/><point name="position" x="0" y="0" z="5"/></emitter>"#,
+    ))
+    .unwrap();
+    let close = |got: Vec3, want: [f32; 3]| (got - Vec3::from(want)).abs().max_element() < 2e-5;
+    let Bsdf::Diffuse { albedo } = scene.materials[0].bsdf else {
+        panic!("{:?}", scene.materials[0].bsdf)
+    };
+    assert_eq!(albedo, Vec3::splat(0.5));
+    use lodestar::light::Light;
+    let find = |f: fn(&Light) -> Option<Vec3>| scene.lights.iter().find_map(f).unwrap();
+    let radiance = find(|l| match l {
+        Light::Area(a) => Some(a.radiance),
+        _ => None,
+    });
+    assert!(close(radiance, [2.40959, 1.89658, 1.81783]), "{radiance}");
+    let intensity = find(|l| match l {
+        Light::Point(p) => Some(p.intensity),
+        _ => None,
+    });
+    assert!(close(intensity, [3.61438, 2.84487, 2.72675]), "{intensity}");
+}
+
+/// Mitsuba's smooth `plastic` with its defaults (int_ior "polypropylene" 1.49 over air,
+/// diffuse_reflectance 0.5, specular_reflectance 1, linear), one-sided as Mitsuba's, and
+/// with its parameters given.
+#[test]
+fn plastic_reads_as_mitsuba_defines_it() {
+    let scene = xml(&wrap(
+        r#"<shape type="sphere"><bsdf type="plastic"/></shape>
+    <shape type="sphere"><bsdf type="twosided"><bsdf type="plastic"><rgb name="diffuse_reflectance" value="0.1, 0.2, 0.3"/>
+        <float name="int_ior" value="1.7"/><boolean name="nonlinear" value="true"/></bsdf></bsdf></shape>"#,
+    ))
+    .unwrap();
+    let Bsdf::Plastic(a) = &scene.materials[0].bsdf else {
+        panic!("{:?}", scene.materials[0].bsdf)
+    };
+    assert_eq!(a.diffuse, Vec3::splat(0.5));
+    assert_eq!(a.specular, Vec3::ONE);
+    assert!((a.eta - 1.49 / 1.000277).abs() < 1e-6 && !a.nonlinear);
+    assert!(scene.materials[0].one_sided);
+    let Bsdf::Plastic(b) = &scene.materials[1].bsdf else {
+        panic!("{:?}", scene.materials[1].bsdf)
+    };
+    assert_eq!(b.diffuse, Vec3::new(0.1, 0.2, 0.3));
+    assert!((b.eta - 1.7 / 1.000277).abs() < 1e-6 && b.nonlinear);
+    assert!(!scene.materials[1].one_sided);
+    assert!(
+        scene.features.specular_surfaces,
+        "the coating is a delta lobe"
+    );
 }
 
 /// A conductor's `specular_reflectance` given as a texture tints its value point by point

@@ -309,3 +309,40 @@ fn public_scenes_load_as_published() {
     );
     assert_eq!(spheres.lights.len(), 1);
 }
+
+/// The scenes of Tzu-Mao Li's lajolla renderer (`scenes/public/lajolla/`, MIT) load as
+/// published, with what their files say: Veach's multiple-importance test (four rough-plastic
+/// plates lit by five spheres, direct lighting), the material-preview object in a
+/// near-specular rough dielectric under an environment map, a Gaussian filter of σ 0.75.
+#[test]
+fn lajolla_scenes_load_as_published() {
+    use lodestar::filter::FilterKind;
+    let mi = load("public/lajolla/veach_mi/mi.xml");
+    assert_eq!(mi.lights.len(), 5);
+    assert_eq!(
+        mi.materials
+            .iter()
+            .filter(|m| matches!(m.bsdf, lodestar::bsdf::Bsdf::RoughPlastic(_)))
+            .count(),
+        4
+    );
+    assert_eq!(mi.render.max_depth, 2, "the direct integrator: one bounce");
+    let preview = load("public/lajolla/matpreview/matpreview.xml");
+    assert!(preview.features.environment);
+    assert!(
+        preview
+            .materials
+            .iter()
+            .any(|m| matches!(m.bsdf, lodestar::bsdf::Bsdf::RoughDielectric { .. }))
+    );
+    let filter = load("public/lajolla/pixel_filter_test/pixel_filter_test.xml");
+    assert_eq!(
+        filter.camera.filter.kind(),
+        FilterKind::Gaussian { stddev: 0.75 }
+    );
+    assert_eq!(filter.camera.resolution, glam::UVec2::new(640, 480));
+    for s in ["cbox/cbox.xml", "disney_bsdf_test/simple_sphere.xml"] {
+        let scene = load(&format!("public/lajolla/{s}"));
+        assert_eq!(scene.lights.len(), 1, "{s}");
+    }
+}

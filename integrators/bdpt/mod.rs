@@ -45,7 +45,7 @@ use super::paths::vertex::{
 };
 use super::paths::{
     Heuristic, Kind, PathTerms, Vertex, direct_to_camera, emission, endpoint, hittable,
-    medium_towards, nee_density, origin_density,
+    join_subpaths, medium_towards, nee_density, origin_density,
 };
 use super::unguided::PathSink;
 use crate::bsdf::TransportMode;
@@ -285,7 +285,7 @@ impl<'a> Tracer<'a> {
                         let (pixel, c) = (pixel as u32, c * w);
                         match sink.as_deref_mut() {
                             Some(sink) => {
-                                self.deliver(c, Some(pixel), sink, &camera[..1], &light[..s])
+                                self.deliver(c, Some(pixel), sink, &camera[..1], &light[..s], true)
                             }
                             None => self.splats.push((pixel, c)),
                         }
@@ -302,7 +302,7 @@ impl<'a> Tracer<'a> {
                             // light subpath's.
                             let nee = [self.nee_vertex];
                             let lp = if s == 1 { &nee[..] } else { &light[..s] };
-                            self.deliver(c, None, sink, &camera[..t], lp)
+                            self.deliver(c, None, sink, &camera[..t], lp, true)
                         }
                         None => l += c,
                     }
@@ -346,6 +346,7 @@ impl<'a> Tracer<'a> {
                     sink,
                     &c[..t - 1],
                     std::slice::from_ref(&emitter),
+                    false,
                 ),
                 None => sum += value,
             }

@@ -3,7 +3,7 @@
 //! caller (the guider, `integrators::unguided`) can form its own weights.
 
 use super::Tracer;
-use crate::integrators::paths::{Vertex, to_path_into};
+use crate::integrators::paths::{Vertex, join_subpaths, to_path_into};
 use crate::integrators::unguided::PathSink;
 use crate::math::{Sampler, Spectrum};
 use glam::Vec2;
@@ -80,7 +80,9 @@ impl<'a> Tracer<'a> {
 
     /// Hand the path held by the last weight function, `c` followed by `lp` reversed, whose
     /// raw estimate is `value`, to `sink` (recording mode); `pixel` is where it lands
-    /// (`None`: the traced pixel).
+    /// (`None`: the traced pixel); `connected`: a connection joins `c` and `lp` (else `lp` is
+    /// the emitter the camera walk hit).
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn deliver(
         &mut self,
         value: Spectrum,
@@ -88,6 +90,7 @@ impl<'a> Tracer<'a> {
         sink: &mut (dyn PathSink + '_),
         c: &[Vertex<'a>],
         lp: &[Vertex<'a>],
+        connected: bool,
     ) {
         let Some(pending) = self.pending.take() else {
             return;
@@ -106,8 +109,7 @@ impl<'a> Tracer<'a> {
                 own
             }
         };
-        self.joined.clear();
-        self.joined.extend(c.iter().chain(lp.iter().rev()));
+        join_subpaths(c, lp, connected, &mut self.joined);
         let (p_s, p_u) = match pending {
             Pending::Explicit { p_s, p_u, .. } => (p_s, p_u),
             Pending::Recursive { .. } => match self.densities_of(own) {

@@ -86,7 +86,7 @@ pub fn unconnectible(path: &[Vertex]) -> bool {
 }
 
 fn is_specular_surface(v: &Vertex) -> bool {
-    v.delta && matches!(v.kind, Kind::Surface { .. })
+    v.is_specular_surface()
 }
 
 /// A light subpath: a light chosen by power, an emitted ray, then the walk.
@@ -263,6 +263,10 @@ fn walk<'a>(
                     return;
                 };
                 beta *= bs.weight;
+                // The lobe taken (smooth plastic's may be either): the vertex's densities
+                // from here on are that lobe's.
+                let last = path.len() - 1;
+                path[last].delta = bs.delta;
                 bs.wi
             }
             Kind::Medium { medium: m } => {

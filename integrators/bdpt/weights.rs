@@ -56,12 +56,14 @@ impl<'a> Tracer<'a> {
         terms.reset(k);
         terms.hittable = hittable(scene, light);
         terms.nee_k = nee_k;
-        // y_j is c[j] for j < t and lp[k - j] from t on.
+        // y_j is c[j] for j < t and lp[k - j] from t on; inside either subpath a vertex the
+        // walk left through a delta lobe joins no connection (the two ends always can).
         for (j, v) in cc.iter().enumerate() {
-            terms.connectible[j] = v.connectible;
+            terms.connectible[j] = v.connectible && (j + 1 == t || !c[j].is_specular_surface());
         }
         for (i, v) in lc.iter().enumerate() {
-            terms.connectible[k - i] = v.connectible;
+            terms.connectible[k - i] =
+                v.connectible && (i + 1 == s || !lp[i].is_specular_surface());
         }
         // Camera side: the camera walk's own densities, the two across the connection, then
         // the light walk's reverse densities with camera-side roulette.
@@ -93,7 +95,11 @@ impl<'a> Tracer<'a> {
         }
         let terms = &self.terms;
         self.inspect(
-            || c.iter().chain(lp.iter().rev()).copied().collect(),
+            || {
+                let mut y = Vec::with_capacity(k + 1);
+                join_subpaths(c, lp, true, &mut y);
+                y
+            },
             s,
             terms,
         );
@@ -145,7 +151,7 @@ impl<'a> Tracer<'a> {
         let terms = &mut self.terms;
         terms.reset(k);
         for (j, v) in cc[..k].iter().enumerate() {
-            terms.connectible[j] = v.connectible;
+            terms.connectible[j] = v.connectible && !c[j].is_specular_surface();
         }
         terms.connectible[k] = emitter.connectible(scene);
         terms.hittable = hittable(scene, light);
@@ -223,7 +229,7 @@ fn weight_recursive(
         let inner = if s >= 2 {
             let pc_t1 = bridge.light_back as f64 * lc[s - 1].q as f64;
             let before = if s >= 3 { lc[s - 3].mis_sum } else { 0.0 };
-            r(pc_t1, lc[s - 2].fwd) * (lc[s - 2].mis_valid + before)
+            r(pc_t1, lc[s - 2].fwd) * (lc[s - 2].mis_valid_inside + before)
         } else {
             0.0
         };
@@ -235,7 +241,7 @@ fn weight_recursive(
         let pl_t1 = bridge.light_next as f64 * if s >= 2 { lc[s - 1].q as f64 } else { 1.0 };
         let inner = if t >= 3 {
             let pl_t2 = bridge.cam_back as f64 * cc[t - 1].q as f64;
-            r(pl_t2, cc[t - 2].fwd) * (cc[t - 2].mis_valid + cc[t - 3].mis_sum)
+            r(pl_t2, cc[t - 2].fwd) * (cc[t - 2].mis_valid_inside + cc[t - 3].mis_sum)
         } else {
             0.0
         };
@@ -273,13 +279,13 @@ impl<'a> Tracer<'a> {
             let connects = cc[0].connectible && emitter.connectible(scene) && !left_to_camera;
             if connects { r(pl_k, cc[1].fwd) } else { 0.0 }
         } else {
-            let nee = if cc[k - 1].connectible {
+            let nee = if cc[k - 1].connectible && !c[k - 1].is_specular_surface() {
                 r(nee_density(scene, &c[k - 1], emitter, light), cc[k].fwd)
             } else {
                 0.0
             };
             let pl_k1 = emitter_back(scene, c, emitter);
-            let before = r(pl_k1, cc[k - 1].fwd) * (cc[k - 1].mis_valid + cc[k - 2].mis_sum);
+            let before = r(pl_k1, cc[k - 1].fwd) * (cc[k - 1].mis_valid_inside + cc[k - 2].mis_sum);
             nee + r(pl_k, cc[k].fwd) * before
         };
         inverse_or_zero(1.0 + others)

@@ -10,8 +10,7 @@
 //! densities leave f32's range, and an underflow to 0 would silently drop the path.
 
 use super::{Kind, Vertex, area_factor, endpoint, medium_towards};
-use crate::bsdf::{Bsdf, ShadingFrame, TransportMode};
-use crate::math::Spectrum;
+use crate::bsdf::TransportMode;
 use crate::scene::Scene;
 use glam::{DVec3, Vec2, Vec3};
 
@@ -57,9 +56,12 @@ pub fn contribution(scene: &Scene, y: &[Vertex], known_visible: u64) -> DVec3 {
                 y[j + 1].p
             };
             f *= match y[j].kind {
-                Kind::Surface { bsdf, frame, .. } if bsdf.is_delta() => {
-                    delta_throughput(bsdf, &frame, y[j - 1].p - y[j].p, next - y[j].p)
-                }
+                // The delta lobe the path takes here, the Dirac left out.
+                Kind::Surface { bsdf, frame, .. } if y[j].delta => bsdf.delta_value(
+                    &frame,
+                    (y[j - 1].p - y[j].p).normalize(),
+                    (next - y[j].p).normalize(),
+                ),
                 _ => y[j].f(scene, y[j - 1].p, next, TransportMode::Radiance),
             }
             .as_dvec3();
@@ -91,18 +93,4 @@ pub fn contribution(scene: &Scene, y: &[Vertex], known_visible: u64) -> DVec3 {
         lt.le(y[k].n, (y[k - 1].p - y[k].p).normalize())
     };
     f * le.as_dvec3()
-}
-
-/// `f_s |cos|` of a specular vertex with the Dirac left out (the measure of DESIGN.md §3):
-/// the chosen lobe's Fresnel factor (over η² for refraction in radiance mode), as `sample`
-/// reports it for the lobe that takes `wo` to `wi`.
-fn delta_throughput(bsdf: &Bsdf, frame: &ShadingFrame, wo: Vec3, wi: Vec3) -> Spectrum {
-    let (wo, wi) = (wo.normalize(), wi.normalize());
-    let n = frame.frame.n;
-    let transmit = wo.dot(n) * wi.dot(n) < 0.0;
-    let u_lobe = if transmit { 1.0 } else { 0.0 };
-    match bsdf.sample(frame, wo, u_lobe, Vec2::ZERO, TransportMode::Radiance) {
-        Some(bs) if bs.transmission == transmit => bs.f * bs.wi.dot(n).abs(),
-        _ => Spectrum::ZERO,
-    }
 }

@@ -290,6 +290,30 @@ pub fn to_path(vertices: &[Vertex], f: Spectrum, pixel: u32) -> Path {
     path
 }
 
+/// The path of camera subpath `c` and light subpath `lp` into `out`: `c` then `lp` reversed.
+/// When a connection joins the two (`connected`; not when the camera walk itself reached the
+/// emitter that `lp` holds), the two joined vertices are not delta: `Vertex::delta` of a
+/// subpath's vertex says how its walk left it, which the connection does not (the two differ
+/// on smooth plastic).
+pub fn join_subpaths<'a>(
+    c: &[Vertex<'a>],
+    lp: &[Vertex<'a>],
+    connected: bool,
+    out: &mut Vec<Vertex<'a>>,
+) {
+    out.clear();
+    out.extend(c.iter().chain(lp.iter().rev()));
+    if connected && !lp.is_empty() {
+        for j in [c.len().wrapping_sub(1), c.len()] {
+            if let Some(v) = out.get_mut(j)
+                && matches!(v.kind, Kind::Surface { .. })
+            {
+                v.delta = false;
+            }
+        }
+    }
+}
+
 /// [`to_path`] into an existing path (no fresh 64-vertex array per call).
 pub fn to_path_into(vertices: &[Vertex], f: Spectrum, pixel: u32, path: &mut Path) {
     path.clear();
@@ -305,15 +329,15 @@ pub fn path_vertex(v: &Vertex) -> crate::path::Vertex {
     let (kind, ns, uv) = match v.kind {
         Kind::Camera => (VertexKind::Camera, Vec3::ZERO, Vec2::ZERO),
         Kind::Surface {
-            bsdf,
             frame,
             info,
             material,
+            ..
         } => (
             VertexKind::Surface {
                 material,
                 shape: info.index,
-                delta: bsdf.is_delta(),
+                delta: v.delta,
             },
             frame.frame.n,
             frame.uv,

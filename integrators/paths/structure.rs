@@ -146,15 +146,26 @@ fn nodes_with<'a>(
     }))
 }
 
+/// Whether material `material`'s BSDF is a delta one (a node's `delta`): a property of the
+/// surface, not of the lobe a path takes there, so that a path's structure is known from its
+/// vertices as they are reached (smooth plastic is not delta, whichever lobe is taken).
+#[inline]
+fn delta_bsdf(scene: &Scene, material: u32) -> bool {
+    scene.materials[material as usize].bsdf.is_delta()
+}
+
 /// The node of path vertex `x` between neighbours at `a` and `b` (`None`: `x` ends the
 /// path): a surface needs both (whether the path crosses it), an emitter must end the path,
 /// a camera has none.
 #[inline]
 pub fn node_at(scene: &Scene, x: &PathVertex, a: Vec3, b: Option<Vec3>) -> Option<Node> {
     Some(match x.kind {
-        VertexKind::Surface { delta, .. } => {
+        VertexKind::Surface { material, .. } => {
             let transmit = ((a - x.p).dot(x.n) > 0.0) != ((b? - x.p).dot(x.n) > 0.0);
-            Node::Surface { delta, transmit }
+            Node::Surface {
+                delta: delta_bsdf(scene, material),
+                transmit,
+            }
         }
         VertexKind::Medium { medium } => Node::Medium { medium },
         VertexKind::Emitter { light, .. } => {
@@ -314,13 +325,16 @@ impl LightSideHash {
             return HeldKey::NONE;
         }
         let (n, crossing) = match last.kind {
-            VertexKind::Surface { delta, .. } => (
-                Node::Surface {
-                    delta,
-                    transmit: false,
-                },
-                Some(delta),
-            ),
+            VertexKind::Surface { material, .. } => {
+                let delta = delta_bsdf(scene, material);
+                (
+                    Node::Surface {
+                        delta,
+                        transmit: false,
+                    },
+                    Some(delta),
+                )
+            }
             // The node does not depend on the camera side (a point stands in for it).
             _ => match node_at(scene, &last, last.p, before) {
                 Some(n) => (n, None),
@@ -400,10 +414,13 @@ impl CameraSideHash {
         };
         let join = |n: Node| join_hashes(push_node(self.hash, n), light, light_len);
         match (next, last.kind) {
-            (None, VertexKind::Surface { delta, .. }) => (
-                [false, true].map(|transmit| join(Node::Surface { delta, transmit })),
-                2,
-            ),
+            (None, VertexKind::Surface { material, .. }) => {
+                let delta = delta_bsdf(scene, material);
+                (
+                    [false, true].map(|transmit| join(Node::Surface { delta, transmit })),
+                    2,
+                )
+            }
             // A medium's node does not depend on its neighbours.
             (None, _) => match node_at(scene, &last, self.before, Some(last.p)) {
                 Some(n) => ([join(n); 2], 1),

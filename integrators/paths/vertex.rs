@@ -131,7 +131,16 @@ pub struct Vertex<'a> {
     pub n: Vec3,
     /// Throughput of the subpath up to this vertex (for a light vertex: 1 / its density).
     pub beta: Spectrum,
-    /// Delta BSDF (or a delta light): no connection can end here.
+    /// The path takes a delta lobe here (or the vertex is a delta light): the directions
+    /// into and out of a surface vertex are related by a Dirac lobe, so its densities are
+    /// lobe probabilities ([`pdf`]) and no connection joins the path at it. A walk's vertex is
+    /// delta if its BSDF is ([`Bsdf::is_delta`]) and, on a BSDF that also has a non-delta
+    /// lobe (smooth plastic), once the walk has left it through the delta lobe
+    /// ([`BsdfSample::delta`]); the vertex that ends a connection is not (the connection leaves
+    /// it in a direction no Dirac lobe picks), whatever its walk did next.
+    ///
+    /// [`Bsdf::is_delta`]: crate::bsdf::Bsdf::is_delta
+    /// [`BsdfSample::delta`]: crate::bsdf::BsdfSample::delta
     pub delta: bool,
     /// Density of this vertex from its walk (no roulette), free flight included.
     pub pdf_fwd: f32,
@@ -172,8 +181,24 @@ impl<'a> Vertex<'a> {
         matches!(self.kind, Kind::Light { light } if scene.lights[light].is_infinite())
     }
 
-    /// Whether a connection (a deterministic edge) can end here.
+    /// Whether a technique could join this path with a connection (a deterministic edge)
+    /// at this vertex: [`Self::connectible_end`], and on a surface the path not taking a delta
+    /// lobe here (`delta`). For the vertices of a complete path.
     pub fn connectible(&self, scene: &Scene) -> bool {
+        self.connectible_end(scene) && !self.is_specular_surface()
+    }
+
+    /// Whether the path takes a delta lobe of a surface here (`delta` on a surface).
+    #[inline]
+    pub fn is_specular_surface(&self) -> bool {
+        self.delta && matches!(self.kind, Kind::Surface { .. })
+    }
+
+    /// Whether a connection can end here, leaving the vertex along the connection: the
+    /// pinhole, medium points, non-delta non-black surfaces (smooth plastic too, by its base),
+    /// lights but directional ones and those at infinity. For the last vertex of a subpath
+    /// being connected, whatever lobe its walk took afterwards.
+    pub fn connectible_end(&self, scene: &Scene) -> bool {
         match self.kind {
             Kind::Camera | Kind::Medium { .. } => true,
             Kind::Surface { bsdf, .. } => !bsdf.is_delta() && !bsdf.is_black(),
@@ -308,7 +333,7 @@ pub fn to_measure_factor(scene: &Scene, from: Vec3, to: &Vertex) -> f64 {
 
 /// Density (in `next`'s measure; no roulette, no free flight) with which vertex `v`, reached
 /// from `prev`, generates `next`: by the camera's ray sampling, by a light's emission
-/// sampling, by BSDF or phase sampling (a delta surface: its lobe probability, the Dirac left
+/// sampling, by BSDF or phase sampling (a delta vertex: its lobe probability, the Dirac left
 /// out). This is the from-scratch definition (`path_terms`); the walks ([`pdf_both`]) and
 /// connections ([`connection_end`] with [`measure_factor`]) evaluate the same BSDF and phase
 /// densities from vertex positions, two directions per call, so all techniques agree to
@@ -341,7 +366,7 @@ pub fn pdf(scene: &Scene, v: &Vertex, prev: Option<Vec3>, next: &Vertex) -> f32 
         }
         Kind::Surface { bsdf, frame, .. } => {
             let Some(prev) = prev else { return 0.0 };
-            let pdf_w = if bsdf.is_delta() {
+            let pdf_w = if v.delta {
                 bsdf.delta_lobe_probability(&frame, towards(prev), to_next)
             } else {
                 bsdf.pdf(&frame, towards(prev), to_next, TransportMode::Radiance)
@@ -379,7 +404,7 @@ pub fn pdf_both(scene: &Scene, v: &Vertex, prev: Option<&Vertex>, next: &Vertex)
     };
     let (fwd, rev) = match &v.kind {
         Kind::Surface { bsdf, frame, .. } => {
-            if bsdf.is_delta() {
+            if v.delta {
                 (
                     bsdf.delta_lobe_probability(frame, wo, wi),
                     bsdf.delta_lobe_probability(frame, wi, wo),

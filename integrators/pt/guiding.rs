@@ -149,6 +149,16 @@ impl Mixture<'_> {
             let u_lobe = sampler.next_1d();
             let u = sampler.next_2d();
             let bs = sp.bsdf.sample(&sp.frame, wo, u_lobe, u, mode)?;
+            if bs.delta {
+                // A delta lobe beside non-delta ones (smooth plastic's coating): a discrete
+                // choice the tree never makes, of probability (1 - a) times the lobe's.
+                let keep = 1.0 - self.a;
+                return Some(BsdfSample {
+                    pdf: bs.pdf * keep,
+                    weight: bs.weight / keep,
+                    ..bs
+                });
+            }
             let pdf = self.pdf(bs.pdf, bs.wi);
             let weight = bs.weight * (bs.pdf / pdf);
             return weight

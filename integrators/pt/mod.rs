@@ -313,7 +313,11 @@ impl PathTracer {
                 }
                 let (wi, pdf) = m.phase.sample(wo, sampler.next_2d());
                 if let Some(r) = &mut extras.rec {
-                    r.scatter(pdf, self.roulette_probability(path.depth, m.continuation()));
+                    r.scatter(
+                        pdf,
+                        self.roulette_probability(path.depth, m.continuation()),
+                        false,
+                    );
                 }
                 path.prev = Scattered {
                     delta: false,
@@ -402,6 +406,7 @@ impl PathTracer {
             r.scatter(
                 bs.pdf,
                 self.roulette_probability(path.depth, sp.bsdf.continuation()),
+                bs.delta,
             );
         }
         if bs.transmission {

@@ -68,9 +68,16 @@ impl<'r> Recording<'r> {
         self.path.push(v);
     }
 
-    pub(super) fn scatter(&mut self, pdf_w: f32, q: f32) {
+    /// The path leaves the last vertex with direction density `pdf_w` (a lobe probability
+    /// if `delta`) and continuation `q`. Through a delta lobe the vertex is delta in the
+    /// paths that go on from it (it was recorded on arrival as the end of next-event
+    /// estimation's path; the two differ on smooth plastic).
+    pub(super) fn scatter(&mut self, pdf_w: f32, q: f32, delta: bool) {
         self.pdf_w = pdf_w;
         self.q = q;
+        if delta && let Some(v) = self.path.last_mut() {
+            v.set_delta(true);
+        }
     }
 
     /// Technique 0: the continuation reached emitter vertex `v`; `estimate` is beta * Le;

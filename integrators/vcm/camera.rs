@@ -178,6 +178,13 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
             if !walk.scatter(scene, &v, self.pc.factors, sampler) {
                 break;
             }
+            if walk.left_delta
+                && self.records()
+                && let Some(x) = self.path.last_mut()
+            {
+                // The recorded vertex is inside every path that goes on from here.
+                x.set_delta(true);
+            }
         }
         l
     }
@@ -381,7 +388,8 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
         let w = 1.0 / (w_light + 1.0 + w_cam);
         crate::check::weight(crate::check::Technique::named("vcm connection"), w as f64);
         if self.records() {
-            let light = &self.lights.full(k)[..=y.depth as usize];
+            let light = connection_end(&self.lights.full(k)[..=y.depth as usize]);
+            let light = &light[..];
             let technique = Technique::Connect { s: light.len() };
             if let Some(insp) = self.inspector {
                 self.record(insp, technique, light, w);
@@ -529,5 +537,21 @@ fn emitter_vertex(li: usize, p: Vec3, n: Vec3, delta: bool) -> PathVertex {
             light: li as u32,
             delta,
         },
+    }
+}
+
+/// The recorded light subpath `light` ending at the vertex a connection leaves: that vertex
+/// is not delta in the connected path, whatever lobe its light walk took next (the record
+/// says the latter, `Walk::left_delta`; only smooth plastic makes the two differ).
+fn connection_end(light: &[PathVertex]) -> std::borrow::Cow<'_, [PathVertex]> {
+    match light.last().map(|x| x.kind) {
+        Some(VertexKind::Surface { delta: true, .. }) => {
+            let mut owned = light.to_vec();
+            if let Some(x) = owned.last_mut() {
+                x.set_delta(false);
+            }
+            std::borrow::Cow::Owned(owned)
+        }
+        _ => std::borrow::Cow::Borrowed(light),
     }
 }

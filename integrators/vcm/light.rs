@@ -396,6 +396,13 @@ impl<'a> LightTracer<'a, '_> {
             if j + 2 > max || !walk.scatter(scene, &v, self.pc.factors, sampler) {
                 break;
             }
+            if walk.left_delta
+                && self.records()
+                && let Some(x) = row.full.last_mut()
+            {
+                // The recorded vertex is inside every path that goes on from here.
+                x.set_delta(true);
+            }
         }
     }
 

@@ -119,6 +119,21 @@ impl<'a> MisVertex<'a> {
         }
     }
 
+    /// `(p(wo -> wi), p(wi -> wo))` of the delta lobe taking this vertex's `wo` to `wi` (its
+    /// lobe probabilities) times the continuation probability: the densities of a walk that
+    /// left the vertex through that lobe.
+    #[inline]
+    pub fn delta_pdfs(&self, scene: &Scene, wi: Vec3) -> (f32, f32) {
+        let Kind::Surface { bsdf, frame, .. } = self.v.kind else {
+            return (0.0, 0.0);
+        };
+        let q = self.continuation(scene);
+        (
+            bsdf.delta_lobe_probability(&frame, self.wo, wi) * q,
+            bsdf.delta_lobe_probability(&frame, wi, self.wo) * q,
+        )
+    }
+
     /// Russian-roulette continuation probability of leaving this vertex (from the first
     /// bounce on, a property of the surface or medium alone).
     #[inline]

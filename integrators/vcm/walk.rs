@@ -63,6 +63,10 @@ pub struct Walk {
     pub q_cap: f32,
     /// The last traced segment crossed no medium.
     pub vacuum: bool,
+    /// The last [`Walk::scatter`] left its vertex through a delta lobe: the vertex is delta
+    /// in the paths that go on through it (`paths::Vertex::delta`; a stored vertex stays
+    /// as it arrived, as a connection's end).
+    pub left_delta: bool,
 }
 
 /// vcm's cap on continuation probabilities for a depth limit of `max_depth`: 1 within the
@@ -98,6 +102,7 @@ impl Walk {
             nee_origin: None,
             q_cap: 1.0,
             vacuum: true,
+            left_delta: false,
         }
     }
 
@@ -141,6 +146,7 @@ impl Walk {
             nee_origin: Some((li, p, n)),
             q_cap: 1.0,
             vacuum: true,
+            left_delta: false,
         }
     }
 
@@ -266,24 +272,26 @@ impl Walk {
         sampler: &mut impl Sampler,
     ) -> bool {
         let wo = v.wo;
-        let wi = match v.kind {
+        let (wi, delta) = match v.kind {
             Kind::Surface { bsdf, frame, .. } => {
                 let (u_lobe, u) = (sampler.next_1d(), sampler.next_2d());
                 let Some(bs) = bsdf.sample(&frame, wo, u_lobe, u, self.mode) else {
                     return false;
                 };
                 self.beta *= bs.weight;
-                bs.wi
+                (bs.wi, bs.delta)
             }
             Kind::Medium { medium } => {
-                scene.media[medium as usize]
+                let wi = scene.media[medium as usize]
                     .phase
                     .sample(wo, sampler.next_2d())
-                    .0
+                    .0;
+                (wi, false)
             }
             // Walks reach surfaces and medium points only.
             Kind::Camera | Kind::Light { .. } => return false,
         };
+        self.left_delta = delta;
         let q = v.continuation(scene);
         if q < 1.0 {
             if sampler.next_1d() >= q {
@@ -291,14 +299,19 @@ impl Walk {
             }
             self.beta /= q;
         }
-        let (_, pdf_fwd, pdf_rev) = v.f_pdfs(scene, wi, TransportMode::Radiance);
+        let (pdf_fwd, pdf_rev) = if delta {
+            v.delta_pdfs(scene, wi)
+        } else {
+            let (_, fwd, rev) = v.f_pdfs(scene, wi, TransportMode::Radiance);
+            (fwd, rev)
+        };
         if pdf_fwd <= 0.0 {
             return false;
         }
         // VCM tech. report (34)-(38); SmallVCM's update after sampling a direction.
         let m = &v.mis;
         let c = v.cos(wi) / pdf_fwd;
-        self.pending = if v.is_delta() {
+        self.pending = if delta {
             Mis {
                 d_vcm: 0.0,
                 d_vc: c * m.d_vc * pdf_rev,

@@ -3,8 +3,8 @@
 
 use super::microfacet::Microfacet;
 use super::{
-    Bsdf, ShadingFrame, TransportMode, diffuse, geometry_agrees, rough_conductor, rough_dielectric,
-    rough_diffuse, rough_plastic, shading_correction,
+    Bsdf, ShadingFrame, TransportMode, diffuse, geometry_agrees, plastic, rough_conductor,
+    rough_dielectric, rough_diffuse, rough_plastic, shading_correction,
 };
 use crate::math::Spectrum;
 use glam::Vec3;
@@ -155,6 +155,15 @@ impl Bsdf {
                     0.0
                 };
                 (Spectrum::splat(f), pdf_fwd, pdf_rev)
+            }
+            Bsdf::Plastic(p) => {
+                let (f, pdf_fwd) = plastic::eval_pdf(p, wo_l, wi_l, true, sf.uv);
+                let pdf_rev = if reverse {
+                    plastic::eval_pdf(p, wi_l, wo_l, false, sf.uv).1
+                } else {
+                    0.0
+                };
+                (f, pdf_fwd, pdf_rev)
             }
             Bsdf::RoughPlastic(p) => {
                 let (f, pdf_fwd) = rough_plastic::eval_pdf(p, wo_l, wi_l, true, sf.uv);

@@ -30,6 +30,7 @@ mod diffuse;
 mod eval_pdfs;
 pub mod fresnel;
 pub mod microfacet;
+mod plastic;
 mod rough_conductor;
 mod rough_dielectric;
 mod rough_diffuse;
@@ -42,6 +43,7 @@ pub use fresnel::ConductorFresnel;
 use glam::{Vec2, Vec3};
 pub use microfacet::Distribution;
 use microfacet::Microfacet;
+pub use plastic::Plastic;
 pub use rough_plastic::RoughPlastic;
 
 /// Lowest Russian-roulette continuation probability (caps the weight boost at 20x).
@@ -179,6 +181,10 @@ pub enum Bsdf {
     /// Rough plastic (Mitsuba's `roughplastic`): a rough dielectric coating over a
     /// Lambertian base, two-sided ([`RoughPlastic`]; boxed for its tables).
     RoughPlastic(Box<RoughPlastic>),
+    /// Smooth plastic (Mitsuba's `plastic`): a smooth dielectric coating over a Lambertian
+    /// base, two-sided ([`Plastic`]): a delta lobe (the coating's mirror reflection) beside a
+    /// non-delta one, the only such BSDF ([`Bsdf::has_delta_lobe`]).
+    Plastic(Box<Plastic>),
     /// A conductor (smooth or rough) whose value is multiplied per channel by a texture at
     /// the point's texture coordinates (Mitsuba's textured `specular_reflectance`): sampling
     /// and densities are the conductor's. Build with [`Bsdf::tinted`].
@@ -264,12 +270,22 @@ impl Bsdf {
         }
     }
 
+    /// True if the BSDF has a delta lobe: every delta BSDF, and smooth plastic, whose other
+    /// lobe is not. A path's vertex on such a surface is delta or not by the lobe the path
+    /// takes there (`paths::Vertex::delta`), which a walk knows from its sample
+    /// ([`BsdfSample::delta`]).
+    #[inline]
+    pub fn has_delta_lobe(&self) -> bool {
+        self.is_delta() || matches!(self, Bsdf::Plastic(_))
+    }
+
     /// True if the BSDF reads the point's texture coordinates (`ShadingFrame::uv`).
     #[inline]
     pub fn is_textured(&self) -> bool {
         match self {
             Bsdf::TexturedDiffuse { .. } | Bsdf::Tinted { .. } => true,
             Bsdf::RoughPlastic(p) => p.diffuse_texture.is_some(),
+            Bsdf::Plastic(p) => p.diffuse_texture.is_some(),
             _ => false,
         }
     }
@@ -290,7 +306,8 @@ impl Bsdf {
             | Bsdf::Diffuse { .. }
             | Bsdf::TexturedDiffuse { .. }
             | Bsdf::RoughDiffuse { .. }
-            | Bsdf::RoughPlastic(_) => 1.0,
+            | Bsdf::RoughPlastic(_)
+            | Bsdf::Plastic(_) => 1.0,
             Bsdf::Conductor { .. }
             | Bsdf::FresnelConductor { .. }
             | Bsdf::Dielectric { .. }
@@ -327,6 +344,9 @@ impl Bsdf {
                 let r = dielectric::thin_reflectance(wo_l.z, *eta);
                 if wo_l.z * wi_l.z > 0.0 { r } else { 1.0 - r }
             }
+            Bsdf::Plastic(p) => {
+                plastic::delta_probability(p, sf.frame.to_local(wo), sf.frame.to_local(wi))
+            }
             _ => 0.0,
         }
     }
@@ -347,6 +367,7 @@ impl Bsdf {
                 ..
             } => r.max_element(),
             Bsdf::RoughPlastic(p) => p.diffuse_max().max(p.specular.max_element()),
+            Bsdf::Plastic(p) => p.max_reflectance(),
             Bsdf::RoughConductor {
                 fresnel: ConductorFresnel::Complex { scale, .. },
                 ..
@@ -406,6 +427,7 @@ impl Bsdf {
                 mode,
             )?,
             Bsdf::RoughPlastic(p) => rough_plastic::sample(p, wo_l, u_lobe, u, sf.uv)?,
+            Bsdf::Plastic(p) => plastic::sample(p, wo_l, u_lobe, u, sf.uv)?,
             Bsdf::Tinted { base, tint } => {
                 return tinted::sample(base, tint, sf, wo, u_lobe, u, mode);
             }
@@ -473,6 +495,7 @@ impl Bsdf {
                 .0,
             ),
             Bsdf::RoughPlastic(p) => rough_plastic::eval_pdf(p, wo_l, wi_l, true, sf.uv).0,
+            Bsdf::Plastic(p) => plastic::eval_pdf(p, wo_l, wi_l, true, sf.uv).0,
             Bsdf::Black
             | Bsdf::Conductor { .. }
             | Bsdf::FresnelConductor { .. }
@@ -518,12 +541,40 @@ impl Bsdf {
                 .1
             }
             Bsdf::RoughPlastic(p) => rough_plastic::eval_pdf(p, wo_l, wi_l, false, sf.uv).1,
+            Bsdf::Plastic(p) => plastic::eval_pdf(p, wo_l, wi_l, false, sf.uv).1,
             Bsdf::Tinted { base, .. } => tinted::pdf(base, sf, wo, wi, mode),
             Bsdf::Black
             | Bsdf::Conductor { .. }
             | Bsdf::FresnelConductor { .. }
             | Bsdf::Dielectric { .. }
             | Bsdf::ThinDielectric { .. } => 0.0,
+        }
+    }
+}
+
+impl Bsdf {
+    /// `f |cos(wi)|` of the delta lobe that takes `wo` to `wi` (`wi` being that lobe's
+    /// direction), the Dirac left out (the measure of DESIGN.md §3), in radiance mode: a
+    /// mirror's reflectance, a smooth dielectric's `F` or `1 - F` (over `eta^2` when
+    /// refracting), smooth plastic's `F(cos_o)` times its specular reflectance; zero for
+    /// BSDFs without delta lobes. A path's contribution uses it at its delta vertices.
+    pub fn delta_value(&self, sf: &ShadingFrame, wo: Vec3, wi: Vec3) -> Spectrum {
+        let n = sf.frame.n;
+        let transmit = wo.dot(n) * wi.dot(n) < 0.0;
+        if let Bsdf::Plastic(p) = self {
+            if !geometry_agrees(sf, wo, wi, transmit) {
+                return Spectrum::ZERO;
+            }
+            return plastic::delta_value(p, sf.frame.to_local(wo), sf.frame.to_local(wi));
+        }
+        if !self.is_delta() {
+            return Spectrum::ZERO;
+        }
+        // The lobe `sample` picks with u_lobe 0 (reflection) or 1 (transmission).
+        let u_lobe = if transmit { 1.0 } else { 0.0 };
+        match self.sample(sf, wo, u_lobe, Vec2::ZERO, TransportMode::Radiance) {
+            Some(bs) if bs.transmission == transmit => bs.f * bs.wi.dot(n).abs(),
+            _ => Spectrum::ZERO,
         }
     }
 }

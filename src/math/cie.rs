@@ -150,6 +150,17 @@ pub enum SpectrumUse {
     Emission,
 }
 
+/// The linear sRGB colour of a uniform spectrum of value `v`: `v` for a reflectance (D65-
+/// weighted, a flat spectrum is white), and for an emission the colour of the equal-energy
+/// illuminant, `v` times XYZ (1, 1, 1) in sRGB (about 1.205, 0.948, 0.909), as Mitsuba 3
+/// converts `<spectrum value="v"/>` on an emitter.
+pub fn uniform_spectrum_to_srgb(v: f64, usage: SpectrumUse) -> DVec3 {
+    match usage {
+        SpectrumUse::Reflectance => DVec3::splat(v),
+        SpectrumUse::Emission => xyz_to_srgb(DVec3::ONE) * v,
+    }
+}
+
 /// The linear sRGB colour of the piecewise-linear spectrum through (`wavelengths[i]`,
 /// `values[i]`) (nm, increasing, at least two), as Mitsuba 3 converts it.
 pub fn spectrum_to_srgb(wavelengths: &[f64], values: &[f64], usage: SpectrumUse) -> DVec3 {

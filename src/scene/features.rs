@@ -10,7 +10,7 @@ pub struct SceneFeatures {
     pub media: bool,
     /// Point (or other delta) lights.
     pub delta_lights: bool,
-    /// Surfaces with delta BSDFs (mirrors, glass).
+    /// Surfaces with a delta lobe (mirrors, glass, smooth plastic).
     pub specular_surfaces: bool,
     /// A constant environment light.
     pub environment: bool,

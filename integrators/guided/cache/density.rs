@@ -304,6 +304,13 @@ impl GuideCache {
         };
         let mut own_term = None;
         let (mut sum, mut reach) = (0.0, 1);
+        if takes_mixed_delta_lobe(y) {
+            return Terms {
+                sum: 0.0,
+                own: 0.0,
+                reach: 1,
+            };
+        }
         if let Some(index) = self.index.get(&sig).filter(|_| !self.is_empty()) {
             // Where every guide path of the structure has the same nodes, the path's are
             // compared with them once (a path with other nodes gets no term at all).
@@ -361,7 +368,7 @@ impl GuideCache {
     ) -> Terms {
         let (mut sum, mut reach) = (0.0, 1);
         for (l, g) in self.guides.iter().enumerate() {
-            if g.sig != sig || self.nodes_of(l) != nodes {
+            if g.sig != sig || self.nodes_of(l) != nodes || takes_mixed_delta_lobe(y) {
                 continue;
             }
             let p1 = LogDensity::plain(self.first_density(scene, l, y));
@@ -427,4 +434,15 @@ pub struct Terms {
     /// every first-vertex kernel of the structure; the path's vertex count when a term is
     /// non-zero).
     pub reach: usize,
+}
+
+/// Whether path `y` takes the delta lobe of a surface that also has a non-delta one (smooth
+/// plastic's coating): the guided sampler never does (at such a surface it follows the
+/// guide's direction or the BSDF's non-delta lobe; a BSDF sample of the delta lobe fails), so
+/// the guided density of such a path is 0.
+pub(crate) fn takes_mixed_delta_lobe(y: &[Vertex]) -> bool {
+    y.iter().any(|v| {
+        v.is_specular_surface()
+            && matches!(v.kind, crate::integrators::paths::Kind::Surface { bsdf, .. } if !bsdf.is_delta())
+    })
 }

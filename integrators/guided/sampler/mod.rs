@@ -276,6 +276,11 @@ pub fn sample_path_into(
                             TransportMode::Radiance,
                         )
                         .ok_or(Failure::Scatter)?;
+                    // Smooth plastic's coating: a delta lobe on a surface the guide's structure
+                    // treats as non-delta, which guided samples never take.
+                    if bs.delta && !sp.bsdf.is_delta() {
+                        return Err(Failure::Scatter);
+                    }
                     (bs.wi, if bs.delta { 1.0 } else { bs.pdf as f64 })
                 }
                 None => {

@@ -295,7 +295,7 @@ impl Builder<'_> {
                 .iter()
                 .flat_map(|s| [Some(s.material), s.checker.map(|c| c.odd)])
                 .flatten()
-                .any(|m| materials[m as usize].bsdf.is_delta()),
+                .any(|m| materials[m as usize].bsdf.has_delta_lobe()),
             environment: !infinite_lights.is_empty(),
             emissive_geometry: lights.iter().any(|l| matches!(l, Light::Area(_))),
             normal_maps: materials.iter().any(|m| m.normal_map.is_some()),

@@ -53,9 +53,17 @@ impl Builder<'_> {
                 "nonlinear",
                 "one_sided",
             ],
+            "plastic" => &[
+                "albedo",
+                "albedo_texture",
+                "specular",
+                "ior",
+                "nonlinear",
+                "one_sided",
+            ],
             "black" => &[],
             other => {
-                return src.err(d.kind.span(), format!("unknown material type '{other}' (expected diffuse, roughdiffuse, conductor, dielectric, thindielectric, roughconductor, roughdielectric, roughplastic or black)"));
+                return src.err(d.kind.span(), format!("unknown material type '{other}' (expected diffuse, roughdiffuse, conductor, dielectric, thindielectric, roughconductor, roughdielectric, plastic, roughplastic or black)"));
             }
         };
         // A normal map goes with every material that scatters.
@@ -170,7 +178,8 @@ impl Builder<'_> {
                 }
                 Bsdf::rough_dielectric(eta, alpha()?)
             }
-            "roughplastic" => {
+            // Smooth or rough: the same coating and base.
+            "plastic" | "roughplastic" => {
                 let eta = ior()?;
                 if eta == 1.0 {
                     let at = d.ior.as_ref().map_or(span, |i| i.span());
@@ -191,18 +200,27 @@ impl Builder<'_> {
                         "albedo",
                     )?,
                 };
-                let plastic = crate::bsdf::RoughPlastic::new(
-                    albedo,
-                    specular,
-                    eta,
-                    alpha()?,
-                    distribution,
-                    d.nonlinear.as_ref().is_some_and(|n| *n.get_ref()),
-                );
-                Bsdf::RoughPlastic(Box::new(match texture {
-                    Some(t) => plastic.with_diffuse_texture(t),
-                    None => plastic,
-                }))
+                let nonlinear = d.nonlinear.as_ref().is_some_and(|n| *n.get_ref());
+                if kind == "plastic" {
+                    let plastic = crate::bsdf::Plastic::new(albedo, specular, eta, nonlinear);
+                    Bsdf::Plastic(Box::new(match texture {
+                        Some(t) => plastic.with_diffuse_texture(t),
+                        None => plastic,
+                    }))
+                } else {
+                    let plastic = crate::bsdf::RoughPlastic::new(
+                        albedo,
+                        specular,
+                        eta,
+                        alpha()?,
+                        distribution,
+                        nonlinear,
+                    );
+                    Bsdf::RoughPlastic(Box::new(match texture {
+                        Some(t) => plastic.with_diffuse_texture(t),
+                        None => plastic,
+                    }))
+                }
             }
             "black" => Bsdf::Black,
             _ => unreachable!("material types are checked above"),

@@ -207,9 +207,10 @@ struct MaterialDesc {
     k: Option<V3>,
     /// Black when seen from the back of the shape (Mitsuba's non-`twosided` BSDFs).
     one_sided: Option<Spanned<bool>>,
-    /// `roughplastic`: the coating's reflectance scale (default 1).
+    /// `plastic`, `roughplastic`: the coating's reflectance scale (default 1).
     specular: Option<V3>,
-    /// `roughplastic`: the base's reflectance inside the interreflection sum (default false).
+    /// `plastic`, `roughplastic`: the base's reflectance inside the interreflection sum
+    /// (default false).
     nonlinear: Option<Spanned<bool>>,
     /// `diffuse`: the albedo as a texture, in place of `albedo`.
     albedo_texture: Option<Spanned<TextureDesc>>,

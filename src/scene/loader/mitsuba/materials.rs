@@ -296,8 +296,11 @@ fn bsdf_desc(xml: &Xml, n: Node, name: String, one_sided: bool) -> Result<Option
             p.finish(xml)?;
             return Ok(None);
         }
-        "roughplastic" => {
-            d.alpha = Some(rough(&mut p, &mut d)?);
+        // Smooth or rough: the same coating and base.
+        "roughplastic" | "plastic" => {
+            if k == "roughplastic" {
+                d.alpha = Some(rough(&mut p, &mut d)?);
+            }
             let int = p.ior(xml, "int_ior", 1.49)?;
             let ext = p.ior(xml, "ext_ior", 1.000277)?;
             if !(int > 0.0 && ext > 0.0) || int == ext {
@@ -312,8 +315,7 @@ fn bsdf_desc(xml: &Xml, n: Node, name: String, one_sided: bool) -> Result<Option
             d.nonlinear = Some(s(n, p.boolean(xml, "nonlinear")?.unwrap_or(false)));
             d.one_sided = Some(s(n, one_sided));
         }
-        "plastic" => return xml.err(n, "'plastic' is not supported (a smooth coating: a delta lobe beside a diffuse one); 'roughplastic' is, and a small 'alpha' comes close"),
-        other => return xml.err(n, format!("bsdf '{other}' is not supported (diffuse, roughdiffuse, conductor, roughconductor, dielectric, thindielectric, roughdielectric, roughplastic, twosided, normalmap, null)")),
+        other => return xml.err(n, format!("bsdf '{other}' is not supported (diffuse, roughdiffuse, conductor, roughconductor, dielectric, thindielectric, roughdielectric, plastic, roughplastic, twosided, normalmap, null)")),
     }
     p.finish(xml)?;
     Ok(Some(d))

@@ -40,7 +40,9 @@
 //!   `ext_ior` 1.000277 "air", numbers or Mitsuba's named media), `twosided` around one
 //!   BSDF, and `null` on a medium boundary. `roughplastic`: `distribution` and `alpha` as
 //!   above, `int_ior` 1.49 "polypropylene", `ext_ior` "air", `diffuse_reflectance` 0.5,
-//!   `specular_reflectance` 1, `nonlinear` false (Mitsuba 3's model, `bsdf/rough_plastic.rs`).
+//!   `specular_reflectance` 1, `nonlinear` false (Mitsuba 3's model, `bsdf/rough_plastic.rs`);
+//!   `plastic`, its smooth form, with the same properties but the roughness
+//!   (`bsdf/plastic.rs`).
 //!   Without `twosided`, diffuse, conductors and plastic are black from the back, as in
 //!   Mitsuba. `normalmap` around one BSDF (its `normalmap` texture: `scene::perturbed_normal`),
 //!   with `flip_invalid_normals` and `use_shadowing_function` false (Mitsuba's defaults, true,

@@ -3,7 +3,7 @@
 
 use super::Xml;
 use crate::error::Result;
-use crate::math::cie::{SpectrumUse, spectrum_to_srgb};
+use crate::math::cie::{SpectrumUse, spectrum_to_srgb, uniform_spectrum_to_srgb};
 use glam::{Mat4, Vec3};
 use roxmltree::Node;
 
@@ -217,13 +217,22 @@ impl<'a, 'input> Props<'a, 'input> {
         let Some((n, v)) = self.value(xml, name, &["rgb", "spectrum", "float"])? else {
             return Ok(None);
         };
+        let usage = if self.plugin.starts_with("emitter") {
+            SpectrumUse::Emission
+        } else {
+            SpectrumUse::Reflectance
+        };
         if n.tag_name().name() == "spectrum" && v.contains(':') {
-            let usage = if self.plugin.starts_with("emitter") {
-                SpectrumUse::Emission
-            } else {
-                SpectrumUse::Reflectance
-            };
             return Ok(Some((n, sampled_spectrum(xml, n, &v, usage)?)));
+        }
+        // Mitsuba 3: one value is a uniform spectrum, on an emitter the equal-energy white.
+        if n.tag_name().name() == "spectrum"
+            && let [x] = xml.numbers(n, &v)?.as_slice()
+        {
+            return Ok(Some((
+                n,
+                uniform_spectrum_to_srgb(*x as f64, usage).as_vec3(),
+            )));
         }
         let c = match xml.numbers(n, &v)?.as_slice() {
             [s] => Vec3::splat(*s),

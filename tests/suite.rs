@@ -20,6 +20,7 @@ mod chi2_lights;
 mod chi2_lights_spot;
 mod chi2_microfacet;
 mod chi2_phase;
+mod chi2_plastic;
 mod cli_errors;
 mod cluster_scripts;
 mod determinism;

@@ -12,8 +12,8 @@ What it compares
        mean, its standard error, and z = (lodestar - mitsuba) / sqrt(SE_l^2 + SE_m^2).  |z| > 4
        means the two disagree beyond Monte Carlo noise.
     2. Per region: the image cut into 8 x 8-pixel blocks; per block and channel the same z of
-       the block means over renders (blocks black in every render of one renderer and not
-       the other are left out and counted, with their share of the light: see row()).
+       the block means over renders (blocks black in half the renders or more of either
+       renderer are left out and counted, with their share of the light: see row()).
        Reported: the mean of z^2 over blocks (about dof / (dof - 2), 1.07 for 16
        renders a side, when the two agree: z is Student-t distributed) and the largest |z|
        with its two-sided normal p-value times the number of blocks and channels
@@ -34,6 +34,14 @@ Usage
     python3 benches/reference/mitsuba_xml.py --variant llvm_ad_rgb --res 128 --spp 64 --renders 8
     python3 benches/reference/mitsuba_xml.py --variant scalar_rgb --renders 16 --control \
         --scenes scenes/public/bitterli-cornell-box/scene_v3.xml --define resx=64 --define resy=64 --define spp=64
+    # lajolla's Mitsuba 0.4 files as published (no parameters: the file's resolution, the spp
+    # given here); Mitsuba's copy spells <lookAt> as Mitsuba 3 reads it and uses its
+    # independent sampler (its ldsampler's renders are not unbiased from seed to seed:
+    # docs/results.md)
+    python3 benches/reference/mitsuba_xml.py --variant scalar_rgb --renders 16 --control \
+        --scenes scenes/public/lajolla/cbox/cbox.xml --define none --render-spp 4 \
+        --mitsuba-replace lookAt=lookat --mitsuba-replace ldsampler=independent \
+        --mitsuba-replace '<integer name="dimension" value="1"/>='
 """
 import argparse
 import glob
@@ -164,20 +172,23 @@ def main():
             se = np.sqrt(ab.var(0, ddof=1) / n + bb.var(0, ddof=1) / n)
             se = np.maximum(se, 1e-6 * np.abs(bb.mean(0)))
             zb = np.where(se > 0, (ab.mean(0) - bb.mean(0)) / np.where(se > 0, se, 1), 0)
-            # A block that one renderer left black in every render has no variance to test
-            # against: the far tail of a tent or Gaussian filter beside a lit edge, which
+            # A block that one renderer left black in most renders has no variance estimate
+            # worth a z: the far tail of a tent or Gaussian filter beside a lit edge, which
             # filter importance sampling (lodestar) reaches in few renders and splatting
-            # (Mitsuba) in all, or a region one renderer never lights at all. Such blocks are
-            # left out of the z statistics and reported with their share of the other side's
-            # light: a share near 0 is the filter's tail, a large one a real difference.
-            black = (np.abs(ab).max(axis=(0, 3)) == 0) ^ (np.abs(bb).max(axis=(0, 3)) == 0)
+            # (Mitsuba) in all, or a region one renderer never lights at all. Such blocks
+            # (black in half the renders or more on either side, lit on some side) are left
+            # out of the z statistics and reported with their share of the light: a share
+            # near 0 is the filter's tail, a large one a real difference.
+            lit = lambda x: (np.abs(x).max(axis=3) > 0).sum(axis=0)  # renders lighting a block
+            sparse = (lit(ab) < n / 2) | (lit(bb) < n / 2)
+            black = sparse & ((lit(ab) > 0) | (lit(bb) > 0))
             shown = ab.mean(0)[black].sum() + bb.mean(0)[black].sum()
             share = shown / max(ab.mean(0).sum() + bb.mean(0).sum(), 1e-30)
             zt = zb[~black]
             zmax = np.abs(zt).max() if zt.size else 0.0
             p = min(1.0, math.erfc(zmax / math.sqrt(2)) * zt.size)
             fmt = lambda v: " ".join(f"{x:.5f}" for x in v)
-            blacks = f"; {black.sum()} black on one side ({share:.1e} of the light)" if black.any() else ""
+            blacks = f"; {black.sum()} mostly black ({share:.1e} of the light)" if black.any() else ""
             print(f"| {label} | {fmt(am.mean(0))} | {fmt(bm.mean(0))} | {np.abs(z).max():.2f} | "
                   f"{(zt ** 2).mean():.3f}, {zmax:.2f} (p = {p:.2g}){blacks} | "
                   f"{mse:.3e} / {floor:.3e} = {mse / floor:.3f} | {statistics.median(ta):.2f} | {tb} |")

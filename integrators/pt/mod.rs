@@ -313,11 +313,8 @@ impl PathTracer {
                 }
                 let (wi, pdf) = m.phase.sample(wo, sampler.next_2d());
                 if let Some(r) = &mut extras.rec {
-                    r.scatter(
-                        pdf,
-                        self.roulette_probability(path.depth, m.continuation()),
-                        false,
-                    );
+                    let q = self.roulette_probability(path.depth, m.continuation());
+                    r.scatter(pdf, q, false);
                 }
                 path.prev = Scattered {
                     delta: false,

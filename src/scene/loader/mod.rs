@@ -209,8 +209,7 @@ struct MaterialDesc {
     one_sided: Option<Spanned<bool>>,
     /// `plastic`, `roughplastic`: the coating's reflectance scale (default 1).
     specular: Option<V3>,
-    /// `plastic`, `roughplastic`: the base's reflectance inside the interreflection sum
-    /// (default false).
+    /// `plastic`, `roughplastic`: the base's reflectance in the interreflection sum (false).
     nonlinear: Option<Spanned<bool>>,
     /// `diffuse`: the albedo as a texture, in place of `albedo`.
     albedo_texture: Option<Spanned<TextureDesc>>,

@@ -92,10 +92,7 @@ impl Plastic {
     /// The base's reflectance at texture coordinates `uv`.
     #[inline]
     fn diffuse_at(&self, uv: Vec2) -> Spectrum {
-        match &self.diffuse_texture {
-            Some(t) => t.eval(uv),
-            None => self.diffuse,
-        }
+        base_reflectance(self.diffuse, &self.diffuse_texture, uv)
     }
 
     /// The largest reflectance of either lobe anywhere (for roulette).
@@ -116,8 +113,23 @@ impl Plastic {
     }
 }
 
-/// `w` from the base's mean reflectance `d` and the coating's scale.
-fn specular_weight(d: f32, specular: Spectrum) -> f32 {
+/// A plastic base's reflectance at `uv`: `texture` there if it has one, else `diffuse`
+/// (smooth and rough plastic alike).
+#[inline]
+pub(super) fn base_reflectance(
+    diffuse: Spectrum,
+    texture: &Option<Arc<Texture>>,
+    uv: Vec2,
+) -> Spectrum {
+    match texture {
+        Some(t) => t.eval(uv),
+        None => diffuse,
+    }
+}
+
+/// `w`, the coating's share in the lobe choice, from the base's mean reflectance `d` and the
+/// coating's scale (Mitsuba's `specular_sampling_weight`; smooth and rough plastic alike).
+pub(super) fn specular_weight(d: f32, specular: Spectrum) -> f32 {
     let s = specular.element_sum() / 3.0;
     if d + s > 0.0 { s / (d + s) } else { 0.5 }
 }

@@ -22,6 +22,7 @@
 
 use super::fresnel;
 use super::microfacet::{Distribution, Microfacet, Smith, flip_z, reflect, refract};
+use super::plastic::{base_reflectance, specular_weight};
 use super::{LocalSample, diffuse};
 use crate::math::{INV_PI, Spectrum};
 use crate::texture::Texture;
@@ -82,7 +83,7 @@ impl RoughPlastic {
     ) -> RoughPlastic {
         let alpha = super::microfacet::clamp_alpha(alpha);
         let tables = tables(distribution, alpha, eta);
-        let (d, s) = (diffuse.element_sum() / 3.0, specular.element_sum() / 3.0);
+
         RoughPlastic {
             diffuse,
             diffuse_texture: None,
@@ -92,18 +93,14 @@ impl RoughPlastic {
             distribution,
             nonlinear,
             tables,
-            specular_weight: if d + s > 0.0 { s / (d + s) } else { 0.5 },
+            specular_weight: specular_weight(diffuse.element_sum() / 3.0, specular),
         }
     }
 
     /// The plastic with its base's reflectance looked up in `texture` at the point's texture
     /// coordinates; the lobe choice takes the texture's mean as Mitsuba's does.
     pub fn with_diffuse_texture(mut self, texture: Arc<Texture>) -> RoughPlastic {
-        let (d, s) = (
-            texture.mean().element_sum() / 3.0,
-            self.specular.element_sum() / 3.0,
-        );
-        self.specular_weight = if d + s > 0.0 { s / (d + s) } else { 0.5 };
+        self.specular_weight = specular_weight(texture.mean().element_sum() / 3.0, self.specular);
         self.diffuse_texture = Some(texture);
         self
     }
@@ -111,10 +108,7 @@ impl RoughPlastic {
     /// The base's reflectance at texture coordinates `uv`.
     #[inline]
     fn diffuse_at(&self, uv: Vec2) -> Spectrum {
-        match &self.diffuse_texture {
-            Some(t) => t.eval(uv),
-            None => self.diffuse,
-        }
+        base_reflectance(self.diffuse, &self.diffuse_texture, uv)
     }
 
     /// The base's largest reflectance anywhere (for roulette).

@@ -1,9 +1,10 @@
-//! Scene features every integrator family must handle alike: the rough plastic, smooth
-//! plastic (a delta lobe beside a diffuse one), the smooth conductor of complex index, the thin dielectric, the rough diffuse BSDF and the tent and
-//! Gaussian pixel filters (the environment map's is in `envmap.rs`). Each renders a 16 x 16 Cornell box
-//! with the feature by pt, bdpt, vcm, guided-bdpt and mmlt, tile by tile within noise of pt's
-//! image (`util::assert_same_image`, 5 renders a side, family-wise false-failure rate 1e-4;
-//! vcm's merging bias at its default radius is below these renders' noise); pt's images
+//! Scene features every integrator family must handle alike: rough plastic, smooth plastic
+//! (a delta lobe beside a diffuse one), the smooth conductor of complex index, the thin
+//! dielectric, the rough diffuse BSDF, textures and normal maps, and the tent and Gaussian
+//! pixel filters (the environment map's is in `envmap.rs`). Each renders a 16 x 16 Cornell
+//! box with the feature by pt, bdpt, vcm, guided-bdpt and mmlt, tile by tile within noise of
+//! pt's image (`util::assert_same_image`, 5 renders a side, family-wise false-failure rate
+//! 1e-4; vcm's merging bias at its default radius is below these renders' noise); pt's images
 //! mirrored must fail.
 
 use crate::util;

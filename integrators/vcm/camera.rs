@@ -388,8 +388,21 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
         let w = 1.0 / (w_light + 1.0 + w_cam);
         crate::check::weight(crate::check::Technique::named("vcm connection"), w as f64);
         if self.records() {
-            let light = connection_end(&self.lights.full(k)[..=y.depth as usize]);
-            let light = &light[..];
+            let recorded = &self.lights.full(k)[..=y.depth as usize];
+            // The vertex the connection leaves is not delta in the connected path, whatever
+            // lobe its light walk took next (the record says the latter, `Walk::left_delta`;
+            // only smooth plastic makes the two differ): then a copy, on the stack, says so.
+            let patched;
+            let light = match recorded.last().map(|x| x.kind) {
+                Some(VertexKind::Surface { delta: true, .. }) => {
+                    let mut copy = [PathVertex::EMPTY; MAX_VERTICES];
+                    copy[..recorded.len()].copy_from_slice(recorded);
+                    copy[recorded.len() - 1].set_delta(false);
+                    patched = copy;
+                    &patched[..recorded.len()]
+                }
+                _ => recorded,
+            };
             let technique = Technique::Connect { s: light.len() };
             if let Some(insp) = self.inspector {
                 self.record(insp, technique, light, w);
@@ -537,21 +550,5 @@ fn emitter_vertex(li: usize, p: Vec3, n: Vec3, delta: bool) -> PathVertex {
             light: li as u32,
             delta,
         },
-    }
-}
-
-/// The recorded light subpath `light` ending at the vertex a connection leaves: that vertex
-/// is not delta in the connected path, whatever lobe its light walk took next (the record
-/// says the latter, `Walk::left_delta`; only smooth plastic makes the two differ).
-fn connection_end(light: &[PathVertex]) -> std::borrow::Cow<'_, [PathVertex]> {
-    match light.last().map(|x| x.kind) {
-        Some(VertexKind::Surface { delta: true, .. }) => {
-            let mut owned = light.to_vec();
-            if let Some(x) = owned.last_mut() {
-                x.set_delta(false);
-            }
-            std::borrow::Cow::Owned(owned)
-        }
-        _ => std::borrow::Cow::Borrowed(light),
     }
 }

@@ -27,9 +27,10 @@ mod packet_avx;
 
 /// Scenes with at most this many primitives are tested without a hierarchy.
 /// Measured (pt, one thread, bit-identical images): the Cornell box's 25 primitives render
-/// 11 % faster than through the BVH, SmallVCM's 22 primitives 5 % faster under bdpt, ajar's 87
-/// primitives 38 % slower.
-pub const FLAT_MAX_PRIMS: usize = 32;
+/// 11 % faster than through the BVH, SmallVCM's 22 primitives 5 % faster under bdpt, lajolla's
+/// and Bitterli's Cornell boxes (38 and 36 triangles) 1.9x faster, ajar's 87 primitives 38 %
+/// slower.
+pub const FLAT_MAX_PRIMS: usize = 48;
 
 /// Triangles per group: eight, one per lane (two SSE registers, one AVX register).
 const LANES: usize = 8;

@@ -39,9 +39,12 @@ fn every_integrator_agrees(scene: &lodestar::scene::Scene, what: &str) {
 /// The Cornell box with its white walls and boxes in rough plastic (GGX 0.15, eta 1.5), its
 /// red and green sides in smooth plastic (eta 1.5: the light and the sphere mirrored in the
 /// coating, paths that take the coating's delta lobe at some vertices and the base's diffuse
-/// lobe at others), and its glass sphere a smooth gold mirror (a conductor of complex index).
+/// lobe at others), and its glass sphere a smooth gold mirror (a conductor of complex index);
+/// two opacity masks: the mirror 60 % opaque, the red wall a checkerboard texture of opaque
+/// and 20 % opaque squares with a white wall outside it (paths through a mask take its null
+/// lobe, a delta lobe, at some vertices).
 #[test]
-fn every_integrator_renders_rough_and_smooth_plastic_alike() {
+fn every_integrator_renders_plastic_and_masks_alike() {
     let plastic = |name: &str, albedo: &str| {
         let smooth = name != "white";
         format!(
@@ -66,15 +69,27 @@ fn every_integrator_renders_rough_and_smooth_plastic_alike() {
             );
         let text = text.replace(
             "name = \"glass\"\ntype = \"dielectric\"\nior = 1.5",
-            "name = \"glass\"\ntype = \"conductor\"\neta = [0.143, 0.374, 1.442]\nk = [3.983, 2.385, 1.603]",
+            "name = \"glass\"\ntype = \"conductor\"\neta = [0.143, 0.374, 1.442]\nk = [3.983, 2.385, 1.603]\nopacity = 0.6",
         );
+        // The red wall is cut into a checkerboard of opaque and 20 % opaque squares, with a
+        // white wall behind it that the light through the squares reaches.
+        let text = text.replacen(
+            "name = \"red\"\ntype = \"plastic\"",
+            "name = \"red\"\nopacity_texture = { type = \"checkerboard\", color0 = [1, 1, 1], color1 = [0.2, 0.2, 0.2], scale = [3, 3] }\ntype = \"plastic\"",
+            1,
+        ) + "\n[[shape]]\nname = \"outside\"\ntype = \"quad\"\norigin = [-1.5, -1, -1]\nedge_u = [0, 2, 0]\nedge_v = [0, 0, 2]\nmaterial = \"white\"\n";
         assert_eq!(text.matches("roughplastic").count(), 1);
         assert_eq!(text.matches("type = \"plastic\"").count(), 2);
-        assert!(text.contains("k = [3.983"));
+        assert!(text.contains("k = [3.983") && text.contains("opacity_texture"));
         text
     });
     assert!(scene.features.specular_surfaces);
-    every_integrator_agrees(&scene, "rough and smooth plastic and a gold mirror");
+    let masks = scene
+        .materials
+        .iter()
+        .filter(|m| matches!(m.bsdf, lodestar::bsdf::Bsdf::Mask(_)));
+    assert_eq!(masks.count(), 2);
+    every_integrator_agrees(&scene, "rough and smooth plastic, a gold mirror and masks");
 }
 
 /// The Cornell box with its glass sphere a thin dielectric shell (a bubble of eta 1.5) and

@@ -1112,6 +1112,48 @@ fn plastic_reads_as_mitsuba_defines_it() {
     );
 }
 
+/// `mask`: the opacity a number (default 0.5) or a texture, around one BSDF whose sidedness
+/// it keeps (the mask itself lets light through from both sides); a mask in a mask and a
+/// mask without a BSDF are errors naming the line.
+#[test]
+fn mask_reads_as_mitsuba_defines_it() {
+    use lodestar::bsdf::Opacity;
+    let scene = xml(&wrap(
+        r#"<shape type="sphere"><bsdf type="mask"><bsdf type="diffuse"/></bsdf></shape>
+    <shape type="sphere"><bsdf type="twosided"><bsdf type="mask"><float name="opacity" value="0.25"/><bsdf type="roughconductor"/></bsdf></bsdf></shape>
+    <shape type="sphere"><bsdf type="mask"><texture name="opacity" type="checkerboard"><rgb name="color0" value="1"/><rgb name="color1" value="0"/></texture>
+        <bsdf type="twosided"><bsdf type="diffuse"/></bsdf></bsdf></shape>"#,
+    ))
+    .unwrap();
+    let mask = |i: usize| match &scene.materials[i].bsdf {
+        Bsdf::Mask(m) => m.clone(),
+        other => panic!("material {i}: {other:?}"),
+    };
+    let (a, b, c) = (mask(0), mask(1), mask(2));
+    assert_eq!(a.opacity, Opacity::Constant(0.5));
+    assert!(a.inner_one_sided && matches!(a.inner, Bsdf::Diffuse { .. }));
+    assert_eq!(b.opacity, Opacity::Constant(0.25));
+    assert!(!b.inner_one_sided && matches!(b.inner, Bsdf::RoughConductor { .. }));
+    assert!(!c.inner_one_sided);
+    assert_eq!(c.opacity.at(glam::Vec2::new(0.1, 0.1)), 1.0);
+    assert_eq!(c.opacity.at(glam::Vec2::new(0.6, 0.1)), 0.0);
+    assert!(scene.materials.iter().all(|m| !m.one_sided));
+    assert!(
+        scene.features.specular_surfaces,
+        "the null lobe is a delta lobe"
+    );
+
+    let e = xml_err(&wrap(
+        r#"<shape type="sphere"><bsdf type="mask"><bsdf type="mask"><bsdf type="diffuse"/></bsdf></bsdf></shape>"#,
+    ));
+    assert!(
+        e.contains("mask cannot wrap another mask") && e.contains(".xml:7:"),
+        "{e}"
+    );
+    let e = xml_err(&wrap(r#"<shape type="sphere"><bsdf type="mask"/></shape>"#));
+    assert!(e.contains("mask needs one nested <bsdf>"), "{e}");
+}
+
 /// A conductor's `specular_reflectance` given as a texture tints its value point by point
 /// (`Bsdf::Tinted` over the conductor Mitsuba's other properties make).
 #[test]

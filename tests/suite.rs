@@ -18,6 +18,7 @@ mod check;
 mod chi2_bsdf;
 mod chi2_lights;
 mod chi2_lights_spot;
+mod chi2_mask;
 mod chi2_microfacet;
 mod chi2_phase;
 mod chi2_plastic;

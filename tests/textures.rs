@@ -257,6 +257,19 @@ fn texture_errors_name_the_file_line_and_what_was_expected() {
     );
     let e = toml("albedo_texture = { type = \"noise\" }");
     assert!(e.contains("unknown texture type 'noise'"), "{e}");
+    // Opacity masks (`bsdf/mask.rs`).
+    let e = toml("albedo = [0.5, 0.5, 0.5]\nopacity = 1.5");
+    assert!(
+        e.contains("t.toml:12") && e.contains("'opacity' must be in [0, 1], got 1.5"),
+        "{e}"
+    );
+    let e = toml(
+        "albedo = [0.5, 0.5, 0.5]\nopacity = 0.5\nopacity_texture = { type = \"checkerboard\" }",
+    );
+    assert!(
+        e.contains("t.toml:13") && e.contains("both 'opacity' and 'opacity_texture'"),
+        "{e}"
+    );
 }
 
 /// A normal map's value `c` is the direction `2 c - 1` in the frame of the shading normal and

@@ -1,18 +1,20 @@
 //! Delta lobes: which BSDFs have them, the probability with which [`Bsdf::sample`] picks
 //! one, and a lobe's value with the Dirac left out (what a path through it contributes).
 
-use super::{Bsdf, ShadingFrame, TransportMode, dielectric, fresnel, geometry_agrees, plastic};
+use super::{
+    Bsdf, ShadingFrame, TransportMode, dielectric, fresnel, geometry_agrees, mask, plastic,
+};
 use crate::math::Spectrum;
 use glam::{Vec2, Vec3};
 
 impl Bsdf {
-    /// True if the BSDF has a delta lobe: every delta BSDF, and smooth plastic, whose other
-    /// lobe is not. A path's vertex on such a surface is delta or not by the lobe the path
+    /// True if the BSDF has a delta lobe: every delta BSDF, smooth plastic and every mask
+    /// (whose other lobes need not be). A path's vertex on such a surface is delta or not by the lobe the path
     /// takes there (`paths::Vertex::delta`), which a walk knows from its sample
     /// ([`BsdfSample::delta`](super::BsdfSample::delta)).
     #[inline]
     pub fn has_delta_lobe(&self) -> bool {
-        self.is_delta() || matches!(self, Bsdf::Plastic(_))
+        self.is_delta() || matches!(self, Bsdf::Plastic(_) | Bsdf::Mask(_))
     }
 
     /// Discrete probability with which `sample` picks the delta lobe that takes `wo` to `wi`
@@ -37,6 +39,7 @@ impl Bsdf {
             Bsdf::Plastic(p) => {
                 plastic::delta_probability(p, sf.frame.to_local(wo), sf.frame.to_local(wi))
             }
+            Bsdf::Mask(m) => mask::delta_lobe_probability(m, sf, wo, wi),
             _ => 0.0,
         }
     }
@@ -54,6 +57,9 @@ impl Bsdf {
                 return Spectrum::ZERO;
             }
             return plastic::delta_value(p, sf.frame.to_local(wo), sf.frame.to_local(wi));
+        }
+        if let Bsdf::Mask(m) = self {
+            return mask::delta_value(m, sf, wo, wi);
         }
         if !self.is_delta() {
             return Spectrum::ZERO;

@@ -30,6 +30,7 @@ mod dielectric;
 mod diffuse;
 mod eval_pdfs;
 pub mod fresnel;
+mod mask;
 pub mod microfacet;
 mod plastic;
 mod rough_conductor;
@@ -42,6 +43,7 @@ use crate::math::{Frame, Spectrum};
 pub use eval_pdfs::EvalPdfs;
 pub use fresnel::ConductorFresnel;
 use glam::{Vec2, Vec3};
+pub use mask::{Mask, Opacity};
 pub use microfacet::Distribution;
 use microfacet::Microfacet;
 pub use plastic::Plastic;
@@ -184,8 +186,12 @@ pub enum Bsdf {
     RoughPlastic(Box<RoughPlastic>),
     /// Smooth plastic (Mitsuba's `plastic`): a smooth dielectric coating over a Lambertian
     /// base, two-sided ([`Plastic`]): a delta lobe (the coating's mirror reflection) beside a
-    /// non-delta one, the only such BSDF ([`Bsdf::has_delta_lobe`]).
+    /// non-delta one ([`Bsdf::has_delta_lobe`]).
     Plastic(Box<Plastic>),
+    /// A BSDF that is only partly there (Mitsuba's `mask`): the wrapped BSDF times the
+    /// opacity beside a null lobe that lets the rest of the light through unchanged
+    /// ([`Mask`]); delta on the null lobe, like smooth plastic's coating.
+    Mask(Box<Mask>),
     /// A conductor (smooth or rough) whose value is multiplied per channel by a texture at
     /// the point's texture coordinates (Mitsuba's textured `specular_reflectance`): sampling
     /// and densities are the conductor's. Build with [`Bsdf::tinted`].
@@ -255,6 +261,7 @@ impl Bsdf {
     #[inline]
     pub fn is_delta(&self) -> bool {
         match self {
+            Bsdf::Mask(m) => m.inner_delta,
             Bsdf::Tinted { base, .. } => {
                 matches!(
                     **base,
@@ -278,6 +285,7 @@ impl Bsdf {
             Bsdf::TexturedDiffuse { .. } | Bsdf::Tinted { .. } => true,
             Bsdf::RoughPlastic(p) => p.diffuse_texture.is_some(),
             Bsdf::Plastic(p) => p.diffuse_texture.is_some(),
+            Bsdf::Mask(m) => m.textured,
             _ => false,
         }
     }
@@ -314,6 +322,7 @@ impl Bsdf {
                 }
                 _ => 0.0,
             },
+            Bsdf::Mask(m) => m.inner.roughness(),
         }
     }
 
@@ -341,6 +350,7 @@ impl Bsdf {
             | Bsdf::FresnelConductor { scale, .. } => scale.max_element(),
             // The base's largest reflectance (at most 1) times the texture's largest texel.
             Bsdf::Tinted { base, tint } => tinted::continuation(base, tint),
+            Bsdf::Mask(m) => mask::continuation(m),
             Bsdf::Dielectric { .. }
             | Bsdf::ThinDielectric { .. }
             | Bsdf::RoughDielectric { .. } => 1.0,
@@ -397,6 +407,7 @@ impl Bsdf {
             Bsdf::Tinted { base, tint } => {
                 return tinted::sample(base, tint, sf, wo, u_lobe, u, mode);
             }
+            Bsdf::Mask(m) => return mask::sample(m, sf, wo, u_lobe, u, mode),
         };
         let wi = sf.frame.to_world(s.wi);
         if !geometry_agrees(sf, wo, wi, s.transmission) {
@@ -428,6 +439,7 @@ impl Bsdf {
         }
         let f = match self {
             Bsdf::Tinted { base, tint } => return tinted::eval(base, tint, sf, wo, wi, mode),
+            Bsdf::Mask(m) => return mask::eval(m, sf, wo, wi, mode),
             Bsdf::Diffuse { albedo } => diffuse::eval(*albedo, wo_l, wi_l),
             Bsdf::TexturedDiffuse { albedo } => diffuse::eval(albedo.eval(sf.uv), wo_l, wi_l),
             Bsdf::RoughDiffuse { albedo, alpha } => {
@@ -509,6 +521,7 @@ impl Bsdf {
             Bsdf::RoughPlastic(p) => rough_plastic::eval_pdf(p, wo_l, wi_l, false, sf.uv).1,
             Bsdf::Plastic(p) => plastic::eval_pdf(p, wo_l, wi_l, false, sf.uv).1,
             Bsdf::Tinted { base, .. } => tinted::pdf(base, sf, wo, wi, mode),
+            Bsdf::Mask(m) => mask::pdf(m, sf, wo, wi, mode),
             Bsdf::Black
             | Bsdf::Conductor { .. }
             | Bsdf::FresnelConductor { .. }

@@ -1,6 +1,63 @@
 //! `[[material]]` tables to BSDFs.
 
 use super::*;
+use crate::bsdf::{Mask, Opacity};
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct MaterialDesc {
+    pub(super) name: Spanned<String>,
+    #[serde(rename = "type")]
+    pub(super) kind: Spanned<String>,
+    pub(super) albedo: Option<V3>,
+    pub(super) reflectance: Option<V3>,
+    pub(super) ior: Option<Spanned<f32>>,
+    pub(super) alpha: Option<Spanned<f32>>,
+    /// Microfacet distribution of the rough materials: `ggx` (default) or `beckmann`.
+    pub(super) distribution: Option<Spanned<String>>,
+    pub(super) eta: Option<V3>,
+    pub(super) k: Option<V3>,
+    /// Black when seen from the back of the shape (Mitsuba's non-`twosided` BSDFs).
+    pub(super) one_sided: Option<Spanned<bool>>,
+    /// `plastic`, `roughplastic`: the coating's reflectance scale (default 1).
+    pub(super) specular: Option<V3>,
+    /// `plastic`, `roughplastic`: the base's reflectance in the interreflection sum (false).
+    pub(super) nonlinear: Option<Spanned<bool>>,
+    /// `diffuse`: the albedo as a texture, in place of `albedo`.
+    pub(super) albedo_texture: Option<Spanned<TextureDesc>>,
+    /// `conductor`, `roughconductor`: a texture multiplying the reflectance, in place of
+    /// `specular`.
+    pub(super) specular_texture: Option<Spanned<TextureDesc>>,
+    /// Any material but `black`: a tangent-space normal map (`scene::perturbed_normal`).
+    pub(super) normal_map: Option<Spanned<TextureDesc>>,
+    /// Any material but `black`: an opacity in [0, 1] (Mitsuba's `mask`, `bsdf/mask.rs`).
+    pub(super) opacity: Option<Spanned<f32>>,
+    /// Any material but `black`: the opacity as a texture's luminance, in place of
+    /// `opacity`.
+    pub(super) opacity_texture: Option<Spanned<TextureDesc>>,
+}
+
+/// A texture (`src/texture.rs`): `type = "bitmap"` with `filename` and optionally `raw`,
+/// `filter` (`bilinear`, `nearest`), `wrap` (`repeat`, `mirror`, `clamp`); or
+/// `type = "checkerboard"` with `color0`, `color1` (defaults 0.4, 0.2); both with `scale` and
+/// `offset` of the texture coordinates (`to_uv`: uv * scale + offset).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(super) struct TextureDesc {
+    #[serde(rename = "type")]
+    pub(super) kind: Spanned<String>,
+    pub(super) filename: Option<Spanned<String>>,
+    pub(super) raw: Option<bool>,
+    pub(super) filter: Option<Spanned<String>>,
+    pub(super) wrap: Option<Spanned<String>>,
+    pub(super) color0: Option<V3>,
+    pub(super) color1: Option<V3>,
+    pub(super) scale: Option<Spanned<[f32; 2]>>,
+    pub(super) offset: Option<Spanned<[f32; 2]>>,
+    /// A Mitsuba `to_uv` transform (in place of `scale` and `offset`; not a TOML key).
+    #[serde(skip)]
+    pub(super) to_uv: Option<glam::Affine2>,
+}
 
 /// The keys of a smooth conductor; a rough one adds `alpha` and `distribution`.
 const CONDUCTOR_KEYS: &[&str] = &[
@@ -34,6 +91,8 @@ impl Builder<'_> {
             ("albedo_texture", at(&d.albedo_texture)),
             ("specular_texture", at(&d.specular_texture)),
             ("normal_map", at(&d.normal_map)),
+            ("opacity", at(&d.opacity)),
+            ("opacity_texture", at(&d.opacity_texture)),
         ];
         let allowed: &[&str] = match kind {
             "diffuse" => &["albedo", "albedo_texture", "one_sided"],
@@ -66,7 +125,7 @@ impl Builder<'_> {
                 return src.err(d.kind.span(), format!("unknown material type '{other}' (expected diffuse, roughdiffuse, conductor, dielectric, thindielectric, roughconductor, roughdielectric, plastic, roughplastic or black)"));
             }
         };
-        // A normal map goes with every material that scatters.
+        // A normal map and an opacity go with every material that scatters.
         let allowed: Vec<&str> = allowed
             .iter()
             .chain(if kind == "roughconductor" {
@@ -75,7 +134,11 @@ impl Builder<'_> {
                 &[]
             })
             .copied()
-            .chain((kind != "black").then_some("normal_map"))
+            .chain(
+                ["normal_map", "opacity", "opacity_texture"]
+                    .into_iter()
+                    .filter(|_| kind != "black"),
+            )
             .collect();
         self.only(&what, &keys, &allowed)?;
         let ior = || -> Result<f32> {
@@ -225,7 +288,38 @@ impl Builder<'_> {
             "black" => Bsdf::Black,
             _ => unreachable!("material types are checked above"),
         };
-        Ok((bsdf.with_distribution(distribution), one_sided))
+        let bsdf = bsdf.with_distribution(distribution);
+        match self.opacity(d, &what)? {
+            // The mask is two-sided: its null lobe lets light through from either side.
+            Some(opacity) => Ok((
+                Bsdf::Mask(Box::new(Mask::new(bsdf, opacity, one_sided))),
+                false,
+            )),
+            None => Ok((bsdf, one_sided)),
+        }
+    }
+
+    /// A material's `opacity` or `opacity_texture`, if it has one (not both).
+    fn opacity(&self, d: &MaterialDesc, what: &str) -> Result<Option<Opacity>> {
+        let src = self.src;
+        match (&d.opacity, &d.opacity_texture) {
+            (Some(_), Some(t)) => src.err(
+                t.span(),
+                format!("{what} has both 'opacity' and 'opacity_texture' (expected one)"),
+            ),
+            (Some(a), None) => {
+                let v = *a.get_ref();
+                if !(0.0..=1.0).contains(&v) {
+                    return src.err(a.span(), format!("'opacity' must be in [0, 1], got {v}"));
+                }
+                Ok(Some(Opacity::Constant(v)))
+            }
+            // Values outside [0, 1] are clipped where they are read, as in Mitsuba.
+            (None, Some(t)) => Ok(Some(Opacity::Texture(std::sync::Arc::new(
+                self.texture(t, false)?,
+            )))),
+            (None, None) => Ok(None),
+        }
     }
 
     /// A material's `albedo_texture`, if it has one (and not `albedo` as well).

@@ -103,6 +103,7 @@ mod camera;
 mod groups;
 mod lights;
 mod materials;
+use materials::{MaterialDesc, TextureDesc};
 mod mesh_files;
 mod mitsuba;
 mod serialized;
@@ -189,57 +190,6 @@ struct RenderDesc {
     max_depth: Option<Spanned<i64>>,
     spp: Option<Spanned<u32>>,
     integrator: Option<Spanned<String>>,
-}
-
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct MaterialDesc {
-    name: Spanned<String>,
-    #[serde(rename = "type")]
-    kind: Spanned<String>,
-    albedo: Option<V3>,
-    reflectance: Option<V3>,
-    ior: Option<Spanned<f32>>,
-    alpha: Option<Spanned<f32>>,
-    /// Microfacet distribution of the rough materials: `ggx` (default) or `beckmann`.
-    distribution: Option<Spanned<String>>,
-    eta: Option<V3>,
-    k: Option<V3>,
-    /// Black when seen from the back of the shape (Mitsuba's non-`twosided` BSDFs).
-    one_sided: Option<Spanned<bool>>,
-    /// `plastic`, `roughplastic`: the coating's reflectance scale (default 1).
-    specular: Option<V3>,
-    /// `plastic`, `roughplastic`: the base's reflectance in the interreflection sum (false).
-    nonlinear: Option<Spanned<bool>>,
-    /// `diffuse`: the albedo as a texture, in place of `albedo`.
-    albedo_texture: Option<Spanned<TextureDesc>>,
-    /// `conductor`, `roughconductor`: a texture multiplying the reflectance, in place of
-    /// `specular`.
-    specular_texture: Option<Spanned<TextureDesc>>,
-    /// Any material but `black`: a tangent-space normal map (`scene::perturbed_normal`).
-    normal_map: Option<Spanned<TextureDesc>>,
-}
-
-/// A texture (`src/texture.rs`): `type = "bitmap"` with `filename` and optionally `raw`,
-/// `filter` (`bilinear`, `nearest`), `wrap` (`repeat`, `mirror`, `clamp`); or
-/// `type = "checkerboard"` with `color0`, `color1` (defaults 0.4, 0.2); both with `scale` and
-/// `offset` of the texture coordinates (`to_uv`: uv * scale + offset).
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-struct TextureDesc {
-    #[serde(rename = "type")]
-    kind: Spanned<String>,
-    filename: Option<Spanned<String>>,
-    raw: Option<bool>,
-    filter: Option<Spanned<String>>,
-    wrap: Option<Spanned<String>>,
-    color0: Option<V3>,
-    color1: Option<V3>,
-    scale: Option<Spanned<[f32; 2]>>,
-    offset: Option<Spanned<[f32; 2]>>,
-    /// A Mitsuba `to_uv` transform (in place of `scale` and `offset`; not a TOML key).
-    #[serde(skip)]
-    to_uv: Option<glam::Affine2>,
 }
 
 #[derive(Deserialize)]

@@ -27,6 +27,8 @@ pub(super) fn material_desc(n: Node, name: String, kind: &str) -> MaterialDesc {
         albedo_texture: None,
         specular_texture: None,
         normal_map: None,
+        opacity: None,
+        opacity_texture: None,
     }
 }
 
@@ -282,6 +284,32 @@ fn bsdf_desc(xml: &Xml, n: Node, name: String, one_sided: bool) -> Result<Option
             desc.normal_map = Some(map);
             return Ok(Some(desc));
         }
+        "mask" => {
+            // The nested BSDF with the opacity on its material (`bsdf/mask.rs`).
+            let opacity = match p.texture(xml, "opacity")? {
+                Some(t) => Err(s(t, texture_desc(xml, t)?)),
+                None => Ok(match p.float(xml, "opacity")? {
+                    Some((at, a)) => s(at, a),
+                    None => s(n, 0.5),
+                }),
+            };
+            let inner = p.nested(xml, "bsdf")?;
+            p.finish(xml)?;
+            let [b] = inner.as_slice() else {
+                return xml.err(n, "mask needs one nested <bsdf>");
+            };
+            let Some(mut desc) = bsdf_desc(xml, *b, d.name.into_inner(), one_sided)? else {
+                return xml.err(*b, "mask cannot wrap a 'null' BSDF");
+            };
+            if desc.opacity.is_some() || desc.opacity_texture.is_some() {
+                return xml.err(*b, "mask cannot wrap another mask");
+            }
+            match opacity {
+                Ok(a) => desc.opacity = Some(a),
+                Err(t) => desc.opacity_texture = Some(t),
+            }
+            return Ok(Some(desc));
+        }
         "twosided" => {
             let inner = p.nested(xml, "bsdf")?;
             p.finish(xml)?;
@@ -315,7 +343,7 @@ fn bsdf_desc(xml: &Xml, n: Node, name: String, one_sided: bool) -> Result<Option
             d.nonlinear = Some(s(n, p.boolean(xml, "nonlinear")?.unwrap_or(false)));
             d.one_sided = Some(s(n, one_sided));
         }
-        other => return xml.err(n, format!("bsdf '{other}' is not supported (diffuse, roughdiffuse, conductor, roughconductor, dielectric, thindielectric, roughdielectric, plastic, roughplastic, twosided, normalmap, null)")),
+        other => return xml.err(n, format!("bsdf '{other}' is not supported (diffuse, roughdiffuse, conductor, roughconductor, dielectric, thindielectric, roughdielectric, plastic, roughplastic, twosided, normalmap, mask, null)")),
     }
     p.finish(xml)?;
     Ok(Some(d))

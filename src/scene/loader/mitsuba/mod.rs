@@ -46,9 +46,8 @@
 //!   Without `twosided`, diffuse, conductors and plastic are black from the back, as in
 //!   Mitsuba. `normalmap` around one BSDF (its `normalmap` texture: `scene::perturbed_normal`),
 //!   with `flip_invalid_normals` and `use_shadowing_function` false (Mitsuba's defaults, true,
-//!   make the BSDF depend on the viewer's side; refused).
-//!   The smooth `plastic` is refused (its delta lobe beside a diffuse one is a kind
-//!   of BSDF lodestar's path algebra does not have).
+//!   make the BSDF depend on the viewer's side; refused). `mask` around one BSDF (not a
+//!   mask): `opacity` a number (default 0.5) or a texture (its luminance), `bsdf/mask.rs`.
 //! * Shapes `obj`, `ply`, `serialized` (`filename`, `face_normals`, `flip_normals`; serialized:
 //!   `shape_index` 0, `serialized.rs`), `rectangle`, `cube`,
 //!   `disk` (as a fan of 1024 triangles: 6e-6 less area than the disk), `sphere` (`center`,
@@ -65,8 +64,8 @@
 //!   (`filename`, an OpenEXR image found like mesh files, `scale` 1, `to_world` a rotation;
 //!   `mis_compensation` read: it changes sampling, not the image).
 //! * Textures (for a `diffuse` BSDF's `reflectance`, a `roughplastic`'s
-//!   `diffuse_reflectance`, a conductor's `specular_reflectance` and a `normalmap`'s
-//!   `normalmap`, nested or by `<ref>` to a top-level
+//!   `diffuse_reflectance`, a conductor's `specular_reflectance`, a `normalmap`'s
+//!   `normalmap` and a `mask`'s `opacity`, nested or by `<ref>` to a top-level
 //!   `<texture id>`; `src/texture.rs`): `bitmap` (`filename`, found like mesh files; `raw`
 //!   false; `filter_type` "bilinear" or "nearest"; `wrap_mode` "repeat", "mirror" or "clamp";
 //!   `format` read) and `checkerboard` (`color0` 0.4, `color1` 0.2), both with `to_uv` (its

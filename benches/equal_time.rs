@@ -59,6 +59,7 @@ fn main() {
             crop: None,
             exposure: 0.0,
             verbose: false,
+            splat_film: false,
         };
         let prepared = bench::prepare(config).unwrap_or_else(|e| panic!("{stem}: {e}"));
         let report = bench::bench(&prepared).unwrap_or_else(|e| panic!("{stem}: {e}"));

@@ -50,6 +50,12 @@ pub struct Entry {
     /// a render (`crate::parts`); the error says why not. [`splittable`] and
     /// [`not_splittable`] serve most.
     pub parts: fn(&str, &Options) -> Result<()>,
+    /// Whether the integrator (its name, with these options) renders with camera samples
+    /// splatted into the pixels their filter covers (`--film splatted`,
+    /// `Camera::splat_samples`): those whose camera samples all go through the pass driver
+    /// (`render::render_rows`). [`splats_camera_samples`] and [`samples_filters_only`] serve
+    /// most.
+    pub splat_film: fn(&str, &Options) -> Result<()>,
     /// The largest `--max-depth` it renders: `None` for any, [`STORED_PATHS`] for integrators
     /// that keep whole paths (the Markov chains' states, guide paths); [`build`] checks it.
     pub max_depth: Option<u32>,
@@ -69,6 +75,27 @@ pub fn not_splittable(name: &str, _: &Options) -> Result<()> {
     Err(Error::new(format!(
         "--part: integrator '{name}' cannot be split"
     )))
+}
+
+/// [`Entry::splat_film`] of an integrator whose camera samples all go through the pass
+/// driver.
+pub fn splats_camera_samples(_: &str, _: &Options) -> Result<()> {
+    Ok(())
+}
+
+/// [`Entry::splat_film`] of an integrator that accumulates camera samples itself: each
+/// counts for one pixel, drawn from its filter.
+pub fn samples_filters_only(name: &str, _: &Options) -> Result<()> {
+    Err(Error::new(format!(
+        "--film splatted: integrator '{name}' counts each camera sample for one pixel drawn \
+         from its filter (the default film); pt and bdpt splat them"
+    )))
+}
+
+/// Whether integrator `name` with `options` renders with splatted camera samples (its
+/// [`Entry::splat_film`]); an unknown name is an error as in [`build`].
+pub fn check_splat_film(name: &str, options: &Options) -> Result<()> {
+    (entry(name)?.splat_film)(name, options)
 }
 
 /// Whether integrator `name` with `options` can render a `--part` slice (its
@@ -125,6 +152,7 @@ pub static REGISTRY: &[Entry] = &[
         build: pt::build,
         options: &[pt::OPTIONS],
         parts: pt::check_parts,
+        splat_film: pt::check_splat_film,
         max_depth: None,
     },
     Entry {
@@ -133,6 +161,7 @@ pub static REGISTRY: &[Entry] = &[
         build: bdpt::build_lt,
         options: &[bdpt::LT_OPTIONS],
         parts: splittable,
+        splat_film: samples_filters_only,
         max_depth: None,
     },
     Entry {
@@ -141,6 +170,7 @@ pub static REGISTRY: &[Entry] = &[
         build: guided::build_pt,
         options: guided::options::PT_OPTIONS,
         parts: guided::check_parts,
+        splat_film: samples_filters_only,
         max_depth: STORED_PATHS,
     },
     Entry {
@@ -149,6 +179,7 @@ pub static REGISTRY: &[Entry] = &[
         build: guided::build_bdpt,
         options: guided::options::BDPT_OPTIONS,
         parts: guided::check_parts,
+        splat_film: samples_filters_only,
         max_depth: STORED_PATHS,
     },
     Entry {
@@ -157,6 +188,7 @@ pub static REGISTRY: &[Entry] = &[
         build: guided::build_vcm,
         options: guided::options::VCM_OPTIONS,
         parts: not_splittable,
+        splat_film: samples_filters_only,
         max_depth: STORED_PATHS,
     },
     Entry {
@@ -165,6 +197,7 @@ pub static REGISTRY: &[Entry] = &[
         build: bdpt::build,
         options: &[bdpt::OPTIONS],
         parts: splittable,
+        splat_film: splats_camera_samples,
         max_depth: None,
     },
     Entry {
@@ -173,6 +206,7 @@ pub static REGISTRY: &[Entry] = &[
         build: mcmc::build_pssmlt,
         options: mcmc::PSSMLT_OPTIONS,
         parts: mcmc::check_parts,
+        splat_film: samples_filters_only,
         max_depth: None,
     },
     Entry {
@@ -181,6 +215,7 @@ pub static REGISTRY: &[Entry] = &[
         build: mcmc::build_mmlt,
         options: mcmc::MMLT_OPTIONS,
         parts: mcmc::check_parts,
+        splat_film: samples_filters_only,
         max_depth: STORED_PATHS,
     },
     Entry {
@@ -189,6 +224,7 @@ pub static REGISTRY: &[Entry] = &[
         build: vcm::build,
         options: &[vcm::OPTIONS],
         parts: splittable,
+        splat_film: samples_filters_only,
         max_depth: None,
     },
     Entry {
@@ -197,6 +233,7 @@ pub static REGISTRY: &[Entry] = &[
         build: vcm::build_bpm,
         options: &[vcm::BPM_OPTIONS],
         parts: splittable,
+        splat_film: samples_filters_only,
         max_depth: None,
     },
 ];
@@ -287,6 +324,9 @@ pub fn render_named_with(
     run: &RunSettings,
 ) -> Result<NamedRender> {
     let mut integrator = build(name, params)?;
+    if scene.camera.splat_samples {
+        check_splat_film(name, &params.options)?;
+    }
     let threads = run.threads;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)

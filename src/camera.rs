@@ -16,7 +16,9 @@
 //! Mitsuba does; splats reach the pixels around them by the filter, renormalised the same way
 //! ([`Camera::splat_pixel`]). The image-wide mapping and densities extend over a margin of
 //! [`Filter::margin`] around the image (the same `We` and `pdf_we` formulas) that no sample
-//! counts in.
+//! counts in. With [`Camera::splat_samples`] (`--film splatted`) camera rays go through their
+//! raster position itself and the pass driver spreads each sample over the pixels its filter
+//! covers instead (`render::render_rows`).
 
 use crate::filter::Filter;
 use crate::geometry::Ray;
@@ -43,6 +45,12 @@ pub struct Camera {
     pub fov_y_degrees: f32,
     /// The pixel filter (box by default).
     pub filter: Filter,
+    /// Whether camera samples are splatted into every pixel their filter covers, each pixel
+    /// dividing by the sum of its weights (Mitsuba's film, `--film splatted`: consistent, less
+    /// noise per sample), rather than each counting for the one pixel whose filter it was
+    /// drawn from (the default: unbiased). Only integrators whose registry entry says so
+    /// render with it (`integrators::Entry::splat_film`).
+    pub splat_samples: bool,
 }
 
 /// A connection from a scene point to the camera (light tracing, BDPT t = 1).
@@ -85,6 +93,7 @@ impl Camera {
             half_w,
             fov_y_degrees,
             filter: Filter::default(),
+            splat_samples: false,
         }
     }
 
@@ -110,10 +119,11 @@ impl Camera {
     }
 
     /// The ray of a camera sample at raster position `raster`, which counts for the pixel
-    /// holding it: through `raster` itself for the box filter, else through the pixel's
-    /// centre moved by the filter sampled with `raster`'s place in the pixel.
+    /// holding it: through `raster` itself for the box filter (and with
+    /// [`Camera::splat_samples`]), else through the pixel's centre moved by the filter sampled
+    /// with `raster`'s place in the pixel.
     pub fn generate_ray(&self, raster: Vec2) -> Ray {
-        if self.filter.is_box() {
+        if self.filter.is_box() || self.splat_samples {
             return self.ray_through(raster);
         }
         let pixel = raster.floor();
@@ -128,6 +138,12 @@ impl Camera {
                 .sample_1d_within(u.y as f64, -c.y as f64, (res.y - c.y) as f64) as f32,
         );
         self.ray_through(c + d)
+    }
+
+    /// Whether camera samples are spread over the pixels around them
+    /// ([`Camera::splat_samples`] with a filter wider than the pixel).
+    pub fn splats_samples(&self) -> bool {
+        self.splat_samples && !self.filter.is_box()
     }
 
     /// The part of pixel (x, y)'s filter inside the image, `N_c` (`filter.rs`).

@@ -47,6 +47,12 @@ pub struct BenchArgs {
     /// No line per render on stderr.
     #[arg(short, long)]
     pub quiet: bool,
+    /// How camera samples reach the pixels, for every integrator: `sampled` (each counts for
+    /// one pixel, drawn from its filter: unbiased) or `splatted` (each spread over every
+    /// pixel its filter covers, pixels dividing by their weight sums: Mitsuba's film,
+    /// consistent; pt and bdpt).
+    #[arg(long, value_parser = ["sampled", "splatted"], default_value = "sampled")]
+    pub film: String,
     /// Render only the I-th of N shares of the runs (integrator x seed) into OUT/runs/, for
     /// an array job; build the report afterwards with --from-parts.
     #[arg(long, value_name = "I/N", conflicts_with = "from_parts")]
@@ -78,6 +84,7 @@ pub fn bench(args: BenchArgs) -> Result<()> {
         crop,
         exposure: args.exposure,
         verbose: !args.quiet,
+        splat_film: args.film == "splatted",
     };
     let prepared = lodestar::bench::prepare(config)?;
     if let Some(text) = &args.part {

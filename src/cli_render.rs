@@ -31,6 +31,11 @@ pub(crate) struct RenderArgs {
     /// Maximum number of path segments, -1 for no limit; default: the scene's.
     #[arg(long, allow_negative_numbers = true)]
     max_depth: Option<i64>,
+    /// How camera samples reach the pixels: `sampled` (each counts for one pixel, drawn from
+    /// its filter: unbiased) or `splatted` (each spread over every pixel its filter covers,
+    /// pixels dividing by their weight sums: Mitsuba's film, consistent; pt and bdpt).
+    #[arg(long, value_parser = ["sampled", "splatted"], default_value = "sampled")]
+    film: String,
     /// Output EXR (default: <scene name>.exr).
     #[arg(short, long)]
     output: Option<PathBuf>,
@@ -114,7 +119,8 @@ pub(crate) fn render(args: RenderArgs) -> Result<()> {
         lodestar::film::output_dir(path)?;
     }
     let defines = parse_defines(&args.defines)?;
-    let scene = load_scene(args.scene.as_deref(), &defines)?;
+    let mut scene = load_scene(args.scene.as_deref(), &defines)?;
+    scene.camera.splat_samples = args.film == "splatted";
     let name = args
         .integrator
         .clone()
@@ -209,6 +215,12 @@ fn check_render_args(args: &RenderArgs) -> Result<(Option<u32>, Vec<f64>)> {
     }
     if args.threads == Some(0) {
         return Err(Error::new("--threads must be at least 1"));
+    }
+    if args.film == "splatted" && (args.dbor || args.part.is_some()) {
+        return Err(Error::new(
+            "--film splatted: each pixel divides by its own weight sum, which neither --dbor's \
+             cascade nor a --part slice (merged as an average) keeps",
+        ));
     }
     let max_depth = cli_max_depth(args.max_depth)?;
     if !args.exposure.is_finite() {

@@ -7,6 +7,7 @@
 use crate::error::{Error, Result};
 use crate::math::Spectrum;
 use glam::{DVec3, Vec3};
+use rayon::iter::IndexedParallelIterator;
 use std::path::Path;
 
 /// A linear-RGB image, row-major, top row first.
@@ -263,6 +264,9 @@ pub struct Film {
     pub height: u32,
     sum: Vec<DVec3>,
     splat: Vec<DVec3>,
+    /// Per-pixel sums of the filter weights of splatted camera samples
+    /// ([`Film::new_weighted`]); empty otherwise.
+    weight: Vec<f64>,
 }
 
 /// `*to += v`, checked (`--check`), if `v` is finite and non-negative; whether it was.
@@ -284,7 +288,31 @@ impl Film {
             height,
             sum: vec![DVec3::ZERO; n],
             splat: vec![DVec3::ZERO; n],
+            weight: Vec::new(),
         }
+    }
+
+    /// An empty film whose pixel sums are weighted (camera samples splatted with their
+    /// filter weights, `camera.rs`): the image divides each pixel's sum by its weight sum
+    /// rather than by the number of samples per pixel.
+    pub fn new_weighted(width: u32, height: u32) -> Film {
+        Film {
+            weight: vec![0.0; (width * height) as usize],
+            ..Film::new(width, height)
+        }
+    }
+
+    /// Rows of the per-pixel sums and weight sums, for parallel accumulation of splatted
+    /// camera samples (one task per row); a weighted film only.
+    pub fn par_weighted_rows_mut(
+        &mut self,
+    ) -> impl IndexedParallelIterator<Item = (&mut [DVec3], &mut [f64])> {
+        use rayon::prelude::*;
+        assert!(!self.weight.is_empty(), "not a weighted film");
+        let w = self.width as usize;
+        self.sum
+            .par_chunks_mut(w)
+            .zip(self.weight.par_chunks_mut(w))
     }
 
     /// Rows of the per-pixel sums, for parallel accumulation (one task per row).
@@ -342,18 +370,25 @@ impl Film {
         add_checked(&mut self.splat[i as usize], v)
     }
 
-    /// The image: pixel sums divided by `samples_per_pixel`, plus splats times `splat_scale`.
+    /// The image: pixel sums divided by `samples_per_pixel` (by their weight sums on a
+    /// weighted film, 0 where nothing landed), plus splats times `splat_scale`.
     pub fn to_image(&self, samples_per_pixel: f64, splat_scale: f64) -> Image {
         let inv = if samples_per_pixel > 0.0 {
             1.0 / samples_per_pixel
         } else {
             0.0
         };
+        let scale = |i: usize| match self.weight.get(i) {
+            None => inv,
+            Some(&w) if w > 0.0 => 1.0 / w,
+            Some(_) => 0.0,
+        };
         let pixels = self
             .sum
             .iter()
             .zip(&self.splat)
-            .map(|(s, p)| (*s * inv + *p * splat_scale).as_vec3())
+            .enumerate()
+            .map(|(i, (s, p))| (*s * scale(i) + *p * splat_scale).as_vec3())
             .collect();
         Image {
             width: self.width,
@@ -375,12 +410,16 @@ impl Film {
         for (a, b) in self.splat.iter_mut().zip(&other.splat) {
             *a += *b;
         }
+        for (a, b) in self.weight.iter_mut().zip(&other.weight) {
+            *a += *b;
+        }
     }
 
     /// Set every pixel sum and splat back to zero.
     pub fn clear(&mut self) {
         self.sum.fill(DVec3::ZERO);
         self.splat.fill(DVec3::ZERO);
+        self.weight.fill(0.0);
     }
 }
 

@@ -31,7 +31,7 @@ enum Command {
     /// Render a scene (the built-in Cornell box when no scene is given).
     Render(Box<cli_render::RenderArgs>),
     /// Equal-time comparison of integrators against a reference: table, CSV, plot, HTML.
-    Bench(cli_bench::BenchArgs),
+    Bench(Box<cli_bench::BenchArgs>),
     /// Compare two EXR images: per-channel means, MSE, RMSE and relMSE (B is the reference).
     Compare {
         a: PathBuf,
@@ -116,7 +116,7 @@ fn main() -> ExitCode {
     };
     let result = match cli.command {
         Command::Render(args) => cli_render::render(*args),
-        Command::Bench(args) => cli_bench::bench(args),
+        Command::Bench(args) => cli_bench::bench(*args),
         Command::Compare { a, b, crop } => compare(&a, &b, crop.as_deref()),
         Command::Merge {
             parts,

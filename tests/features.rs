@@ -121,7 +121,8 @@ fn every_integrator_renders_a_thin_dielectric_and_rough_diffuse_alike() {
 /// and splats spread by it (bdpt's and vcm's t = 1, mmlt's t = 1, guided samples; lt, on the
 /// box with its glass sphere diffuse, as light tracing cannot see glass) measure the same
 /// filtered pixels, the border pixels included (their filters cut at the image's edge and
-/// renormalised); pixel by pixel (`assert_same_image` with tiles of one pixel).
+/// renormalised), and so do pt's and bdpt's camera samples splatted into the pixels around
+/// them (`--film splatted`); pixel by pixel (`assert_same_image` with tiles of one pixel).
 /// Controls: pt's box-filtered image must differ from its tent-filtered one, and lt's
 /// unfiltered splats from pt's filtered image (the filters blur the box's edges by more
 /// than the noise).
@@ -166,6 +167,20 @@ fn every_integrator_renders_through_tent_and_gaussian_filters_alike() {
         for (name, spp) in [("lt", 256), ("bdpt", 64), ("vcm", 64)] {
             let other = seeded_renders(&scene, name, 6, &[], spp, 5, 20);
             assert_same_image(&pt, &other, 1, &format!("{name} vs pt through {what}"));
+        }
+        // Mitsuba's film: camera samples spread over the pixels their filter covers, each
+        // pixel divided by its weight sum (consistent; its bias at these sample counts is far
+        // below the noise).
+        let mut splatted = with(filter, true);
+        splatted.camera.splat_samples = true;
+        for (name, spp) in [("pt", 256), ("bdpt", 64)] {
+            let other = seeded_renders(&splatted, name, 6, &[], spp, 5, 40);
+            assert_same_image(
+                &pt,
+                &other,
+                1,
+                &format!("{name}, splatted, vs pt through {what}"),
+            );
         }
     }
 }

@@ -59,6 +59,7 @@ pub fn register() -> Result<()> {
         build,
         options: &[OPTIONS],
         parts: integrators::not_splittable,
+        splat_film: integrators::samples_filters_only,
         max_depth: None,
     })?;
     integrators::register(Entry {
@@ -67,6 +68,7 @@ pub fn register() -> Result<()> {
         build: build_guided,
         options: &[OPTIONS, guided::options::COMMON, guided::options::SEEDERS],
         parts: integrators::not_splittable,
+        splat_film: integrators::samples_filters_only,
         max_depth: integrators::STORED_PATHS,
     })
 }

@@ -99,6 +99,18 @@ pub fn check_parts(_: &str, o: &super::Options) -> Result<()> {
     Ok(())
 }
 
+/// `Entry::splat_film` of pt: every pass through the pass driver, but SD-tree guiding's
+/// learning passes, which keep their own film.
+pub fn check_splat_film(_: &str, o: &super::Options) -> Result<()> {
+    if o.declared(&[OPTIONS]).word("guiding")? == "sdtree" {
+        return Err(Error::new(
+            "--film splatted with pt -O guiding=sdtree: the learning passes count each camera \
+             sample for one pixel",
+        ));
+    }
+    Ok(())
+}
+
 /// Build pt (batched, wavefront or SD-tree guided as its options say) from its parameters.
 pub fn build(params: &IntegratorParams) -> Result<Box<dyn Integrator>> {
     let pt = PathTracer {

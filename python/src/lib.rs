@@ -267,6 +267,7 @@ fn py_bench<'py>(
         crop: None,
         exposure: 0.0,
         verbose: false,
+        splat_film: false,
     };
     let prepared = lodestar::bench::prepare(config).map_err(err)?;
     // Progress is the fraction of renders done; Ctrl-C ends the bench after the render

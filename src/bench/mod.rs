@@ -64,6 +64,9 @@ pub struct BenchConfig {
     pub exposure: f32,
     /// One line per render on stderr.
     pub verbose: bool,
+    /// Camera samples splatted into the pixels their filter covers (`--film splatted`,
+    /// `Camera::splat_samples`), for every integrator of the bench.
+    pub splat_film: bool,
 }
 
 /// A checked configuration with its scene and reference loaded.
@@ -113,10 +116,15 @@ pub fn prepare(config: BenchConfig) -> Result<Prepared> {
             "--max-depth must be at least 1 (or -1 for no limit)",
         ));
     }
-    let scene = loader::load_file_with(&c.scene, &c.defines)?;
+    let mut scene = loader::load_file_with(&c.scene, &c.defines)?;
+    scene.camera.splat_samples = c.splat_film;
     let max_depth = c.max_depth.unwrap_or(scene.render.max_depth);
     for entry in &c.integrators {
         let (name, options) = split_entry(entry).map_err(|e| e.context("--integrators"))?;
+        if c.splat_film {
+            integrators::check_splat_film(name, &options)
+                .map_err(|e| e.context("--integrators"))?;
+        }
         let params = IntegratorParams { max_depth, options };
         integrators::build(name, &params).map_err(|e| e.context("--integrators"))?;
     }

@@ -311,6 +311,7 @@ mod tests {
             crop: None,
             exposure: 0.0,
             verbose: false,
+            splat_film: false,
         };
         let all = jobs(&c);
         assert_eq!(all.len(), 15);

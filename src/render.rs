@@ -544,7 +544,12 @@ mod tests {
             let mut rows: Vec<SpreadRow> = (0..h).map(|_| SpreadRow::default()).collect();
             for (y, row) in rows.iter_mut().enumerate() {
                 for x in 0..2 {
-                    row.push(&filter, (w, h), Vec2::new(x as f32 + 0.5, y as f32 + 0.5), c);
+                    row.push(
+                        &filter,
+                        (w, h),
+                        Vec2::new(x as f32 + 0.5, y as f32 + 0.5),
+                        c,
+                    );
                 }
             }
             spread_samples(&mut film, filter.radius(), &rows);

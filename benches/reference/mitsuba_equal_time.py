@@ -61,7 +61,8 @@ What it measures
     as well as on its path tracer.  For a tent or Gaussian <rfilter> Mitsuba splats each
     sample into every pixel the filter covers (neighbouring pixels share samples: less
     per-pixel noise, correlated between pixels), lodestar samples the filter (src/filter.rs:
-    each sample counts for one pixel).  Both estimate the same image, but the ratio on such a
+    each sample counts for one pixel) unless --film splatted (lodestar's --film: Mitsuba's
+    way).  Both estimate the same image, but without --film splatted the ratio on such a
     scene (e.g. the Bitterli box, tent) includes that difference; the box filter (the
     scenes/mitsuba files) compares the path tracers alone.
 
@@ -168,6 +169,9 @@ def main():
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--lodestar", default=os.path.join(ROOT, "target/timed/lodestar"))
     ap.add_argument("--integrator", default="pt", help="lodestar's integrator")
+    ap.add_argument("--film", default="sampled", choices=["sampled", "splatted"],
+                    help="lodestar's --film: splatted spreads camera samples over the pixels their "
+                         "filter covers, as Mitsuba's film does")
     ap.add_argument("--cache", default=os.path.join(ROOT, "target/mitsuba-equal-time"),
                     help="directory of the rendered references")
     args = ap.parse_args()
@@ -191,7 +195,7 @@ def main():
     flags = [x for k, v in defines.items() for x in ("-D", f"{k}={v}")]
     shown = ("parameters " + " ".join(f"{k}={v}" for k, v in defines.items())) if defines else "the files' defaults"
     print(f"# Mitsuba {mi.__version__} {args.variant} (the file's integrator) vs lodestar "
-          f"{args.integrator}; {shown}; {args.spp} spp, {args.renders} renders a side, "
+          f"{args.integrator} (--film {args.film}); {shown}; {args.spp} spp, {args.renders} renders a side, "
           f"{args.threads} threads; efficiency = 1 / (MSE x s)")
     print("| scene | reference | s/render lodestar | s/render Mitsuba | lodestar's own render s | CPU/wall l, M | "
           "MSE lodestar | MSE Mitsuba | efficiency lodestar | efficiency Mitsuba | "
@@ -266,6 +270,7 @@ def main():
         log(f"{stem}: Mitsuba warm-up render {time.perf_counter() - t0:.2f} s (not timed)")
         out = os.path.join(tmp, f"{stem}.exr")
         cmd = lambda spp, seed: [args.lodestar, "render", path, *flags, "--integrator", args.integrator,
+                                 "--film", args.film,
                                  "--spp", str(spp), "--seed", str(seed), "--threads", str(args.threads),
                                  "--quiet", "-o", out]
         def run(c):

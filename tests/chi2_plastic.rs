@@ -55,14 +55,7 @@ fn plastic_case(name: &str, bsdf: &Bsdf, sf: &ShadingFrame, wo: Vec3, mode: Tran
                 }
                 return None;
             }
-            let pdf = bsdf.pdf(sf, wo, wi, mode);
-            let f = bsdf.eval(sf, wo, wi, mode);
-            fails.check(close(smp.pdf as f64, pdf as f64, 1e-4, 1e-7), || {
-                format!("sample pdf {} != pdf() {pdf} at wi {wi}", smp.pdf)
-            });
-            fails.check(close3(smp.f, f, 1e-4, 1e-7), || {
-                format!("sample f {} != eval() {f} at wi {wi}", smp.f)
-            });
+            common::check_sample_against_eval(&mut fails, bsdf, sf, wo, &smp, mode);
             Some(wi)
         },
         |wi| bsdf.pdf(sf, wo, wi, mode) as f64,

@@ -72,3 +72,24 @@ pub fn dir_around(n: Vec3, theta_deg: f32, phi_deg: f32) -> Vec3 {
     let local = Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos());
     lodestar::math::Frame::from_z(n).to_world(local).normalize()
 }
+
+/// The checks of a non-delta BSDF sample: its `pdf` and `f` are what `pdf()` and `eval()`
+/// give for its direction.
+pub fn check_sample_against_eval(
+    fails: &mut Failures,
+    bsdf: &lodestar::bsdf::Bsdf,
+    sf: &lodestar::bsdf::ShadingFrame,
+    wo: Vec3,
+    smp: &lodestar::bsdf::BsdfSample,
+    mode: lodestar::bsdf::TransportMode,
+) {
+    let wi = smp.wi;
+    let pdf = bsdf.pdf(sf, wo, wi, mode);
+    let f = bsdf.eval(sf, wo, wi, mode);
+    fails.check(close(smp.pdf as f64, pdf as f64, 1e-4, 1e-7), || {
+        format!("sample pdf {} != pdf() {pdf} at wi {wi}", smp.pdf)
+    });
+    fails.check(close3(smp.f, f, 1e-4, 1e-7), || {
+        format!("sample f {} != eval() {f} at wi {wi}", smp.f)
+    });
+}

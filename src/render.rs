@@ -20,8 +20,11 @@ use crate::snapshot::Snapshots;
 use glam::{UVec2, Vec2};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rayon::prelude::*;
+use spread::{SpreadRow, spread_samples};
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
+
+mod spread;
 
 /// How much work a render may do.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -389,91 +392,6 @@ fn render_rows_with<S: PixelSampler, T: RowTracer>(
     }
 }
 
-/// A camera sample to spread over the pixels its filter covers, with its filter weights: the
-/// `nx` columns from `x0` and the `ny` rows from `y0` (`weights[off..]`: columns, then rows).
-struct Spread {
-    l: glam::DVec3,
-    x0: usize,
-    y0: usize,
-    nx: usize,
-    ny: usize,
-    off: usize,
-}
-
-/// One row's camera samples to spread ([`spread_samples`]): each sample and its weights.
-#[derive(Default)]
-struct SpreadRow {
-    samples: Vec<Spread>,
-    weights: Vec<f64>,
-}
-
-impl SpreadRow {
-    /// The sample at raster `r` of value `l` on a `w` x `h` film: its per-axis filter weights
-    /// at the pixels within the filter's radius.
-    fn push(
-        &mut self,
-        filter: &crate::filter::Filter,
-        (w, h): (usize, usize),
-        r: Vec2,
-        l: Spectrum,
-    ) {
-        let radius = filter.radius() as f64;
-        let off = self.weights.len();
-        let mut axis = |x: f64, n: usize| {
-            let first = ((x - 0.5 - radius).ceil().max(0.0)) as usize;
-            let last = ((x - 0.5 + radius).floor() as i64).min(n as i64 - 1);
-            let mut count = 0;
-            for i in first as i64..=last {
-                self.weights.push(filter.eval_1d(x - (i as f64 + 0.5)));
-                count += 1;
-            }
-            (first, count)
-        };
-        let (x0, nx) = axis(r.x as f64, w);
-        let (y0, ny) = axis(r.y as f64, h);
-        self.samples.push(Spread {
-            l: l.as_dvec3(),
-            x0,
-            y0,
-            nx,
-            ny,
-            off,
-        });
-    }
-}
-
-/// Splat one pass's camera samples (`rows[y]`: row y's samples) into a weighted film: pixel c
-/// gains `f(r - c) L` and weight `f(r - c)` from the sample at `r` for every pixel whose
-/// filter reaches it (Mitsuba's film; `Camera::splat_samples`). One task per film row, which
-/// takes the rows its filter reaches in order, so the sums do not depend on the number of
-/// threads.
-fn spread_samples(film: &mut Film, radius: f32, rows: &[SpreadRow]) {
-    let h = film.height as i64;
-    let reach = radius.ceil() as i64 + 1;
-    film.par_weighted_rows_mut()
-        .enumerate()
-        .for_each(|(y, (sums, weights))| {
-            let first = (y as i64 - reach).max(0) as usize;
-            let last = (y as i64 + reach).min(h - 1) as usize;
-            for row in &rows[first..=last] {
-                for s in &row.samples {
-                    if !(s.y0..s.y0 + s.ny).contains(&y) {
-                        continue;
-                    }
-                    let wy = row.weights[s.off + s.nx + (y - s.y0)];
-                    let wx = &row.weights[s.off..s.off + s.nx];
-                    for (i, &w) in wx.iter().enumerate() {
-                        let wt = wy * w;
-                        if wt > 0.0 {
-                            sums[s.x0 + i] += s.l * wt;
-                            weights[s.x0 + i] += wt;
-                        }
-                    }
-                }
-            }
-        });
-}
-
 /// Render with a per-pixel estimator (no splats), drawing from the sampler `kind` names.
 pub fn render_pixel_estimator<E: PixelEstimator>(
     ctx: &RenderContext,
@@ -512,55 +430,6 @@ pub fn cascade_rows(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// Splatted camera samples of one value give every pixel exactly that value, the border
-    /// pixels (fewer samples reach them) included: each pixel divides by its own weight sum.
-    /// Samples on one half of the image only do not reach pixels beyond the filter's radius.
-    #[test]
-    fn splatted_samples_are_normalised_per_pixel() {
-        use crate::filter::{Filter, FilterKind};
-        let (w, h) = (7usize, 5usize);
-        for filter in [
-            Filter::new(FilterKind::Tent { radius: 1.5 }),
-            Filter::new(FilterKind::Gaussian { stddev: 0.5 }),
-        ] {
-            let c = Spectrum::new(0.25, 0.5, 2.0);
-            let mut film = Film::new_weighted(w as u32, h as u32);
-            let mut rows: Vec<SpreadRow> = (0..h).map(|_| SpreadRow::default()).collect();
-            for (y, row) in rows.iter_mut().enumerate() {
-                for x in 0..w {
-                    for (jx, jy) in [(0.13, 0.71), (0.62, 0.28), (0.91, 0.95)] {
-                        let r = Vec2::new(x as f32 + jx, y as f32 + jy);
-                        row.push(&filter, (w, h), r, c);
-                    }
-                }
-            }
-            spread_samples(&mut film, filter.radius(), &rows);
-            for p in &film.to_image(1.0, 0.0).pixels {
-                assert!((*p - c).abs().max_element() < 1e-6, "{p} != {c}");
-            }
-            // Only the left two columns lit: pixels beyond the radius get no weight (0).
-            let mut film = Film::new_weighted(w as u32, h as u32);
-            let mut rows: Vec<SpreadRow> = (0..h).map(|_| SpreadRow::default()).collect();
-            for (y, row) in rows.iter_mut().enumerate() {
-                for x in 0..2 {
-                    row.push(
-                        &filter,
-                        (w, h),
-                        Vec2::new(x as f32 + 0.5, y as f32 + 0.5),
-                        c,
-                    );
-                }
-            }
-            spread_samples(&mut film, filter.radius(), &rows);
-            let img = film.to_image(1.0, 0.0);
-            let reach = (1.5 + filter.radius()).ceil() as usize;
-            for y in 0..h {
-                assert!((img.pixels[y * w] - c).abs().max_element() < 1e-6);
-                assert_eq!(img.pixels[y * w + reach], Spectrum::ZERO);
-            }
-        }
-    }
 
     #[test]
     fn spp_budget_runs_exactly_that_many_passes() {

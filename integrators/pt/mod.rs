@@ -40,7 +40,7 @@ use emission::EmitterAt;
 use glam::{Vec2, Vec3};
 use guiding::{Guide, Trail};
 use options::RR_DEPTH;
-pub use options::{OPTIONS, RR_DEPTH_OPTION, STRATEGY_OPTION};
+pub use options::{OPTIONS, RR_DEPTH_OPTION, STRATEGY_OPTION, check_parts, check_splat_film};
 pub use recording::PathRecorder;
 use recording::Recording;
 
@@ -85,30 +85,6 @@ impl Default for PtSettings {
             strategy: Strategy::Mis,
         }
     }
-}
-
-/// `--part` (`Entry::parts`): pt's passes are independent, except with `guiding=sdtree`,
-/// whose tree each part would learn from its own passes.
-pub fn check_parts(_: &str, o: &super::Options) -> Result<()> {
-    if o.declared(&[OPTIONS]).word("guiding")? == "sdtree" {
-        return Err(Error::new(
-            "--part with pt -O guiding=sdtree: each part would learn its own tree from its \
-             own passes, so the parts would not be slices of one render",
-        ));
-    }
-    Ok(())
-}
-
-/// `Entry::splat_film` of pt: every pass through the pass driver, but SD-tree guiding's
-/// learning passes, which keep their own film.
-pub fn check_splat_film(_: &str, o: &super::Options) -> Result<()> {
-    if o.declared(&[OPTIONS]).word("guiding")? == "sdtree" {
-        return Err(Error::new(
-            "--film splatted with pt -O guiding=sdtree: the learning passes count each camera \
-             sample for one pixel",
-        ));
-    }
-    Ok(())
 }
 
 /// Build pt (batched, wavefront or SD-tree guided as its options say) from its parameters.

@@ -71,12 +71,15 @@ impl SpreadRow {
 /// threads.
 pub(super) fn spread_samples(film: &mut Film, radius: f32, rows: &[SpreadRow]) {
     let h = film.height as i64;
-    let reach = radius.ceil() as i64 + 1;
+    // A sample in row `yi` lies in [yi, yi + 1): it reaches pixel row y when
+    // y - 1/2 - radius < yi < y + 1/2 + radius.
+    let radius = radius as f64;
     film.par_weighted_rows_mut()
         .enumerate()
         .for_each(|(y, (sums, weights))| {
-            let first = (y as i64 - reach).max(0) as usize;
-            let last = (y as i64 + reach).min(h - 1) as usize;
+            let cy = y as f64 + 0.5;
+            let first = ((cy - 1.0 - radius).floor() as i64 + 1).max(0) as usize;
+            let last = (((cy + radius).ceil() as i64) - 1).min(h - 1) as usize;
             for row in &rows[first..=last] {
                 for s in &row.samples {
                     if !(s.y0..s.y0 + s.ny).contains(&y) {

@@ -1,7 +1,8 @@
 //! The reference images in `scenes/references/`: one per scene file in `scenes/`, each a
 //! half-float EXR under 2 MB that loads, has its scene's resolution, finite non-negative
 //! pixels and the render's metadata (integrator, spp, seconds), and is described in
-//! `scenes/references/README.md`. The white furnace's reference is its analytic value.
+//! `scenes/references/README.md`; the same for the references of published scenes in
+//! `scenes/references/public/`. The white furnace's reference is its analytic value.
 
 use lodestar::film::Image;
 use lodestar::scene::loader::load_file;
@@ -52,6 +53,12 @@ fn every_scene_has_a_reference() {
     }
 }
 
+/// The references of published scenes (`scenes/references/public/`): file stem and scene.
+const PUBLIC: &[(&str, &str)] = &[(
+    "lajolla-matpreview",
+    "scenes/public/lajolla/matpreview/matpreview.xml",
+)];
+
 #[test]
 fn every_reference_loads_and_matches_its_scene() {
     for name in scene_names() {
@@ -59,31 +66,60 @@ fn every_reference_loads_and_matches_its_scene() {
         if !path.is_file() {
             continue; // reported by every_scene_has_a_reference
         }
-        let bytes = std::fs::metadata(&path).unwrap().len();
-        assert!(bytes < 2 << 20, "{name}.exr is {bytes} bytes (limit 2 MB)");
-        let scene = load_file(&root().join("scenes").join(format!("{name}.toml"))).unwrap();
-        let (image, meta) = Image::read_exr(&path).unwrap_or_else(|e| panic!("{e}"));
-        let resolution = scene.camera.resolution;
-        assert_eq!(
-            (image.width, image.height),
-            (resolution.x, resolution.y),
-            "{name}.exr against its scene's resolution"
+        check_reference(
+            &name,
+            &path,
+            &root().join("scenes").join(format!("{name}.toml")),
         );
+    }
+    let readme = std::fs::read_to_string(root().join("scenes/references/README.md")).unwrap();
+    for (name, scene) in PUBLIC {
+        let path = root()
+            .join("scenes/references/public")
+            .join(format!("{name}.exr"));
+        check_reference(name, &path, &root().join(scene));
         assert!(
-            image
-                .pixels
-                .iter()
-                .all(|p| p.is_finite() && p.min_element() >= 0.0),
-            "{name}.exr: a pixel is not finite and non-negative"
+            readme.contains(&format!("`{name}.exr`")),
+            "README.md does not describe {name}.exr"
         );
-        let mean = image.mean();
-        assert!(mean.min_element() > 0.0, "{name}.exr is black in a channel");
-        for key in ["integrator", "spp", "seconds", "seed"] {
-            assert!(
-                meta.iter().any(|(k, _)| k == key),
-                "{name}.exr lacks the metadata 'lodestar:{key}'"
-            );
-        }
+    }
+    let files = std::fs::read_dir(root().join("scenes/references/public"))
+        .unwrap()
+        .count();
+    assert_eq!(
+        files,
+        PUBLIC.len(),
+        "scenes/references/public/ holds a file PUBLIC does not list"
+    );
+}
+
+/// A reference under 2 MB that loads, has `scene`'s resolution, finite non-negative pixels
+/// and the render's metadata.
+fn check_reference(name: &str, path: &Path, scene: &Path) {
+    let bytes = std::fs::metadata(path).unwrap().len();
+    assert!(bytes < 2 << 20, "{name}.exr is {bytes} bytes (limit 2 MB)");
+    let scene = load_file(scene).unwrap();
+    let (image, meta) = Image::read_exr(path).unwrap_or_else(|e| panic!("{e}"));
+    let resolution = scene.camera.resolution;
+    assert_eq!(
+        (image.width, image.height),
+        (resolution.x, resolution.y),
+        "{name}.exr against its scene's resolution"
+    );
+    assert!(
+        image
+            .pixels
+            .iter()
+            .all(|p| p.is_finite() && p.min_element() >= 0.0),
+        "{name}.exr: a pixel is not finite and non-negative"
+    );
+    let mean = image.mean();
+    assert!(mean.min_element() > 0.0, "{name}.exr is black in a channel");
+    for key in ["integrator", "spp", "seconds", "seed"] {
+        assert!(
+            meta.iter().any(|(k, _)| k == key),
+            "{name}.exr lacks the metadata 'lodestar:{key}'"
+        );
     }
 }
 

@@ -112,6 +112,20 @@ type = "diffuse"
 albedo = [0.6, 0.7, 0.5]
 one_sided = true
 
+[[material]]
+name = "textured"
+type = "diffuse"
+albedo_texture = { type = "checkerboard", color0 = [0.8, 0.4, 0.2], color1 = [0.1, 0.5, 0.7], scale = [5, 3] }
+
+# A textured panel before the back wall.
+[[shape]]
+name = "textured panel"
+type = "quad"
+origin = [0.2, -1, -0.5]
+edge_u = [0.6, 0, 0]
+edge_v = [0, 0.8, 0]
+material = "textured"
+
 # A panel facing the back wall: the camera sees its black back.
 [[shape]]
 name = "panel"
@@ -150,8 +164,8 @@ transform = { translate = [-0.3, 0.2, 0.2] }
 
 /// The wavefront's lanes repeat pt's arithmetic and each path draws from its own sampler in
 /// pt's order, so its image is pt's bit for bit: on the Cornell box (flat-tested primitives),
-/// on `wavefront_box` (a BVH, two mesh lights, one-sided and checkerboard materials, shading
-/// normals), on pool (a sun and a sky: lights at infinity, sampled by `Light::sample_li` and
+/// on `wavefront_box` (a BVH, two mesh lights, one-sided, checkerboard and textured materials,
+/// shading normals), on pool (a sun and a sky: lights at infinity, sampled by `Light::sample_li` and
 /// found by escaping rays; a heightfield grid) and on dining (mirrors, a spot area light),
 /// with independent and Sobol samples, full and cut paths, one and two threads. A lane that mixes up two paths, a select that takes the wrong branch on one lane,
 /// or an operation done in another order changes bits of these images.

@@ -12,9 +12,9 @@
 //! pt's order, so the image is pt's bit for bit (test `wavefront_pt_is_pt_bit_for_bit` in
 //! `tests/pt_batch.rs`).
 //!
-//! It applies where every vertex is one the lanes know ([`supports`]): surfaces of diffuse,
-//! smooth conductor (mirror), smooth dielectric or black materials (checkerboards and
-//! one-sided materials included), any lights, no media, the `mis` strategy, no `--check`;
+//! It applies where every vertex is one the lanes know ([`supports`]): surfaces of diffuse
+//! (plain or textured: the albedo is looked up path by path), smooth conductor (mirror),
+//! smooth dielectric or black materials (checkerboards and one-sided materials included), any lights, no media, the `mis` strategy, no `--check`;
 //! and on x86-64 CPUs with AVX-512. `pt -O batch=auto` (the default) takes it there;
 //! elsewhere pt is batched or traced one path at a time as `batch.rs` says.
 
@@ -58,7 +58,11 @@ pub fn supports(pt: &PathTracer, scene: &Scene) -> bool {
     let materials = scene.materials.iter().all(|m| {
         matches!(
             m.bsdf,
-            Bsdf::Black | Bsdf::Diffuse { .. } | Bsdf::Conductor { .. } | Bsdf::Dielectric { .. }
+            Bsdf::Black
+                | Bsdf::Diffuse { .. }
+                | Bsdf::TexturedDiffuse { .. }
+                | Bsdf::Conductor { .. }
+                | Bsdf::Dielectric { .. }
         )
     });
     materials

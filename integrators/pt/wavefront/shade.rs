@@ -222,6 +222,12 @@ impl PathTracer {
                     g.diffuse[k] = true;
                     g.albedo.set(k, albedo);
                 }
+                // The albedo at the hit's texture coordinates, as `Scene::surface_point`.
+                Bsdf::TexturedDiffuse { ref albedo } => {
+                    g.diffuse[k] = true;
+                    let uv = scene.shapes[h.shape as usize].tex_coords(&h);
+                    g.albedo.set(k, albedo.eval(uv));
+                }
                 Bsdf::Conductor { reflectance } => {
                     g.conductor[k] = true;
                     g.reflectance.set(k, reflectance);

@@ -316,13 +316,9 @@ fn render_rows_with<S: PixelSampler, T: RowTracer>(
     new_tracer: impl Fn() -> T + Sync,
 ) -> RenderResult {
     let UVec2 { x: w, y: h } = ctx.scene.camera.resolution;
-    // Camera samples splatted into the pixels their filter covers (`Camera::splat_samples`).
+    // Camera samples splatted into the pixels their filter covers (`render/spread.rs`).
     let spread = ctx.scene.camera.splats_samples();
-    let mut film = if spread {
-        Film::new_weighted(w, h)
-    } else {
-        Film::new(w, h)
-    };
+    let mut film = spread::film(w, h, spread);
     let invalid = AtomicU64::new(0);
     let mut cascade = ctx.dbor.then(|| Cascade::new(w, h));
     let pass = |film: &mut Film, pass: u64| {

@@ -187,42 +187,43 @@ pub(super) fn sample(
     })
 }
 
-/// Whether `wi` is the null lobe's direction from `wo` (straight on), as a path's positions
-/// give it: `wi . wo` within rounding of -1.
+/// Which delta lobes take `wo` to `wi`: the null lobe when `wi` is straight on (`wi . wo`
+/// within rounding of -1, as a path's positions give it), the wrapped BSDF's otherwise, and
+/// both for a thin dielectric, whose own transmission goes straight on too.
 #[inline]
-fn straight_on(wo: Vec3, wi: Vec3) -> bool {
-    wo.dot(wi) < -1.0 + 1e-5
+fn delta_lobes(m: &Mask, wo: Vec3, wi: Vec3) -> (bool, bool) {
+    if wo.dot(wi) >= -1.0 + 1e-5 {
+        return (false, true);
+    }
+    (true, matches!(m.inner, Bsdf::ThinDielectric { .. }))
 }
 
-/// The discrete probability of the delta lobe taking `wo` to `wi`: the null lobe's `1 - a`
-/// straight on (plus a thin dielectric's own straight transmission), else `a` times the
-/// wrapped BSDF's.
+/// The discrete probability of the delta lobes taking `wo` to `wi` ([`delta_lobes`]): the
+/// null lobe's `1 - a`, and `a` times the wrapped BSDF's.
 #[inline(never)]
 pub(super) fn delta_lobe_probability(m: &Mask, sf: &ShadingFrame, wo: Vec3, wi: Vec3) -> f32 {
-    let a = m.opacity.at(sf.uv);
-    let inner = m.share_from(sf, wo) * m.inner.delta_lobe_probability(sf, wo, wi);
-    if !straight_on(wo, wi) {
-        return inner;
+    let (null, inner) = delta_lobes(m, wo, wi);
+    let mut p = if null { 1.0 - m.opacity.at(sf.uv) } else { 0.0 };
+    if inner {
+        p += m.share_from(sf, wo) * m.inner.delta_lobe_probability(sf, wo, wi);
     }
-    match m.inner {
-        Bsdf::ThinDielectric { .. } => (1.0 - a) + inner,
-        _ => 1.0 - a,
-    }
+    p
 }
 
-/// `f |cos|` of the delta lobe taking `wo` to `wi`, the Dirac left out, as
-/// [`delta_lobe_probability`] splits it.
+/// `f |cos|` of the delta lobes taking `wo` to `wi`, the Dirac left out, split as
+/// [`delta_lobe_probability`] splits them.
 #[inline(never)]
 pub(super) fn delta_value(m: &Mask, sf: &ShadingFrame, wo: Vec3, wi: Vec3) -> Spectrum {
-    let a = m.opacity.at(sf.uv);
-    let inner = m.inner.delta_value(sf, wo, wi) * m.share_from(sf, wo);
-    if !straight_on(wo, wi) {
-        return inner;
+    let (null, inner) = delta_lobes(m, wo, wi);
+    let mut value = if null {
+        Spectrum::splat(1.0 - m.opacity.at(sf.uv))
+    } else {
+        Spectrum::ZERO
+    };
+    if inner {
+        value += m.inner.delta_value(sf, wo, wi) * m.share_from(sf, wo);
     }
-    match m.inner {
-        Bsdf::ThinDielectric { .. } => Spectrum::splat(1.0 - a) + inner,
-        _ => Spectrum::splat(1.0 - a),
-    }
+    value
 }
 
 /// Roulette's continuation: at most the null lobe's weight plus the wrapped BSDF's share, at

@@ -11,6 +11,15 @@ use crate::math::Spectrum;
 use glam::Vec2;
 use rayon::prelude::*;
 
+/// The film of a `w` x `h` render: weighted when camera samples are spread.
+pub(super) fn film(w: u32, h: u32, spread: bool) -> Film {
+    if spread {
+        Film::new_weighted(w, h)
+    } else {
+        Film::new(w, h)
+    }
+}
+
 /// A camera sample to spread over the pixels its filter covers, with its filter weights: the
 /// `nx` columns from `x0` and the `ny` rows from `y0` (`weights[off..]`: columns, then rows).
 struct Spread {

@@ -15,7 +15,7 @@
 //! coordinates (b1, b2) on meshes without them, as in Mitsuba.
 
 use crate::error::{Error, Result};
-use crate::math::Spectrum;
+use crate::math::{Spectrum, luminance};
 use glam::{Affine2, Vec2};
 use std::path::Path;
 
@@ -102,6 +102,31 @@ impl Bitmap {
         let top = at(x0, y0) * (1.0 - fx) + at(x0 + 1, y0) * fx;
         let bottom = at(x0, y0 + 1) * (1.0 - fx) + at(x0 + 1, y0 + 1) * fx;
         top * (1.0 - fy) + bottom * fy
+    }
+
+    /// The gradient of the texels' luminance at image coordinates `uv` (as in [`Self::eval`])
+    /// with respect to `uv`: the derivative of the bilinear interpolation (Mitsuba's
+    /// `eval_1_grad`), zero for nearest-texel lookups (constant between texel edges).
+    pub fn gradient(&self, uv: Vec2) -> Vec2 {
+        if !self.bilinear {
+            return Vec2::ZERO;
+        }
+        let (w, h) = (self.width as i64, self.height as i64);
+        let at = |x: i64, y: i64| {
+            luminance(
+                self.texels[self.wrap.texel(y, h) * self.width as usize + self.wrap.texel(x, w)],
+            )
+        };
+        let p = uv * Vec2::new(w as f32, h as f32) - 0.5;
+        let (x0, y0) = (p.x.floor(), p.y.floor());
+        let (fx, fy) = (p.x - x0, p.y - y0);
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let (f00, f10) = (at(x0, y0), at(x0 + 1, y0));
+        let (f01, f11) = (at(x0, y0 + 1), at(x0 + 1, y0 + 1));
+        // Per texel, then per unit of `uv` (a texel is 1 / width across).
+        let d_dx = (f10 - f00) * (1.0 - fy) + (f11 - f01) * fy;
+        let d_dy = (f01 - f00) * (1.0 - fx) + (f11 - f10) * fx;
+        Vec2::new(d_dx * w as f32, d_dy * h as f32)
     }
 
     /// Read an image file: PNG, JPEG or OpenEXR, told apart by their first bytes; 8- and
@@ -230,6 +255,20 @@ impl Texture {
         }
     }
 
+    /// The gradient of the texture's luminance with respect to the surface's texture
+    /// coordinates at `uv` (what a bump map tilts the normal by): a bilinear bitmap's through
+    /// `to_uv` (the chain rule: the transform's transpose times the image-space gradient);
+    /// zero for nearest-texel bitmaps and checkerboards, constant between their edges.
+    pub fn gradient(&self, uv: Vec2) -> Vec2 {
+        match self {
+            Texture::Bitmap { bitmap, to_uv } => {
+                let g = bitmap.gradient(to_uv.transform_point2(uv));
+                to_uv.matrix2.transpose() * g
+            }
+            Texture::Checkerboard { .. } => Vec2::ZERO,
+        }
+    }
+
     /// The largest channel value anywhere (for Russian roulette, which must not depend on
     /// where on the surface a path is).
     pub fn max(&self) -> f32 {
@@ -286,6 +325,59 @@ mod tests {
         assert!((b.eval(Vec2::new(0.5, 0.5)).x - (1.0 + 2.0 + 5.0 + 6.0) / 4.0).abs() < 1e-6);
         // A quarter of the way from (0, 0)'s centre to (1, 0)'s.
         assert!((b.eval(Vec2::new(0.125 + 0.0625, 0.25)).x - 0.25).abs() < 1e-6);
+    }
+
+    /// The gradient against central differences of `eval`'s luminance, inside texel cells
+    /// (away from the kinks at texel centres), through a non-trivial `to_uv`, across the wrap.
+    #[test]
+    fn gradients_are_the_derivative_of_the_bilinear_lookup() {
+        let mut b = bitmap(5, 3, Wrap::Repeat, true);
+        for (i, t) in b.texels.iter_mut().enumerate() {
+            *t = Spectrum::new((i * 7 % 5) as f32, (i * 3 % 4) as f32, (i % 3) as f32);
+        }
+        let t = Texture::Bitmap {
+            bitmap: std::sync::Arc::new(b),
+            to_uv: Affine2::from_mat2_translation(
+                glam::Mat2::from_cols_array(&[2.0, 0.5, -0.25, 1.5]),
+                Vec2::new(0.3, -0.2),
+            ),
+        };
+        let lum = |uv: Vec2| luminance(t.eval(uv)) as f64;
+        let h = 1e-3f32;
+        let mut checked = 0;
+        for k in 0..200 {
+            let uv = Vec2::new(
+                (k as f32 * 0.618_034).fract() * 3.0 - 1.0,
+                (k as f32 * 0.414_214).fract() * 3.0 - 1.0,
+            );
+            let g = t.gradient(uv);
+            let dx = (lum(uv + Vec2::X * h) - lum(uv - Vec2::X * h)) / (2.0 * h as f64);
+            let dy = (lum(uv + Vec2::Y * h) - lum(uv - Vec2::Y * h)) / (2.0 * h as f64);
+            // A texel centre (where the interpolation's cell changes) within h either side
+            // makes the difference a mixture of two cells.
+            let cell = |q: Vec2| {
+                let Texture::Bitmap { to_uv, .. } = &t else {
+                    unreachable!()
+                };
+                (to_uv.transform_point2(q) * Vec2::new(5.0, 3.0) - 0.5).floor()
+            };
+            let corners = [(h, h), (h, -h), (-h, h), (-h, -h)].map(|(a, b)| uv + Vec2::new(a, b));
+            if corners.iter().any(|&q| cell(q) != cell(uv)) {
+                continue;
+            }
+            let tol = 2e-2 * (1.0 + g.length() as f64);
+            assert!(
+                (dx - g.x as f64).abs() < tol && (dy - g.y as f64).abs() < tol,
+                "at {uv}: gradient {g}, differences ({dx}, {dy})"
+            );
+            checked += 1;
+        }
+        assert!(checked > 100, "only {checked} points away from kinks");
+        let nearest = Texture::Bitmap {
+            bitmap: std::sync::Arc::new(bitmap(5, 3, Wrap::Repeat, false)),
+            to_uv: Affine2::IDENTITY,
+        };
+        assert_eq!(nearest.gradient(Vec2::new(0.3, 0.3)), Vec2::ZERO);
     }
 
     #[test]

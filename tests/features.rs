@@ -203,17 +203,18 @@ fn gradient_png(tag: &str) -> std::path::PathBuf {
 
 /// The Cornell box with a checkerboard floor (4 x 4 squares, diffuse, its normals tilted by a
 /// normal map of 10 x 10 squares), its back wall a rough
-/// plastic over a bitmap (bilinear, repeated twice across) and its left wall a rough
+/// plastic over a bitmap (bilinear, repeated twice across; bumped by the same bitmap's
+/// luminance as a height) and its left wall a rough
 /// conductor tinted by a checkerboard (`specular_texture`): textured reflectances, looked up
 /// at the texture coordinates every integrator carries with its vertices. bdpt, vcm, mmlt and
 /// guided-bdpt (guiding kept on, so that its stored guide paths carry them too) render pt's
-/// image tile by tile. Controls: the checkerboard at 6 x 6 squares, and the floor without
-/// its normal map, must change pt's image pixel by pixel (tile means average the squares
+/// image tile by tile. Controls: the checkerboard at 6 x 6 squares, the floor without its
+/// normal map and the back wall without its bump map must change pt's image pixel by pixel (tile means average the squares
 /// away).
 #[test]
 fn every_integrator_renders_textures_alike() {
     let png = gradient_png("textures");
-    let with = |checks: u32, normal_map: bool| {
+    let with = |checks: u32, normal_map: bool, bump_map: bool| {
         cornell(|text| {
             let text = text
                 .replacen(
@@ -223,7 +224,7 @@ fn every_integrator_renders_textures_alike() {
                          {{ type = \"checkerboard\", color0 = [0.8, 0.8, 0.8], color1 = [0.1, \
                          0.1, 0.5], scale = [{checks}, {checks}] }}\n{}\n[[material]]\nname = \
                          \"picture\"\ntype = \"roughplastic\"\nior = 1.5\nalpha = 0.2\nalbedo_texture = \
-                         {{ type = \"bitmap\", filename = \"{}\", scale = [2, 1] }}\n\n[[material]]\nname \
+                         {{ type = \"bitmap\", filename = \"{}\", scale = [2, 1] }}\n{}\n[[material]]\nname \
                          = \"tinted\"\ntype = \"roughconductor\"\nalpha = 0.3\neta = [0.2, 0.9, \
                          1.1]\nk = [3.9, 2.4, 2.1]\nspecular_texture = {{ type = \"checkerboard\", \
                          color0 = [0.9, 0.3, 0.3], color1 = [0.2, 0.2, 0.9], scale = [3, 3] \
@@ -234,7 +235,16 @@ fn every_integrator_renders_textures_alike() {
                         } else {
                             ""
                         },
-                        png.display()
+                        png.display(),
+                        if bump_map {
+                            format!(
+                                "bump_map = {{ type = \"bitmap\", filename = \"{}\", scale = \
+                                 [2, 1] }}\nbump_scale = 2\n",
+                                png.display()
+                            )
+                        } else {
+                            String::new()
+                        }
                     ),
                     1,
                 )
@@ -259,7 +269,7 @@ fn every_integrator_renders_textures_alike() {
             text
         })
     };
-    let scene = with(2, true);
+    let scene = with(2, true, true);
     let pt = seeded_renders(&scene, "pt", 6, &[], 256, 5, 10);
     // guided-bdpt with guiding kept on (its `auto` share turns it off where it does not pay,
     // as here), so that guided paths rebuilt from the cache look their textures up too.
@@ -273,13 +283,15 @@ fn every_integrator_renders_textures_alike() {
         let other = seeded_renders(&scene, name, 6, options, spp, 5, 20);
         assert_same_image(&pt, &other, 4, &format!("{name} vs pt on textures"));
     }
-    let other = seeded_renders(&with(3, true), "pt", 6, &[], 256, 5, 30);
+    let other = seeded_renders(&with(3, true, true), "pt", 6, &[], 256, 5, 30);
     assert!(
         differs(&pt, &other, 1),
         "the checkerboard's scale changes nothing"
     );
-    let flat = seeded_renders(&with(2, false), "pt", 6, &[], 256, 5, 40);
+    let flat = seeded_renders(&with(2, false, true), "pt", 6, &[], 256, 5, 40);
     assert!(differs(&pt, &flat, 1), "the normal map changes nothing");
+    let flat = seeded_renders(&with(2, true, false), "pt", 6, &[], 256, 5, 50);
+    assert!(differs(&pt, &flat, 1), "the bump map changes nothing");
     std::fs::remove_dir_all(png.parent().unwrap()).ok();
 }
 

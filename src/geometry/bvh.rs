@@ -54,13 +54,13 @@ impl ShapeGeometry {
         }
     }
 
-    /// The derivative of position by the first texture coordinate at `hit`
-    /// ([`TriangleMesh::dp_du`], [`Sphere::dp_du`]): the tangent a normal map's first axis
-    /// follows.
-    pub fn dp_du(&self, hit: &Hit) -> Vec3 {
+    /// The derivatives of position by the texture coordinates at `hit`
+    /// ([`TriangleMesh::dp_duv`], [`Sphere::dp_duv`]): the tangents a normal map's axes follow
+    /// and a bump map's height tilts.
+    pub fn dp_duv(&self, hit: &Hit) -> [Vec3; 2] {
         match self {
-            ShapeGeometry::Mesh(m) => m.dp_du(hit.prim as usize),
-            ShapeGeometry::Sphere(s) => s.dp_du(hit.p),
+            ShapeGeometry::Mesh(m) => m.dp_duv(hit.prim as usize),
+            ShapeGeometry::Sphere(s) => s.dp_duv(hit.p),
         }
     }
 }

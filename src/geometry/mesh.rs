@@ -37,21 +37,26 @@ impl TriangleMesh {
         }
     }
 
-    /// The derivative of position by the first texture coordinate on triangle `i` (Mitsuba's
-    /// `dp_du`): from the vertices' texture coordinates, or the edge from the first vertex to
-    /// the second for a mesh without them (where the coordinates are the barycentrics); zero
-    /// where the coordinates are degenerate.
-    pub fn dp_du(&self, i: usize) -> Vec3 {
+    /// The derivatives of position by the two texture coordinates on triangle `i` (Mitsuba's
+    /// `dp_du`, `dp_dv`): from the vertices' texture coordinates, or the edges from the first
+    /// vertex to the second and third for a mesh without them (where the coordinates are the
+    /// barycentrics); zero where the coordinates are degenerate.
+    pub fn dp_duv(&self, i: usize) -> [Vec3; 2] {
         let [p0, p1, p2] = self.triangle(i);
         let (dp0, dp1) = (p1 - p0, p2 - p0);
-        let Some(uv) = &self.uvs else { return dp0 };
+        let Some(uv) = &self.uvs else {
+            return [dp0, dp1];
+        };
         let [a, b, c] = self.indices[i].map(|k| uv[k as usize]);
         let (d10, d20) = (b - a, c - a);
         let det = d10.x * d20.y - d10.y * d20.x;
         if det == 0.0 || !det.is_finite() {
-            return Vec3::ZERO;
+            return [Vec3::ZERO; 2];
         }
-        (dp0 * d20.y - dp1 * d10.y) / det
+        [
+            (dp0 * d20.y - dp1 * d10.y) / det,
+            (dp1 * d10.x - dp0 * d20.x) / det,
+        ]
     }
 
     /// The corner positions of triangle `i`.

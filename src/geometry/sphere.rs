@@ -64,11 +64,22 @@ impl Sphere {
         )
     }
 
-    /// The direction of increasing first texture coordinate at surface point `p` (φ grows
-    /// about +z; zero at the poles).
-    pub fn dp_du(&self, p: Vec3) -> Vec3 {
+    /// The derivatives of position by the texture coordinates at surface point `p` (Mitsuba's
+    /// sphere's): `2π (-y, x, 0)` by u (φ grows about +z), `π (z cos φ, z sin φ, -ρ)` by v
+    /// (θ from +z), with `(x, y, z)` the point relative to the centre and `ρ` its distance
+    /// from the axis; zero at the poles, where φ is undefined.
+    pub fn dp_duv(&self, p: Vec3) -> [Vec3; 2] {
+        use std::f32::consts::PI;
         let d = p - self.center;
-        Vec3::new(-d.y, d.x, 0.0) * (2.0 * std::f32::consts::PI)
+        let rho = d.x.hypot(d.y);
+        if rho == 0.0 {
+            return [Vec3::ZERO; 2];
+        }
+        let (cos_phi, sin_phi) = (d.x / rho, d.y / rho);
+        [
+            Vec3::new(-d.y, d.x, 0.0) * (2.0 * PI),
+            Vec3::new(d.z * cos_phi, d.z * sin_phi, -rho) * PI,
+        ]
     }
 
     /// Surface area, `4 pi r^2`.

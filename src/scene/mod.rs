@@ -4,8 +4,10 @@
 mod coverage;
 mod features;
 pub mod loader;
+mod normal_map;
 
 pub use features::SceneFeatures;
+pub use normal_map::{NormalMap, bumped_normal, perturbed_normal};
 
 use crate::bsdf::{Bsdf, ShadingFrame};
 use crate::camera::Camera;
@@ -29,28 +31,9 @@ pub struct Material {
     /// Black when seen from the back of the shape (against its geometric normal), like
     /// Mitsuba's BSDFs without `twosided`; reflecting BSDFs are two-sided otherwise.
     pub one_sided: bool,
-    /// A tangent-space normal map (Mitsuba's `normalmap`): the shading normal at a point is
-    /// `2 c - 1` of the texture's value `c` there, in the frame of the interpolated normal
-    /// and the tangent along the first texture coordinate ([`perturbed_normal`]).
-    pub normal_map: Option<std::sync::Arc<crate::texture::Texture>>,
-}
-
-/// The shading normal a normal map gives: `c` (the map's value, each channel in [0, 1])
-/// mapped to `2 c - 1` in the frame of the shading normal `ns` and the tangent `dp_du`
-/// projected perpendicular to it (its bitangent `ns x s`), as Mitsuba 3's `normalmap`. Where
-/// the tangent is degenerate any perpendicular serves; where the result is not a direction or
-/// leans to the back of the geometric normal `ng`, `ns` is kept (every shading normal lies on
-/// `ng`'s side).
-pub fn perturbed_normal(c: Vec3, ns: Vec3, ng: Vec3, dp_du: Vec3) -> Vec3 {
-    let local = c * 2.0 - Vec3::ONE;
-    let s = (dp_du - ns * ns.dot(dp_du))
-        .try_normalize()
-        .unwrap_or_else(|| ns.any_orthonormal_vector());
-    let t = ns.cross(s);
-    match (s * local.x + t * local.y + ns * local.z).try_normalize() {
-        Some(n) if n.dot(ng) > 1e-4 => n,
-        _ => ns,
-    }
+    /// A texture that turns the shading normal (Mitsuba's `normalmap` and `bumpmap`,
+    /// `normal_map.rs`).
+    pub normal_map: Option<NormalMap>,
 }
 
 /// What a one-sided material is from the back.
@@ -355,7 +338,7 @@ impl Scene {
         if let Some(map) = &material.normal_map {
             // The hit carries the perturbed normal on, so that whatever reads `hit.ns` (cosines,
             // stored paths) sees the frame the BSDF is evaluated in.
-            hit.ns = perturbed_normal(map.eval(uv), hit.ns, hit.ng, shape.dp_du(&hit));
+            hit.ns = map.shading_normal(uv, hit.ns, hit.ng, shape.dp_duv(&hit));
         }
         let frame = ShadingFrame::new(hit.ns, hit.ng).with_uv(uv);
         SurfacePoint {

@@ -22,10 +22,7 @@ impl Builder<'_> {
                 );
             }
             let (bsdf, one_sided) = self.material(m)?;
-            let normal_map = match &m.get_ref().normal_map {
-                Some(t) => Some(std::sync::Arc::new(self.texture(t, true)?)),
-                None => None,
-            };
+            let normal_map = self.normal_map(m.get_ref(), &format!("material '{name}'"))?;
             by_name.insert(name.clone(), materials.len() as u32);
             materials.push(Material {
                 name,

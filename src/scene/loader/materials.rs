@@ -2,6 +2,7 @@
 
 use super::*;
 use crate::bsdf::{Mask, Opacity};
+use crate::scene::NormalMap;
 
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -30,6 +31,11 @@ pub(super) struct MaterialDesc {
     pub(super) specular_texture: Option<Spanned<TextureDesc>>,
     /// Any material but `black`: a tangent-space normal map (`scene::perturbed_normal`).
     pub(super) normal_map: Option<Spanned<TextureDesc>>,
+    /// Any material but `black`: a bump map, the texture's luminance a height
+    /// (`scene::bumped_normal`), in place of `normal_map`.
+    pub(super) bump_map: Option<Spanned<TextureDesc>>,
+    /// With `bump_map`: the height's scale (default 1).
+    pub(super) bump_scale: Option<Spanned<f32>>,
     /// Any material but `black`: an opacity in [0, 1] (Mitsuba's `mask`, `bsdf/mask.rs`).
     pub(super) opacity: Option<Spanned<f32>>,
     /// Any material but `black`: the opacity as a texture's luminance, in place of
@@ -91,6 +97,8 @@ impl Builder<'_> {
             ("albedo_texture", at(&d.albedo_texture)),
             ("specular_texture", at(&d.specular_texture)),
             ("normal_map", at(&d.normal_map)),
+            ("bump_map", at(&d.bump_map)),
+            ("bump_scale", at(&d.bump_scale)),
             ("opacity", at(&d.opacity)),
             ("opacity_texture", at(&d.opacity_texture)),
         ];
@@ -125,7 +133,7 @@ impl Builder<'_> {
                 return src.err(d.kind.span(), format!("unknown material type '{other}' (expected diffuse, roughdiffuse, conductor, dielectric, thindielectric, roughconductor, roughdielectric, plastic, roughplastic or black)"));
             }
         };
-        // A normal map and an opacity go with every material that scatters.
+        // A normal or bump map and an opacity go with every material that scatters.
         let allowed: Vec<&str> = allowed
             .iter()
             .chain(if kind == "roughconductor" {
@@ -135,9 +143,15 @@ impl Builder<'_> {
             })
             .copied()
             .chain(
-                ["normal_map", "opacity", "opacity_texture"]
-                    .into_iter()
-                    .filter(|_| kind != "black"),
+                [
+                    "normal_map",
+                    "bump_map",
+                    "bump_scale",
+                    "opacity",
+                    "opacity_texture",
+                ]
+                .into_iter()
+                .filter(|_| kind != "black"),
             )
             .collect();
         self.only(&what, &keys, &allowed)?;
@@ -296,6 +310,35 @@ impl Builder<'_> {
                 false,
             )),
             None => Ok((bsdf, one_sided)),
+        }
+    }
+
+    /// A material's `normal_map` or `bump_map` (with `bump_scale`), if it has one (not both).
+    pub(super) fn normal_map(&self, d: &MaterialDesc, what: &str) -> Result<Option<NormalMap>> {
+        let src = self.src;
+        if let (None, Some(s)) = (&d.bump_map, &d.bump_scale) {
+            return src.err(s.span(), format!("{what}: 'bump_scale' needs a 'bump_map'"));
+        }
+        match (&d.normal_map, &d.bump_map) {
+            (Some(_), Some(b)) => src.err(
+                b.span(),
+                format!("{what} has both 'normal_map' and 'bump_map' (expected one)"),
+            ),
+            (Some(t), None) => Ok(Some(NormalMap::Tangent(std::sync::Arc::new(
+                self.texture(t, true)?,
+            )))),
+            (None, Some(t)) => {
+                let scale = match &d.bump_scale {
+                    None => 1.0,
+                    Some(s) if s.get_ref().is_finite() => *s.get_ref(),
+                    Some(s) => return src.err(s.span(), "'bump_scale' must be a finite number"),
+                };
+                Ok(Some(NormalMap::Bump {
+                    height: std::sync::Arc::new(self.texture(t, false)?),
+                    scale,
+                }))
+            }
+            (None, None) => Ok(None),
         }
     }
 

@@ -27,6 +27,8 @@ pub(super) fn material_desc(n: Node, name: String, kind: &str) -> MaterialDesc {
         albedo_texture: None,
         specular_texture: None,
         normal_map: None,
+        bump_map: None,
+        bump_scale: None,
         opacity: None,
         opacity_texture: None,
     }
@@ -255,33 +257,50 @@ fn bsdf_desc(xml: &Xml, n: Node, name: String, one_sided: bool) -> Result<Option
             white_only(&mut p, "specular_reflectance")?;
             white_only(&mut p, "specular_transmittance")?;
         }
-        "normalmap" => {
-            // The nested BSDF with the map on its material (`scene::perturbed_normal`).
-            let Some(t) = p.texture(xml, "normalmap")? else {
-                return xml.err(n, "normalmap needs a <texture name=\"normalmap\">");
+        "normalmap" | "bumpmap" => {
+            // The nested BSDF with the map on its material (`scene::NormalMap`).
+            let (map, scale) = if k == "normalmap" {
+                let Some(t) = p.texture(xml, "normalmap")? else {
+                    return xml.err(n, "normalmap needs a <texture name=\"normalmap\">");
+                };
+                (s(t, texture_desc(xml, t)?), None)
+            } else {
+                let [t] = p.any_textures(xml)?[..] else {
+                    return xml.err(n, "bumpmap needs one nested <texture> (the height)");
+                };
+                let scale = match p.float(xml, "scale")? {
+                    Some((at, v)) => s(at, v),
+                    None => s(n, 1.0),
+                };
+                (s(t, texture_desc(xml, t)?), Some(scale))
             };
-            let map = s(t, texture_desc(xml, t)?);
             // Mitsuba 3 by default mirrors a normal that faces away from the viewer and damps
             // the response by a shadowing term (Estevez et al. 2019): both make the BSDF depend
-            // on which side the camera is, which lodestar's normal maps (a perturbed shading
-            // normal, the same for both directions of transport) do not model.
+            // on which side the camera is, which lodestar's maps (a turned shading normal, the
+            // same for both directions of transport) do not model.
             for key in ["flip_invalid_normals", "use_shadowing_function"] {
                 if p.boolean(xml, key)?.unwrap_or(true) {
-                    return xml.err(n, format!("normalmap: '{key}' true (Mitsuba's default) is not supported: lodestar's normal map perturbs the shading normal only; give <boolean name=\"{key}\" value=\"false\"/> to render that"));
+                    return xml.err(n, format!("{k}: '{key}' true (Mitsuba's default) is not supported: lodestar's {k} turns the shading normal only; give <boolean name=\"{key}\" value=\"false\"/> to render that"));
                 }
             }
             let inner = p.nested(xml, "bsdf")?;
             p.finish(xml)?;
             let [b] = inner.as_slice() else {
-                return xml.err(n, "normalmap needs one nested <bsdf>");
+                return xml.err(n, format!("{k} needs one nested <bsdf>"));
             };
             let Some(mut desc) = bsdf_desc(xml, *b, d.name.into_inner(), one_sided)? else {
-                return xml.err(*b, "normalmap cannot wrap a 'null' BSDF");
+                return xml.err(*b, format!("{k} cannot wrap a 'null' BSDF"));
             };
-            if desc.normal_map.is_some() {
-                return xml.err(*b, "normalmap cannot wrap another normalmap");
+            if desc.normal_map.is_some() || desc.bump_map.is_some() {
+                return xml.err(*b, format!("{k} cannot wrap another normalmap or bumpmap"));
             }
-            desc.normal_map = Some(map);
+            match scale {
+                None => desc.normal_map = Some(map),
+                Some(scale) => {
+                    desc.bump_map = Some(map);
+                    desc.bump_scale = Some(scale);
+                }
+            }
             return Ok(Some(desc));
         }
         "mask" => {
@@ -343,7 +362,7 @@ fn bsdf_desc(xml: &Xml, n: Node, name: String, one_sided: bool) -> Result<Option
             d.nonlinear = Some(s(n, p.boolean(xml, "nonlinear")?.unwrap_or(false)));
             d.one_sided = Some(s(n, one_sided));
         }
-        other => return xml.err(n, format!("bsdf '{other}' is not supported (diffuse, roughdiffuse, conductor, roughconductor, dielectric, thindielectric, roughdielectric, plastic, roughplastic, twosided, normalmap, mask, null)")),
+        other => return xml.err(n, format!("bsdf '{other}' is not supported (diffuse, roughdiffuse, conductor, roughconductor, dielectric, thindielectric, roughdielectric, plastic, roughplastic, twosided, normalmap, bumpmap, mask, null)")),
     }
     p.finish(xml)?;
     Ok(Some(d))

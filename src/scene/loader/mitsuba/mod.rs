@@ -45,6 +45,7 @@
 //!   (`bsdf/plastic.rs`).
 //!   Without `twosided`, diffuse, conductors and plastic are black from the back, as in
 //!   Mitsuba. `normalmap` around one BSDF (its `normalmap` texture: `scene::perturbed_normal`),
+//!   or `bumpmap` (its one texture, any name, a height; `scale` 1: `scene::bumped_normal`),
 //!   with `flip_invalid_normals` and `use_shadowing_function` false (Mitsuba's defaults, true,
 //!   make the BSDF depend on the viewer's side; refused). `mask` around one BSDF (not a
 //!   mask): `opacity` a number (default 0.5) or a texture (its luminance), `bsdf/mask.rs`.
@@ -65,7 +66,7 @@
 //!   `mis_compensation` read: it changes sampling, not the image).
 //! * Textures (for a `diffuse` BSDF's `reflectance`, a `roughplastic`'s
 //!   `diffuse_reflectance`, a conductor's `specular_reflectance`, a `normalmap`'s
-//!   `normalmap` and a `mask`'s `opacity`, nested or by `<ref>` to a top-level
+//!   `normalmap`, a `bumpmap`'s height and a `mask`'s `opacity`, nested or by `<ref>` to a top-level
 //!   `<texture id>`; `src/texture.rs`): `bitmap` (`filename`, found like mesh files; `raw`
 //!   false; `filter_type` "bilinear" or "nearest"; `wrap_mode` "repeat", "mirror" or "clamp";
 //!   `format` read) and `checkerboard` (`color0` 0.4, `color1` 0.2), both with `to_uv` (its

@@ -198,6 +198,23 @@ impl<'a, 'input> Props<'a, 'input> {
         Ok(Some(target))
     }
 
+    /// Every `<texture>` child (nested, or a `<ref>` to one) whatever its name, marked as
+    /// used: for plugins that take their one texture by kind, not by name (`bumpmap`).
+    pub(super) fn any_textures(&mut self, xml: &Xml<'a, 'input>) -> Result<Vec<Node<'a, 'input>>> {
+        let mut out = Vec::new();
+        for it in &mut self.items {
+            if !matches!(it.node.tag_name().name(), "texture" | "ref") {
+                continue;
+            }
+            let target = xml.deref(it.node)?;
+            if target.tag_name().name() == "texture" {
+                it.used = true;
+                out.push(target);
+            }
+        }
+        Ok(out)
+    }
+
     /// An RGB value from `<rgb>` (one or three numbers), `<spectrum>` or `<float>` (one
     /// number: uniform).
     pub(super) fn color(

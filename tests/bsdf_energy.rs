@@ -32,7 +32,9 @@ use common::chi2::{self, LobeDomain};
 use common::{Failures, MODES, close, dir_around, ng_generic};
 use glam::Vec3;
 use lodestar::bsdf::microfacet::MIN_ALPHA;
-use lodestar::bsdf::{Bsdf, ConductorFresnel, Distribution, ShadingFrame, TransportMode, fresnel};
+use lodestar::bsdf::{
+    Alpha, Bsdf, ConductorFresnel, Distribution, ShadingFrame, TransportMode, fresnel,
+};
 use lodestar::math::{Sampler, warp};
 use statrs::distribution::{ContinuousCDF, Normal};
 
@@ -455,14 +457,14 @@ fn tiny_alpha_is_numerically_safe() {
             Bsdf::rough_conductor(alpha, gold()),
             // The variants as written (unclamped alpha), with Beckmann microfacets.
             Bsdf::RoughConductor {
-                alpha,
+                alpha: Alpha::Constant(alpha),
                 fresnel: ConductorFresnel::Constant(Vec3::ONE),
                 distribution: Distribution::Beckmann,
             },
             Bsdf::rough_dielectric(ETA, alpha),
             Bsdf::RoughDielectric {
                 eta: ETA,
-                alpha,
+                alpha: Alpha::Constant(alpha),
                 distribution: Distribution::Beckmann,
             },
         ] {
@@ -544,7 +546,7 @@ fn roughness_and_flags() {
             Bsdf::rough_conductor(alpha, gold()),
             Bsdf::RoughDielectric {
                 eta: ETA,
-                alpha,
+                alpha: Alpha::Constant(alpha),
                 distribution: Distribution::Ggx,
             },
         ] {
@@ -569,7 +571,7 @@ fn roughness_and_flags() {
         Bsdf::rough_dielectric(ETA, 0.0),
         Bsdf::RoughDielectric {
             eta: ETA,
-            alpha: MIN_ALPHA,
+            alpha: Alpha::Constant(MIN_ALPHA),
             distribution: Distribution::Ggx,
         }
     );

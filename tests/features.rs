@@ -205,7 +205,8 @@ fn gradient_png(tag: &str) -> std::path::PathBuf {
 /// normal map of 10 x 10 squares), its back wall a rough
 /// plastic over a bitmap (bilinear, repeated twice across; bumped by the same bitmap's
 /// luminance as a height) and its left wall a rough
-/// conductor tinted by a checkerboard (`specular_texture`): textured reflectances, looked up
+/// conductor tinted by a checkerboard (`specular_texture`), its roughness another
+/// (`alpha_texture`, 0.05 and 0.5): textured reflectances and roughness, looked up
 /// at the texture coordinates every integrator carries with its vertices. bdpt, vcm, mmlt and
 /// guided-bdpt (guiding kept on, so that its stored guide paths carry them too) render pt's
 /// image tile by tile. Controls: the checkerboard at 6 x 6 squares, the floor without its
@@ -225,7 +226,9 @@ fn every_integrator_renders_textures_alike() {
                          0.1, 0.5], scale = [{checks}, {checks}] }}\n{}\n[[material]]\nname = \
                          \"picture\"\ntype = \"roughplastic\"\nior = 1.5\nalpha = 0.2\nalbedo_texture = \
                          {{ type = \"bitmap\", filename = \"{}\", scale = [2, 1] }}\n{}\n[[material]]\nname \
-                         = \"tinted\"\ntype = \"roughconductor\"\nalpha = 0.3\neta = [0.2, 0.9, \
+                         = \"tinted\"\ntype = \"roughconductor\"\nalpha_texture = {{ type = \
+                         \"checkerboard\", color0 = [0.05, 0.05, 0.05], color1 = [0.5, 0.5, \
+                         0.5], scale = [4, 4] }}\neta = [0.2, 0.9, \
                          1.1]\nk = [3.9, 2.4, 2.1]\nspecular_texture = {{ type = \"checkerboard\", \
                          color0 = [0.9, 0.3, 0.3], color1 = [0.2, 0.2, 0.9], scale = [3, 3] \
                          }}\n\n[[material]]",

@@ -6,7 +6,7 @@
 use crate::util;
 
 use glam::Vec3;
-use lodestar::bsdf::{Bsdf, Distribution};
+use lodestar::bsdf::{Alpha, Bsdf, Distribution};
 use lodestar::geometry::bvh::ShapeGeometry;
 use lodestar::scene::Scene;
 use lodestar::scene::loader::{load_file, load_file_with, load_mitsuba_str};
@@ -703,18 +703,18 @@ fn rough_bsdfs_take_beckmann_by_default_and_ggx_when_asked() {
                 distribution,
                 alpha,
                 ..
-            } => (*distribution, *alpha),
+            } => (*distribution, alpha.clone()),
             other => panic!("{other:?}"),
         }
     };
-    assert_eq!(dist(""), (Distribution::Beckmann, 0.2));
+    assert_eq!(dist(""), (Distribution::Beckmann, Alpha::Constant(0.2)));
     assert_eq!(
         dist(r#"<string name="distribution" value="ggx"/>"#),
-        (Distribution::Ggx, 0.2)
+        (Distribution::Ggx, Alpha::Constant(0.2))
     );
     assert_eq!(
         dist(r#"<string name="distribution" value="beckmann"/>"#),
-        (Distribution::Beckmann, 0.2)
+        (Distribution::Beckmann, Alpha::Constant(0.2))
     );
 }
 
@@ -1170,7 +1170,7 @@ fn conductors_take_a_textured_specular_reflectance() {
     assert!(matches!(
         **base,
         Bsdf::RoughConductor {
-            alpha: 0.1,
+            alpha: Alpha::Constant(0.1),
             fresnel: lodestar::bsdf::ConductorFresnel::Complex {
                 scale: Vec3::ONE,
                 ..

@@ -46,6 +46,7 @@ mod mcmc_tiles;
 mod media;
 mod media_lights;
 mod mitsuba_xml;
+mod normal_maps;
 mod parts;
 mod pdf_unguided;
 mod properties;

@@ -113,14 +113,14 @@ impl Bsdf {
                 distribution,
             } => {
                 let (f, pdf_fwd) = rough_conductor::eval_pdf(
-                    Microfacet::new(*distribution, *alpha),
+                    Microfacet::new(*distribution, alpha.at(sf.uv)),
                     Some(fresnel),
                     wo_l,
                     wi_l,
                 );
                 let pdf_rev = if reverse {
                     rough_conductor::eval_pdf(
-                        Microfacet::new(*distribution, *alpha),
+                        Microfacet::new(*distribution, alpha.at(sf.uv)),
                         None,
                         wi_l,
                         wo_l,
@@ -138,7 +138,7 @@ impl Bsdf {
             } => {
                 let (f, pdf_fwd) = rough_dielectric::eval_pdf(
                     *eta,
-                    Microfacet::new(*distribution, *alpha),
+                    Microfacet::new(*distribution, alpha.at(sf.uv)),
                     wo_l,
                     wi_l,
                     mode,
@@ -146,7 +146,7 @@ impl Bsdf {
                 let pdf_rev = if reverse {
                     rough_dielectric::eval_pdf(
                         *eta,
-                        Microfacet::new(*distribution, *alpha),
+                        Microfacet::new(*distribution, alpha.at(sf.uv)),
                         wi_l,
                         wo_l,
                         TransportMode::Radiance,

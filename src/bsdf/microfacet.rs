@@ -36,6 +36,48 @@ pub fn clamp_alpha(alpha: f32) -> f32 {
     alpha.max(MIN_ALPHA)
 }
 
+/// A microfacet BSDF's roughness: a number, or a texture looked up at the point (Mitsuba's
+/// textured `alpha`: the texture's luminance), either raised to at least [`MIN_ALPHA`].
+#[derive(Debug, Clone, PartialEq)]
+pub enum Alpha {
+    /// The same roughness everywhere (already clamped).
+    Constant(f32),
+    /// The roughness at texture coordinates `uv` is the texture's luminance there.
+    Texture(std::sync::Arc<crate::texture::Texture>),
+}
+
+impl From<f32> for Alpha {
+    /// A constant roughness, clamped.
+    fn from(alpha: f32) -> Alpha {
+        Alpha::Constant(clamp_alpha(alpha))
+    }
+}
+
+impl Alpha {
+    /// The roughness at texture coordinates `uv`.
+    #[inline]
+    pub fn at(&self, uv: Vec2) -> f32 {
+        match self {
+            Alpha::Constant(a) => *a,
+            Alpha::Texture(t) => clamp_alpha(crate::math::luminance(t.eval(uv))),
+        }
+    }
+
+    /// At most the smallest roughness anywhere (a texture's smallest channel value bounds its
+    /// luminance from below): how close to a mirror the surface can be.
+    pub fn smallest(&self) -> f32 {
+        match self {
+            Alpha::Constant(a) => *a,
+            Alpha::Texture(t) => clamp_alpha(t.range().0),
+        }
+    }
+
+    /// True if the roughness is looked up at the point's texture coordinates.
+    pub fn is_textured(&self) -> bool {
+        matches!(self, Alpha::Texture(_))
+    }
+}
+
 /// Isotropic GGX distribution of roughness `alpha` (the "alpha" of Walter et al.).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Ggx {

@@ -44,8 +44,8 @@ pub use eval_pdfs::EvalPdfs;
 pub use fresnel::ConductorFresnel;
 use glam::{Vec2, Vec3};
 pub use mask::{Mask, Opacity};
-pub use microfacet::Distribution;
 use microfacet::Microfacet;
+pub use microfacet::{Alpha, Distribution};
 pub use plastic::Plastic;
 pub use rough_plastic::RoughPlastic;
 
@@ -163,8 +163,8 @@ pub enum Bsdf {
     /// [`microfacet::MIN_ALPHA`] when evaluated), two-sided. Build with
     /// [`Bsdf::rough_conductor`].
     RoughConductor {
-        /// Roughness (the slope distribution's width).
-        alpha: f32,
+        /// Roughness (the slope distribution's width), perhaps textured.
+        alpha: Alpha,
         /// Reflectance of the microfacets.
         fresnel: ConductorFresnel,
         /// GGX (the default) or Beckmann.
@@ -176,8 +176,8 @@ pub enum Bsdf {
     RoughDielectric {
         /// Index inside over index outside.
         eta: f32,
-        /// Roughness.
-        alpha: f32,
+        /// Roughness, perhaps textured.
+        alpha: Alpha,
         /// GGX (the default) or Beckmann.
         distribution: Distribution,
     },
@@ -204,20 +204,21 @@ pub enum Bsdf {
 }
 
 impl Bsdf {
-    /// A rough conductor; `alpha` is clamped to at least [`microfacet::MIN_ALPHA`].
-    pub fn rough_conductor(alpha: f32, fresnel: ConductorFresnel) -> Bsdf {
+    /// A rough conductor; a constant `alpha` is clamped to at least [`microfacet::MIN_ALPHA`].
+    pub fn rough_conductor(alpha: impl Into<Alpha>, fresnel: ConductorFresnel) -> Bsdf {
         Bsdf::RoughConductor {
-            alpha: microfacet::clamp_alpha(alpha),
+            alpha: alpha.into(),
             fresnel,
             distribution: Distribution::Ggx,
         }
     }
 
-    /// A rough dielectric; `alpha` is clamped to at least [`microfacet::MIN_ALPHA`].
-    pub fn rough_dielectric(eta: f32, alpha: f32) -> Bsdf {
+    /// A rough dielectric; a constant `alpha` is clamped to at least
+    /// [`microfacet::MIN_ALPHA`].
+    pub fn rough_dielectric(eta: f32, alpha: impl Into<Alpha>) -> Bsdf {
         Bsdf::RoughDielectric {
             eta,
-            alpha: microfacet::clamp_alpha(alpha),
+            alpha: alpha.into(),
             distribution: Distribution::Ggx,
         }
     }
@@ -284,6 +285,9 @@ impl Bsdf {
         match self {
             Bsdf::TexturedDiffuse { .. } | Bsdf::Tinted { .. } => true,
             Bsdf::RoughPlastic(p) => p.diffuse_texture.is_some(),
+            Bsdf::RoughConductor { alpha, .. } | Bsdf::RoughDielectric { alpha, .. } => {
+                alpha.is_textured()
+            }
             Bsdf::Plastic(p) => p.diffuse_texture.is_some(),
             Bsdf::Mask(m) => m.textured,
             _ => false,
@@ -312,16 +316,12 @@ impl Bsdf {
             | Bsdf::FresnelConductor { .. }
             | Bsdf::Dielectric { .. }
             | Bsdf::ThinDielectric { .. } => 0.0,
+            // A textured roughness: the smoothest it gets.
             Bsdf::RoughConductor { alpha, .. } | Bsdf::RoughDielectric { alpha, .. } => {
-                microfacet::clamp_alpha(*alpha).sqrt().min(1.0)
+                alpha.smallest().sqrt().min(1.0)
             }
             // The base is a conductor, smooth or rough.
-            Bsdf::Tinted { base, .. } => match **base {
-                Bsdf::RoughConductor { alpha, .. } => {
-                    microfacet::clamp_alpha(alpha).sqrt().min(1.0)
-                }
-                _ => 0.0,
-            },
+            Bsdf::Tinted { base, .. } => base.roughness(),
             Bsdf::Mask(m) => m.inner.roughness(),
         }
     }
@@ -389,14 +389,19 @@ impl Bsdf {
                 alpha,
                 fresnel,
                 distribution,
-            } => rough_conductor::sample(Microfacet::new(*distribution, *alpha), fresnel, wo_l, u)?,
+            } => rough_conductor::sample(
+                Microfacet::new(*distribution, alpha.at(sf.uv)),
+                fresnel,
+                wo_l,
+                u,
+            )?,
             Bsdf::RoughDielectric {
                 eta,
                 alpha,
                 distribution,
             } => rough_dielectric::sample(
                 *eta,
-                Microfacet::new(*distribution, *alpha),
+                Microfacet::new(*distribution, alpha.at(sf.uv)),
                 wo_l,
                 u_lobe,
                 u,
@@ -451,7 +456,7 @@ impl Bsdf {
                 distribution,
             } => {
                 rough_conductor::eval_pdf(
-                    Microfacet::new(*distribution, *alpha),
+                    Microfacet::new(*distribution, alpha.at(sf.uv)),
                     Some(fresnel),
                     wo_l,
                     wi_l,
@@ -465,7 +470,7 @@ impl Bsdf {
             } => Spectrum::splat(
                 rough_dielectric::eval_pdf(
                     *eta,
-                    Microfacet::new(*distribution, *alpha),
+                    Microfacet::new(*distribution, alpha.at(sf.uv)),
                     wo_l,
                     wi_l,
                     mode,
@@ -501,8 +506,13 @@ impl Bsdf {
                 distribution,
                 ..
             } => {
-                rough_conductor::eval_pdf(Microfacet::new(*distribution, *alpha), None, wo_l, wi_l)
-                    .1
+                rough_conductor::eval_pdf(
+                    Microfacet::new(*distribution, alpha.at(sf.uv)),
+                    None,
+                    wo_l,
+                    wi_l,
+                )
+                .1
             }
             Bsdf::RoughDielectric {
                 eta,
@@ -511,7 +521,7 @@ impl Bsdf {
             } => {
                 rough_dielectric::eval_pdf(
                     *eta,
-                    Microfacet::new(*distribution, *alpha),
+                    Microfacet::new(*distribution, alpha.at(sf.uv)),
                     wo_l,
                     wi_l,
                     mode,

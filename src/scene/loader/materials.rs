@@ -1,7 +1,7 @@
 //! `[[material]]` tables to BSDFs.
 
 use super::*;
-use crate::bsdf::{Mask, Opacity};
+use crate::bsdf::{Alpha, Mask, Opacity};
 use crate::scene::NormalMap;
 
 #[derive(Deserialize)]
@@ -14,6 +14,9 @@ pub(super) struct MaterialDesc {
     pub(super) reflectance: Option<V3>,
     pub(super) ior: Option<Spanned<f32>>,
     pub(super) alpha: Option<Spanned<f32>>,
+    /// `roughconductor`, `roughdielectric`: the roughness as a texture's luminance, in place of
+    /// `alpha`.
+    pub(super) alpha_texture: Option<Spanned<TextureDesc>>,
     /// Microfacet distribution of the rough materials: `ggx` (default) or `beckmann`.
     pub(super) distribution: Option<Spanned<String>>,
     pub(super) eta: Option<V3>,
@@ -88,6 +91,7 @@ impl Builder<'_> {
             ("reflectance", at(&d.reflectance)),
             ("ior", at(&d.ior)),
             ("alpha", at(&d.alpha)),
+            ("alpha_texture", at(&d.alpha_texture)),
             ("distribution", at(&d.distribution)),
             ("eta", at(&d.eta)),
             ("k", at(&d.k)),
@@ -108,8 +112,8 @@ impl Builder<'_> {
             "conductor" => CONDUCTOR_KEYS,
             "dielectric" | "thindielectric" => &["ior"],
             // A conductor's keys, added below.
-            "roughconductor" => &["alpha", "distribution"],
-            "roughdielectric" => &["alpha", "distribution", "ior"],
+            "roughconductor" => &["alpha", "alpha_texture", "distribution"],
+            "roughdielectric" => &["alpha", "alpha_texture", "distribution", "ior"],
             "roughplastic" => &[
                 "albedo",
                 "albedo_texture",
@@ -177,6 +181,27 @@ impl Builder<'_> {
             }
             Ok(v)
         };
+        // A rough conductor's or dielectric's roughness: `alpha` or `alpha_texture`.
+        let textured_alpha = || -> Result<Alpha> {
+            let Some(t) = &d.alpha_texture else {
+                return Ok(Alpha::from(alpha()?));
+            };
+            if d.alpha.is_some() {
+                return src.err(
+                    t.span(),
+                    format!("{what} has both 'alpha' and 'alpha_texture' (expected one)"),
+                );
+            }
+            let texture = self.texture(t, false)?;
+            let (lo, hi) = texture.range();
+            if !(lo >= 0.0 && hi.is_finite()) {
+                return src.err(
+                    t.span(),
+                    format!("{what}: 'alpha_texture' must hold finite roughnesses >= 0, it holds values in [{lo}, {hi}]"),
+                );
+            }
+            Ok(Alpha::Texture(std::sync::Arc::new(texture)))
+        };
         let distribution = match &d.distribution {
             None => Distribution::Ggx,
             Some(v) => match v.get_ref().as_str() {
@@ -226,7 +251,9 @@ impl Builder<'_> {
                     _ => return src.err(span, format!("{what} needs either 'reflectance' (constant) or both 'eta' and 'k' (complex ior)")),
                 };
                 let conductor = match (kind, fresnel) {
-                    ("roughconductor", fresnel) => Bsdf::rough_conductor(alpha()?, fresnel),
+                    ("roughconductor", fresnel) => {
+                        Bsdf::rough_conductor(textured_alpha()?, fresnel)
+                    }
                     (_, ConductorFresnel::Constant(reflectance)) => Bsdf::Conductor { reflectance },
                     (_, ConductorFresnel::Complex { eta, k, scale }) => {
                         Bsdf::FresnelConductor { eta, k, scale }
@@ -253,7 +280,7 @@ impl Builder<'_> {
                     let at = d.ior.as_ref().map_or(span, |i| i.span());
                     return src.err(at, "'ior' = 1 is no interface at all; use a shape with media and no material (an index-matched boundary) instead");
                 }
-                Bsdf::rough_dielectric(eta, alpha()?)
+                Bsdf::rough_dielectric(eta, textured_alpha()?)
             }
             // Smooth or rough: the same coating and base.
             "plastic" | "roughplastic" => {

@@ -18,6 +18,7 @@ pub(super) fn material_desc(n: Node, name: String, kind: &str) -> MaterialDesc {
         reflectance: None,
         ior: None,
         alpha: None,
+        alpha_texture: None,
         distribution: None,
         eta: None,
         k: None,
@@ -135,7 +136,12 @@ pub(super) fn bsdf(xml: &Xml, n: Node, out: &mut Out) -> Result<Option<String>> 
 }
 
 /// A material description; `one_sided` unless inside `twosided`.
-fn bsdf_desc(xml: &Xml, n: Node, name: String, one_sided: bool) -> Result<Option<MaterialDesc>> {
+fn bsdf_desc<'a, 'i>(
+    xml: &Xml<'a, 'i>,
+    n: Node<'a, 'i>,
+    name: String,
+    one_sided: bool,
+) -> Result<Option<MaterialDesc>> {
     let k = kind(xml, n)?;
     let k = k.as_str();
     let mut p = xml.props(n)?;
@@ -165,7 +171,12 @@ fn bsdf_desc(xml: &Xml, n: Node, name: String, one_sided: bool) -> Result<Option
         Ok(())
     };
     // The microfacet distribution (Mitsuba's default: Beckmann) and roughness.
-    let rough = |p: &mut Props, d: &mut MaterialDesc| -> Result<Spanned<f32>> {
+    // The roughness, a number (`alpha`, or equal `alpha_u` and `alpha_v`) or, where
+    // `textured`, a texture (`alpha`, kept in `alpha_texture`; `None` returned).
+    let rough = |p: &mut Props<'a, 'i>,
+                 d: &mut MaterialDesc,
+                 textured: bool|
+     -> Result<Option<Spanned<f32>>> {
         d.distribution = Some(match p.string(xml, "distribution")? {
             Some((at, dist)) if dist == "ggx" || dist == "beckmann" => s(at, dist),
             Some((at, dist)) => {
@@ -178,12 +189,19 @@ fn bsdf_desc(xml: &Xml, n: Node, name: String, one_sided: bool) -> Result<Option
         });
         // Both are sampled by their visible normals.
         p.boolean(xml, "sample_visible")?;
+        if let Some(t) = p.texture(xml, "alpha")? {
+            if !textured {
+                return xml.err(t, format!("{k}: a textured 'alpha' is not supported here (Mitsuba 3 takes a number; roughconductor and roughdielectric take a texture)"));
+            }
+            d.alpha_texture = Some(s(t, texture_desc(xml, t)?));
+            return Ok(None);
+        }
         let a = p.float(xml, "alpha")?;
         let (au, av) = (p.float(xml, "alpha_u")?, p.float(xml, "alpha_v")?);
         match (a, au, av) {
-            (Some((at, a)), None, None) => Ok(s(at, a)),
-            (None, Some((at, u)), Some((_, v))) if u == v => Ok(s(at, u)),
-            (None, None, None) => Ok(s(n, 0.1)),
+            (Some((at, a)), None, None) => Ok(Some(s(at, a))),
+            (None, Some((at, u)), Some((_, v))) if u == v => Ok(Some(s(at, u))),
+            (None, None, None) => Ok(Some(s(n, 0.1))),
             _ => xml.err(n, "anisotropic roughness is not supported ('alpha', or equal 'alpha_u' and 'alpha_v')"),
         }
     };
@@ -213,7 +231,7 @@ fn bsdf_desc(xml: &Xml, n: Node, name: String, one_sided: bool) -> Result<Option
         }
         "conductor" | "roughconductor" => {
             if k == "roughconductor" {
-                d.alpha = Some(rough(&mut p, &mut d)?);
+                d.alpha = rough(&mut p, &mut d, true)?;
             }
             let material = p.string(xml, "material")?;
             let (eta, kk) = (p.color(xml, "eta")?, p.color(xml, "k")?);
@@ -251,7 +269,7 @@ fn bsdf_desc(xml: &Xml, n: Node, name: String, one_sided: bool) -> Result<Option
         }
         "dielectric" | "roughdielectric" | "thindielectric" => {
             if k == "roughdielectric" {
-                d.alpha = Some(rough(&mut p, &mut d)?);
+                d.alpha = rough(&mut p, &mut d, true)?;
             }
             d.ior = Some(s(n, ior(&mut p)?));
             white_only(&mut p, "specular_reflectance")?;
@@ -346,7 +364,7 @@ fn bsdf_desc(xml: &Xml, n: Node, name: String, one_sided: bool) -> Result<Option
         // Smooth or rough: the same coating and base.
         "roughplastic" | "plastic" => {
             if k == "roughplastic" {
-                d.alpha = Some(rough(&mut p, &mut d)?);
+                d.alpha = rough(&mut p, &mut d, false)?;
             }
             let int = p.ior(xml, "int_ior", 1.49)?;
             let ext = p.ior(xml, "ext_ior", 1.000277)?;

@@ -66,7 +66,8 @@
 //!   `mis_compensation` read: it changes sampling, not the image).
 //! * Textures (for a `diffuse` BSDF's `reflectance`, a `roughplastic`'s
 //!   `diffuse_reflectance`, a conductor's `specular_reflectance`, a `normalmap`'s
-//!   `normalmap`, a `bumpmap`'s height and a `mask`'s `opacity`, nested or by `<ref>` to a top-level
+//!   `normalmap`, a `bumpmap`'s height, a `mask`'s `opacity` and the `alpha` of a
+//!   `roughconductor` or `roughdielectric` (`bsdf::Alpha`), nested or by `<ref>` to a top-level
 //!   `<texture id>`; `src/texture.rs`): `bitmap` (`filename`, found like mesh files; `raw`
 //!   false; `filter_type` "bilinear" or "nearest"; `wrap_mode` "repeat", "mirror" or "clamp";
 //!   `format` read) and `checkerboard` (`color0` 0.4, `color1` 0.2), both with `to_uv` (its

@@ -45,6 +45,7 @@ mod mcmc;
 mod mcmc_tiles;
 mod media;
 mod media_lights;
+mod mitsuba_tiles;
 mod mitsuba_xml;
 mod normal_maps;
 mod parts;

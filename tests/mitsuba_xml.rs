@@ -601,6 +601,33 @@ fn spot_has_mitsubas_linear_edge() {
     assert_eq!(at(20.5), 0.0);
 }
 
+/// A spot's projected `texture` (Mitsuba 3's): u along the `to_world`'s x, v along its y. The
+/// lookat below aims down -y with up +z, so x = up x direction = +x and y = +z; the
+/// checkerboard shifted by 0.1 in u is color0 where u + 0.1 and v lie on the same side of 1/2.
+#[test]
+fn spot_projects_its_texture_in_the_transforms_frame() {
+    let s = xml(&wrap(
+        r#"<emitter type="spot"><rgb name="intensity" value="1"/><float name="cutoff_angle" value="30"/>
+        <texture name="texture" type="checkerboard"><rgb name="color0" value="0.9"/><rgb name="color1" value="0.1"/>
+        <transform name="to_uv"><translate x="0.1"/></transform></texture>
+        <transform name="to_world"><lookat origin="0, 2, 0" target="0, 0, 0" up="0, 0, 1"/></transform></emitter>"#,
+    ))
+    .unwrap();
+    let lodestar::light::Light::Spot(spot) = &s.lights[0] else {
+        panic!("not a spot light")
+    };
+    assert!(spot.projection.is_some());
+    // Offsets across the image in units of tan(cutoff): u = 1/2 + x / 2, v = 1/2 + z / 2.
+    let t = 30f32.to_radians().tan();
+    let at = |x: f32, z: f32| {
+        spot.intensity_towards(Vec3::new(x * t, -1.0, z * t).normalize())
+            .x
+    };
+    assert!((at(0.3, 0.05) - 0.9).abs() < 1e-6, "{}", at(0.3, 0.05));
+    assert!((at(-0.3, 0.05) - 0.1).abs() < 1e-6, "{}", at(-0.3, 0.05));
+    assert!((at(0.3, -0.05) - 0.1).abs() < 1e-6, "{}", at(0.3, -0.05));
+}
+
 /// `$name` in a plugin's type: the tutorial scenes' `<integrator type="$integrator">`, with its
 /// `<default>` and overridden by a definition.
 #[test]

@@ -33,7 +33,7 @@ pub use directional::DirectionalLight;
 pub use environment::EnvironmentLight;
 pub use envmap::EnvMapLight;
 pub use point::PointLight;
-pub use spot::{SpotEdge, SpotLight, SpotProfile};
+pub use spot::{Projection, SpotEdge, SpotLight, SpotProfile};
 pub use sun::SunLight;
 
 use crate::math::{Distribution1D, Spectrum, luminance};

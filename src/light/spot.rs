@@ -6,6 +6,10 @@
 //! `smoothstep(cos(cone_angle), cos(cone_angle - cone_delta), cos)`, or Mitsuba's, linear in
 //! the angle: `(cone_angle - theta) / cone_delta` ([`SpotEdge`]); a hard edge for
 //! `cone_delta = 0`. It is evaluated on `z = 1 - cos(theta)` (accurate for narrow cones).
+//!
+//! A point spot light may project a texture along its cone ([`Projection`], Mitsuba's spot
+//! `texture`): the intensity is multiplied by the image by direction. Sampling stays uniform
+//! in the cone.
 
 use super::cone::{one_minus_cos, one_minus_cos_deg, sample_uniform_cone, uniform_cone_pdf};
 use super::{EmissionSample, LightSample};
@@ -187,7 +191,54 @@ impl SpotProfile {
     }
 }
 
-/// A point light whose intensity falls off around `direction` by a [`SpotProfile`].
+/// A texture a spot light projects along its cone (Mitsuba's spot `texture`): the intensity
+/// towards local direction `(x, y, z)` (z along the axis) is multiplied by the texture at
+/// `(1/2 + x / (2 z tan θc), 1/2 + y / (2 z tan θc))`, θc the cone's half-angle, so the
+/// image fills the square around the cone's circle.
+#[derive(Debug, Clone)]
+pub struct Projection {
+    /// The projected image.
+    pub texture: std::sync::Arc<crate::texture::Texture>,
+    /// World to the light's frame (local x, y across the image, z along the axis).
+    frame: Frame,
+    /// `tan θc`.
+    uv_factor: f32,
+}
+
+impl Projection {
+    /// The texture projected by a spot along `direction` of half-angle `cone_angle` (degrees),
+    /// the image's u axis along `up x direction` and v along `direction x (up x direction)`
+    /// (Mitsuba's `lookat` frame); `None` if `up` is parallel to the direction.
+    pub fn new(
+        texture: std::sync::Arc<crate::texture::Texture>,
+        direction: Vec3,
+        up: Vec3,
+        cone_angle: f32,
+    ) -> Option<Projection> {
+        let z = direction.try_normalize()?;
+        let x = up.cross(z).try_normalize()?;
+        Some(Projection {
+            texture,
+            frame: Frame {
+                s: x,
+                t: z.cross(x),
+                n: z,
+            },
+            uv_factor: cone_angle.to_radians().tan(),
+        })
+    }
+
+    /// The texture's value towards unit `w` (within the cone's forward hemisphere).
+    #[inline]
+    fn towards(&self, w: Vec3) -> Spectrum {
+        let l = self.frame.to_local(w);
+        let k = 0.5 / (l.z * self.uv_factor);
+        self.texture.eval(Vec2::new(0.5 + l.x * k, 0.5 + l.y * k))
+    }
+}
+
+/// A point light whose intensity falls off around `direction` by a [`SpotProfile`], perhaps
+/// through a projected texture.
 #[derive(Debug, Clone)]
 pub struct SpotLight {
     /// Position of the light.
@@ -196,6 +247,8 @@ pub struct SpotLight {
     pub intensity: Spectrum,
     direction: Vec3,
     profile: SpotProfile,
+    /// A texture multiplying the intensity by direction.
+    pub projection: Option<Projection>,
 }
 
 impl SpotLight {
@@ -218,6 +271,15 @@ impl SpotLight {
             intensity,
             direction,
             profile,
+            projection: None,
+        }
+    }
+
+    /// This light projecting `projection` (whose axis should be the light's).
+    pub fn with_projection(self, projection: Projection) -> SpotLight {
+        SpotLight {
+            projection: Some(projection),
+            ..self
         }
     }
 
@@ -233,12 +295,21 @@ impl SpotLight {
 
     /// Intensity emitted along unit `w`.
     pub fn intensity_towards(&self, w: Vec3) -> Spectrum {
-        self.intensity * self.profile.falloff_dir(self.direction, w)
+        let falloff = self.profile.falloff_dir(self.direction, w);
+        match &self.projection {
+            Some(p) if falloff > 0.0 => self.intensity * falloff * p.towards(w),
+            _ => self.intensity * falloff,
+        }
     }
 
-    /// `luminance(I) ∫ profile dω`.
+    /// `luminance(I) ∫ profile dω`, times the projected texture's mean luminance (what the
+    /// light sampler weighs lights by; the texture's share of the cone is not exact).
     pub fn power(&self) -> f32 {
-        (luminance(self.intensity) as f64 * self.profile.solid_angle_integral()) as f32
+        let texture = self
+            .projection
+            .as_ref()
+            .map_or(1.0, |p| luminance(p.texture.mean()) as f64);
+        (luminance(self.intensity) as f64 * self.profile.solid_angle_integral() * texture) as f32
     }
 
     /// Towards the spot from `p`; `None` outside the cone (and at the spot itself).
@@ -326,6 +397,47 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// The projected texture: the axis looks up the image's centre, and a direction at angle
+    /// θ towards the frame's x (`up x direction`) looks up u = 1/2 + tan θ / (2 tan θc) (the
+    /// image's right edge at the cone's edge); towards its y, v. Beyond the cone nothing is
+    /// looked up (the falloff is zero), and the light's power scales by the mean texel.
+    #[test]
+    fn a_projected_texture_fills_the_square_around_the_cone() {
+        use crate::texture::{Bitmap, Texture};
+        // 4 x 4 texels valued by column (x) + 10 row (y), nearest lookups.
+        let mut b = Bitmap::new(
+            4,
+            4,
+            (0..16)
+                .map(|i| Spectrum::splat((i % 4 + 10 * (i / 4)) as f32))
+                .collect(),
+        );
+        b.bilinear = false;
+        let texture = std::sync::Arc::new(Texture::Bitmap {
+            bitmap: std::sync::Arc::new(b),
+            to_uv: glam::Affine2::IDENTITY,
+        });
+        let (dir, up) = (Vec3::new(0.0, 0.0, -1.0), Vec3::Y);
+        let light = SpotLight::new(Vec3::ZERO, dir, Spectrum::ONE, SpotProfile::new(40.0, 0.0))
+            .with_projection(Projection::new(texture, dir, up, 40.0).unwrap());
+        // The frame: x = up x dir = -X, y = dir x x = +Y: u grows towards -X, v towards +Y.
+        let towards = |x: f32, y: f32| light.intensity_towards(Vec3::new(x, y, -1.0).normalize()).x;
+        let t = 40f32.to_radians().tan();
+        // Centre: u = v = 1/2, texel (2, 2) = 22.
+        assert_eq!(towards(0.0, 0.0), 22.0);
+        // Three quarters of the way to the edge towards -X: u = 1/2 + 3/8 = 0.875, texel 3;
+        // towards +X: u = 0.125, texel 0. The same towards -Y: v = 0.125, row 0.
+        assert_eq!(towards(-0.75 * t, 0.0), 23.0);
+        assert_eq!(towards(0.75 * t, 0.0), 20.0);
+        assert_eq!(towards(0.0, -0.75 * t), 2.0);
+        assert_eq!(towards(0.0, 0.75 * t), 32.0);
+        // Beyond the cone: nothing.
+        assert_eq!(towards(1.2 * t, 0.0), 0.0);
+        let plain = SpotLight::new(Vec3::ZERO, dir, Spectrum::ONE, SpotProfile::new(40.0, 0.0));
+        assert!((light.power() / plain.power() - 16.5).abs() < 1e-4);
+        assert!(Projection::new(light.projection.unwrap().texture, dir, dir, 40.0).is_none());
     }
 
     #[test]

@@ -22,6 +22,8 @@ impl Builder<'_> {
             ("filename", at(&d.filename)),
             ("scale", at(&d.scale)),
             ("transform", at(&d.transform)),
+            ("texture", at(&d.texture)),
+            ("up", at(&d.up)),
         ];
         let allowed: &[&str] = match kind {
             "point" => &["position", "intensity"],
@@ -32,6 +34,8 @@ impl Builder<'_> {
                 "cone_angle",
                 "cone_delta",
                 "cone_edge",
+                "texture",
+                "up",
             ],
             "environment" => &["radiance"],
             "envmap" => &["filename", "scale", "transform"],
@@ -88,12 +92,31 @@ impl Builder<'_> {
                         }
                     });
                 }
-                Light::Spot(SpotLight::new(
-                    position()?,
-                    direction()?,
-                    intensity,
-                    profile,
-                ))
+                let direction = direction()?;
+                let light = SpotLight::new(position()?, direction, intensity, profile);
+                match (&d.texture, &d.up) {
+                    (None, Some(u)) => {
+                        return src.err(
+                            u.span(),
+                            format!("{what}: 'up' orients a 'texture'; give one or neither"),
+                        );
+                    }
+                    (None, None) => Light::Spot(light),
+                    (Some(t), up) => {
+                        let texture = std::sync::Arc::new(self.texture(t, false)?);
+                        let up_at = up.as_ref().map_or(t.span(), |u| u.span());
+                        let up = match up {
+                            Some(u) => src.finite3(u, "up")?,
+                            None => Vec3::Y,
+                        };
+                        let Some(projection) =
+                            Projection::new(texture, direction, up, profile.cone_angle())
+                        else {
+                            return src.err(up_at, format!("{what}: 'up' ({up}) must not be parallel to the direction ({direction})"));
+                        };
+                        Light::Spot(light.with_projection(projection))
+                    }
+                }
             }
             "environment" => Light::Environment(EnvironmentLight {
                 radiance: src.non_negative3(

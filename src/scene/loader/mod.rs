@@ -87,7 +87,7 @@ use crate::geometry::mesh::MeshSampler;
 use crate::geometry::{Accel, Sphere, Transform, TriangleMesh};
 use crate::light::{
     AreaLight, AreaShape, DirectionalLight, EnvMapLight, EnvironmentLight, Light, LightSampler,
-    PointLight, SpotEdge, SpotLight, SpotProfile, SunLight,
+    PointLight, Projection, SpotEdge, SpotLight, SpotProfile, SunLight,
 };
 use crate::math::Frame;
 use crate::medium::{HomogeneousMedium, MediumInterface};
@@ -302,6 +302,10 @@ struct LightDesc {
     scale: Option<Spanned<f32>>,
     /// `envmap`: the map's orientation (a rotation; Mitsuba's `to_world`).
     transform: Option<Spanned<TransformDesc>>,
+    /// `spot`: a texture projected along the cone (`light::Projection`).
+    texture: Option<Spanned<materials::TextureDesc>>,
+    /// `spot` with `texture`: the direction the image's v axis leans towards (default +y).
+    up: Option<V3>,
 }
 
 /// Line numbers from byte offsets, and the file name errors are reported against.

@@ -38,7 +38,7 @@ pub(super) fn material_desc(n: Node, name: String, kind: &str) -> MaterialDesc {
 /// A `<texture>`: `bitmap` (`filename`, `raw` false, `filter_type` "bilinear" or "nearest",
 /// `wrap_mode` "repeat", "mirror" or "clamp", `to_uv`) or `checkerboard` (`color0` 0.4,
 /// `color1` 0.2, `to_uv`); `to_uv` keeps the transform's action on (u, v).
-fn texture_desc(xml: &Xml, n: Node) -> Result<TextureDesc> {
+pub(super) fn texture_desc(xml: &Xml, n: Node) -> Result<TextureDesc> {
     let k = kind(xml, n)?;
     let mut p = xml.props(n)?;
     let mut d = TextureDesc {

@@ -60,7 +60,8 @@
 //!   each placement becomes copies of the group's shapes (`groups.rs`).
 //! * Emitters `point` (`intensity`, `position` or `to_world`), `spot` (`intensity`,
 //!   `cutoff_angle` 20, `beam_width` 3/4 of it, Mitsuba's edge linear in the angle,
-//!   `to_world`), `directional`
+//!   `to_world`, a projected `texture` with u and v along the transform's x and y:
+//!   `light::Projection`), `directional`
 //!   (`irradiance`, `direction` or `to_world`), `constant` (`radiance`), `envmap`
 //!   (`filename`, an OpenEXR image found like mesh files, `scale` 1, `to_world` a rotation;
 //!   `mis_compensation` read: it changes sampling, not the image).

@@ -5,7 +5,7 @@
 //! not read an error.
 
 use super::super::{CameraDesc, FilterDesc, LightDesc, RenderDesc, SceneDesc};
-use super::materials::{bsdf, medium};
+use super::materials::{bsdf, medium, texture_desc};
 use super::out::{Out, kind, s};
 use super::shapes::{instance, matrix_desc, shape, shapegroup};
 use super::{Props, SensorMedium, Xml, span};
@@ -393,6 +393,8 @@ fn light_desc(n: Node, kind: &str) -> LightDesc {
         filename: None,
         scale: None,
         transform: None,
+        texture: None,
+        up: None,
     }
 }
 
@@ -428,6 +430,12 @@ fn emitter(xml: &Xml, n: Node, out: &mut Out) -> Result<()> {
                 d.cone_angle = Some(s(c_at, cutoff));
                 d.cone_delta = Some(s(b_at, cutoff - beam));
                 d.cone_edge = Some(s(n, "linear".to_string()));
+                if let Some(t) = p.texture(xml, "texture")? {
+                    // The image's axes are the transform's x and y: `up` x `direction` is x
+                    // for a rotation.
+                    d.texture = Some(s(t, texture_desc(xml, t)?));
+                    d.up = Some(s(at, m.transform_vector3(Vec3::Y).to_array()));
+                }
             }
             d
         }

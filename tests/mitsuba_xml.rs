@@ -1139,8 +1139,8 @@ fn plastic_reads_as_mitsuba_defines_it() {
     );
 }
 
-/// `mask`: the opacity a number (default 0.5) or a texture, around one BSDF whose sidedness
-/// it keeps (the mask itself lets light through from both sides); a mask in a mask and a
+/// `mask`: the opacity a number (default 0.5) or a texture (a checkerboard's colours swapped,
+/// as Mitsuba's scalar lookup has them), around one BSDF whose sidedness it keeps (the mask itself lets light through from both sides); a mask in a mask and a
 /// mask without a BSDF are errors naming the line.
 #[test]
 fn mask_reads_as_mitsuba_defines_it() {
@@ -1162,8 +1162,10 @@ fn mask_reads_as_mitsuba_defines_it() {
     assert_eq!(b.opacity, Opacity::Constant(0.25));
     assert!(!b.inner_one_sided && matches!(b.inner, Bsdf::RoughConductor { .. }));
     assert!(!c.inner_one_sided);
-    assert_eq!(c.opacity.at(glam::Vec2::new(0.1, 0.1)), 1.0);
-    assert_eq!(c.opacity.at(glam::Vec2::new(0.6, 0.1)), 0.0);
+    // Mitsuba's scalar lookup of a checkerboard (`eval_1`) takes color0 where its colour
+    // lookup takes color1: 0 where both coordinates lie on one side of 1/2.
+    assert_eq!(c.opacity.at(glam::Vec2::new(0.1, 0.1)), 0.0);
+    assert_eq!(c.opacity.at(glam::Vec2::new(0.6, 0.1)), 1.0);
     assert!(scene.materials.iter().all(|m| !m.one_sided));
     assert!(
         scene.features.specular_surfaces,

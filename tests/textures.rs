@@ -286,7 +286,8 @@ fn textured_roughness_is_the_roughness_looked_up_at_the_point() {
         );
         load_mitsuba_str(&text, "t.xml", None, &[]).map(|s| s.materials[0].bsdf.clone())
     };
-    // Checkerboard alpha: 0.05 where both fractional parts lie on one side of 1/2, else 0.6.
+    // Checkerboard alpha: 0.6 where both fractional parts lie on one side of 1/2, else 0.05:
+    // Mitsuba's scalar lookup of a checkerboard swaps its colours (`scalar_texture_desc`).
     let checker = "<texture name=\"alpha\" type=\"checkerboard\"><float name=\"color0\" value=\"0.05\"/><float name=\"color1\" value=\"0.6\"/></texture>";
     let number = |a: f32| format!("<float name=\"alpha\" value=\"{a}\"/>");
     let frame = ShadingFrame::new(Vec3::Z, Vec3::Z);
@@ -299,7 +300,7 @@ fn textured_roughness_is_the_roughness_looked_up_at_the_point() {
             (textured.roughness() - 0.05f32.sqrt()).abs() < 1e-6,
             "the smoothest"
         );
-        for (uv, a) in [(Vec2::new(0.1, 0.2), 0.05), (Vec2::new(0.7, 0.2), 0.6)] {
+        for (uv, a) in [(Vec2::new(0.1, 0.2), 0.6), (Vec2::new(0.7, 0.2), 0.05)] {
             let plain = xml(kind, &number(a)).unwrap();
             assert!(!plain.is_textured());
             let sf = frame.with_uv(uv);

@@ -35,6 +35,21 @@ pub(super) fn material_desc(n: Node, name: String, kind: &str) -> MaterialDesc {
     }
 }
 
+/// A `<texture>` read for a scalar property (a roughness, an opacity): [`texture_desc`] with a
+/// checkerboard's two colours swapped. Mitsuba 3 looks scalars up with `eval_1`, and its
+/// checkerboard's `eval_1` takes `color0` where the fractional parts of u and v lie on
+/// different sides of 1/2, where its colour lookup `eval` takes `color1`
+/// (`src/textures/checkerboard.cpp`, 3.9.1); swapped, the file renders as in Mitsuba.
+fn scalar_texture_desc(xml: &Xml, n: Node) -> Result<TextureDesc> {
+    let mut d = texture_desc(xml, n)?;
+    if d.kind.get_ref() == "checkerboard" {
+        let c0 = d.color0.take().unwrap_or_else(|| s(n, [0.4; 3]));
+        let c1 = d.color1.take().unwrap_or_else(|| s(n, [0.2; 3]));
+        (d.color0, d.color1) = (Some(c1), Some(c0));
+    }
+    Ok(d)
+}
+
 /// A `<texture>`: `bitmap` (`filename`, `raw` false, `filter_type` "bilinear" or "nearest",
 /// `wrap_mode` "repeat", "mirror" or "clamp", `to_uv`) or `checkerboard` (`color0` 0.4,
 /// `color1` 0.2, `to_uv`); `to_uv` keeps the transform's action on (u, v).
@@ -193,7 +208,7 @@ fn bsdf_desc<'a, 'i>(
             if !textured {
                 return xml.err(t, format!("{k}: a textured 'alpha' is not supported here (Mitsuba 3 takes a number; roughconductor and roughdielectric take a texture)"));
             }
-            d.alpha_texture = Some(s(t, texture_desc(xml, t)?));
+            d.alpha_texture = Some(s(t, scalar_texture_desc(xml, t)?));
             return Ok(None);
         }
         let a = p.float(xml, "alpha")?;
@@ -324,7 +339,7 @@ fn bsdf_desc<'a, 'i>(
         "mask" => {
             // The nested BSDF with the opacity on its material (`bsdf/mask.rs`).
             let opacity = match p.texture(xml, "opacity")? {
-                Some(t) => Err(s(t, texture_desc(xml, t)?)),
+                Some(t) => Err(s(t, scalar_texture_desc(xml, t)?)),
                 None => Ok(match p.float(xml, "opacity")? {
                     Some((at, a)) => s(at, a),
                     None => s(n, 0.5),

@@ -71,8 +71,9 @@
 //!   `roughconductor` or `roughdielectric` (`bsdf::Alpha`), nested or by `<ref>` to a top-level
 //!   `<texture id>`; `src/texture.rs`): `bitmap` (`filename`, found like mesh files; `raw`
 //!   false; `filter_type` "bilinear" or "nearest"; `wrap_mode` "repeat", "mirror" or "clamp";
-//!   `format` read) and `checkerboard` (`color0` 0.4, `color1` 0.2), both with `to_uv` (its
-//!   action on (u, v)). OBJ and PLY texture coordinates are flipped in v, as Mitsuba's
+//!   `format` read) and `checkerboard` (`color0` 0.4, `color1` 0.2; for a number, an opacity
+//!   or a roughness, its colours swapped as Mitsuba's `eval_1` has them), both with `to_uv`
+//!   (its action on (u, v)). OBJ and PLY texture coordinates are flipped in v, as Mitsuba's
 //!   `flip_tex_coords` default does.
 //! * Media `homogeneous`: `sigma_t` (1), `albedo` (0.75), `scale` (1), `sample_emitters`,
 //!   `phase` `isotropic` or `hg` (`g` 0.8).

@@ -2,7 +2,8 @@
 """Mitsuba 3's renders of the published scenes, reduced to tile statistics for lodestar's tests.
 
 What it writes
-    For every scene below, `scenes/references/public/mitsuba/<name>.tiles`: a small text file
+    For every scene below (the published ones of `scenes/public/`, and lodestar's own
+    `scenes/mitsuba/shading.xml`), `scenes/references/public/mitsuba/<name>.tiles`: a small text file
     with the mean over N independent Mitsuba renders (seeds 0..N-1) of every tile of the image
     and of the whole image, per channel, with the standard error of that mean (from the spread
     of the renders). `tests/mitsuba_tiles.rs` renders the same file with lodestar's pt, bdpt
@@ -55,6 +56,8 @@ SCENES = {
                                   (640, 480, 80, 60), {}, LAJOLLA_EDITS, 1024),
     "lajolla-simple_sphere": ("scenes/public/lajolla/disney_bsdf_test/simple_sphere.xml",
                               (512, 512, 64, 64), {}, LAJOLLA_EDITS, 1024),
+    # lodestar's own test scene of textured shading (scenes/mitsuba/, CC0).
+    "shading": ("scenes/mitsuba/shading.xml", None, {"res": "64"}, [], 1024),
 }
 
 

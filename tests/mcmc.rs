@@ -858,3 +858,28 @@ fn a_scene_without_light_renders_black() {
         }
     }
 }
+
+/// The bootstrap taken in rounds: stopped after its first round, every group holds the first
+/// sixteenth of the samples, each what the whole bootstrap holds there bit for bit (the same
+/// keys); never stopped, it is the whole bootstrap. Under `--time` the driver stops it once it
+/// has taken a tenth of the budget (`driver::BOOTSTRAP_TIME_SHARE`).
+#[test]
+fn a_stopped_bootstrap_is_a_prefix_of_the_whole() {
+    use lodestar::integrators::mcmc::bootstrap::{BOOTSTRAP_ROUNDS, bootstrap_until};
+    let s = McmcSettings {
+        bootstrap: 1600,
+        ..McmcSettings::default()
+    };
+    let whole = bootstrap(&TwoRegions, 3, s.bootstrap, &s);
+    let all = bootstrap_until(&TwoRegions, 3, s.bootstrap, &s, || false);
+    let first = bootstrap_until(&TwoRegions, 3, s.bootstrap, &s, || true);
+    let part = (s.bootstrap / BOOTSTRAP_ROUNDS) as usize;
+    for ((w, a), f) in whole.iter().zip(&all).zip(&first) {
+        assert_eq!((w.b, &w.importance, &w.rest), (a.b, &a.importance, &a.rest));
+        assert_eq!(f.importance.len(), part);
+        assert_eq!(f.importance[..], w.importance[..part]);
+        assert_eq!(f.rest[..], w.rest[..part]);
+        let b = w.importance[..part].iter().sum::<f64>() / part as f64;
+        assert_eq!(f.b, b);
+    }
+}

@@ -36,9 +36,36 @@ pub fn bootstrap_key(seed: u64, group: usize, i: u64) -> u64 {
 
 /// Evaluate `n` independent samples of every group.
 pub fn bootstrap<T: Target>(target: &T, seed: u64, n: u64, s: &McmcSettings) -> Vec<Bootstrap> {
-    (0..target.groups())
-        .map(|g| {
-            let (importance, rest): (Vec<f64>, Vec<f64>) = (0..n)
+    bootstrap_until(target, seed, n, s, || false)
+}
+
+/// The rounds the bootstrap is taken in: after each, every group holds the same number of
+/// samples, and [`bootstrap_until`] may stop.
+pub const BOOTSTRAP_ROUNDS: u64 = 16;
+
+/// [`bootstrap`], taken in [`BOOTSTRAP_ROUNDS`] rounds of `n / BOOTSTRAP_ROUNDS` samples of
+/// every group (sample `i` of group `g` from the same key either way), stopping after the first
+/// round after which `stop()` holds: under a time budget, the bootstrap's share of it
+/// (`mmlt` keeps one group per path length, and at a large maximum depth all `n` of every
+/// group could take the whole budget). With every round taken the result is [`bootstrap`]'s
+/// bit for bit.
+pub fn bootstrap_until<T: Target>(
+    target: &T,
+    seed: u64,
+    n: u64,
+    s: &McmcSettings,
+    stop: impl Fn() -> bool,
+) -> Vec<Bootstrap> {
+    let groups = target.groups();
+    let mut importance = vec![Vec::new(); groups];
+    let mut rest = vec![Vec::new(); groups];
+    let per_round = n.div_ceil(BOOTSTRAP_ROUNDS).max(1);
+    let mut taken = 0;
+    while taken < n {
+        let range = taken..(taken + per_round).min(n);
+        for g in 0..groups {
+            let (imp, res): (Vec<f64>, Vec<f64>) = range
+                .clone()
                 .into_par_iter()
                 .map_init(
                     || {
@@ -53,12 +80,21 @@ pub fn bootstrap<T: Target>(target: &T, seed: u64, n: u64, s: &McmcSettings) -> 
                     },
                 )
                 .unzip();
-            let b = importance.iter().sum::<f64>() / n.max(1) as f64;
-            Bootstrap {
-                b,
-                importance,
-                rest,
-            }
+            importance[g].extend(imp);
+            rest[g].extend(res);
+        }
+        taken = range.end;
+        if stop() {
+            break;
+        }
+    }
+    importance
+        .into_iter()
+        .zip(rest)
+        .map(|(importance, rest)| Bootstrap {
+            b: importance.iter().sum::<f64>() / importance.len().max(1) as f64,
+            importance,
+            rest,
         })
         .collect()
 }

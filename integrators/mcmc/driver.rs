@@ -41,7 +41,7 @@
 //! splats are added in chain order, so the image is bit-identical for any thread count.
 //! The bootstrap counts against a time budget.
 
-use super::bootstrap::{Bootstrap, SplitEvidence, bootstrap, rel_stderr};
+use super::bootstrap::{Bootstrap, SplitEvidence, bootstrap_until, rel_stderr};
 use super::chains::{Counters, advance, start_chains};
 use super::target::{Faults, McmcSettings, SPLIT_SAMPLES, SPLIT_Z, Split, Target};
 use crate::film::Image;
@@ -142,6 +142,10 @@ fn mean_stderr(xs: impl ExactSizeIterator<Item = f64>) -> (f64, f64) {
     (mean, ((s2 / n - mean * mean).max(0.0) / (n - 1.0)).sqrt())
 }
 
+/// The largest share of a time budget the bootstrap takes (it stops after the round that
+/// reaches it, with at least one round of every group; `bootstrap::bootstrap_until`).
+pub const BOOTSTRAP_TIME_SHARE: f64 = 0.1;
+
 /// Render `target` with Metropolis chains under `budget` (passes of `N_pix` mutations).
 pub fn render<T: Target>(
     target: &T,
@@ -153,7 +157,14 @@ pub fn render<T: Target>(
     let (w, h) = (scene.camera.resolution.x, scene.camera.resolution.y);
     let pixels = scene.camera.pixel_count() as f64;
     let t0 = ctx.clock.now();
-    let mut boot = bootstrap(target, ctx.seed, settings.bootstrap, settings);
+    // Under a time budget the bootstrap stops once it has taken its share of it.
+    let boot_cap = match budget {
+        Budget::Seconds(s) => s * BOOTSTRAP_TIME_SHARE,
+        _ => f64::INFINITY,
+    };
+    let mut boot = bootstrap_until(target, ctx.seed, settings.bootstrap, settings, || {
+        (ctx.clock.now() - t0).as_secs_f64() >= boot_cap
+    });
     let evidence = SplitEvidence::of(&boot);
     // The per-pixel estimate's first pass, which Split::Auto weighs against the bootstrap.
     let n_pix = (w * h) as usize;
@@ -276,7 +287,11 @@ pub fn render<T: Target>(
         ),
         (
             "mcmc_bootstrap".to_string(),
-            format!("{} x {} groups", settings.bootstrap, groups),
+            format!(
+                "{} x {} groups",
+                boot.first().map_or(0, |g| g.importance.len()),
+                groups
+            ),
         ),
         (
             "mcmc_bootstrap_seconds".to_string(),

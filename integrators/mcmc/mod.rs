@@ -45,7 +45,7 @@ const CHAIN_OPTIONS: &[Spec] = &[
         name: "bootstrap",
         kind: Kind::Int { min: 1 },
         default: DefaultValue::Int(target::BOOTSTRAP),
-        doc: "bootstrap samples (per path length for `mmlt`)",
+        doc: "bootstrap samples (per path length for `mmlt`); under `--time` it stops after the sixteenth of them that reaches 10 % of the budget",
     },
     Spec {
         name: "chains",

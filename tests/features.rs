@@ -187,18 +187,10 @@ fn every_integrator_renders_through_tent_and_gaussian_filters_alike() {
 
 /// A 4 x 2 PNG whose texels differ in every channel, written to a fresh directory; its path.
 fn gradient_png(tag: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("lodestar-{tag}-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join("gradient.png");
-    let mut enc = png::Encoder::new(std::fs::File::create(&path).unwrap(), 4, 2);
-    enc.set_color(png::ColorType::Rgb);
-    enc.set_depth(png::BitDepth::Eight);
     let texels: Vec<u8> = (0..8u8)
         .flat_map(|i| [40 + 25 * i, 220 - 20 * i, if i < 4 { 200 } else { 30 }])
         .collect();
-    let mut w = enc.write_header().unwrap();
-    w.write_image_data(&texels).unwrap();
-    path
+    crate::common::write_png(tag, "gradient.png", (4, 2), png::ColorType::Rgb, &texels)
 }
 
 /// The Cornell box with a checkerboard floor (4 x 4 squares, diffuse, its normals tilted by a

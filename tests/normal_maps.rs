@@ -158,17 +158,13 @@ fn bump_maps_tilt_the_normal_against_the_heights_slope() {
 /// A 2 x 1 grey PNG, black then white (raw values 0 and 1), in a fresh directory: a height
 /// that rises by 2 per unit of u between the two texel centres (u = 1/4 and 3/4).
 fn ramp_png() -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("lodestar-bump-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join("ramp.png");
-    let mut enc = png::Encoder::new(std::fs::File::create(&path).unwrap(), 2, 1);
-    enc.set_color(png::ColorType::Grayscale);
-    enc.set_depth(png::BitDepth::Eight);
-    enc.write_header()
-        .unwrap()
-        .write_image_data(&[0, 255])
-        .unwrap();
-    path
+    crate::common::write_png(
+        "bump",
+        "ramp.png",
+        (2, 1),
+        png::ColorType::Grayscale,
+        &[0, 255],
+    )
 }
 
 /// The scenes' bump maps: Mitsuba's `bumpmap` (its one texture by whatever name, `scale`)

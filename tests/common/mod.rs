@@ -93,3 +93,22 @@ pub fn check_sample_against_eval(
         format!("sample f {} != eval() {f} at wi {wi}", smp.f)
     });
 }
+
+/// An 8-bit PNG of `width x height` texels (`color`: grey or RGB, row-major `data`) written as
+/// `name` in a fresh directory of the temporary directory (`lodestar-{tag}-{pid}`); its path.
+pub fn write_png(
+    tag: &str,
+    name: &str,
+    (width, height): (u32, u32),
+    color: png::ColorType,
+    data: &[u8],
+) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("lodestar-{tag}-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join(name);
+    let mut enc = png::Encoder::new(std::fs::File::create(&path).unwrap(), width, height);
+    enc.set_color(color);
+    enc.set_depth(png::BitDepth::Eight);
+    enc.write_header().unwrap().write_image_data(data).unwrap();
+    path
+}

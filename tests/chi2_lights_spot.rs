@@ -290,7 +290,7 @@ fn spot_area_light_falloff_and_power() {
         let name = format!("spot area {cone}/{delta}");
         let le = |theta: f64, phi: f64| -> f64 {
             let w = dir_at(n, theta, phi);
-            let l = light.le(n, w);
+            let l = light.le(Vec3::ZERO, n, w);
             assert!(close3(l, RADIANCE * (l.x / RADIANCE.x), 1e-6, 0.0));
             l.x as f64 / RADIANCE.x as f64
         };
@@ -339,7 +339,7 @@ fn spot_area_light_falloff_and_power() {
         1e-6,
         0.0
     ));
-    assert_eq!(plain.le(n, dir_at(n, 1.5, 0.0)), RADIANCE);
+    assert_eq!(plain.le(Vec3::ZERO, n, dir_at(n, 1.5, 0.0)), RADIANCE);
 }
 
 // ------------------------------------------------------------------------------------------
@@ -576,7 +576,7 @@ fn directional_light() {
         assert!(close3(ls.wi, -direction, 0.0, 1e-6));
         assert!(ls.li == e && ls.pdf == 1.0 && ls.delta && ls.dist == f32::INFINITY);
         assert_eq!(light.pdf_li(p, ls.p, ls.n, ls.wi), 0.0);
-        assert_eq!(light.le(Vec3::ZERO, ls.wi), Vec3::ZERO);
+        assert_eq!(light.le(Vec3::ZERO, Vec3::ZERO, ls.wi), Vec3::ZERO);
     }
     // Origins: uniform on the disk of the bounding sphere's radius, centred at
     // center - radius * direction, perpendicular to the direction. In units of the radius.
@@ -665,7 +665,7 @@ fn sun_sample_li() {
                 );
                 // pdf_li and le agree with the sample, but for rounding on the cone's edge.
                 let pdf = light.pdf_li(p, ls.p, ls.n, ls.wi);
-                if pdf != ls.pdf || light.le(Vec3::ZERO, ls.wi) != RADIANCE {
+                if pdf != ls.pdf || light.le(Vec3::ZERO, Vec3::ZERO, ls.wi) != RADIANCE {
                     off_cone += 1;
                 }
                 Some(ls.wi)
@@ -773,7 +773,7 @@ fn sun_le_and_pdf_inside_and_outside_its_cone() {
             for (rel, inside) in [(0.0, true), (0.5, true), (0.99, true), (1.01, false)] {
                 let w = domain.to_dir(DVec2::new(rel * z_max, phi));
                 let (le, pdf) = (
-                    light.le(Vec3::new(0.0, 0.0, 1.0), w),
+                    light.le(Vec3::ZERO, Vec3::new(0.0, 0.0, 1.0), w),
                     light.pdf_li(Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, w),
                 );
                 if inside {
@@ -790,7 +790,7 @@ fn sun_le_and_pdf_inside_and_outside_its_cone() {
             }
             // Far off the sun, and the opposite direction.
             for w in [domain.to_dir(DVec2::new(0.5, phi)), -sun_dir()] {
-                assert_eq!(light.le(Vec3::ZERO, w), Vec3::ZERO);
+                assert_eq!(light.le(Vec3::ZERO, Vec3::ZERO, w), Vec3::ZERO);
                 assert_eq!(light.pdf_li(Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, w), 0.0);
             }
         }

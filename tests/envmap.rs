@@ -118,9 +118,10 @@ fn envmap_sampling_matches_its_densities() {
             fails.check(close(ls.pdf as f64, pdf as f64, 1e-3, 0.0), || {
                 format!("pdf {} != pdf_li {pdf} at {}", ls.pdf, ls.wi)
             });
-            fails.check(ls.li == light.le(Vec3::ZERO, ls.wi) && !ls.delta, || {
-                format!("{ls:?}")
-            });
+            fails.check(
+                ls.li == light.le(Vec3::ZERO, Vec3::ZERO, ls.wi) && !ls.delta,
+                || format!("{ls:?}"),
+            );
             Some(ls.wi)
         },
         |w| light.pdf_li(p, Vec3::ZERO, Vec3::ZERO, w) as f64,

@@ -167,3 +167,77 @@ fn a_projected_spot_texture_renders_alike_in_every_integrator() {
         "{e}"
     );
 }
+
+/// An area light whose radiance is a texture over its surface (Mitsuba's area `radiance`
+/// texture; TOML's `emission_texture`): the Cornell box's ceiling light a checkerboard of
+/// 2 x 2 squares (the quad's texture coordinates from `origin` along `edge_u` and `edge_v`).
+/// Next-event estimation (`sample_li`), light subpaths (`sample_le`) and emitters hit by
+/// chance (`le`) all see the texture: bdpt, vcm and mmlt render pt's image tile by tile, the
+/// light's own pixels included. Control: the untextured light changes pt's image. The
+/// light's samples carry the texture at their points (checked against the squares' layout),
+/// and its power is scaled by the texture's mean.
+#[test]
+fn a_textured_area_light_renders_alike_in_every_integrator() {
+    use lodestar::light::Light;
+    let light = |texture: &str| {
+        let text = lodestar::scene::CORNELL_BOX_TOML
+            .replace("resolution = [256, 256]", "resolution = [24, 24]")
+            .replace(
+                "emission = [17, 12, 4]",
+                &format!("emission = [17, 12, 4]\n{texture}"),
+            );
+        util::scene(&text)
+    };
+    let checker = "emission_texture = { type = \"checkerboard\", color0 = [1, 1, 1], \
+                   color1 = [0.2, 0.5, 0.1], scale = [2, 2] }";
+    let scene = light(checker);
+    // The samples, and the power.
+    let l = scene
+        .lights
+        .iter()
+        .find_map(|l| match l {
+            Light::Area(a) if a.texture.is_some() => Some(a),
+            _ => None,
+        })
+        .expect("the textured light");
+    let expected = |p: glam::Vec3| {
+        // u along edge_u (x from -0.25), v along edge_v (z from -0.2); 2 x 2 squares.
+        let (u, v) = ((p.x + 0.25) / 0.5 * 2.0, (p.z + 0.2) / 0.4 * 2.0);
+        let same = (u.fract() > 0.5) == (v.fract() > 0.5);
+        let t = if same {
+            glam::Vec3::ONE
+        } else {
+            glam::Vec3::new(0.2, 0.5, 0.1)
+        };
+        glam::Vec3::new(17.0, 12.0, 4.0) * t
+    };
+    for k in 0..64 {
+        let u = glam::Vec2::new((k % 8) as f32 / 8.0 + 0.06, (k / 8) as f32 / 8.0 + 0.03);
+        let ls = l.sample_li(glam::Vec3::new(0.1, 0.0, 0.05), u).unwrap();
+        assert!(
+            (ls.li - expected(ls.p)).abs().max_element() < 1e-4,
+            "{} at {}",
+            ls.li,
+            ls.p
+        );
+        let e = l.sample_le(u, glam::Vec2::new(0.3, 0.6)).unwrap();
+        assert!(
+            (e.le - expected(e.p)).abs().max_element() < 1e-4,
+            "{} at {}",
+            e.le,
+            e.p
+        );
+    }
+    let plain = light("");
+    let power = |s: &lodestar::scene::Scene| s.lights.iter().map(|l| l.power()).sum::<f32>();
+    let mean = lodestar::math::luminance(glam::Vec3::new(0.6, 0.75, 0.55));
+    assert!((power(&scene) / power(&plain) - mean).abs() < 1e-4);
+    // Every integrator.
+    let pt = util::seeded_renders(&scene, "pt", 6, &[], 64, 5, 10);
+    for (name, spp) in [("bdpt", 32), ("vcm", 32), ("mmlt", 128)] {
+        let other = util::seeded_renders(&scene, name, 6, &[], spp, 5, 20);
+        util::assert_same_image(&pt, &other, 4, &format!("{name} vs pt, textured light"));
+    }
+    let plain = util::seeded_renders(&plain, "pt", 6, &[], 64, 5, 30);
+    assert!(util::differs(&pt, &plain, 2), "the texture changes nothing");
+}

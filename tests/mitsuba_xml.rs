@@ -628,6 +628,34 @@ fn spot_projects_its_texture_in_the_transforms_frame() {
     assert!((at(0.3, -0.05) - 0.1).abs() < 1e-6, "{}", at(0.3, -0.05));
 }
 
+/// An area emitter's `radiance` as a texture (Mitsuba 3 allows it): the light's radiance is
+/// the texture at the point (a checkerboard's colours as its colour lookup has them); a
+/// textured emitter on a mesh of more triangles than lodestar looks through is an error
+/// naming the line.
+#[test]
+fn area_emitters_take_a_textured_radiance() {
+    let s = xml(&wrap(
+        r#"<shape type="rectangle"><emitter type="area"><texture name="radiance" type="checkerboard">
+        <rgb name="color0" value="4"/><rgb name="color1" value="1"/></texture></emitter></shape>"#,
+    ))
+    .unwrap();
+    let lodestar::light::Light::Area(l) = &s.lights[0] else {
+        panic!("not an area light")
+    };
+    assert!(l.texture.is_some());
+    // The rectangle's (u, v) = ((x + 1) / 2, (y + 1) / 2), facing +z.
+    let le = |x: f32, y: f32| l.le_at(Vec3::new(x, y, 0.0), Vec3::Z, Vec3::Z).x;
+    assert_eq!(le(-0.5, -0.5), 4.0);
+    assert_eq!(le(0.5, -0.5), 1.0);
+    let e = xml_err(&wrap(
+        r#"<shape type="disk"><emitter type="area"><texture name="radiance" type="checkerboard"/></emitter></shape>"#,
+    ));
+    assert!(
+        e.contains("a textured emitter must be a sphere or a mesh of at most"),
+        "{e}"
+    );
+}
+
 /// `$name` in a plugin's type: the tutorial scenes' `<integrator type="$integrator">`, with its
 /// `<default>` and overridden by a definition.
 #[test]

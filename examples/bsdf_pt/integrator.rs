@@ -124,7 +124,7 @@ impl BsdfPt {
         match v.kind {
             Kind::Light { .. } => {
                 for &light in &scene.infinite_lights {
-                    let le = scene.lights[light].le(glam::Vec3::ZERO, v.n);
+                    let le = scene.lights[light].le(glam::Vec3::ZERO, glam::Vec3::ZERO, v.n);
                     out.push((
                         Vertex {
                             kind: Kind::Light { light },
@@ -137,7 +137,7 @@ impl BsdfPt {
             Kind::Surface { info, .. } => {
                 if let Some(light) = info.light {
                     let light = light as usize;
-                    let le = scene.lights[light].le(v.n, (prev.p - v.p).normalize());
+                    let le = scene.lights[light].le(v.p, v.n, (prev.p - v.p).normalize());
                     out.push((
                         Vertex {
                             kind: Kind::Light { light },

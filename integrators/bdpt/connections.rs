@@ -36,7 +36,7 @@ impl<'a> Tracer<'a> {
                 return None;
             };
             ConnectionEnd {
-                f: emission(&scene.lights[light], y.n, to_cam) * y.abs_cos_to(cam.p),
+                f: emission(&scene.lights[light], y.p, y.n, to_cam) * y.abs_cos_to(cam.p),
                 pdf_other: 0.0,
                 pdf_prev: 0.0,
             }

@@ -355,7 +355,7 @@ impl<'a> Tracer<'a> {
             Kind::Light { .. } => {
                 // Escaped: every light at infinity, each with its own densities.
                 for &li in &scene.infinite_lights {
-                    let le = scene.lights[li].le(Vec3::ZERO, y.n);
+                    let le = scene.lights[li].le(Vec3::ZERO, Vec3::ZERO, y.n);
                     add(
                         self,
                         li,
@@ -370,7 +370,7 @@ impl<'a> Tracer<'a> {
             Kind::Surface { info, .. } => {
                 if let Some(li) = info.light {
                     let li = li as usize;
-                    let le = scene.lights[li].le(y.n, (prev - y.p).normalize());
+                    let le = scene.lights[li].le(y.p, y.n, (prev - y.p).normalize());
                     add(
                         self,
                         li,

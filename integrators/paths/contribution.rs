@@ -88,9 +88,9 @@ pub fn contribution(scene: &Scene, y: &[Vertex], known_visible: u64) -> DVec3 {
         }
     }
     let le = if lt.is_infinite() {
-        lt.le(Vec3::ZERO, y[k].n)
+        lt.le(Vec3::ZERO, Vec3::ZERO, y[k].n)
     } else {
-        lt.le(y[k].n, (y[k - 1].p - y[k].p).normalize())
+        lt.le(y[k].p, y[k].n, (y[k - 1].p - y[k].p).normalize())
     };
     f * le.as_dvec3()
 }

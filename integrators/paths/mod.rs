@@ -361,12 +361,13 @@ pub fn path_vertex(v: &Vertex) -> crate::path::Vertex {
     }
 }
 
-/// Emitted radiance (area lights; intensity for point and spot lights) towards `w`.
-pub fn emission(light: &Light, n: Vec3, w: Vec3) -> Spectrum {
+/// Emitted radiance (area lights, at point `p` of normal `n`; intensity for point and spot
+/// lights) towards `w`.
+pub fn emission(light: &Light, p: Vec3, n: Vec3, w: Vec3) -> Spectrum {
     match light {
         Light::Point(p) => p.intensity,
         Light::Spot(s) => s.intensity_towards(w),
-        other => other.le(n, w),
+        other => other.le(p, n, w),
     }
 }
 

@@ -420,7 +420,7 @@ impl PathTracer {
     #[inline(always)]
     fn escape(&self, scene: &Scene, path: &mut PathState, extras: &mut Extras) {
         for &li in &scene.infinite_lights {
-            let le = scene.lights[li].le(Vec3::ZERO, path.ray.d);
+            let le = scene.lights[li].le(Vec3::ZERO, Vec3::ZERO, path.ray.d);
             if le != Spectrum::ZERO {
                 self.emission(scene, path, extras, li, le, EmitterAt::Infinity);
             }
@@ -437,7 +437,7 @@ impl PathTracer {
         li: usize,
         hit: &crate::geometry::Hit,
     ) {
-        let le = scene.lights[li].le(hit.ng, -path.ray.d);
+        let le = scene.lights[li].le(hit.p, hit.ng, -path.ray.d);
         if le != Spectrum::ZERO {
             let at = EmitterAt::Surface {
                 p: hit.p,

@@ -201,7 +201,7 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
     ) -> Spectrum {
         let scene = self.scene;
         let l = &scene.lights[li];
-        let le = l.le(v.n, v.wo);
+        let le = l.le(v.p, v.n, v.wo);
         if le == Spectrum::ZERO {
             return Spectrum::ZERO;
         }
@@ -247,7 +247,7 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
         let scene = self.scene;
         let mut sum = Spectrum::ZERO;
         for &li in &scene.infinite_lights {
-            let le = scene.lights[li].le(Vec3::ZERO, dir);
+            let le = scene.lights[li].le(Vec3::ZERO, Vec3::ZERO, dir);
             if le == Spectrum::ZERO {
                 continue;
             }

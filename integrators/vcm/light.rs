@@ -435,7 +435,7 @@ impl<'a> LightTracer<'a, '_> {
         } else {
             e.n.dot(cs.wi).abs()
         };
-        let le = emission(l, e.n, cs.wi) * cos0;
+        let le = emission(l, e.p, e.n, cs.wi) * cos0;
         if le == Spectrum::ZERO {
             return;
         }

@@ -1,4 +1,5 @@
-//! Area lights: emissive shapes with constant radiance on their front side. Meshes are
+//! Area lights: emissive shapes with radiance on their front side, constant or multiplied by
+//! a texture over the surface ([`AreaLight::with_texture`]; sampling stays uniform). Meshes are
 //! sampled uniformly by area (a parallelogram, such as a quad, directly: `MeshSampler`);
 //! spheres by the cone of directions they subtend (uniform area sampling from inside).
 //!
@@ -38,7 +39,14 @@ pub struct AreaLight {
     pub geometry: AreaShape,
     /// Angular profile around the geometric normal; `None` for a plain (Lambertian) emitter.
     pub spot: Option<SpotProfile>,
+    /// A texture multiplying the radiance over the surface (Mitsuba's textured `radiance`),
+    /// looked up at the texture coordinates of the point ([`AreaLight::uv_at`]).
+    pub texture: Option<std::sync::Arc<crate::texture::Texture>>,
 }
+
+/// Largest mesh a textured area light may be: its texture coordinates at a point are found by
+/// testing every triangle.
+pub const TEXTURED_MESH_MAX_TRIANGLES: usize = 64;
 
 impl AreaLight {
     /// A plain (Lambertian) emitter of shape `shape`.
@@ -48,6 +56,60 @@ impl AreaLight {
             radiance,
             geometry,
             spot: None,
+            texture: None,
+        }
+    }
+
+    /// This light with its radiance multiplied by `texture` over the surface; `None` for a
+    /// mesh of more than [`TEXTURED_MESH_MAX_TRIANGLES`] triangles.
+    pub fn with_texture(self, texture: std::sync::Arc<crate::texture::Texture>) -> Option<Self> {
+        if let AreaShape::Mesh { mesh, .. } = &self.geometry
+            && mesh.indices.len() > TEXTURED_MESH_MAX_TRIANGLES
+        {
+            return None;
+        }
+        Some(AreaLight {
+            texture: Some(texture),
+            ..self
+        })
+    }
+
+    /// The texture coordinates of point `p` of the surface: a sphere's (φ / 2π, θ / π), or
+    /// those of the mesh triangle whose plane and edges lie nearest `p`.
+    pub fn uv_at(&self, p: Vec3) -> Vec2 {
+        match &self.geometry {
+            AreaShape::Sphere(s) => s.tex_coords(p),
+            AreaShape::Mesh { mesh, .. } => {
+                let mut best = (f32::NEG_INFINITY, Vec2::ZERO);
+                for i in 0..mesh.indices.len() {
+                    let [a, b, c] = mesh.triangle(i);
+                    let (e1, e2, d) = (b - a, c - a, p - a);
+                    let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+                    let det = d11 * d22 - d12 * d12;
+                    if det <= 0.0 {
+                        continue;
+                    }
+                    let (d1, d2) = (d.dot(e1), d.dot(e2));
+                    let bary = Vec2::new(d22 * d1 - d12 * d2, d11 * d2 - d12 * d1) / det;
+                    // How far inside the triangle (negative: outside by that much).
+                    let inside = bary.x.min(bary.y).min(1.0 - bary.x - bary.y);
+                    if inside > best.0 {
+                        best = (inside, mesh.tex_coords(i, bary));
+                    }
+                }
+                best.1
+            }
+        }
+    }
+
+    /// Radiance leaving point `p` (normal `n`) along `w`: [`Self::le`] times the texture at
+    /// `p`.
+    #[inline]
+    pub fn le_at(&self, p: Vec3, n: Vec3, w: Vec3) -> Spectrum {
+        let le = self.le(n, w);
+        match &self.texture {
+            Some(t) if le != Spectrum::ZERO => le * t.eval(self.uv_at(p)),
+            _ => le,
         }
     }
 
@@ -82,17 +144,23 @@ impl AreaLight {
         }
     }
 
-    /// `area * luminance(radiance) * ∫ profile(theta) cos(theta) dω` (`pi` without a profile).
+    /// `area * luminance(radiance) * ∫ profile(theta) cos(theta) dω` (`pi` without a profile),
+    /// times the texture's mean luminance (over its texture coordinates: the light sampler's
+    /// weight, not exact for a texture the surface does not cover evenly).
     pub fn power(&self) -> f32 {
-        match &self.spot {
-            None => PI * self.area() * luminance(self.radiance),
-            Some(s) => {
-                (self.area() as f64 * luminance(self.radiance) as f64 * s.cosine_integral()) as f32
+        let texture = self.texture.as_ref().map_or(1.0, |t| luminance(t.mean()));
+        texture
+            * match &self.spot {
+                None => PI * self.area() * luminance(self.radiance),
+                Some(s) => {
+                    (self.area() as f64 * luminance(self.radiance) as f64 * s.cosine_integral())
+                        as f32
+                }
             }
-        }
     }
 
-    /// Radiance leaving a point of normal `n` along `w` (zero on the back side).
+    /// Radiance leaving a point of normal `n` along `w` (zero on the back side), before any
+    /// texture ([`Self::le_at`] includes it).
     pub fn le(&self, n: Vec3, w: Vec3) -> Spectrum {
         if n.dot(w) > 0.0 {
             match &self.spot {
@@ -131,9 +199,9 @@ impl AreaLight {
         let wi = v / dist;
         // Without a spot profile the sample faces p (checked above for meshes): `le` is the
         // radiance.
-        let li = match (&self.geometry, &self.spot) {
-            (AreaShape::Mesh { .. }, None) => self.radiance,
-            _ => self.le(n_l, -wi),
+        let li = match (&self.geometry, &self.spot, &self.texture) {
+            (AreaShape::Mesh { .. }, None, None) => self.radiance,
+            _ => self.le_at(p_l, n_l, -wi),
         };
         if li == Spectrum::ZERO {
             return None;
@@ -186,11 +254,15 @@ impl AreaLight {
                 return None;
             }
             let dir = Frame::from_z(n).to_world(local);
+            let le = match &self.texture {
+                None => self.radiance,
+                Some(t) => self.radiance * t.eval(self.uv_at(p)),
+            };
             return Some(EmissionSample {
                 p,
                 n,
                 dir,
-                le: self.radiance,
+                le,
                 pdf_pos,
                 pdf_dir,
             });
@@ -200,7 +272,7 @@ impl AreaLight {
         let d = warp::square_to_disk_concentric(u_dir) * sin2.sqrt();
         let cos = (1.0 - d.length_squared()).max(0.0).sqrt();
         let dir = Frame::from_z(n).to_world(Vec3::new(d.x, d.y, cos));
-        let le = self.le(n, dir);
+        let le = self.le_at(p, n, dir);
         if cos <= 0.0 || le == Spectrum::ZERO {
             return None; // only on the cone's edge
         }

@@ -28,7 +28,7 @@ mod point;
 mod spot;
 mod sun;
 
-pub use area::{AreaLight, AreaShape};
+pub use area::{AreaLight, AreaShape, TEXTURED_MESH_MAX_TRIANGLES};
 pub use directional::DirectionalLight;
 pub use environment::EnvironmentLight;
 pub use envmap::EnvMapLight;
@@ -173,8 +173,9 @@ impl Light {
         }
     }
 
-    /// Radiance leaving the light at a point with normal `n` in direction `w` (from the light
-    /// towards the viewer, e.g. `-ray.d` for a ray that hit an area light).
+    /// Radiance leaving the light at point `p` with normal `n` in direction `w` (from the light
+    /// towards the viewer, e.g. `-ray.d` for a ray that hit an area light); `p` matters only to
+    /// a textured area light.
     ///
     /// **Lights at infinity** (environment, sun; any `n`): `w` is the direction of the ray
     /// that escapes the scene, pointing from the scene towards the sky (`ray.d` of the escaped
@@ -183,9 +184,9 @@ impl Light {
     /// seen by rays with `w` inside its cone around `s`.
     ///
     /// Zero for delta lights (point, spot, directional), which no ray can hit.
-    pub fn le(&self, n: Vec3, w: Vec3) -> Spectrum {
+    pub fn le(&self, p: Vec3, n: Vec3, w: Vec3) -> Spectrum {
         match self {
-            Light::Area(l) => l.le(n, w),
+            Light::Area(l) => l.le_at(p, n, w),
             Light::Point(_) | Light::Spot(_) | Light::Directional(_) => Spectrum::ZERO,
             Light::Environment(l) => l.radiance,
             Light::EnvMap(l) => l.le(w),

@@ -41,7 +41,8 @@ impl Scene {
                 !sp.is_null()
                     && sp.light().is_some_and(|l| {
                         matches!(self.lights[l], crate::light::Light::Area(_))
-                            && self.lights[l].le(sp.hit.ng, -ray.d) != crate::math::Spectrum::ZERO
+                            && self.lights[l].le(sp.hit.p, sp.hit.ng, -ray.d)
+                                != crate::math::Spectrum::ZERO
                     })
             })
         };

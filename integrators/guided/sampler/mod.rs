@@ -367,7 +367,7 @@ pub fn sample_path_into(
                 light,
                 reach: Reach::Infinite,
             } = node
-                && scene.lights[light as usize].le(Vec3::ZERO, dir) == Vec3::ZERO
+                && scene.lights[light as usize].le(Vec3::ZERO, Vec3::ZERO, dir) == Vec3::ZERO
             {
                 return Err(Failure::Light);
             }
@@ -391,7 +391,7 @@ pub fn sample_path_into(
                     Some(sp),
                 ) => {
                     if sp.light() != Some(light as usize)
-                        || scene.lights[light as usize].le(sp.hit.ng, -dir) == Vec3::ZERO
+                        || scene.lights[light as usize].le(sp.hit.p, sp.hit.ng, -dir) == Vec3::ZERO
                     {
                         return Err(Failure::Light);
                     }

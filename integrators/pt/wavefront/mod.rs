@@ -14,7 +14,7 @@
 //!
 //! It applies where every vertex is one the lanes know ([`supports`]): surfaces of diffuse
 //! (plain or textured: the albedo is looked up path by path), smooth conductor (mirror),
-//! smooth dielectric or black materials (checkerboards and one-sided materials included), any lights, no media, the `mis` strategy, no `--check`;
+//! smooth dielectric or black materials (checkerboards and one-sided materials included), any lights but textured area lights, no normal maps, no media, the `mis` strategy, no `--check`;
 //! and on x86-64 CPUs with AVX-512. `pt -O batch=auto` (the default) takes it there;
 //! elsewhere pt is batched or traced one path at a time as `batch.rs` says.
 
@@ -65,7 +65,13 @@ pub fn supports(pt: &PathTracer, scene: &Scene) -> bool {
                 | Bsdf::Dielectric { .. }
         )
     });
+    // The lanes take an area light's radiance as constant over its surface.
+    let plain_lights = scene
+        .lights
+        .iter()
+        .all(|l| !matches!(l, crate::light::Light::Area(a) if a.texture.is_some()));
     materials
+        && plain_lights
         && !scene.features.normal_maps
         && !scene.features.media
         && !scene.shape_info.iter().any(|s| s.null)

@@ -2,6 +2,7 @@
 //! accelerator and the features every integrator asks about, with cross-checks between them.
 
 use super::*;
+use crate::light::TEXTURED_MESH_MAX_TRIANGLES;
 use crate::scene::Checker;
 
 impl Builder<'_> {
@@ -137,9 +138,10 @@ impl Builder<'_> {
                     );
                 }
             }
-            let emission = match &d.emission {
-                Some(e) => Some((self.src.non_negative3(e, "emission")?, e.span())),
-                None => None,
+            let emission = match (&d.emission, &d.emission_texture) {
+                (Some(e), _) => Some((self.src.non_negative3(e, "emission")?, e.span())),
+                (None, Some(t)) => Some((Vec3::ONE, t.span())),
+                (None, None) => None,
             };
             // Media on either side; an unnamed side is the world medium.
             let interface = match (&d.interior, &d.exterior) {
@@ -202,6 +204,26 @@ impl Builder<'_> {
                             AreaLight::with_spot(shape_id, le, area, profile)
                         } else {
                             AreaLight::new(shape_id, le, area)
+                        };
+                        let light = match &d.emission_texture {
+                            None => light,
+                            Some(t) => {
+                                let texture = self.texture(t, false)?;
+                                if texture.range().0 < 0.0 {
+                                    return src.err(
+                                        t.span(),
+                                        format!(
+                                            "{label}: 'emission_texture' holds negative values"
+                                        ),
+                                    );
+                                }
+                                match light.with_texture(std::sync::Arc::new(texture)) {
+                                    Some(l) => l,
+                                    None => {
+                                        return src.err(t.span(), format!("{label}: a textured emitter must be a sphere or a mesh of at most {TEXTURED_MESH_MAX_TRIANGLES} triangles"));
+                                    }
+                                }
+                            }
                         };
                         let power = light.power();
                         if !power.is_finite() {

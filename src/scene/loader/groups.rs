@@ -55,6 +55,7 @@ impl Builder<'_> {
             let mut keys = vec![
                 ("material", at(&d.material)),
                 ("emission", at(&d.emission)),
+                ("emission_texture", at(&d.emission_texture)),
                 ("interior", at(&d.interior)),
                 ("exterior", at(&d.exterior)),
                 ("cone_angle", at(&d.cone_angle)),

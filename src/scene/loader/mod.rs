@@ -219,6 +219,9 @@ struct ShapeDesc {
     name: Option<String>,
     material: Option<Spanned<String>>,
     emission: Option<V3>,
+    /// The emitted radiance multiplied over the surface by a texture (`emission` then
+    /// defaults to [1, 1, 1]; `light::AreaLight::texture`).
+    emission_texture: Option<Spanned<materials::TextureDesc>>,
     transform: Option<Spanned<TransformDesc>>,
     origin: Option<V3>,
     edge_u: Option<V3>,

@@ -105,11 +105,8 @@ impl Builder<'_> {
                 format!("'tiles' must be two integers in [1, 1024], got [{nu}, {nv}]"),
             );
         }
-        if let Some(e) = &d.emission {
-            return src.err(
-                e.span(),
-                "a tiled quad cannot emit ('emission' with 'tiles')",
-            );
+        if let Some(at) = at(&d.emission).or(at(&d.emission_texture)) {
+            return src.err(at, "a tiled quad cannot emit ('emission' with 'tiles')");
         }
         if d.material.is_none() {
             return src.err(

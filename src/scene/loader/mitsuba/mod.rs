@@ -53,7 +53,7 @@
 //!   `shape_index` 0, `serialized.rs`), `rectangle`, `cube`,
 //!   `disk` (as a fan of 1024 triangles: 6e-6 less area than the disk), `sphere` (`center`,
 //!   `radius`), each with `to_world`, a BSDF (default: `diffuse` 0.5, black for emitters), an
-//!   `area` emitter (`radiance`; nested, or a `<ref>` to one declared at the top level with
+//!   `area` emitter (`radiance`, a colour or a texture: `light::AreaLight::texture`; nested, or a `<ref>` to one declared at the top level with
 //!   an id) and `interior`/`exterior` media. A mesh without normals gets
 //!   Mitsuba's angle-weighted vertex normals unless `face_normals` is true. `shapegroup`
 //!   (its shapes, no emitters, no nesting) and `instance` (a `<ref>` to one, `to_world`):

@@ -3,7 +3,7 @@
 
 use super::super::{ShapeDesc, TransformDesc};
 use super::Xml;
-use super::materials::{bsdf, material_desc, medium};
+use super::materials::{bsdf, material_desc, medium, texture_desc};
 use super::out::{Out, kind, s};
 use crate::error::Result;
 use glam::Mat4;
@@ -19,6 +19,7 @@ pub(super) fn shape_desc(n: Node, kind: &str) -> ShapeDesc {
         name: None,
         material: None,
         emission: None,
+        emission_texture: None,
         transform: None,
         origin: None,
         edge_u: None,
@@ -185,12 +186,17 @@ pub(super) fn shape(
             );
         }
         let mut ep = xml.props(e)?;
-        let (at, radiance) = match ep.color(xml, "radiance")? {
-            Some(r) => r,
-            None => return xml.err(e, "the area emitter needs 'radiance'"),
-        };
+        if let Some(t) = ep.texture(xml, "radiance")? {
+            d.emission_texture = Some(s(t, texture_desc(xml, t)?));
+            d.emission = Some(s(t, [1.0; 3]));
+        } else {
+            let (at, radiance) = match ep.color(xml, "radiance")? {
+                Some(r) => r,
+                None => return xml.err(e, "the area emitter needs 'radiance'"),
+            };
+            d.emission = Some(s(at, radiance.to_array()));
+        }
         ep.finish(xml)?;
-        d.emission = Some(s(at, radiance.to_array()));
     }
     // Media.
     for side in ["interior", "exterior"] {

@@ -2,7 +2,8 @@
 //!
 //! `scenes/references/public/mitsuba/*.tiles` hold Mitsuba 3's renders of the scenes in
 //! `scenes/public/` (and of `scenes/mitsuba/shading.xml`: a bump map, a checkerboard
-//! roughness and opacity, a projected spot texture) reduced to tile statistics (`benches/reference/mitsuba_tiles.py`: the mean
+//! roughness and opacity, a projected spot texture, a textured area light) reduced to tile
+//! statistics (`benches/reference/mitsuba_tiles.py`: the mean
 //! over many independent renders of every tile and of the whole image, with its standard
 //! error). Each is rendered here from the same file, at the same reduced film size, by pt,
 //! bdpt and vcm in independently seeded renders, and compared per tile and channel by Welch's

@@ -760,8 +760,10 @@ fn environment_sample_le() {
 // Light selection
 // ------------------------------------------------------------------------------------------
 
+/// Lights are picked by power within two groups, the lights at infinity taking `n / (n + 1)`
+/// together (`common::light_selection_probs`): the pmf and a chi-square of the choices.
 #[test]
-fn light_sampler_picks_lights_in_proportion_to_power() {
+fn light_sampler_picks_lights_by_power_within_their_group() {
     let (quad_mesh, ..) = quad();
     let lights = vec![
         mesh_light(&quad_mesh, RADIANCE),
@@ -790,8 +792,8 @@ fn light_sampler_picks_lights_in_proportion_to_power() {
         4.0 * PI * PI * 25.0 * lum(Vec3::splat(0.02)),
         PI * 22.0 * lum(Vec3::new(0.1, 0.2, 0.3)),
     ];
-    let total: f64 = powers.iter().sum();
-    let probs: Vec<f64> = powers.iter().map(|p| p / total).collect();
+    let infinite: Vec<bool> = lights.iter().map(|l| l.is_infinite()).collect();
+    let probs = crate::common::light_selection_probs(&powers, &infinite);
     for (l, &p) in lights.iter().zip(&powers) {
         assert!(
             close(l.power() as f64, p, 1e-5, 0.0),

@@ -946,8 +946,8 @@ fn light_sampler_includes_the_new_lights() {
             l.power()
         );
     }
-    let total: f64 = powers.iter().sum();
-    let probs: Vec<f64> = powers.iter().map(|p| p / total).collect();
+    let infinite: Vec<bool> = lights.iter().map(|l| l.is_infinite()).collect();
+    let probs = crate::common::light_selection_probs(&powers, &infinite);
     let sampler = LightSampler::new(&lights);
     for (i, &p) in probs.iter().enumerate() {
         assert!(

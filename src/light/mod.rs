@@ -225,7 +225,12 @@ impl Light {
     }
 }
 
-/// Chooses a light in proportion to its power ([`Light::power`], every kind of light). The
+/// Chooses a light: the lights at infinity together with probability `n / (n + 1)` for `n`
+/// of them (pbrt-v4's share), the others together with the rest (all of it without lights at
+/// infinity), each group's share split in proportion to power ([`Light::power`]). A light at
+/// infinity's power is its radiance across the whole scene's bounding disc, which next to a
+/// small lamp would leave the lamp almost no samples (an environment of radiance 0.1 over a
+/// 10 m floor against a spot: 96 % and 4 %), whatever part of the scene each lights. The
 /// power of lights at infinity depends on the scene bounds: build the sampler after
 /// [`Light::set_scene_bounds`].
 #[derive(Debug, Clone)]
@@ -234,15 +239,43 @@ pub struct LightSampler {
 }
 
 impl LightSampler {
-    /// The sampler over `lights`, each weighted by its [`Light::power`].
+    /// The sampler over `lights` (see [`LightSampler`]).
     pub fn new(lights: &[Light]) -> LightSampler {
         if lights.is_empty() {
             return LightSampler { distribution: None };
         }
-        let powers: Vec<f32> = lights.iter().map(|l| l.power()).collect();
         LightSampler {
-            distribution: Some(Distribution1D::new(&powers)),
+            distribution: Some(Distribution1D::new(&Self::weights(lights))),
         }
+    }
+
+    /// The selection weights of `lights` (summing to 1 unless every power is 0).
+    pub fn weights(lights: &[Light]) -> Vec<f32> {
+        let n_inf = lights.iter().filter(|l| l.is_infinite()).count();
+        let share = |infinite: bool| match (n_inf, lights.len() - n_inf) {
+            (0, _) | (_, 0) => 1.0,
+            (n, _) if infinite => n as f64 / (n as f64 + 1.0),
+            (n, _) => 1.0 / (n as f64 + 1.0),
+        };
+        let total = |infinite: bool| {
+            lights
+                .iter()
+                .filter(|l| l.is_infinite() == infinite)
+                .map(|l| l.power() as f64)
+                .sum::<f64>()
+        };
+        let (t_inf, t_fin) = (total(true), total(false));
+        lights
+            .iter()
+            .map(|l| {
+                let (inf, t) = (l.is_infinite(), if l.is_infinite() { t_inf } else { t_fin });
+                if t > 0.0 {
+                    (share(inf) * l.power() as f64 / t) as f32
+                } else {
+                    0.0
+                }
+            })
+            .collect()
     }
 
     /// (light index, probability), or `None` without lights.

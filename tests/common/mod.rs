@@ -112,3 +112,33 @@ pub fn write_png(
     enc.write_header().unwrap().write_image_data(data).unwrap();
     path
 }
+
+/// The light-selection probabilities `LightSampler` should give lights of these powers, by
+/// its rule written out: the lights at infinity together `n / (n + 1)` for `n` of them when
+/// other lights exist (else everything), the others the rest, each group by power.
+pub fn light_selection_probs(powers: &[f64], infinite: &[bool]) -> Vec<f64> {
+    let n_inf = infinite.iter().filter(|&&i| i).count() as f64;
+    let n_fin = infinite.len() as f64 - n_inf;
+    let total = |inf: bool| -> f64 {
+        powers
+            .iter()
+            .zip(infinite)
+            .filter(|(_, i)| **i == inf)
+            .map(|(p, _)| p)
+            .sum()
+    };
+    let share = |inf: bool| {
+        if n_inf == 0.0 || n_fin == 0.0 {
+            1.0
+        } else if inf {
+            n_inf / (n_inf + 1.0)
+        } else {
+            1.0 / (n_inf + 1.0)
+        }
+    };
+    powers
+        .iter()
+        .zip(infinite)
+        .map(|(p, &i)| share(i) * p / total(i))
+        .collect()
+}

@@ -84,24 +84,33 @@ impl Bitmap {
         }
     }
 
+    /// The texel at column `x`, row `y`, brought into the image by the wrap mode.
+    #[inline]
+    fn texel(&self, x: i64, y: i64) -> Spectrum {
+        let (w, h) = (self.width as i64, self.height as i64);
+        self.texels[self.wrap.texel(y, h) * self.width as usize + self.wrap.texel(x, w)]
+    }
+
+    /// The bilinear cell of image coordinates `uv`: the texel whose centre lies at or before
+    /// `uv` in both axes, and `uv`'s fractional position towards the next centres.
+    #[inline]
+    fn bilinear_cell(&self, uv: Vec2) -> (i64, i64, Vec2) {
+        let p = uv * Vec2::new(self.width as f32, self.height as f32) - 0.5;
+        let c = p.floor();
+        (c.x as i64, c.y as i64, p - c)
+    }
+
     /// The value at texture coordinates `uv` (image space: u right, v down, the image in
     /// [0, 1]²), as Mitsuba's `bitmap` filters it: texel centres at `(i + 1/2) / width`.
     pub fn eval(&self, uv: Vec2) -> Spectrum {
-        let (w, h) = (self.width as i64, self.height as i64);
-        let at = |x: i64, y: i64| {
-            self.texels[self.wrap.texel(y, h) * self.width as usize + self.wrap.texel(x, w)]
-        };
-        let p = uv * Vec2::new(w as f32, h as f32);
         if !self.bilinear {
-            return at(p.x.floor() as i64, p.y.floor() as i64);
+            let p = uv * Vec2::new(self.width as f32, self.height as f32);
+            return self.texel(p.x.floor() as i64, p.y.floor() as i64);
         }
-        let p = p - 0.5;
-        let (x0, y0) = (p.x.floor(), p.y.floor());
-        let (fx, fy) = (p.x - x0, p.y - y0);
-        let (x0, y0) = (x0 as i64, y0 as i64);
-        let top = at(x0, y0) * (1.0 - fx) + at(x0 + 1, y0) * fx;
-        let bottom = at(x0, y0 + 1) * (1.0 - fx) + at(x0 + 1, y0 + 1) * fx;
-        top * (1.0 - fy) + bottom * fy
+        let (x0, y0, f) = self.bilinear_cell(uv);
+        let top = self.texel(x0, y0) * (1.0 - f.x) + self.texel(x0 + 1, y0) * f.x;
+        let bottom = self.texel(x0, y0 + 1) * (1.0 - f.x) + self.texel(x0 + 1, y0 + 1) * f.x;
+        top * (1.0 - f.y) + bottom * f.y
     }
 
     /// The gradient of the texels' luminance at image coordinates `uv` (as in [`Self::eval`])
@@ -111,22 +120,14 @@ impl Bitmap {
         if !self.bilinear {
             return Vec2::ZERO;
         }
-        let (w, h) = (self.width as i64, self.height as i64);
-        let at = |x: i64, y: i64| {
-            luminance(
-                self.texels[self.wrap.texel(y, h) * self.width as usize + self.wrap.texel(x, w)],
-            )
-        };
-        let p = uv * Vec2::new(w as f32, h as f32) - 0.5;
-        let (x0, y0) = (p.x.floor(), p.y.floor());
-        let (fx, fy) = (p.x - x0, p.y - y0);
-        let (x0, y0) = (x0 as i64, y0 as i64);
+        let (x0, y0, f) = self.bilinear_cell(uv);
+        let at = |x, y| luminance(self.texel(x, y));
         let (f00, f10) = (at(x0, y0), at(x0 + 1, y0));
         let (f01, f11) = (at(x0, y0 + 1), at(x0 + 1, y0 + 1));
         // Per texel, then per unit of `uv` (a texel is 1 / width across).
-        let d_dx = (f10 - f00) * (1.0 - fy) + (f11 - f01) * fy;
-        let d_dy = (f01 - f00) * (1.0 - fx) + (f11 - f10) * fx;
-        Vec2::new(d_dx * w as f32, d_dy * h as f32)
+        let d_dx = (f10 - f00) * (1.0 - f.y) + (f11 - f01) * f.y;
+        let d_dy = (f01 - f00) * (1.0 - f.x) + (f11 - f10) * f.x;
+        Vec2::new(d_dx * self.width as f32, d_dy * self.height as f32)
     }
 
     /// Read an image file: PNG, JPEG or OpenEXR, told apart by their first bytes; 8- and

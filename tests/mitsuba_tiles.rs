@@ -26,7 +26,6 @@ use crate::util::render;
 use lodestar::film::Image;
 use lodestar::scene::Scene;
 use lodestar::scene::loader::load_mitsuba_str;
-use statrs::distribution::{ContinuousCDF, StudentsT};
 use std::path::{Path, PathBuf};
 
 fn root() -> &'static Path {
@@ -155,18 +154,14 @@ fn stat_of(values: &[[f64; 3]]) -> Stat {
     }
 }
 
-/// Welch's two-sided p-value of "`a` and `b` have the same expectation" in channel `c`, with
-/// differences below `floor` (in standard errors' units: added to both sides' in quadrature)
-/// not counted.
+/// Welch's p-value of "`a` and `b` have the same expectation" in channel `c`
+/// (`util::welch_p`), with differences below `floor` not counted (added to `b`'s standard
+/// error in quadrature).
 fn welch_p(a: &Stat, b: &Stat, c: usize, floor: f64) -> f64 {
-    let se2 = a.var[c] + b.var[c] + floor * floor;
-    let d = a.mean[c] - b.mean[c];
-    if se2 == 0.0 {
-        return if d == 0.0 { 1.0 } else { 0.0 };
-    }
-    let dof = se2 * se2 / (a.var[c].powi(2) / a.dof + b.var[c].powi(2) / b.dof).max(1e-300);
-    let t = StudentsT::new(0.0, 1.0, dof.max(1.0)).unwrap();
-    2.0 * t.cdf(-(d / se2.sqrt()).abs())
+    crate::util::welch_p(
+        (a.mean[c], a.var[c], a.dof),
+        (b.mean[c], b.var[c] + floor * floor, b.dof),
+    )
 }
 
 /// Compare lodestar's renders with the reference: Err names the worst tile when a tile or the

@@ -250,7 +250,7 @@ impl LightSampler {
     }
 
     /// The selection weights of `lights` (summing to 1 unless every power is 0).
-    pub fn weights(lights: &[Light]) -> Vec<f32> {
+    fn weights(lights: &[Light]) -> Vec<f32> {
         let n_inf = lights.iter().filter(|l| l.is_infinite()).count();
         let share = |infinite: bool| match (n_inf, lights.len() - n_inf) {
             (0, _) | (_, 0) => 1.0,

@@ -159,6 +159,22 @@ pub fn block_means(img: &Image, block: u32) -> Vec<DVec3> {
     sums.into_iter().map(|(s, n)| s / n as f64).collect()
 }
 
+/// Welch's two-sided p-value of "two estimates have the same expectation", each given as
+/// (mean, squared standard error, degrees of freedom): Student's t with the
+/// Welch-Satterthwaite degrees of freedom (at least 1). Without any error, 1 if the means are
+/// equal and 0 if not.
+pub fn welch_p((ma, va, da): (f64, f64, f64), (mb, vb, db): (f64, f64, f64)) -> f64 {
+    use statrs::distribution::{ContinuousCDF, StudentsT};
+    let se2 = va + vb;
+    if se2 == 0.0 {
+        return if ma == mb { 1.0 } else { 0.0 };
+    }
+    let t = (ma - mb) / se2.sqrt();
+    let dof = se2 * se2 / (va * va / da + vb * vb / db);
+    let st = StudentsT::new(0.0, 1.0, dof.max(1.0)).unwrap();
+    2.0 * st.cdf(-t.abs())
+}
+
 /// Assert that two sets of independently seeded renders have the same expected image, tile by
 /// tile: for every `block` x `block` tile and channel, Welch's t of the renders' tile means
 /// (pixels within one render may be correlated, as in lt and vcm whose light paths splat
@@ -167,7 +183,6 @@ pub fn block_means(img: &Image, block: u32) -> Vec<DVec3> {
 /// all tiles and channels at a family-wise false-failure rate of 1e-4. Energy moved between
 /// tiles fails here even when the whole-image mean agrees.
 pub fn assert_same_image(a: &[Image], b: &[Image], block: u32, what: &str) {
-    use statrs::distribution::{ContinuousCDF, StudentsT};
     assert!(
         a.len() >= 3 && b.len() >= 3,
         "{what}: need at least 3 renders a side"
@@ -186,15 +201,7 @@ pub fn assert_same_image(a: &[Image], b: &[Image], block: u32, what: &str) {
     for i in 0..n_tiles {
         for c in 0..3 {
             let ((ma, va, da), (mb, vb, db)) = (stats(&ta, i, c), stats(&tb, i, c));
-            let se2 = va + vb;
-            let p = if se2 == 0.0 {
-                if ma == mb { 1.0 } else { 0.0 }
-            } else {
-                let t = (ma - mb) / se2.sqrt();
-                let dof = se2 * se2 / (va * va / da + vb * vb / db);
-                let st = StudentsT::new(0.0, 1.0, dof.max(1.0)).unwrap();
-                2.0 * st.cdf(-t.abs())
-            };
+            let p = welch_p((ma, va, da), (mb, vb, db));
             if p < worst.0 {
                 worst = (p, i, c, ma, mb);
             }

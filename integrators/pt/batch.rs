@@ -65,8 +65,8 @@ pub const BATCH_OPTION: Spec = Spec {
     kind: Kind::Choice(&["auto", "wavefront", "on", "off"]),
     default: DefaultValue::Word("auto"),
     doc: "trace a row's paths together, segment by segment: `wavefront` shades them sixteen at \
-          a time in AVX-512 registers where the scene's materials and lights allow \
-          (`pt/wavefront/`), `on` traces their rays together so that misses in a large BVH \
+          a time in AVX-512 registers (scenes without media; vertices of rough, plastic, \
+          masked or normal-mapped materials by the scalar code, `pt/wavefront/`), `on` traces their rays together so that misses in a large BVH \
           overlap (`pt/batch.rs`), `auto` takes the wavefront where it applies and batches \
           where that pays; the same image bit for bit in every mode",
 };

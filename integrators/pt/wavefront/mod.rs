@@ -12,11 +12,15 @@
 //! pt's order, so the image is pt's bit for bit (test `wavefront_pt_is_pt_bit_for_bit` in
 //! `tests/pt_batch.rs`).
 //!
-//! It applies where every vertex is one the lanes know ([`supports`]): surfaces of diffuse
-//! (plain or textured: the albedo is looked up path by path), smooth conductor (mirror),
-//! smooth dielectric or black materials (checkerboards and one-sided materials included), any lights but textured area lights, no normal maps, no media, the `mis` strategy, no `--check`;
-//! and on x86-64 CPUs with AVX-512. `pt -O batch=auto` (the default) takes it there;
-//! elsewhere pt is batched or traced one path at a time as `batch.rs` says.
+//! The lanes shade surfaces of diffuse (plain or textured: the albedo is looked up path by
+//! path), smooth conductor (mirror), smooth dielectric or black materials (checkerboards and
+//! one-sided materials included) without normal maps (`shade::in_lanes`), with next-event
+//! samples of any light. A vertex on any other surface (rough and plastic BSDFs, masks,
+//! normal or bump maps, null surfaces) is advanced in the gather step by pt's own code,
+//! its shadow ray joining the round's batch, and its lane stays idle. The wavefront applies
+//! ([`supports`]) to scenes without media, with the `mis` strategy and no `--check`, on
+//! x86-64 CPUs with AVX-512. `pt -O batch=auto` (the default) takes it there; elsewhere pt is
+//! batched or traced one path at a time as `batch.rs` says.
 
 #[cfg(target_arch = "x86_64")]
 mod lanes;
@@ -29,7 +33,6 @@ mod tests;
 
 use super::round::{ROUND, Round};
 use super::{PathState, PathTracer, Strategy};
-use crate::bsdf::Bsdf;
 use crate::math::{Sampler, Spectrum};
 use crate::scene::Scene;
 use glam::Vec2;
@@ -52,31 +55,10 @@ impl Isa {
     }
 }
 
-/// Whether the wavefront can trace `scene` for `pt` (module doc): every material is one the
-/// lanes sample and every option one they follow.
+/// Whether the wavefront can trace `scene` for `pt` (module doc): no media, and options the
+/// lanes follow.
 pub fn supports(pt: &PathTracer, scene: &Scene) -> bool {
-    let materials = scene.materials.iter().all(|m| {
-        matches!(
-            m.bsdf,
-            Bsdf::Black
-                | Bsdf::Diffuse { .. }
-                | Bsdf::TexturedDiffuse { .. }
-                | Bsdf::Conductor { .. }
-                | Bsdf::Dielectric { .. }
-        )
-    });
-    // The lanes take an area light's radiance as constant over its surface.
-    let plain_lights = scene
-        .lights
-        .iter()
-        .all(|l| !matches!(l, crate::light::Light::Area(a) if a.texture.is_some()));
-    materials
-        && plain_lights
-        && !scene.features.normal_maps
-        && !scene.features.media
-        && !scene.shape_info.iter().any(|s| s.null)
-        && pt.settings.strategy == Strategy::Mis
-        && !crate::check::enabled()
+    !scene.features.media && pt.settings.strategy == Strategy::Mis && !crate::check::enabled()
 }
 
 impl PathTracer {

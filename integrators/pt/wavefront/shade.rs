@@ -27,7 +27,7 @@ use crate::integrators::pt::{Deferred, Extras, PathState, PathTracer, Scattered}
 use crate::light::Light;
 use crate::light::{AreaLight, AreaShape};
 use crate::math::{INV_PI, Sampler};
-use crate::scene::Scene;
+use crate::scene::{Material, Scene, ShapeInfo};
 
 /// The lanes of one call, filled by the gather step (lanes past the chunk's length stay at
 /// their defaults: no hit, so they do nothing).
@@ -69,6 +69,9 @@ struct Gathered {
     u_lobe: [f32; W],
     u_x: [f32; W],
     u_y: [f32; W],
+    /// The vertex was shaded by pt's scalar code in the gather step (a material the lanes
+    /// do not know, [`in_lanes`]), and whether its path goes on.
+    scalar: [Option<bool>; W],
 }
 
 /// What the lanes computed, for the scatter step.
@@ -123,7 +126,7 @@ impl PathTracer {
         owner: &mut Vec<usize>,
     ) {
         debug_assert!(paths.len() <= W && hits.len() == paths.len());
-        let g = self.gather(scene, paths, hits, samplers);
+        let g = self.gather(scene, paths, hits, samplers, base, deferred, owner);
         let s = shade(&g);
         let (l, nee_value, query_o, query_d, query_len) = (
             s.l.store(),
@@ -139,6 +142,10 @@ impl PathTracer {
             s.origin.store(),
         );
         for (k, (i, path)) in paths.iter_mut().enumerate() {
+            if let Some(goes_on) = g.scalar[k] {
+                alive.push(goes_on);
+                continue;
+            }
             if g.nee[k] {
                 deferred.push(Deferred {
                     beta: path.beta,
@@ -180,14 +187,20 @@ impl PathTracer {
 
     /// Step 1 (module doc): the lanes' inputs, and the paths' random numbers up to the
     /// roulette. Emission (of a hit emitter, or of the lights at infinity for a ray that
-    /// escaped) is added to the path here, by pt's own code: few lanes need it.
+    /// escaped) is added to the path here, by pt's own code: few lanes need it. A vertex
+    /// the lanes do not shade ([`in_lanes`]) is advanced here by pt's own code, its
+    /// next-event sample pushed to `deferred` (owned by `base + k`).
     #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
     fn gather<S: Sampler>(
         &self,
         scene: &Scene,
         paths: &mut [(usize, PathState)],
         hits: &mut [Option<Hit>],
         samplers: &mut [S],
+        base: usize,
+        deferred: &mut Vec<Deferred>,
+        owner: &mut Vec<usize>,
     ) -> Gathered {
         let mut g = Gathered::default();
         let mut no_extras = Extras {
@@ -204,6 +217,22 @@ impl PathTracer {
                 continue;
             };
             let info = &scene.shape_info[h.shape as usize];
+            let material = &scene.materials[info.material_at(h.p) as usize];
+            if !in_lanes(material, info) {
+                let sp = scene.surface_point(h, &path.ray);
+                let before = deferred.len();
+                let mut extras = Extras {
+                    rec: None,
+                    guide: None,
+                    trail: None,
+                    deferred: Some(deferred),
+                    direct: None,
+                };
+                let goes_on = self.advance(scene, path, Some(&sp), &mut samplers[*i], &mut extras);
+                owner.resize(deferred.len().max(before), base + k);
+                g.scalar[k] = Some(goes_on);
+                continue;
+            }
             if let Some(li) = info.light {
                 self.hit_emitter(scene, path, &mut no_extras, li as usize, &h);
             }
@@ -214,7 +243,6 @@ impl PathTracer {
             g.p_err.set(k, h.p_err);
             g.ng.set(k, h.ng);
             g.ns.set(k, h.ns);
-            let material = &scene.materials[info.material_at(h.p) as usize];
             let back = material.one_sided && path.ray.d.dot(h.ng) > 0.0;
             let bsdf = if back { &Bsdf::Black } else { &material.bsdf };
             match *bsdf {
@@ -248,9 +276,13 @@ impl PathTracer {
                 if let Some((light, pmf)) = scene.light_sampler.sample(u_light) {
                     g.pmf_l[k] = pmf;
                     match &scene.lights[light] {
-                        Light::Area(a @ AreaLight { spot: None, .. })
-                            if let AreaShape::Mesh { mesh, sampler } = &a.geometry =>
-                        {
+                        Light::Area(
+                            a @ AreaLight {
+                                spot: None,
+                                texture: None,
+                                ..
+                            },
+                        ) if let AreaShape::Mesh { mesh, sampler } = &a.geometry => {
                             let (p_l, n_l) = sampler.sample(mesh, u);
                             g.p_l.set(k, p_l);
                             g.n_l.set(k, n_l);
@@ -278,6 +310,21 @@ impl PathTracer {
         }
         g
     }
+}
+
+/// Whether the lanes shade a vertex on a surface of `material` (and `info`): a diffuse
+/// (plain or textured), mirror, smooth dielectric or black BSDF without a normal map, on a
+/// surface that is not null. Other vertices are advanced by pt's scalar code.
+pub(super) fn in_lanes(material: &Material, info: &ShapeInfo) -> bool {
+    matches!(
+        material.bsdf,
+        Bsdf::Black
+            | Bsdf::Diffuse { .. }
+            | Bsdf::TexturedDiffuse { .. }
+            | Bsdf::Conductor { .. }
+            | Bsdf::Dielectric { .. }
+    ) && material.normal_map.is_none()
+        && !info.null
 }
 
 /// Step 2 (module doc): next-event estimation and the continuation of sixteen paths, each

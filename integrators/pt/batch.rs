@@ -24,7 +24,7 @@
 
 use super::round::{ROUND, Round};
 use super::wavefront::{self, Isa};
-use super::{Extras, PathState, PathTracer};
+use super::{Deferred, Extras, PathState, PathTracer};
 use crate::error::Result;
 use crate::integrators::IntegratorParams;
 use crate::integrators::options::{DefaultValue, Kind, Spec};
@@ -66,8 +66,8 @@ pub const BATCH_OPTION: Spec = Spec {
     default: DefaultValue::Word("auto"),
     doc: "trace a row's paths together, segment by segment: `wavefront` shades them sixteen at \
           a time in AVX-512 registers (scenes without media; vertices of rough, plastic, \
-          masked or normal-mapped materials by the scalar code, `pt/wavefront/`), `on` traces their rays together so that misses in a large BVH \
-          overlap (`pt/batch.rs`), `auto` takes the wavefront where it applies and batches \
+          masked or normal-mapped materials by the scalar code, `pt/wavefront/`), `on` \
+          traces their rays together so that misses in a large BVH overlap (`pt/batch.rs`), `auto` takes the wavefront where it applies and batches \
           where that pays; the same image bit for bit in every mode",
 };
 
@@ -206,20 +206,45 @@ impl PathTracer {
         while !lanes.is_empty() {
             b.trace(scene, &lanes);
             for (k, (i, path)) in lanes.iter_mut().enumerate() {
-                let sp = b.hits[k].take().map(|h| scene.surface_point(h, &path.ray));
-                let before = b.deferred.len();
-                let mut extras = Extras {
-                    rec: None,
-                    guide: None,
-                    trail: None,
-                    deferred: Some(&mut b.deferred),
-                    direct: None,
-                };
-                let alive = self.advance(scene, path, sp.as_ref(), &mut samplers[*i], &mut extras);
+                let hit = b.hits[k].take();
+                let (deferred, owner) = (&mut b.deferred, &mut b.owner);
+                let alive =
+                    self.advance_in_round(scene, path, hit, &mut samplers[*i], deferred, owner, k);
                 b.alive.push(alive);
-                b.owner.resize(b.deferred.len().max(before), k);
             }
             b.settle(scene, &mut lanes, out);
         }
+    }
+}
+
+impl PathTracer {
+    /// pt's own step at `hit` for a path of a round: its next-event sample, if any, pushed to
+    /// `deferred` with `k` (its index in the round) in `owner`; returns whether it goes on.
+    /// The batched rounds take every vertex this way, the wavefront's those its lanes do
+    /// not shade.
+    #[inline(always)]
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn advance_in_round<S: Sampler>(
+        &self,
+        scene: &Scene,
+        path: &mut PathState,
+        hit: Option<crate::geometry::Hit>,
+        sampler: &mut S,
+        deferred: &mut Vec<Deferred>,
+        owner: &mut Vec<usize>,
+        k: usize,
+    ) -> bool {
+        let sp = hit.map(|h| scene.surface_point(h, &path.ray));
+        let before = deferred.len();
+        let mut extras = Extras {
+            rec: None,
+            guide: None,
+            trail: None,
+            deferred: Some(deferred),
+            direct: None,
+        };
+        let alive = self.advance(scene, path, sp.as_ref(), sampler, &mut extras);
+        owner.resize(deferred.len().max(before), k);
+        alive
     }
 }

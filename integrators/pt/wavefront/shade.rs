@@ -219,17 +219,9 @@ impl PathTracer {
             let info = &scene.shape_info[h.shape as usize];
             let material = &scene.materials[info.material_at(h.p) as usize];
             if !in_lanes(material, info) {
-                let sp = scene.surface_point(h, &path.ray);
-                let before = deferred.len();
-                let mut extras = Extras {
-                    rec: None,
-                    guide: None,
-                    trail: None,
-                    deferred: Some(deferred),
-                    direct: None,
-                };
-                let goes_on = self.advance(scene, path, Some(&sp), &mut samplers[*i], &mut extras);
-                owner.resize(deferred.len().max(before), base + k);
+                let sampler = &mut samplers[*i];
+                let goes_on =
+                    self.advance_in_round(scene, path, Some(h), sampler, deferred, owner, base + k);
                 g.scalar[k] = Some(goes_on);
                 continue;
             }

@@ -29,6 +29,7 @@ mod delta;
 mod dielectric;
 mod diffuse;
 mod eval_pdfs;
+mod frame;
 pub mod fresnel;
 mod mask;
 pub mod microfacet;
@@ -39,8 +40,10 @@ mod rough_diffuse;
 mod rough_plastic;
 mod tinted;
 
-use crate::math::{Frame, Spectrum};
+use crate::math::Spectrum;
 pub use eval_pdfs::EvalPdfs;
+pub use frame::ShadingFrame;
+use frame::{geometry_agrees, shading_correction};
 pub use fresnel::ConductorFresnel;
 use glam::{Vec2, Vec3};
 pub use mask::{Mask, Opacity};
@@ -59,33 +62,6 @@ pub enum TransportMode {
     Radiance,
     /// A path from a light: shading normals get Veach's adjoint correction.
     Importance,
-}
-
-/// The surface frame a BSDF is evaluated in.
-#[derive(Debug, Clone, Copy)]
-pub struct ShadingFrame {
-    /// Shading frame, `frame.n` is the shading normal.
-    pub frame: Frame,
-    /// Geometric normal (front side of the shape).
-    pub ng: Vec3,
-    /// Texture coordinates of the point (zero where no texture looks at them).
-    pub uv: Vec2,
-}
-
-impl ShadingFrame {
-    /// The frame around shading normal `ns`, with geometric normal `ng`.
-    pub fn new(ns: Vec3, ng: Vec3) -> ShadingFrame {
-        ShadingFrame {
-            frame: Frame::from_z(ns),
-            ng,
-            uv: Vec2::ZERO,
-        }
-    }
-
-    /// The same frame at texture coordinates `uv`.
-    pub fn with_uv(self, uv: Vec2) -> ShadingFrame {
-        ShadingFrame { uv, ..self }
-    }
 }
 
 /// A direction drawn by [`Bsdf::sample`] with its value, density and weight.
@@ -578,28 +554,6 @@ impl LocalSample {
             eta: 1.0,
         })
     }
-}
-
-/// Reflection needs `wo`, `wi` on one side of `ng`; transmission on opposite sides.
-#[inline]
-fn geometry_agrees(sf: &ShadingFrame, wo: Vec3, wi: Vec3, transmission: bool) -> bool {
-    let (a, b) = (wo.dot(sf.ng), wi.dot(sf.ng));
-    if a == 0.0 || b == 0.0 {
-        return false;
-    }
-    ((a * b) < 0.0) == transmission
-}
-
-/// Veach's adjoint BSDF correction for shading normals in importance mode (thesis eq. 5.19):
-/// `|wo.ns| |wi.ng| / (|wo.ng| |wi.ns|)`. 1 in radiance mode or when ns == ng.
-#[inline]
-fn shading_correction(sf: &ShadingFrame, wo: Vec3, wi: Vec3, mode: TransportMode) -> f32 {
-    if mode == TransportMode::Radiance || sf.frame.n == sf.ng {
-        return 1.0;
-    }
-    let num = wo.dot(sf.frame.n).abs() * wi.dot(sf.ng).abs();
-    let den = wo.dot(sf.ng).abs() * wi.dot(sf.frame.n).abs();
-    if den == 0.0 { 0.0 } else { num / den }
 }
 
 #[cfg(test)]

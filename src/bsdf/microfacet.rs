@@ -226,17 +226,16 @@ impl Beckmann {
         l.max(0.0) as f32
     }
 
-    /// A visible slope of the distribution with alpha = 1 for an incident direction at
-    /// `cos_theta` from the normal, in the plane of incidence (x towards the direction).
-    fn sample_slope(cos_theta: f64, u: Vec2) -> (f64, f64) {
+    /// What a visible slope of the distribution with alpha = 1, for an incident direction at
+    /// `cos_theta` from the normal, takes from the first number `u1`: at normal incidence the
+    /// radius of a Gaussian slope (Rayleigh), else the slope's x component in the plane of
+    /// incidence (x towards the direction) by the CDF search of the type doc.
+    fn slope_from_first(cos_theta: f64, u1: f32) -> FirstSlope {
         use crate::math::special::{erf, erf_inv};
-        let (u1, u2) = ((u.x as f64).max(1e-6), (u.y as f64).max(1e-6));
         if cos_theta > 0.99999 {
-            // Normal incidence: the slope is Gaussian (radius Rayleigh-distributed).
-            let r = (-(1.0 - u.x as f64).ln()).sqrt();
-            let phi = 2.0 * std::f64::consts::PI * u.y as f64;
-            return (r * phi.cos(), r * phi.sin());
+            return FirstSlope::Radius((-(1.0 - u1 as f64).ln()).sqrt());
         }
+        let u1 = (u1 as f64).max(1e-6);
         let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
         let tan_theta = sin_theta / cos_theta;
         let cot_theta = 1.0 / tan_theta;
@@ -266,12 +265,29 @@ impl Beckmann {
             }
             b -= value / derivative;
         }
-        (erf_inv(b), erf_inv(2.0 * u2 - 1.0))
+        FirstSlope::X(erf_inv(b))
     }
 
-    /// Samples a visible normal for `wo` (upper hemisphere, unit) with density
-    /// [`Smith::d_visible`]; `None` where the construction degenerates.
-    pub fn sample_visible(&self, wo: Vec3, u: Vec2) -> Option<Vec3> {
+    /// The visible slope (x, y) with alpha = 1 from its first part and the second number
+    /// `u2`: at normal incidence the Gaussian slope's azimuth, else its y component (a
+    /// Gaussian, independent of x).
+    fn slope_from_second(first: FirstSlope, u2: f32) -> (f64, f64) {
+        match first {
+            FirstSlope::Radius(r) => {
+                let phi = 2.0 * std::f64::consts::PI * u2 as f64;
+                (r * phi.cos(), r * phi.sin())
+            }
+            FirstSlope::X(x) => {
+                let u2 = (u2 as f64).max(1e-6);
+                (x, crate::math::special::erf_inv(2.0 * u2 - 1.0))
+            }
+        }
+    }
+
+    /// The visible normals for `wo` (upper hemisphere, unit) and first number `u1`:
+    /// [`Self::sample_visible`] as a function of the second number alone, the slope search
+    /// done once (quadratures over the unit square call it once per row).
+    pub fn visible_row(&self, wo: Vec3, u1: f32) -> BeckmannRow {
         let a = self.alpha as f64;
         // Stretch to alpha = 1.
         let (sx, sy, sz) = (wo.x as f64 * a, wo.y as f64 * a, wo.z as f64);
@@ -283,7 +299,44 @@ impl Beckmann {
         } else {
             (1.0, 0.0)
         };
-        let (x, y) = Self::sample_slope(sz, u);
+        BeckmannRow {
+            a,
+            cos_phi,
+            sin_phi,
+            first: Self::slope_from_first(sz, u1),
+        }
+    }
+
+    /// Samples a visible normal for `wo` (upper hemisphere, unit) with density
+    /// [`Smith::d_visible`]; `None` where the construction degenerates.
+    pub fn sample_visible(&self, wo: Vec3, u: Vec2) -> Option<Vec3> {
+        self.visible_row(wo, u.x).sample(u.y)
+    }
+}
+
+/// The part of a Beckmann visible slope drawn from the first number.
+#[derive(Debug, Clone, Copy)]
+enum FirstSlope {
+    /// Normal incidence: the radius of the Gaussian slope.
+    Radius(f64),
+    /// The slope's x component in the plane of incidence.
+    X(f64),
+}
+
+/// [`Beckmann::visible_row`]: `wo`'s azimuth and stretch, and the slope's first part.
+#[derive(Debug, Clone, Copy)]
+pub struct BeckmannRow {
+    a: f64,
+    cos_phi: f64,
+    sin_phi: f64,
+    first: FirstSlope,
+}
+
+impl BeckmannRow {
+    /// The visible normal for second number `u2`.
+    pub fn sample(&self, u2: f32) -> Option<Vec3> {
+        let (x, y) = Beckmann::slope_from_second(self.first, u2);
+        let (a, cos_phi, sin_phi) = (self.a, self.cos_phi, self.sin_phi);
         // Rotate to wo's azimuth, unstretch; the normal of slope (x, y) is (-x, -y, 1).
         let (rx, ry) = (cos_phi * x - sin_phi * y, sin_phi * x + cos_phi * y);
         let m = glam::DVec3::new(-rx * a, -ry * a, 1.0);
@@ -317,6 +370,36 @@ impl Microfacet {
         match self {
             Microfacet::Ggx(g) => g.sample_visible(wo, u),
             Microfacet::Beckmann(b) => b.sample_visible(wo, u),
+        }
+    }
+
+    /// [`Self::sample_visible`] for `wo` and first number `u1` as a function of the second
+    /// number: `visible_row(wo, u.x).sample(u.y)` is `sample_visible(wo, u)`, bit for bit,
+    /// with Beckmann's slope search done once per row.
+    pub fn visible_row(&self, wo: Vec3, u1: f32) -> VisibleRow {
+        match self {
+            Microfacet::Ggx(g) => VisibleRow::Ggx(*g, wo, u1),
+            Microfacet::Beckmann(b) => VisibleRow::Beckmann(b.visible_row(wo, u1)),
+        }
+    }
+}
+
+/// [`Microfacet::visible_row`].
+#[derive(Debug, Clone, Copy)]
+pub enum VisibleRow {
+    /// GGX's sampler with `wo` and the first number (nothing to precompute).
+    Ggx(Ggx, Vec3, f32),
+    /// Beckmann's, its slope search done.
+    Beckmann(BeckmannRow),
+}
+
+impl VisibleRow {
+    /// The visible normal for second number `u2`.
+    #[inline]
+    pub fn sample(&self, u2: f32) -> Option<Vec3> {
+        match self {
+            VisibleRow::Ggx(g, wo, u1) => g.sample_visible(*wo, Vec2::new(*u1, u2)),
+            VisibleRow::Beckmann(row) => row.sample(u2),
         }
     }
 }

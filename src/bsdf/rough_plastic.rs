@@ -161,9 +161,9 @@ fn coating(mf: Microfacet, eta: f32, cos: f32, rule: &[(f64, f64)]) -> (f64, f64
     let wo = Vec3::new((1.0 - cos * cos).max(0.0).sqrt(), 0.0, cos);
     let (mut reflected, mut transmitted) = (0.0f64, 0.0f64);
     for &(xa, wa) in rule {
+        let row = mf.visible_row(wo, xa as f32);
         for &(xb, wb) in rule {
-            let u = Vec2::new(xa as f32, xb as f32);
-            let Some(m) = mf.sample_visible(wo, u) else {
+            let Some(m) = row.sample(xb as f32) else {
                 continue;
             };
             let weight = wa * wb;

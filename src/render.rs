@@ -321,13 +321,17 @@ fn render_rows_with<S: PixelSampler, T: RowTracer>(
     let mut film = spread::film(w, h, spread);
     let invalid = AtomicU64::new(0);
     let mut cascade = ctx.dbor.then(|| Cascade::new(w, h));
+    // Each row's camera samples to spread, kept from pass to pass (refilling them costs no
+    // allocation).
+    let mut spreads: Vec<SpreadRow> = (0..h).map(|_| SpreadRow::default()).collect();
     let pass = |film: &mut Film, pass: u64| {
         let mut crows = cascade_rows(&mut cascade, h);
-        let (splats, spreads): (Vec<Vec<(u32, Spectrum)>>, Vec<SpreadRow>) = film
+        let splats: Vec<Vec<(u32, Spectrum)>> = film
             .par_rows_mut()
             .zip(crows.par_iter_mut())
+            .zip(spreads.par_iter_mut())
             .enumerate()
-            .map(|(y, (row, crow))| {
+            .map(|(y, ((row, crow), spread_row))| {
                 let mut tracer = new_tracer();
                 let mut samplers = Vec::with_capacity(row.len());
                 let mut rasters = Vec::with_capacity(row.len());
@@ -340,7 +344,7 @@ fn render_rows_with<S: PixelSampler, T: RowTracer>(
                 }
                 let mut values = vec![Spectrum::ZERO; row.len()];
                 tracer.sample_row(&rasters, &mut samplers, &mut values);
-                let mut spread_row = SpreadRow::default();
+                spread_row.clear();
                 for (x, (acc, l)) in row.iter_mut().zip(values).enumerate() {
                     crate::check::value(crate::check::Technique::named("pixel sample"), l);
                     if is_finite3(l) && l.min_element() >= 0.0 {
@@ -357,9 +361,9 @@ fn render_rows_with<S: PixelSampler, T: RowTracer>(
                         invalid.fetch_add(1, Ordering::Relaxed);
                     }
                 }
-                (tracer.take_splats(), spread_row)
+                tracer.take_splats()
             })
-            .unzip();
+            .collect();
         drop(crows);
         if spread {
             spread_samples(film, ctx.scene.camera.filter.radius(), &spreads);

@@ -39,6 +39,12 @@ pub(super) struct SpreadRow {
 }
 
 impl SpreadRow {
+    /// Empties the row for the next pass, keeping its memory.
+    pub(super) fn clear(&mut self) {
+        self.samples.clear();
+        self.weights.clear();
+    }
+
     /// The sample at raster `r` of value `l` on a `w` x `h` film: its per-axis filter weights
     /// at the pixels within the filter's radius.
     pub(super) fn push(

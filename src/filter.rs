@@ -58,6 +58,8 @@ pub struct Filter {
     values: Box<[f64]>,
     /// Integral of the profile from -radius to each of those points.
     cdf: Box<[f64]>,
+    /// The spacing of those points (0 for the box).
+    segment: f64,
 }
 
 impl Default for Filter {
@@ -87,8 +89,10 @@ impl Filter {
         };
         let mut values = profile;
         let mut cdf = Vec::new();
+        let mut segment = 0.0;
         if !values.is_empty() {
             let h = 2.0 * radius / (values.len() - 1) as f64;
+            segment = h;
             cdf.push(0.0);
             for w in values.windows(2) {
                 cdf.push(cdf.last().unwrap() + 0.5 * (w[0] + w[1]) * h);
@@ -102,6 +106,7 @@ impl Filter {
             radius,
             values: values.into(),
             cdf: cdf.into(),
+            segment,
         }
     }
 
@@ -126,7 +131,7 @@ impl Filter {
     }
 
     fn segment(&self) -> f64 {
-        2.0 * self.radius / (self.values.len() - 1) as f64
+        self.segment
     }
 
     /// The normalised 1-D profile at `x` (pixels from the centre).
@@ -138,7 +143,8 @@ impl Filter {
         if !(0.0..(self.values.len() - 1) as f64).contains(&t) {
             return 0.0;
         }
-        let i = t as usize;
+        // In range, so the (cheaper) 32-bit conversion truncates as the 64-bit one would.
+        let i = t as u32 as usize;
         let a = t - i as f64;
         self.values[i] * (1.0 - a) + self.values[i + 1] * a
     }

@@ -321,8 +321,8 @@ fn render_rows_with<S: PixelSampler, T: RowTracer>(
     let mut film = spread::film(w, h, spread);
     let invalid = AtomicU64::new(0);
     let mut cascade = ctx.dbor.then(|| Cascade::new(w, h));
-    // Each row's camera samples to spread, kept from pass to pass (refilling them costs no
-    // allocation).
+    // Each row's camera samples to spread, kept from pass to pass (`spread_samples` empties
+    // them; refilling costs no allocation).
     let mut spreads: Vec<SpreadRow> = (0..h).map(|_| SpreadRow::default()).collect();
     let pass = |film: &mut Film, pass: u64| {
         let mut crows = cascade_rows(&mut cascade, h);
@@ -344,7 +344,6 @@ fn render_rows_with<S: PixelSampler, T: RowTracer>(
                 }
                 let mut values = vec![Spectrum::ZERO; row.len()];
                 tracer.sample_row(&rasters, &mut samplers, &mut values);
-                spread_row.clear();
                 for (x, (acc, l)) in row.iter_mut().zip(values).enumerate() {
                     crate::check::value(crate::check::Technique::named("pixel sample"), l);
                     if is_finite3(l) && l.min_element() >= 0.0 {
@@ -366,7 +365,7 @@ fn render_rows_with<S: PixelSampler, T: RowTracer>(
             .collect();
         drop(crows);
         if spread {
-            spread_samples(film, ctx.scene.camera.filter.radius(), &spreads);
+            spread_samples(film, ctx.scene.camera.filter.radius(), &mut spreads);
         }
         let lists: Vec<&[(u32, Spectrum)]> = splats.iter().map(Vec::as_slice).collect();
         invalid.fetch_add(film.add_splat_lists(&lists), Ordering::Relaxed);

@@ -39,8 +39,8 @@ pub(super) struct SpreadRow {
 }
 
 impl SpreadRow {
-    /// Empties the row for the next pass, keeping its memory.
-    pub(super) fn clear(&mut self) {
+    /// Empties the row, keeping its memory.
+    fn clear(&mut self) {
         self.samples.clear();
         self.weights.clear();
     }
@@ -83,8 +83,9 @@ impl SpreadRow {
 /// gains `f(r - c) L` and weight `f(r - c)` from the sample at `r` for every pixel whose
 /// filter reaches it (Mitsuba's film; `Camera::splat_samples`). One task per film row, which
 /// takes the rows its filter reaches in order, so the sums do not depend on the number of
-/// threads.
-pub(super) fn spread_samples(film: &mut Film, radius: f32, rows: &[SpreadRow]) {
+/// threads. The rows are emptied (their memory kept for the next pass): each sample counts
+/// once.
+pub(super) fn spread_samples(film: &mut Film, radius: f32, rows: &mut [SpreadRow]) {
     let h = film.height as i64;
     // A sample in row `yi` lies in [yi, yi + 1): it reaches pixel row y when
     // y - 1/2 - radius < yi < y + 1/2 + radius.
@@ -112,6 +113,7 @@ pub(super) fn spread_samples(film: &mut Film, radius: f32, rows: &[SpreadRow]) {
                 }
             }
         });
+    rows.iter_mut().for_each(SpreadRow::clear);
 }
 
 #[cfg(test)]
@@ -140,10 +142,15 @@ mod tests {
                     }
                 }
             }
-            spread_samples(&mut film, filter.radius(), &rows);
+            spread_samples(&mut film, filter.radius(), &mut rows);
             for p in &film.to_image(1.0, 0.0).pixels {
                 assert!((*p - c).abs().max_element() < 1e-6, "{p} != {c}");
             }
+            // Each sample counts once: the rows are empty for the next pass.
+            assert!(
+                rows.iter()
+                    .all(|r| r.samples.is_empty() && r.weights.is_empty())
+            );
             // Only the left two columns lit: pixels beyond the radius get no weight (0).
             let mut film = Film::new_weighted(w as u32, h as u32);
             let mut rows: Vec<SpreadRow> = (0..h).map(|_| SpreadRow::default()).collect();
@@ -157,7 +164,7 @@ mod tests {
                     );
                 }
             }
-            spread_samples(&mut film, filter.radius(), &rows);
+            spread_samples(&mut film, filter.radius(), &mut rows);
             let img = film.to_image(1.0, 0.0);
             let reach = (1.5 + filter.radius()).ceil() as usize;
             for y in 0..h {

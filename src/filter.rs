@@ -89,10 +89,13 @@ impl Filter {
         };
         let mut values = profile;
         let mut cdf = Vec::new();
-        let mut segment = 0.0;
+        let segment = if values.is_empty() {
+            0.0
+        } else {
+            2.0 * radius / (values.len() - 1) as f64
+        };
         if !values.is_empty() {
-            let h = 2.0 * radius / (values.len() - 1) as f64;
-            segment = h;
+            let h = segment;
             cdf.push(0.0);
             for w in values.windows(2) {
                 cdf.push(cdf.last().unwrap() + 0.5 * (w[0] + w[1]) * h);
@@ -130,16 +133,12 @@ impl Filter {
         (self.radius - 0.5).max(0.0) as f32
     }
 
-    fn segment(&self) -> f64 {
-        self.segment
-    }
-
     /// The normalised 1-D profile at `x` (pixels from the centre).
     pub fn eval_1d(&self, x: f64) -> f64 {
         if self.is_box() {
             return if x.abs() <= 0.5 { 1.0 } else { 0.0 };
         }
-        let t = (x + self.radius) / self.segment();
+        let t = (x + self.radius) / self.segment;
         if !(0.0..(self.values.len() - 1) as f64).contains(&t) {
             return 0.0;
         }
@@ -159,7 +158,7 @@ impl Filter {
         if self.is_box() {
             return u - 0.5;
         }
-        let h = self.segment();
+        let h = self.segment;
         // The segment holding u: cdf[i] <= u < cdf[i + 1].
         let i = self
             .cdf
@@ -197,7 +196,7 @@ impl Filter {
         if self.is_box() {
             return x + 0.5;
         }
-        let h = self.segment();
+        let h = self.segment;
         let t = (x + self.radius) / h;
         let i = (t as usize).min(self.values.len() - 2);
         let d = x + self.radius - i as f64 * h;

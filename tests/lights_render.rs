@@ -179,18 +179,8 @@ fn a_projected_spot_texture_renders_alike_in_every_integrator() {
 #[test]
 fn a_textured_area_light_renders_alike_in_every_integrator() {
     use lodestar::light::Light;
-    let light = |texture: &str| {
-        let text = lodestar::scene::CORNELL_BOX_TOML
-            .replace("resolution = [256, 256]", "resolution = [24, 24]")
-            .replace(
-                "emission = [17, 12, 4]",
-                &format!("emission = [17, 12, 4]\n{texture}"),
-            );
-        util::scene(&text)
-    };
-    let checker = "emission_texture = { type = \"checkerboard\", color0 = [1, 1, 1], \
-                   color1 = [0.2, 0.5, 0.1], scale = [2, 2] }";
-    let scene = light(checker);
+    let light = |texture: &str| util::cornell_light_with(24, 24, texture);
+    let scene = light(util::CHECKER_EMISSION);
     // The samples, and the power.
     let l = scene
         .lights

@@ -16,20 +16,6 @@ fn shipped(name: &str) -> Scene {
     util::shipped_at(name, 40, 30)
 }
 
-/// The Cornell box at 40 x 30 with its light's radiance a 2 x 2 checkerboard (next-event
-/// samples on a textured mesh light carry the texture: `Light::sample_li`, not the lanes'
-/// constant-radiance mesh sampling).
-fn textured_light_box() -> Scene {
-    let text = lodestar::scene::CORNELL_BOX_TOML
-        .replace("resolution = [256, 256]", "resolution = [40, 30]")
-        .replace(
-            "emission = [17, 12, 4]",
-            "emission = [17, 12, 4]\nemission_texture = { type = \"checkerboard\", \
-             color0 = [1, 1, 1], color1 = [0.2, 0.5, 0.1], scale = [2, 2] }",
-        );
-    util::scene(&text)
-}
-
 /// A Mitsuba XML file of the repository (`path` from its root) with `defines`, its film's
 /// `width` and `height` changed from (w0, h0) to (w, h) when given.
 fn mitsuba(path: &str, defines: &[(&str, &str)], film: Option<(u32, u32, u32, u32)>) -> Scene {
@@ -230,7 +216,12 @@ fn wavefront_pt_is_pt_bit_for_bit() {
             "shading.xml",
             mitsuba("scenes/mitsuba/shading.xml", &[("res", "48")], None),
         ),
-        ("textured light", textured_light_box()),
+        // Next-event samples on a textured mesh light carry the texture (`Light::sample_li`,
+        // not the lanes' constant-radiance mesh sampling).
+        (
+            "textured light",
+            util::cornell_light_with(40, 30, util::CHECKER_EMISSION),
+        ),
         (
             "veach_mi",
             mitsuba(

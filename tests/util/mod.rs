@@ -42,6 +42,25 @@ pub fn cornell(resolution: u32) -> Scene {
     scene(&text)
 }
 
+/// The Cornell box's ceiling light as a checkerboard of 2 x 2 squares (TOML
+/// `emission_texture`, multiplying its emission), for [`cornell_light_with`].
+pub const CHECKER_EMISSION: &str = "emission_texture = { type = \"checkerboard\", \
+     color0 = [1, 1, 1], color1 = [0.2, 0.5, 0.1], scale = [2, 2] }";
+
+/// The Cornell box at `w` x `h` with `extra` added to its light (e.g. [`CHECKER_EMISSION`]).
+pub fn cornell_light_with(w: u32, h: u32, extra: &str) -> Scene {
+    let text = lodestar::scene::CORNELL_BOX_TOML
+        .replace(
+            "resolution = [256, 256]",
+            &format!("resolution = [{w}, {h}]"),
+        )
+        .replace(
+            "emission = [17, 12, 4]",
+            &format!("emission = [17, 12, 4]\n{extra}"),
+        );
+    scene(&text)
+}
+
 /// Render with integrator `name`, options `key=value`, on a pool of `threads` threads.
 pub fn render(
     scene: &Scene,

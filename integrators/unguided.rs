@@ -93,6 +93,23 @@ pub trait PathSink {
         false
     }
 
+    /// The luminance at or below which a path needs neither its vertices nor its densities
+    /// (read before each sample): the sink books such a path at the estimator's own weight,
+    /// one path at a time, by [`PathSink::record_dim`]. An estimator whose paths are many
+    /// and cheap to weigh (vcm's merges) hands those below it over so; the default,
+    /// -infinity, takes none.
+    fn own_weight_floor(&mut self) -> f64 {
+        f64::NEG_INFINITY
+    }
+
+    /// A path of luminance at or below [`PathSink::own_weight_floor`] (read before the
+    /// sample that formed it): `value` is its contribution under the estimator's own weights,
+    /// for `pixel` (`splat` as in `record`).
+    fn record_dim(&mut self, pixel: u32, value: DVec3, splat: bool) {
+        let _ = (pixel, value, splat);
+        unreachable!("a sink with an own-weight floor takes the paths below it");
+    }
+
     /// A path declined by [`PathSink::needs_densities`]: `value` is its contribution under
     /// the estimator's own weights, `f / p_u`, for `pixel` (`splat` as in `record`).
     fn record_weighted(&mut self, pixel: u32, value: DVec3, splat: bool) {

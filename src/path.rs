@@ -89,6 +89,13 @@ pub struct Vertex {
     pub kind: VertexKind,
 }
 
+impl Default for Vertex {
+    /// [`Vertex::EMPTY`].
+    fn default() -> Self {
+        Vertex::EMPTY
+    }
+}
+
 impl Vertex {
     /// A placeholder vertex (a camera vertex at the origin) filling unused slots.
     pub const EMPTY: Vertex = Vertex {
@@ -162,6 +169,11 @@ impl Path {
     /// The vertices, camera first.
     pub fn vertices(&self) -> &[Vertex] {
         &self.vertices[..self.len]
+    }
+
+    /// The vertices, camera first, to be changed.
+    pub fn vertices_mut(&mut self) -> &mut [Vertex] {
+        &mut self.vertices[..self.len]
     }
 
     /// Number of segments (vertices - 1).

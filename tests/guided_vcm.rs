@@ -21,7 +21,7 @@ use util::guided::{CAUSTIC, sample_stream};
 const MAX_DEPTH: u32 = 6;
 const RADIUS: f32 = 0.05;
 
-fn box_scene(name: &str, res: u32) -> Scene {
+pub(crate) fn box_scene(name: &str, res: u32) -> Scene {
     let text =
         std::fs::read_to_string(format!("{}/scenes/{name}", env!("CARGO_MANIFEST_DIR"))).unwrap();
     util::scene(&text.replace(
@@ -30,7 +30,7 @@ fn box_scene(name: &str, res: u32) -> Scene {
     ))
 }
 
-fn unguided() -> VcmUnguided {
+pub(crate) fn unguided() -> VcmUnguided {
     VcmUnguided {
         settings: BdptSettings {
             max_depth: MAX_DEPTH,
@@ -390,7 +390,7 @@ fn two_render_passes(
 
 /// A cache of every `stride`-th of the paths of one learning pass of `scene` that
 /// have at least three segments (so that the paths vcm forms most, of two, are not held).
-fn learning_paths_cache(
+pub(crate) fn learning_paths_cache(
     scene: &Scene,
     u: &VcmUnguided,
     stride: usize,

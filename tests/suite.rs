@@ -37,6 +37,7 @@ mod guided_exact;
 mod guided_mcmc;
 mod guided_pdfs;
 mod guided_vcm;
+mod guided_vcm_learning;
 mod integrators_doc;
 mod lights_render;
 mod manifold;

@@ -73,6 +73,16 @@ impl LearnRow {
         }
     }
 
+    /// Whether a candidate of `value` would be kept by [`Self::offer`] now.
+    pub fn would_keep(&self, value: f64) -> bool {
+        value > self.floor
+    }
+
+    /// The value at or below which [`Self::offer`] keeps nothing (it only rises).
+    pub fn floor(&self) -> f64 {
+        self.floor
+    }
+
     /// Sort the candidates by value and keep the largest `ROW_CANDIDATES`.
     pub fn cut(&mut self) {
         let list = &mut self.candidates;

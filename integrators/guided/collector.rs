@@ -109,41 +109,63 @@ impl<U: Unguided> PathSink for Collector<'_, '_, U> {
             .is_some_and(|sig| self.est.cache.holds(sig))
     }
 
-    /// Outside learning, a held path whose x_1 lies outside every first-vertex kernel of its
-    /// structure has p_g = 0 (the candidates' query, kept for the path's densities should it
-    /// find any): its value is U's own, and U's explicit densities are not needed.
+    /// A held path whose x_1 lies outside every first-vertex kernel of its structure has
+    /// p_g = 0 (the candidates' query, kept for the path's densities should it find any): its
+    /// value is U's own, and U's explicit densities are not needed. In a learning pass every
+    /// path with p_g = 0 (all of them before the first cache) is booked so, unless it is
+    /// bright enough to join its row's outlier candidates, whose records need `p_u`.
     fn record_if_own_weight(&mut self, path: &Path, value: DVec3, splat: bool) -> bool {
         let est = self.est;
-        if self.learning || est.n_g == 0.0 {
+        if !self.learning && est.n_g == 0.0 {
             return false;
         }
-        let Some(x1) = path.vertices().get(1) else {
-            return false;
+        let coverage = if est.n_g == 0.0 {
+            Coverage::NotHeld
+        } else {
+            let Some(x1) = path.vertices().get(1) else {
+                return false;
+            };
+            match kernel::signature(est.scene, path, MAX_VERTICES) {
+                Some(sig) if est.cache.holds(sig) => {
+                    let out = &mut *self.out;
+                    let medium = matches!(x1.kind, VertexKind::Medium { .. });
+                    let first = (x1.p, x1.n, medium);
+                    if !(out.candidates)
+                        .at(est.cache, est.scene, sig, first, &mut out.stats)
+                        .is_empty()
+                    {
+                        return false;
+                    }
+                    Coverage::Zero
+                }
+                // Outside learning U's own weights took these paths (`needs_densities`).
+                Some(_) | None if self.learning => Coverage::NotHeld,
+                _ => return false,
+            }
         };
-        let Some(sig) = kernel::signature(est.scene, path, MAX_VERTICES) else {
-            return false;
-        };
-        let out = &mut *self.out;
-        let medium = matches!(x1.kind, VertexKind::Medium { .. });
-        let first = (x1.p, x1.n, medium);
-        if !(out.candidates)
-            .at(est.cache, est.scene, sig, first, &mut out.stats)
-            .is_empty()
-        {
+        let learn = self.learning && path.segments() >= 2;
+        let lum32 = luminance(value.as_vec3()) as f64;
+        if learn && self.out.learn.would_keep(lum32) {
             return false;
         }
-        if value == DVec3::ZERO {
-            return true;
-        }
-        if !(value.is_finite() && value.min_element() >= 0.0) {
-            out.stats.invalid += 1;
-            return true;
-        }
-        let lum = luminance64(value);
-        out.stats.pg_evaluations += 1;
-        out.stats.pg_zero_m2_by_vertex[0] += lum * lum;
-        self.add(path.pixel, splat, value, Coverage::Zero, None, value);
+        self.book_own(path.pixel, splat, value, coverage, learn);
         true
+    }
+
+    /// Before the first cache every path of a learning pass has p_g = 0, and one too dim to
+    /// join its row's candidates needs no vertices.
+    fn own_weight_floor(&mut self) -> f64 {
+        if self.learning && self.est.n_g == 0.0 {
+            self.out.learn.floor()
+        } else {
+            f64::NEG_INFINITY
+        }
+    }
+
+    /// Every such path has more than two vertices (U hands those of two over weighted).
+    fn record_dim(&mut self, pixel: u32, value: DVec3, splat: bool) {
+        debug_assert!(self.learning && self.est.n_g == 0.0);
+        self.book_own(pixel, splat, value, Coverage::NotHeld, true);
     }
 
     fn record_weighted(&mut self, pixel: u32, value: DVec3, splat: bool) {
@@ -165,6 +187,30 @@ impl<U: Unguided> PathSink for Collector<'_, '_, U> {
 }
 
 impl<U: Unguided> Collector<'_, '_, U> {
+    /// Book a path of p_g = 0 at U's own weight (`value`) in `coverage`, and (`learn`) as a
+    /// learning sample, as [`Self::weigh`] books it from its densities.
+    fn book_own(&mut self, pixel: u32, splat: bool, value: DVec3, coverage: Coverage, learn: bool) {
+        if value == DVec3::ZERO {
+            return;
+        }
+        if !(value.is_finite() && value.min_element() >= 0.0) {
+            self.out.stats.invalid += 1;
+            return;
+        }
+        let lum = luminance64(value);
+        if coverage == Coverage::Zero {
+            self.out.stats.pg_evaluations += 1;
+            self.out.stats.pg_zero_m2_by_vertex[0] += lum * lum;
+        }
+        // p_g = 0: the same value under every ratio.
+        let ratios = self.measuring.then_some([lum; share::N]);
+        self.add(pixel, splat, value, coverage, ratios, value);
+        if learn {
+            let lum32 = luminance(value.as_vec3());
+            self.out.learn.samples.push((pixel, lum32));
+        }
+    }
+
     /// Weigh a path U reported (`recompute`: whether its `p_u` is to be recomputed from
     /// its vertices, see `Estimator::densities`) and book it.
     fn weigh(

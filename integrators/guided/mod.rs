@@ -38,7 +38,9 @@
 //!
 //! guided-vcm is consistent, not unbiased (merging's radius shrinks with the passes, as in
 //! `vcm`). Every pass runs vcm's own tracer: in learning passes it hands every path over
-//! with its densities from its vertices (for the seeder), in render passes only the paths
+//! (for the seeder), with its densities from its vertices unless the path's p_g is 0 and it is
+//! too dim to become an outlier candidate (then at vcm's own weight; before the first cache
+//! the camera side keeps such paths without their vertices), in render passes only the paths
 //! whose structure the cache holds, weighing every other path itself
 //! (`Unguided::renew_render_pass`); with guiding off `vcm` renders the remaining passes.
 //! Russian roulette is vcm's, from the first bounce (`rr_depth` 1 only). It takes only the `outliers` seeder: a Markov chain

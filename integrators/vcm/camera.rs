@@ -24,7 +24,7 @@ use crate::geometry::{HashGrid, gamma};
 use crate::integrators::paths::Kind;
 use crate::integrators::paths::structure::{CameraSideHash, HeldKey, emitter_hash};
 use crate::integrators::unguided::HeldPaths;
-use crate::math::{Sampler, Spectrum};
+use crate::math::{Sampler, Spectrum, luminance};
 use crate::path::{MAX_VERTICES, Vertex as PathVertex, VertexKind};
 use crate::scene::{Endpoint, Scene};
 use glam::{Vec2, Vec3};
@@ -48,6 +48,9 @@ pub struct CameraTracer<'a, 'p> {
     /// Contributions whose path this holds are kept in `claimed` instead of added.
     pub claims: Option<&'p dyn HeldPaths>,
     claimed: RefCell<Claims>,
+    /// Claimed contributions whose luminance under vcm's weight is at most this are kept
+    /// without their vertices (`Claims::dim`; the sink's `PathSink::own_weight_floor`).
+    pub dim_floor: f64,
     /// The camera subpath's vertices (inspection and claims only).
     path: Vec<PathVertex>,
     /// Their structure hash (claims only), which a claim tests first (`may_claim`).
@@ -76,6 +79,7 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
             inspector,
             claims,
             claimed: RefCell::default(),
+            dim_floor: f64::NEG_INFINITY,
             path: Vec::new(),
             side: CameraSideHash::default(),
             pixel: 0,
@@ -448,6 +452,12 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
                 // The subpath is read only for inspection, or where its structure hash's
                 // low bits say the cache may hold the path.
                 let may_claim = self.may_claim(y.held, y.depth as usize, None);
+                if may_claim && self.inspector.is_none() {
+                    let c = v.beta * f * y.beta * self.pc.vm_normalization;
+                    if self.claim_dim(c * w) {
+                        return;
+                    }
+                }
                 if may_claim || self.inspector.is_some() {
                     let full = self
                         .lights
@@ -530,10 +540,26 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
         let Some(claims) = self.claims else {
             return false;
         };
+        if self.claim_dim(c * w) {
+            return true;
+        }
         if !claims.holds(self.scene, &self.path, light) {
             return false;
         }
         (self.claimed.borrow_mut()).push(technique, &self.path, light, self.pixel, c, w, false);
+        true
+    }
+
+    /// Keep a contribution of value `weighted` under vcm's weight without its path when it
+    /// is at or below `dim_floor` (whatever `claims` holds: the caller books it at vcm's
+    /// weight either way), and return true.
+    fn claim_dim(&self, weighted: Spectrum) -> bool {
+        // NaN compares false: an invalid value keeps its path (the sink counts it).
+        let dim = luminance(weighted) as f64 <= self.dim_floor;
+        if !dim {
+            return false;
+        }
+        (self.claimed.borrow_mut()).push_dim(self.pixel, weighted);
         true
     }
 }

@@ -11,7 +11,7 @@
 
 use super::vertex::{Edge, MisVertex, connectible_light, emission, emission_densities, hittable};
 use super::walk::{Step, Walk};
-use super::{Claimed, Claims, Inspector, PassConstants, Record, Technique, VcmSettings, joined};
+use super::{Claimed, Inspector, PassConstants, Record, Technique, VcmSettings, joined};
 use crate::bsdf::TransportMode;
 use crate::geometry::{Ray, gamma, offset_origin};
 use crate::integrators::paths::direct_to_camera;
@@ -40,12 +40,24 @@ pub struct LightRow<'a> {
     /// Beside `vertices` when claims are tested: each stored vertex's [`HeldKey`]s, of the
     /// subpath before it (for merges at it) and up to it (for connections to it).
     keys: Vec<[HeldKey; 2]>,
-    /// Light-tracing paths claimed by the pass's [`HeldPaths`]; the i-th path's are
+    /// Light-tracing paths claimed by the pass's [`HeldPaths`], each the pinhole and a
+    /// prefix of its light subpath in `full`; the i-th path's are
     /// `claimed_starts[i] .. claimed_starts[i + 1]`.
-    claimed: Claims,
+    claimed: Vec<LightClaim>,
     claimed_starts: Vec<u32>,
     /// Rays the row's paths took.
     rays: u64,
+}
+
+/// A claimed light-tracing path: the pinhole, then `LightRow::full[start..end]` reversed.
+#[derive(Clone, Copy)]
+struct LightClaim {
+    technique: Technique,
+    start: u32,
+    end: u32,
+    pixel: u32,
+    value: Spectrum,
+    weight: f32,
 }
 
 impl LightRow<'_> {
@@ -126,6 +138,8 @@ pub struct LightPaths<'a> {
     offsets: Vec<u32>,
     /// The light path of each stored vertex, by global index (when `full` is recorded).
     path_of: Vec<u32>,
+    /// The pinhole as a path vertex (the head of every claimed light-tracing path).
+    pinhole: PathVertex,
 }
 
 impl<'a> LightPaths<'a> {
@@ -145,6 +159,7 @@ impl<'a> LightPaths<'a> {
     ) {
         self.rows.resize_with(rows, LightRow::default);
         self.row_len = row_len;
+        self.pinhole = pinhole(scene);
         self.rows.par_iter_mut().enumerate().for_each(|(y, row)| {
             let lt = LightTracer {
                 scene,
@@ -179,6 +194,7 @@ impl<'a> LightPaths<'a> {
     ) {
         self.rows.resize_with(1, LightRow::default);
         self.row_len = n;
+        self.pinhole = pinhole(tracer.scene);
         let streams = tracer.pc.light_paths as u64;
         tracer.row_into((seed, pass, streams), 0, n as u64, &mut self.rows[0]);
         self.index();
@@ -253,9 +269,19 @@ impl<'a> LightPaths<'a> {
     }
 
     /// The claimed light-tracing paths of light path `k`.
-    pub fn claimed_of(&self, k: usize) -> &[Claimed] {
+    pub fn claimed_of(&self, k: usize) -> impl ExactSizeIterator<Item = Claimed<'_>> + '_ {
         let (row, i) = (&self.rows[k / self.row_len], k % self.row_len);
-        &row.claimed.as_slice()[row.claimed_starts[i] as usize..row.claimed_starts[i + 1] as usize]
+        let claims =
+            &row.claimed[row.claimed_starts[i] as usize..row.claimed_starts[i + 1] as usize];
+        claims.iter().map(|c| Claimed {
+            technique: c.technique,
+            head: std::slice::from_ref(&self.pinhole),
+            tail: &row.full[c.start as usize..c.end as usize],
+            pixel: c.pixel,
+            value: c.value,
+            weight: c.weight,
+            splat: true,
+        })
     }
 
     /// Every vertex of light path `k`, light first (recorded for inspection and claims only).
@@ -535,7 +561,8 @@ impl<'a> LightTracer<'a, '_> {
                         .closed_by(scene, cam.position)
                         .is_some_and(|h| claims.may_hold_hash(h))
             });
-            if !(may_hold && self.claim(technique, light, pixel, c, w, row)) {
+            let span = (full_start, full.len());
+            if !(may_hold && self.claim(technique, light, span, (pixel, c, w), row)) {
                 row.splats.push((pixel, c * w));
             }
             self.record(technique, light, w);
@@ -547,34 +574,34 @@ impl<'a> LightTracer<'a, '_> {
 
     /// The pinhole as a path vertex.
     fn pinhole(&self) -> PathVertex {
-        PathVertex {
-            p: self.scene.camera.position,
-            n: Vec3::ZERO,
-            ns: Vec3::ZERO,
-            uv: glam::Vec2::ZERO,
-            kind: VertexKind::Camera,
-        }
+        pinhole(self.scene)
     }
 
-    /// If `claims` holds the path (pinhole, then `light` reversed), keep it in `row` with its
-    /// unweighted value `c`, landing in `pixel`, and return true.
+    /// If `claims` holds the path (pinhole, then `light` reversed, which is `row.full[span]`),
+    /// keep it in `row` with its unweighted value `c` (vcm's weight `w` beside it), landing in
+    /// `pixel`, and return true.
     fn claim(
         &self,
         technique: Technique,
         light: &[PathVertex],
-        pixel: u32,
-        c: Spectrum,
-        w: f32,
+        span: (usize, usize),
+        (pixel, c, w): (u32, Spectrum, f32),
         row: &mut LightRow,
     ) -> bool {
         let Some(claims) = self.claims else {
             return false;
         };
-        let head = [self.pinhole()];
-        if !claims.holds(self.scene, &head, light) {
+        if !claims.holds(self.scene, &[self.pinhole()], light) {
             return false;
         }
-        row.claimed.push(technique, &head, light, pixel, c, w, true);
+        row.claimed.push(LightClaim {
+            technique,
+            start: span.0 as u32,
+            end: span.1 as u32,
+            pixel,
+            value: c,
+            weight: w,
+        });
         true
     }
 
@@ -586,5 +613,13 @@ impl<'a> LightTracer<'a, '_> {
             path: joined(&[self.pinhole()], light),
             weight: weight as f64,
         });
+    }
+}
+
+/// The pinhole of `scene`'s camera as a path vertex.
+fn pinhole(scene: &Scene) -> PathVertex {
+    PathVertex {
+        p: scene.camera.position,
+        ..PathVertex::EMPTY
     }
 }

@@ -225,49 +225,121 @@ pub struct Record {
 pub type Inspector<'p> = RefCell<dyn FnMut(&Record) + 'p>;
 
 /// A contribution whose path a pass's [`HeldPaths`](crate::integrators::unguided::HeldPaths)
-/// holds (guided-vcm's render passes, `unguided.rs`): kept out of vcm's own sum, unweighted,
-/// for the caller to weigh.
-pub struct Claimed {
+/// holds (guided-vcm's passes, `unguided.rs`): kept out of vcm's own sum, unweighted, for the
+/// caller to weigh. Borrowed from where it is kept ([`Claims`], or a light-tracing path's
+/// recorded light subpath).
+#[derive(Clone, Copy)]
+pub struct Claimed<'c> {
     /// The technique that formed the path.
     pub technique: Technique,
-    /// Camera first, ending on the emitter; `pixel` is where it lands.
-    pub path: Path,
+    /// The path is `head` followed by `tail` reversed: camera first, ending on the emitter.
+    pub head: &'c [crate::path::Vertex],
+    /// See `head`.
+    pub tail: &'c [crate::path::Vertex],
+    /// The pixel (row-major index) the path lands in.
+    pub pixel: u32,
     /// The technique's unweighted estimate f(X) / p_technique(X).
     pub value: Spectrum,
     /// vcm's own MIS weight of the path.
     pub weight: f32,
-    /// A light-tracing path (splatted to `path.pixel`).
+    /// A light-tracing path (splatted to `pixel`).
     pub splat: bool,
 }
 
-/// Claimed paths in slots that are reused: [`Claims::clear`] keeps every slot's path, so a
-/// claim writes its few vertices into a slot already there instead of building a `Path`
-/// (inline storage for `MAX_VERTICES` vertices, zeroed) and moving it into a vector.
+impl Claimed<'_> {
+    /// The path as a [`Path`] in `path` (its previous contents replaced).
+    pub fn path_into(&self, path: &mut Path) {
+        join_into(path, self.head, self.tail);
+        if self.splat
+            && let Some(x1) = path.vertices_mut().get_mut(1)
+        {
+            // A light-tracing path's x_1 is the light vertex joined to the pinhole, read
+            // from the recorded light subpath: its mark of a delta lobe left (set when the
+            // walk went on through one, after the claim) is not this path's.
+            x1.set_delta(false);
+        }
+        path.pixel = self.pixel;
+    }
+}
+
+/// What a claim keeps beside its vertices.
+#[derive(Clone, Copy)]
+struct ClaimHead {
+    technique: Technique,
+    /// The claim's vertices are `vertices[start..end]` of its [`Claims`].
+    start: u32,
+    end: u32,
+    pixel: u32,
+    value: Spectrum,
+    weight: f32,
+    splat: bool,
+}
+
+/// Claimed paths, their vertices in one buffer: a claim costs its own few vertices, not a
+/// [`Path`]'s inline room for `MAX_VERTICES` (a learning pass of guided-vcm claims every
+/// light-tracing path of the pass, millions at 1024 x 1024). Claims the caller takes
+/// without their vertices (below its `PathSink::own_weight_floor`) keep only their pixel and
+/// weighted value ([`Claims::dim`]). [`Claims::clear`] keeps the buffers for reuse.
 #[derive(Default)]
 pub struct Claims {
-    slots: Vec<Claimed>,
-    len: usize,
+    heads: Vec<ClaimHead>,
+    vertices: Vec<crate::path::Vertex>,
+    dim: Vec<(u32, Spectrum)>,
 }
 
 impl Claims {
-    /// Drop every claim, keeping the slots for reuse.
+    /// Drop every claim, keeping the buffers.
     pub fn clear(&mut self) {
-        self.len = 0;
+        self.heads.clear();
+        self.vertices.clear();
+        self.dim.clear();
     }
 
-    /// Number of claims.
+    /// The claims kept without their vertices: (pixel, value under vcm's weight).
+    pub fn dim(&self) -> &[(u32, Spectrum)] {
+        &self.dim
+    }
+
+    /// Keep a claim without its vertices.
+    pub fn push_dim(&mut self, pixel: u32, weighted: Spectrum) {
+        self.dim.push((pixel, weighted));
+    }
+
+    /// Number of claims with their vertices.
     pub fn len(&self) -> usize {
-        self.len
+        self.heads.len()
     }
 
     /// Whether there are no claims.
     pub fn is_empty(&self) -> bool {
-        self.len == 0
+        self.heads.is_empty() && self.dim.is_empty()
     }
 
-    /// The claims, in the order they were made.
-    pub fn as_slice(&self) -> &[Claimed] {
-        &self.slots[..self.len]
+    /// Claim `i` (in the order they were made).
+    pub fn get(&self, i: usize) -> Claimed<'_> {
+        let h = &self.heads[i];
+        Claimed {
+            technique: h.technique,
+            head: &self.vertices[h.start as usize..h.end as usize],
+            tail: &[],
+            pixel: h.pixel,
+            value: h.value,
+            weight: h.weight,
+            splat: h.splat,
+        }
+    }
+
+    /// The claims `range` (indices in the order they were made).
+    pub fn range(
+        &self,
+        range: std::ops::Range<usize>,
+    ) -> impl ExactSizeIterator<Item = Claimed<'_>> + '_ {
+        range.map(|i| self.get(i))
+    }
+
+    /// Every claim, in the order they were made.
+    pub fn iter(&self) -> impl ExactSizeIterator<Item = Claimed<'_>> + '_ {
+        self.range(0..self.len())
     }
 
     /// Keep the path `head` followed by `tail` reversed, landing in `pixel`.
@@ -282,20 +354,18 @@ impl Claims {
         weight: f32,
         splat: bool,
     ) {
-        if self.len == self.slots.len() {
-            self.slots.push(Claimed {
-                technique,
-                path: Path::default(),
-                value,
-                weight,
-                splat,
-            });
-        }
-        let c = &mut self.slots[self.len];
-        join_into(&mut c.path, head, tail);
-        c.path.pixel = pixel;
-        (c.technique, c.value, c.weight, c.splat) = (technique, value, weight, splat);
-        self.len += 1;
+        let start = self.vertices.len() as u32;
+        self.vertices.extend_from_slice(head);
+        self.vertices.extend(tail.iter().rev());
+        self.heads.push(ClaimHead {
+            technique,
+            start,
+            end: self.vertices.len() as u32,
+            pixel,
+            value,
+            weight,
+            splat,
+        });
     }
 }
 

@@ -11,7 +11,7 @@ use crate::integrators::paths::{self, Vertex};
 use crate::integrators::unguided::{HeldPaths, PathSink, Unguided, finite};
 use crate::integrators::vcm::{self, CameraTracer, Claimed, LightPaths, Photon, Technique};
 use crate::math::{PI, Sampler};
-use crate::path::{MAX_VERTICES, Vertex as PathVertex};
+use crate::path::{MAX_VERTICES, Path, Vertex as PathVertex};
 use crate::scene::Scene;
 use glam::{DVec3, Vec2, Vec3};
 use std::sync::Arc;
@@ -60,6 +60,8 @@ pub struct VcmTracer<'s> {
     tracer: Box<CameraTracer<'s, 's>>,
     /// eta = pi r^2 N of the pass.
     eta: f64,
+    /// Where a claimed path is laid out for the sink.
+    path: Box<Path>,
 }
 
 impl VcmUnguided {
@@ -102,14 +104,22 @@ impl VcmUnguided {
     /// asked first whether vcm's own weight will do (`PathSink::record_if_own_weight`: the
     /// guided density is 0); so is it when the explicit densities do not take the path (a
     /// vertex count past max_depth, a density of 0 where vcm's differs in f32).
-    fn deliver(&self, scene: &Scene, eta: f64, c: &Claimed, sink: &mut dyn PathSink) {
+    fn deliver(
+        &self,
+        scene: &Scene,
+        eta: f64,
+        c: Claimed,
+        path: &mut Path,
+        sink: &mut dyn PathSink,
+    ) {
         let own = (c.value * c.weight).as_dvec3();
-        let weighted = |sink: &mut dyn PathSink| sink.record_weighted(c.path.pixel, own, c.splat);
+        let weighted = |sink: &mut dyn PathSink| sink.record_weighted(c.pixel, own, c.splat);
+        c.path_into(path);
         // Most held paths have p_g = 0 at x_1 already: vcm's weight is then theirs.
-        if sink.record_if_own_weight(&c.path, own, c.splat) {
+        if sink.record_if_own_weight(path, own, c.splat) {
             return;
         }
-        let Some(y) = paths::from_path(scene, &c.path) else {
+        let Some(y) = paths::from_path(scene, path) else {
             return weighted(sink);
         };
         let Some((vc, vm, p_u)) = self.technique_densities(scene, eta, &y) else {
@@ -124,7 +134,7 @@ impl VcmUnguided {
             return weighted(sink);
         }
         let f = c.value.as_dvec3() * p_s;
-        sink.record_from_vertices(&c.path, &y, f, p_u, c.splat);
+        sink.record_from_vertices(path, &y, f, p_u, c.splat);
     }
 }
 
@@ -146,7 +156,8 @@ impl Unguided for VcmUnguided {
         self.settings.max_depth
     }
 
-    /// A learning pass: every path goes to the sink with its densities.
+    /// A learning pass: every path is claimed and goes to the sink, with its densities where
+    /// the sink needs them (`VcmUnguided::deliver`, `PathSink::own_weight_floor`).
     fn begin_pass<'s>(
         &'s self,
         scene: &'s Scene,
@@ -229,6 +240,7 @@ impl Unguided for VcmUnguided {
                 p.held.as_deref(),
             )),
             eta: p.eta,
+            path: Box::default(),
         }
     }
 
@@ -253,18 +265,26 @@ impl Unguided for VcmUnguided {
         sampler: &mut impl Sampler,
         sink: &mut dyn PathSink,
     ) {
-        let VcmTracer { tracer: ct, eta } = tracer;
+        let VcmTracer {
+            tracer: ct,
+            eta,
+            path,
+        } = tracer;
         let k = pixel_of(scene, raster);
         for &(pixel, c) in ct.lights.splats_of(k) {
             sink.record_weighted(pixel, c.as_dvec3(), true);
         }
         for c in ct.lights.claimed_of(k) {
-            self.deliver(scene, *eta, c, sink);
+            self.deliver(scene, *eta, c, path, sink);
         }
+        ct.dim_floor = sink.own_weight_floor();
         let l = ct.sample(k, raster, sampler);
         sink.record_weighted(k as u32, l.as_dvec3(), false);
-        for c in ct.claimed().as_slice() {
-            self.deliver(scene, *eta, c, sink);
+        for c in ct.claimed().iter() {
+            self.deliver(scene, *eta, c, path, sink);
+        }
+        for &(pixel, c) in ct.claimed().dim() {
+            sink.record_dim(pixel, c.as_dvec3(), false);
         }
         ct.claimed().clear();
     }
@@ -285,7 +305,7 @@ impl Unguided for VcmUnguided {
             .splats_of(k)
             .iter()
             .copied()
-            .chain((lights.claimed_of(k).iter()).map(|c| (c.path.pixel, c.value * c.weight)));
+            .chain((lights.claimed_of(k)).map(|c| (c.pixel, c.value * c.weight)));
         for (pixel, c) in light_paths {
             let c = finite(c.as_dvec3());
             if c != DVec3::ZERO {
@@ -293,7 +313,10 @@ impl Unguided for VcmUnguided {
             }
         }
         let mut l = ct.sample(k, raster, sampler).as_dvec3();
-        for c in ct.claimed().as_slice() {
+        for &(_, c) in ct.claimed().dim() {
+            l += c.as_dvec3();
+        }
+        for c in ct.claimed().iter() {
             l += (c.value * c.weight).as_dvec3();
         }
         ct.claimed().clear();

@@ -13,7 +13,7 @@
 //! [`HeldKey`] kept with each light vertex and photon (`paths::structure`), so a merge reads
 //! its photon's subpath only when the cache may hold the path.
 
-use super::light::{LightPaths, Photon};
+use super::light_paths::{LightPaths, Photon};
 use super::vertex::{
     Edge, Mis, MisVertex, connectible_light, emission_densities, hittable, nee_density,
 };

@@ -1,17 +1,19 @@
-//! The light subpaths of a pass: traced from a light chosen by power, their connectible
-//! vertices stored for connections and merging, and each vertex connected to the pinhole
-//! (light tracing, t = 1, splatted). Light path k uses the stream (seed, pass, N + k) in
-//! `vcm` (the stream base is a parameter: guided-vcm's passes use their own).
+//! Tracing the light subpaths of a pass: each from a light chosen by power, its connectible
+//! vertices kept for connections and merging (in `light_paths.rs`), and each vertex
+//! connected to the pinhole (light tracing, t = 1, splatted). Light path k uses the stream
+//! (seed, pass, N + k) in `vcm` (the stream base is a parameter: guided-vcm's passes use
+//! their own).
 //!
-//! With a [`HeldPaths`] test (guided-vcm's render passes), every light-tracing path it holds is
-//! kept unweighted as a [`Claimed`] path instead of splatted, and every path's vertices are
-//! recorded (`full`), as they are for inspection; the structure hash's part of each subpath
-//! is kept beside its stored vertices (`LightRow::keys`), which the camera tracer's claims
-//! test first.
+//! With a [`HeldPaths`] test (guided-vcm's passes), every light-tracing path it holds is kept
+//! unweighted as a [`Claimed`](super::Claimed) path instead of splatted, and every path's
+//! vertices are recorded (`full`), as they are for inspection; the structure hash's part of
+//! each subpath is kept beside its stored vertices (`LightRow::keys`), which the camera
+//! tracer's claims test first.
 
+use super::light_paths::{LightClaim, LightRow, pinhole};
 use super::vertex::{Edge, MisVertex, connectible_light, emission, emission_densities, hittable};
 use super::walk::{Step, Walk};
-use super::{Claimed, Inspector, PassConstants, Record, Technique, VcmSettings, joined};
+use super::{Inspector, PassConstants, Record, Technique, VcmSettings, joined};
 use crate::bsdf::TransportMode;
 use crate::geometry::{Ray, gamma, offset_origin};
 use crate::integrators::paths::direct_to_camera;
@@ -21,280 +23,6 @@ use crate::math::{IndependentSampler, Sampler, Spectrum};
 use crate::path::{MAX_VERTICES, Vertex as PathVertex, VertexKind};
 use crate::scene::{Endpoint, Scene};
 use glam::Vec3;
-use rayon::prelude::*;
-
-/// The light subpaths of one row of path indices.
-#[derive(Default)]
-pub struct LightRow<'a> {
-    pub vertices: Vec<MisVertex<'a>>,
-    /// The row's i-th path has vertices `starts[i] .. starts[i + 1]`.
-    pub starts: Vec<u32>,
-    /// Light-tracing contributions (pixel, value), in path order; the i-th path's are
-    /// `splat_starts[i] .. splat_starts[i + 1]`.
-    pub splats: Vec<(u32, Spectrum)>,
-    splat_starts: Vec<u32>,
-    /// Every vertex of every path, light first, when recorded (inspection, claims); the i-th
-    /// path's are `full_starts[i] .. full_starts[i + 1]`.
-    full: Vec<PathVertex>,
-    full_starts: Vec<u32>,
-    /// Beside `vertices` when claims are tested: each stored vertex's [`HeldKey`]s, of the
-    /// subpath before it (for merges at it) and up to it (for connections to it).
-    keys: Vec<[HeldKey; 2]>,
-    /// Light-tracing paths claimed by the pass's [`HeldPaths`], each the pinhole and a
-    /// prefix of its light subpath in `full`; the i-th path's are
-    /// `claimed_starts[i] .. claimed_starts[i + 1]`.
-    claimed: Vec<LightClaim>,
-    claimed_starts: Vec<u32>,
-    /// Rays the row's paths took.
-    rays: u64,
-}
-
-/// A claimed light-tracing path: the pinhole, then `LightRow::full[start..end]` reversed.
-#[derive(Clone, Copy)]
-struct LightClaim {
-    technique: Technique,
-    start: u32,
-    end: u32,
-    pixel: u32,
-    value: Spectrum,
-    weight: f32,
-}
-
-impl LightRow<'_> {
-    fn clear(&mut self) {
-        self.vertices.clear();
-        self.starts.clear();
-        self.starts.push(0);
-        self.splats.clear();
-        self.splat_starts.clear();
-        self.splat_starts.push(0);
-        self.full.clear();
-        self.keys.clear();
-        self.full_starts.clear();
-        self.full_starts.push(0);
-        self.claimed.clear();
-        self.claimed_starts.clear();
-        self.claimed_starts.push(0);
-    }
-
-    /// Close the path just traced.
-    fn end_path(&mut self) {
-        self.starts.push(self.vertices.len() as u32);
-        self.splat_starts.push(self.splats.len() as u32);
-        self.full_starts.push(self.full.len() as u32);
-        self.claimed_starts.push(self.claimed.len() as u32);
-    }
-}
-
-/// What merging needs of a stored light vertex (global index `index`), kept in the hash
-/// grid beside its position.
-#[derive(Clone, Copy, Default)]
-pub struct Photon {
-    /// Unit direction towards the light walk's previous vertex.
-    pub wo: Vec3,
-    /// Throughput of the light subpath up to the vertex.
-    pub beta: Spectrum,
-    /// The vertex's recursive MIS quantity `d_vcm` (`vertex::Mis`).
-    pub d_vcm: f32,
-    /// The vertex's recursive MIS quantity `d_vm`, relative to a merge here.
-    pub d_vm: f32,
-    /// Segments from the light, saturated at 65535 (a subpath that deep needs `max_depth`
-    /// above it and has probability below 1e-280 under roulette capped at 0.99, so merging's
-    /// depth test, `depth + t > max_depth`, is exact in practice).
-    pub depth: u16,
-    /// The structure hash's low bits of the subpath before this vertex, when claims are
-    /// tested (what a merge here tests first; `HeldKey`).
-    pub held: HeldKey,
-    /// Global index of the light vertex among the pass's stored vertices.
-    pub index: u32,
-}
-
-impl Photon {
-    /// What merging needs of light vertex `v`, global index `index`.
-    pub fn of(v: &MisVertex, index: usize, held: HeldKey) -> Photon {
-        Photon {
-            wo: v.wo,
-            beta: v.beta,
-            d_vcm: v.mis.d_vcm,
-            d_vm: v.mis.d_vm,
-            depth: v.depth.min(u16::MAX as u32) as u16,
-            held,
-            index: index as u32,
-        }
-    }
-}
-
-/// All stored light vertices of a pass, path by path, in the rows the light pass traced
-/// them in. Rows keep their memory from pass to pass and are read where they were written:
-/// at 512 x 512 a pass's light vertices are tens of megabytes, and allocating them afresh
-/// every pass cost vcm about 7 % of its time in page faults, copying them into one array 2 %.
-/// A vertex's global index counts row by row (row 0's vertices first).
-#[derive(Default)]
-pub struct LightPaths<'a> {
-    rows: Vec<LightRow<'a>>,
-    /// Paths per row.
-    row_len: usize,
-    /// Global index of each row's first vertex, and the total at the end.
-    offsets: Vec<u32>,
-    /// The light path of each stored vertex, by global index (when `full` is recorded).
-    path_of: Vec<u32>,
-    /// The pinhole as a path vertex (the head of every claimed light-tracing path).
-    pinhole: PathVertex,
-}
-
-impl<'a> LightPaths<'a> {
-    /// Trace `rows` rows of `row_len` paths each (row y holds paths `y row_len ..`) of pass
-    /// `pass`, path k from stream `(seed, pass, streams + k)`, a row per task, into these
-    /// buffers; light-tracing paths that `claims` holds are kept as [`Claimed`] paths.
-    #[allow(clippy::too_many_arguments)]
-    pub fn trace(
-        &mut self,
-        scene: &'a Scene,
-        settings: &VcmSettings,
-        pc: &PassConstants,
-        (seed, pass, streams): (u64, u64, u64),
-        rows: usize,
-        row_len: usize,
-        claims: Option<&dyn HeldPaths>,
-    ) {
-        self.rows.resize_with(rows, LightRow::default);
-        self.row_len = row_len;
-        self.pinhole = pinhole(scene);
-        self.rows.par_iter_mut().enumerate().for_each(|(y, row)| {
-            let lt = LightTracer {
-                scene,
-                settings,
-                pc,
-                inspector: None,
-                claims,
-            };
-            let rays = crate::geometry::bvh::rays_traced();
-            lt.row_into(
-                (seed, pass, streams),
-                (y * row_len) as u64,
-                row_len as u64,
-                row,
-            );
-            row.rays = crate::geometry::bvh::rays_traced() - rays;
-        });
-        self.index();
-    }
-
-    /// Rays the last [`Self::trace`] took.
-    pub fn rays(&self) -> u64 {
-        self.rows.iter().map(|r| r.rays).sum()
-    }
-
-    /// All `n` paths of pass `pass` as one row, on this thread, by `tracer` (inspection).
-    pub fn trace_one_row(
-        &mut self,
-        tracer: &LightTracer<'a, '_>,
-        (seed, pass): (u64, u64),
-        n: usize,
-    ) {
-        self.rows.resize_with(1, LightRow::default);
-        self.row_len = n;
-        self.pinhole = pinhole(tracer.scene);
-        let streams = tracer.pc.light_paths as u64;
-        tracer.row_into((seed, pass, streams), 0, n as u64, &mut self.rows[0]);
-        self.index();
-    }
-
-    fn index(&mut self) {
-        self.offsets.clear();
-        self.path_of.clear();
-        let mut total = 0u32;
-        for (r, row) in self.rows.iter().enumerate() {
-            self.offsets.push(total);
-            total += row.vertices.len() as u32;
-            if row.full.is_empty() {
-                continue;
-            }
-            for (i, w) in row.starts.windows(2).enumerate() {
-                let k = (r * self.row_len + i) as u32;
-                self.path_of.extend((w[0]..w[1]).map(|_| k));
-            }
-        }
-        self.offsets.push(total);
-    }
-
-    /// The stored vertices of light path `k`.
-    #[inline]
-    pub fn path(&self, k: usize) -> &[MisVertex<'a>] {
-        let (row, i) = (&self.rows[k / self.row_len], k % self.row_len);
-        &row.vertices[row.starts[i] as usize..row.starts[i + 1] as usize]
-    }
-
-    /// Every stored vertex with its global index.
-    pub fn vertices(&self) -> impl Iterator<Item = (usize, &MisVertex<'a>)> {
-        self.rows.iter().zip(&self.offsets).flat_map(|(row, &o)| {
-            row.vertices
-                .iter()
-                .enumerate()
-                .map(move |(i, v)| (o as usize + i, v))
-        })
-    }
-
-    /// Every stored vertex with its global index and the [`HeldKey`] of the subpath before
-    /// it (`HeldKey::NONE` when no claims were tested).
-    pub fn vertices_with_keys(&self) -> impl Iterator<Item = (usize, &MisVertex<'a>, HeldKey)> {
-        self.rows.iter().zip(&self.offsets).flat_map(|(row, &o)| {
-            row.vertices.iter().enumerate().map(move |(i, v)| {
-                let key = row.keys.get(i).map_or(HeldKey::NONE, |k| k[0]);
-                (o as usize + i, v, key)
-            })
-        })
-    }
-
-    /// The [`HeldKey`]s of the subpaths up to each stored vertex of light path `k`, beside
-    /// [`Self::path`] (empty when no claims were tested).
-    #[inline]
-    pub fn connect_keys(&self, k: usize) -> &[[HeldKey; 2]] {
-        let (row, i) = (&self.rows[k / self.row_len], k % self.row_len);
-        if row.keys.is_empty() {
-            return &[];
-        }
-        &row.keys[row.starts[i] as usize..row.starts[i + 1] as usize]
-    }
-
-    /// The light-tracing splats, in path order, row by row.
-    pub fn splats(&self) -> impl Iterator<Item = &[(u32, Spectrum)]> {
-        self.rows.iter().map(|row| row.splats.as_slice())
-    }
-
-    /// The light-tracing splats of light path `k`.
-    pub fn splats_of(&self, k: usize) -> &[(u32, Spectrum)] {
-        let (row, i) = (&self.rows[k / self.row_len], k % self.row_len);
-        &row.splats[row.splat_starts[i] as usize..row.splat_starts[i + 1] as usize]
-    }
-
-    /// The claimed light-tracing paths of light path `k`.
-    pub fn claimed_of(&self, k: usize) -> impl ExactSizeIterator<Item = Claimed<'_>> + '_ {
-        let (row, i) = (&self.rows[k / self.row_len], k % self.row_len);
-        let claims =
-            &row.claimed[row.claimed_starts[i] as usize..row.claimed_starts[i + 1] as usize];
-        claims.iter().map(|c| Claimed {
-            technique: c.technique,
-            head: std::slice::from_ref(&self.pinhole),
-            tail: &row.full[c.start as usize..c.end as usize],
-            pixel: c.pixel,
-            value: c.value,
-            weight: c.weight,
-            splat: true,
-        })
-    }
-
-    /// Every vertex of light path `k`, light first (recorded for inspection and claims only).
-    pub fn full(&self, k: usize) -> &[PathVertex] {
-        let (row, i) = (&self.rows[k / self.row_len], k % self.row_len);
-        &row.full[row.full_starts[i] as usize..row.full_starts[i + 1] as usize]
-    }
-
-    /// The light path of the stored vertex of global index `index` (recorded with `full`).
-    pub fn path_of_vertex(&self, index: usize) -> usize {
-        self.path_of[index] as usize
-    }
-}
 
 /// Traces light subpaths and connects them to the camera.
 pub struct LightTracer<'a, 'p> {
@@ -613,13 +341,5 @@ impl<'a> LightTracer<'a, '_> {
             path: joined(&[self.pinhole()], light),
             weight: weight as f64,
         });
-    }
-}
-
-/// The pinhole of `scene`'s camera as a path vertex.
-fn pinhole(scene: &Scene) -> PathVertex {
-    PathVertex {
-        p: scene.camera.position,
-        ..PathVertex::EMPTY
     }
 }

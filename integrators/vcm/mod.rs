@@ -41,13 +41,14 @@
 mod camera;
 pub mod densities;
 mod light;
+mod light_paths;
 mod unguided;
 mod vertex;
 mod walk;
 
 pub use camera::CameraTracer;
 pub use densities::{densities_from_vertices, mergeable};
-pub use light::{LightPaths, Photon};
+pub use light_paths::{LightPaths, Photon};
 pub use unguided::{VcmPass, VcmTracer, VcmUnguided};
 
 use super::IntegratorParams;

@@ -10,7 +10,7 @@
 //! each subpath is kept beside its stored vertices (`LightRow::keys`), which the camera
 //! tracer's claims test first.
 
-use super::light_paths::{LightClaim, LightRow, pinhole};
+use super::light_paths::{LightClaim, LightPaths, LightRow, pinhole};
 use super::vertex::{Edge, MisVertex, connectible_light, emission, emission_densities, hittable};
 use super::walk::{Step, Walk};
 use super::{Inspector, PassConstants, Record, Technique, VcmSettings, joined};
@@ -23,6 +23,61 @@ use crate::math::{IndependentSampler, Sampler, Spectrum};
 use crate::path::{MAX_VERTICES, Vertex as PathVertex, VertexKind};
 use crate::scene::{Endpoint, Scene};
 use glam::Vec3;
+use rayon::prelude::*;
+
+impl<'a> LightPaths<'a> {
+    /// Trace `rows` rows of `row_len` paths each (row y holds paths `y row_len ..`) of pass
+    /// `pass`, path k from stream `(seed, pass, streams + k)`, a row per task, into these
+    /// buffers; light-tracing paths that `claims` holds are kept as [`Claimed`](super::Claimed) paths.
+    #[allow(clippy::too_many_arguments)]
+    pub fn trace(
+        &mut self,
+        scene: &'a Scene,
+        settings: &VcmSettings,
+        pc: &PassConstants,
+        (seed, pass, streams): (u64, u64, u64),
+        rows: usize,
+        row_len: usize,
+        claims: Option<&dyn HeldPaths>,
+    ) {
+        self.rows.resize_with(rows, LightRow::default);
+        self.row_len = row_len;
+        self.pinhole = pinhole(scene);
+        self.rows.par_iter_mut().enumerate().for_each(|(y, row)| {
+            let lt = LightTracer {
+                scene,
+                settings,
+                pc,
+                inspector: None,
+                claims,
+            };
+            let rays = crate::geometry::bvh::rays_traced();
+            lt.row_into(
+                (seed, pass, streams),
+                (y * row_len) as u64,
+                row_len as u64,
+                row,
+            );
+            row.rays = crate::geometry::bvh::rays_traced() - rays;
+        });
+        self.index();
+    }
+
+    /// All `n` paths of pass `pass` as one row, on this thread, by `tracer` (inspection).
+    pub fn trace_one_row(
+        &mut self,
+        tracer: &LightTracer<'a, '_>,
+        (seed, pass): (u64, u64),
+        n: usize,
+    ) {
+        self.rows.resize_with(1, LightRow::default);
+        self.row_len = n;
+        self.pinhole = pinhole(tracer.scene);
+        let streams = tracer.pc.light_paths as u64;
+        tracer.row_into((seed, pass, streams), 0, n as u64, &mut self.rows[0]);
+        self.index();
+    }
+}
 
 /// Traces light subpaths and connects them to the camera.
 pub struct LightTracer<'a, 'p> {

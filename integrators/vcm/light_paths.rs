@@ -1,18 +1,15 @@
 //! Where a pass's light subpaths are kept: per row of path indices their connectible vertices
 //! (connections and merging), their light-tracing splats, and, when recorded (inspection,
 //! guided-vcm's claims), every vertex and the light-tracing paths claimed; the photons merging
-//! reads (`Photon`). Traced by `light.rs`.
+//! reads (`Photon`). Traced by `light.rs` (`LightPaths::trace`).
 
-use super::light::LightTracer;
 use super::vertex::MisVertex;
-use super::{Claimed, PassConstants, Technique, VcmSettings};
+use super::{Claimed, Technique};
 use crate::integrators::paths::structure::HeldKey;
-use crate::integrators::unguided::HeldPaths;
 use crate::math::Spectrum;
 use crate::path::Vertex as PathVertex;
 use crate::scene::Scene;
 use glam::Vec3;
-use rayon::prelude::*;
 
 /// The light subpaths of one row of path indices.
 #[derive(Default)]
@@ -31,7 +28,7 @@ pub struct LightRow<'a> {
     /// Beside `vertices` when claims are tested: each stored vertex's [`HeldKey`]s, of the
     /// subpath before it (for merges at it) and up to it (for connections to it).
     pub(super) keys: Vec<[HeldKey; 2]>,
-    /// Light-tracing paths claimed by the pass's [`HeldPaths`], each the pinhole and a
+    /// Light-tracing paths claimed by the pass's [`HeldPaths`](crate::integrators::unguided::HeldPaths), each the pinhole and a
     /// prefix of its light subpath in `full`; the i-th path's are
     /// `claimed_starts[i] .. claimed_starts[i + 1]`.
     pub(super) claimed: Vec<LightClaim>,
@@ -122,76 +119,24 @@ impl Photon {
 /// A vertex's global index counts row by row (row 0's vertices first).
 #[derive(Default)]
 pub struct LightPaths<'a> {
-    rows: Vec<LightRow<'a>>,
+    pub(super) rows: Vec<LightRow<'a>>,
     /// Paths per row.
-    row_len: usize,
+    pub(super) row_len: usize,
     /// Global index of each row's first vertex, and the total at the end.
-    offsets: Vec<u32>,
+    pub(super) offsets: Vec<u32>,
     /// The light path of each stored vertex, by global index (when `full` is recorded).
-    path_of: Vec<u32>,
+    pub(super) path_of: Vec<u32>,
     /// The pinhole as a path vertex (the head of every claimed light-tracing path).
-    pinhole: PathVertex,
+    pub(super) pinhole: PathVertex,
 }
 
 impl<'a> LightPaths<'a> {
-    /// Trace `rows` rows of `row_len` paths each (row y holds paths `y row_len ..`) of pass
-    /// `pass`, path k from stream `(seed, pass, streams + k)`, a row per task, into these
-    /// buffers; light-tracing paths that `claims` holds are kept as [`Claimed`] paths.
-    #[allow(clippy::too_many_arguments)]
-    pub fn trace(
-        &mut self,
-        scene: &'a Scene,
-        settings: &VcmSettings,
-        pc: &PassConstants,
-        (seed, pass, streams): (u64, u64, u64),
-        rows: usize,
-        row_len: usize,
-        claims: Option<&dyn HeldPaths>,
-    ) {
-        self.rows.resize_with(rows, LightRow::default);
-        self.row_len = row_len;
-        self.pinhole = pinhole(scene);
-        self.rows.par_iter_mut().enumerate().for_each(|(y, row)| {
-            let lt = LightTracer {
-                scene,
-                settings,
-                pc,
-                inspector: None,
-                claims,
-            };
-            let rays = crate::geometry::bvh::rays_traced();
-            lt.row_into(
-                (seed, pass, streams),
-                (y * row_len) as u64,
-                row_len as u64,
-                row,
-            );
-            row.rays = crate::geometry::bvh::rays_traced() - rays;
-        });
-        self.index();
-    }
-
     /// Rays the last [`Self::trace`] took.
     pub fn rays(&self) -> u64 {
         self.rows.iter().map(|r| r.rays).sum()
     }
 
-    /// All `n` paths of pass `pass` as one row, on this thread, by `tracer` (inspection).
-    pub fn trace_one_row(
-        &mut self,
-        tracer: &LightTracer<'a, '_>,
-        (seed, pass): (u64, u64),
-        n: usize,
-    ) {
-        self.rows.resize_with(1, LightRow::default);
-        self.row_len = n;
-        self.pinhole = pinhole(tracer.scene);
-        let streams = tracer.pc.light_paths as u64;
-        tracer.row_into((seed, pass, streams), 0, n as u64, &mut self.rows[0]);
-        self.index();
-    }
-
-    fn index(&mut self) {
+    pub(super) fn index(&mut self) {
         self.offsets.clear();
         self.path_of.clear();
         let mut total = 0u32;

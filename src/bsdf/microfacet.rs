@@ -132,10 +132,9 @@ impl Ggx {
         // Stretch to the configuration of alpha = 1, where the visible normals are uniform on
         // the spherical cap z >= -wo_std.z, shifted by wo_std.
         let wo_std = Vec3::new(wo.x * a, wo.y * a, wo.z).normalize();
-        let phi = 2.0 * PI * u.x;
         let z = (1.0 - u.y) * (1.0 + wo_std.z) - wo_std.z;
         let sin_t = (1.0 - z * z).max(0.0).sqrt();
-        let (s, c) = phi.sin_cos();
+        let (s, c) = crate::math::warp::sin_cos_turn(u.x);
         let h = Vec3::new(sin_t * c, sin_t * s, z) + wo_std;
         // Unstretch.
         let m = Vec3::new(h.x * a, h.y * a, h.z.max(0.0));

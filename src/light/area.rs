@@ -338,8 +338,8 @@ fn sphere_sample_li(s: &Sphere, p: Vec3, u: Vec2) -> Option<(Vec3, Vec3, f32)> {
     let sin_theta = (u.x * one_minus_cos * (2.0 - u.x * one_minus_cos))
         .max(0.0)
         .sqrt();
-    let phi = 2.0 * PI * u.y;
-    let local = Vec3::new(sin_theta * phi.cos(), sin_theta * phi.sin(), cos_theta);
+    let (sin, cos) = warp::sin_cos_turn(u.y);
+    let local = Vec3::new(sin_theta * cos, sin_theta * sin, cos_theta);
     let wi = Frame::from_z(axis).to_world(local);
     // The point on the sphere seen along wi (nearest intersection; tangent point on a miss).
     let t = s.intersect(p, wi, f32::INFINITY);

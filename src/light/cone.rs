@@ -28,8 +28,8 @@ pub(super) fn one_minus_cos(a: Vec3, b: Vec3) -> f32 {
 pub(super) fn sample_uniform_cone(u: Vec2, z_max: f32) -> Vec3 {
     let z = u.x * z_max;
     let sin_theta = (z * (2.0 - z)).max(0.0).sqrt();
-    let phi = 2.0 * PI * u.y;
-    Vec3::new(sin_theta * phi.cos(), sin_theta * phi.sin(), 1.0 - z)
+    let (sin, cos) = crate::math::warp::sin_cos_turn(u.y);
+    Vec3::new(sin_theta * cos, sin_theta * sin, 1.0 - z)
 }
 
 /// Solid-angle density of [`sample_uniform_cone`]: `1 / (2 pi z_max)`.

@@ -4,7 +4,7 @@
 //! The scattering angle is between the propagation direction `-wo` and `wi`, so `g > 0`
 //! scatters forwards (wi close to -wo).
 
-use crate::math::{Frame, INV_4PI, PI};
+use crate::math::{Frame, INV_4PI};
 use glam::{Vec2, Vec3};
 
 /// The Henyey-Greenstein phase function of asymmetry `g`.
@@ -36,8 +36,8 @@ impl HenyeyGreenstein {
             ((1.0 + g * g - s * s) / (2.0 * g)).clamp(-1.0, 1.0)
         };
         let sin = (1.0 - cos * cos).max(0.0).sqrt();
-        let phi = 2.0 * PI * u.y;
-        let local = Vec3::new(sin * phi.cos(), sin * phi.sin(), cos);
+        let (sin_phi, cos_phi) = crate::math::warp::sin_cos_turn(u.y);
+        let local = Vec3::new(sin * cos_phi, sin * sin_phi, cos);
         let wi = Frame::from_z(-wo).to_world(local).normalize();
         // The density of the direction actually returned (after rounding), so that `sample`
         // and `eval` agree exactly even for strongly peaked lobes.

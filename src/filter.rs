@@ -95,10 +95,9 @@ impl Filter {
             2.0 * radius / (values.len() - 1) as f64
         };
         if !values.is_empty() {
-            let h = segment;
             cdf.push(0.0);
             for w in values.windows(2) {
-                cdf.push(cdf.last().unwrap() + 0.5 * (w[0] + w[1]) * h);
+                cdf.push(cdf.last().unwrap() + 0.5 * (w[0] + w[1]) * segment);
             }
             let total = *cdf.last().unwrap();
             values.iter_mut().for_each(|v| *v /= total);

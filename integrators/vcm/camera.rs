@@ -546,7 +546,8 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
         if !claims.holds(self.scene, &self.path, light) {
             return false;
         }
-        (self.claimed.borrow_mut()).push(technique, &self.path, light, self.pixel, c, w, false);
+        let (path, pixel) = (&self.path[..], self.pixel);
+        (self.claimed.borrow_mut()).push(technique, (path, light), (pixel, c, w));
         true
     }
 

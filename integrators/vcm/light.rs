@@ -10,10 +10,10 @@
 //! each subpath is kept beside its stored vertices (`LightRow::keys`), which the camera
 //! tracer's claims test first.
 
-use super::light_paths::{LightClaim, LightPaths, LightRow, pinhole};
+use super::light_paths::{LightPaths, LightRow, pinhole};
 use super::vertex::{Edge, MisVertex, connectible_light, emission, emission_densities, hittable};
 use super::walk::{Step, Walk};
-use super::{Inspector, PassConstants, Record, Technique, VcmSettings, joined};
+use super::{ClaimHead, Inspector, PassConstants, Record, Technique, VcmSettings, joined};
 use crate::bsdf::TransportMode;
 use crate::geometry::{Ray, gamma, offset_origin};
 use crate::integrators::paths::direct_to_camera;
@@ -377,7 +377,7 @@ impl<'a> LightTracer<'a, '_> {
         if !claims.holds(self.scene, &[self.pinhole()], light) {
             return false;
         }
-        row.claimed.push(LightClaim {
+        row.claimed.push(ClaimHead {
             technique,
             start: span.0 as u32,
             end: span.1 as u32,

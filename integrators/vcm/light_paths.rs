@@ -4,7 +4,7 @@
 //! reads (`Photon`). Traced by `light.rs` (`LightPaths::trace`).
 
 use super::vertex::MisVertex;
-use super::{Claimed, Technique};
+use super::{ClaimHead, Claimed};
 use crate::integrators::paths::structure::HeldKey;
 use crate::math::Spectrum;
 use crate::path::Vertex as PathVertex;
@@ -31,21 +31,10 @@ pub struct LightRow<'a> {
     /// Light-tracing paths claimed by the pass's [`HeldPaths`](crate::integrators::unguided::HeldPaths), each the pinhole and a
     /// prefix of its light subpath in `full`; the i-th path's are
     /// `claimed_starts[i] .. claimed_starts[i + 1]`.
-    pub(super) claimed: Vec<LightClaim>,
+    pub(super) claimed: Vec<ClaimHead>,
     pub(super) claimed_starts: Vec<u32>,
     /// Rays the row's paths took.
     pub(super) rays: u64,
-}
-
-/// A claimed light-tracing path: the pinhole, then `LightRow::full[start..end]` reversed.
-#[derive(Clone, Copy)]
-pub(super) struct LightClaim {
-    pub(super) technique: Technique,
-    pub(super) start: u32,
-    pub(super) end: u32,
-    pub(super) pixel: u32,
-    pub(super) value: Spectrum,
-    pub(super) weight: f32,
 }
 
 impl LightRow<'_> {
@@ -209,15 +198,10 @@ impl<'a> LightPaths<'a> {
         let (row, i) = (&self.rows[k / self.row_len], k % self.row_len);
         let claims =
             &row.claimed[row.claimed_starts[i] as usize..row.claimed_starts[i + 1] as usize];
-        claims.iter().map(|c| Claimed {
-            technique: c.technique,
-            head: std::slice::from_ref(&self.pinhole),
-            tail: &row.full[c.start as usize..c.end as usize],
-            pixel: c.pixel,
-            value: c.value,
-            weight: c.weight,
-            splat: true,
-        })
+        let pinhole = std::slice::from_ref(&self.pinhole);
+        claims
+            .iter()
+            .map(move |c| c.claimed(pinhole, &row.full[c.span()], true))
     }
 
     /// Every vertex of light path `k`, light first (recorded for inspection and claims only).

@@ -263,22 +263,45 @@ impl Claimed<'_> {
     }
 }
 
-/// What a claim keeps beside its vertices.
+/// What a claim keeps beside its vertices, which are `start..end` of a buffer its keeper
+/// knows ([`Claims`]' own, or a light row's recorded subpaths).
 #[derive(Clone, Copy)]
 struct ClaimHead {
     technique: Technique,
-    /// The claim's vertices are `vertices[start..end]` of its [`Claims`].
     start: u32,
     end: u32,
     pixel: u32,
     value: Spectrum,
     weight: f32,
-    splat: bool,
 }
 
-/// Claimed paths, their vertices in one buffer: a claim costs its own few vertices, not a
-/// [`Path`]'s inline room for `MAX_VERTICES` (a learning pass of guided-vcm claims every
-/// light-tracing path of the pass, millions at 1024 x 1024). Claims the caller takes
+impl ClaimHead {
+    /// Where the claim's vertices are in its keeper's buffer.
+    fn span(&self) -> std::ops::Range<usize> {
+        self.start as usize..self.end as usize
+    }
+
+    /// The claim, its path `head` followed by `tail` reversed.
+    fn claimed<'c>(
+        &self,
+        head: &'c [crate::path::Vertex],
+        tail: &'c [crate::path::Vertex],
+        splat: bool,
+    ) -> Claimed<'c> {
+        Claimed {
+            technique: self.technique,
+            head,
+            tail,
+            pixel: self.pixel,
+            value: self.value,
+            weight: self.weight,
+            splat,
+        }
+    }
+}
+
+/// The camera tracer's claimed paths, their vertices in one buffer: a claim costs its own
+/// few vertices, not a [`Path`]'s inline room for `MAX_VERTICES`. Claims the caller takes
 /// without their vertices (below its `PathSink::own_weight_floor`) keep only their pixel and
 /// weighted value ([`Claims::dim`]). [`Claims::clear`] keeps the buffers for reuse.
 #[derive(Default)]
@@ -306,54 +329,18 @@ impl Claims {
         self.dim.push((pixel, weighted));
     }
 
-    /// Number of claims with their vertices.
-    pub fn len(&self) -> usize {
-        self.heads.len()
-    }
-
-    /// Whether there are no claims.
-    pub fn is_empty(&self) -> bool {
-        self.heads.is_empty() && self.dim.is_empty()
-    }
-
-    /// Claim `i` (in the order they were made).
-    pub fn get(&self, i: usize) -> Claimed<'_> {
-        let h = &self.heads[i];
-        Claimed {
-            technique: h.technique,
-            head: &self.vertices[h.start as usize..h.end as usize],
-            tail: &[],
-            pixel: h.pixel,
-            value: h.value,
-            weight: h.weight,
-            splat: h.splat,
-        }
-    }
-
-    /// The claims `range` (indices in the order they were made).
-    pub fn range(
-        &self,
-        range: std::ops::Range<usize>,
-    ) -> impl ExactSizeIterator<Item = Claimed<'_>> + '_ {
-        range.map(|i| self.get(i))
-    }
-
-    /// Every claim, in the order they were made.
+    /// The claims with their vertices, in the order they were made.
     pub fn iter(&self) -> impl ExactSizeIterator<Item = Claimed<'_>> + '_ {
-        self.range(0..self.len())
+        (self.heads.iter()).map(|h| h.claimed(&self.vertices[h.span()], &[], false))
     }
 
-    /// Keep the path `head` followed by `tail` reversed, landing in `pixel`.
-    #[allow(clippy::too_many_arguments)]
+    /// Keep the path `head` followed by `tail` reversed, landing in `pixel` (its unweighted
+    /// value `value`, vcm's weight `weight` beside it).
     pub fn push(
         &mut self,
         technique: Technique,
-        head: &[crate::path::Vertex],
-        tail: &[crate::path::Vertex],
-        pixel: u32,
-        value: Spectrum,
-        weight: f32,
-        splat: bool,
+        (head, tail): (&[crate::path::Vertex], &[crate::path::Vertex]),
+        (pixel, value, weight): (u32, Spectrum, f32),
     ) {
         let start = self.vertices.len() as u32;
         self.vertices.extend_from_slice(head);
@@ -365,7 +352,6 @@ impl Claims {
             pixel,
             value,
             weight,
-            splat,
         });
     }
 }

@@ -333,14 +333,8 @@ fn sphere_sample_li(s: &Sphere, p: Vec3, u: Vec2) -> Option<(Vec3, Vec3, f32)> {
     let (one_minus_cos, cos_max) = cone_of(s, dc2);
     let dc = dc2.sqrt();
     let axis = (s.center - p) / dc;
-    // Uniform in the cone; written with 1 - cos to stay accurate for tiny cones.
-    let cos_theta = 1.0 - u.x * one_minus_cos;
-    let sin_theta = (u.x * one_minus_cos * (2.0 - u.x * one_minus_cos))
-        .max(0.0)
-        .sqrt();
-    let (sin, cos) = warp::sin_cos_turn(u.y);
-    let local = Vec3::new(sin_theta * cos, sin_theta * sin, cos_theta);
-    let wi = Frame::from_z(axis).to_world(local);
+    // Uniform in the cone (written with 1 - cos, accurate for tiny cones).
+    let wi = Frame::from_z(axis).to_world(super::cone::sample_uniform_cone(u, one_minus_cos));
     // The point on the sphere seen along wi (nearest intersection; tangent point on a miss).
     let t = s.intersect(p, wi, f32::INFINITY);
     let t = if t.is_finite() { t } else { dc * cos_max };

@@ -85,6 +85,9 @@ pub struct Vertex {
     pub ns: Vec3,
     /// Texture coordinates of surface vertices whose material reads them (zero otherwise).
     pub uv: Vec2,
+    /// The shading frame's first tangent (`s`) at surface vertices whose BSDF is anisotropic
+    /// (zero otherwise, where the frame is the one around `ns`): [`Vertex::tangent_of`].
+    pub tangent: Vec3,
     /// What the vertex is (camera, surface, medium, emitter) with its scene indices.
     pub kind: VertexKind,
 }
@@ -103,8 +106,21 @@ impl Vertex {
         n: Vec3::ZERO,
         ns: Vec3::ZERO,
         uv: Vec2::ZERO,
+        tangent: Vec3::ZERO,
         kind: VertexKind::Camera,
     };
+
+    /// What a surface vertex with BSDF `bsdf` evaluated in `frame` keeps as its `tangent`:
+    /// the frame's `s` axis where the BSDF is anisotropic (the frame then follows the
+    /// surface's `dp/du`, which the stored vertex cannot recompute), else zero.
+    #[inline]
+    pub fn tangent_of(bsdf: &crate::bsdf::Bsdf, frame: &crate::bsdf::ShadingFrame) -> Vec3 {
+        if bsdf.is_anisotropic() {
+            frame.frame.s
+        } else {
+            Vec3::ZERO
+        }
+    }
 
     /// Mark a surface vertex as one where the path takes a delta lobe (a walk that recorded
     /// the vertex on arrival and then left it through smooth plastic's coating).

@@ -24,10 +24,10 @@
 //!
 //! Hypothesis tests in this file: 13 chi-square cases (each a shape test and a mass check:
 //! 26) and 3 z-tests, 29 in all, plus 3 power controls (6) that must reject. Each runs at the
-//! harness's Sidak-corrected `chi2::alpha()` (2.0e-5 with `SUITE_TESTS` = 500, an upper bound
-//! on the suite's hypothesis tests, 412 with this file), so a correct implementation makes
+//! harness's Sidak-corrected `chi2::alpha()` (1.9e-5 with `SUITE_TESTS` = 520, an upper bound
+//! on the suite's hypothesis tests, `common/chi2.rs`), so a correct implementation makes
 //! *any* test of the whole suite fail with probability at most 1 %; this file's share of that
-//! is at most 29 alpha = 5.8e-4. Seeds are fixed, so a run is reproducible. The power controls
+//! is at most 29 alpha = 5.6e-4. Seeds are fixed, so a run is reproducible. The power controls
 //! at the end assert that the tests reject plausible bugs.
 //!
 //! Samples: 1e6 per chi-square case (2.5e5 for two power controls), 2e5 per irradiance

@@ -34,7 +34,7 @@ use lodestar::bsdf::{Bsdf, ConductorFresnel, RoughPlastic, ShadingFrame, Transpo
 use lodestar::math::Sampler;
 
 /// Samples per chi-square case.
-const N: usize = 150_000;
+pub(crate) const N: usize = 150_000;
 
 const ALPHAS: [f32; 5] = [0.05, 0.1, 0.3, 0.7, 1.0];
 
@@ -43,7 +43,7 @@ fn reflect(wo: Vec3, n: Vec3) -> Vec3 {
 }
 
 /// Warp strength of the lobe domain for roughness alpha.
-fn warp_for(alpha: f32) -> f64 {
+pub(crate) fn warp_for(alpha: f32) -> f64 {
     10.0 / (alpha as f64 * alpha as f64)
 }
 
@@ -63,8 +63,8 @@ fn lobe_domain(ns: Vec3, wo: Vec3, eta_r: f32, alpha: f32) -> LobeDomain {
 }
 
 /// Rings per chart and bins in phi of the lobe domains.
-const RINGS: usize = 16;
-const PHIS: usize = 24;
+pub(crate) const RINGS: usize = 16;
+pub(crate) const PHIS: usize = 24;
 
 /// Relative tolerance of a sample's `f` and `pdf` against `eval()` and `pdf()` at its
 /// direction. These are the same function, but `eval()` gets `wi` after a round trip through
@@ -92,7 +92,14 @@ fn value_tolerance(ns: Vec3, wo: Vec3, wi: Vec3, eta_r: f32) -> f64 {
 
 /// Chi-square of a rough BSDF's sampler against its pdf from `wo`, with every per-sample
 /// check in both modes. `eta_r` is the relative index a transmitted sample must report.
-fn bsdf_case(name: &str, bsdf: &Bsdf, sf: &ShadingFrame, wo: Vec3, eta_r: f32, alpha: f32) {
+pub(crate) fn bsdf_case(
+    name: &str,
+    bsdf: &Bsdf,
+    sf: &ShadingFrame,
+    wo: Vec3,
+    eta_r: f32,
+    alpha: f32,
+) {
     bsdf_case_weights(name, bsdf, sf, wo, eta_r, alpha, true)
 }
 
@@ -200,7 +207,7 @@ fn bsdf_case_weights(
     fails.assert_none(name);
 }
 
-fn gold() -> ConductorFresnel {
+pub(crate) fn gold() -> ConductorFresnel {
     ConductorFresnel::Complex {
         eta: Vec3::new(0.143, 0.374, 1.442),
         k: Vec3::new(3.983, 2.385, 1.603),

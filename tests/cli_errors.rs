@@ -895,7 +895,8 @@ impl GuideFile {
                 b.extend(x.to_le_bytes());
             }
             for v in &g.vertices {
-                for x in [v.p, v.n, v.n].concat() {
+                // Position, normal, shading normal, tangent (zero: an isotropic surface).
+                for x in [v.p, v.n, v.n, [0.0; 3]].concat() {
                     b.extend(x.to_le_bytes());
                 }
                 // Texture coordinates.
@@ -972,7 +973,7 @@ fn bad_guide_caches_name_the_file_and_the_fault() {
         (
             "version",
             edited(&|f| f.version = 4),
-            vec!["guide cache format version 4, this lodestar reads version 6"],
+            vec!["guide cache format version 4, this lodestar reads version 7"],
         ),
         (
             "fingerprint",

@@ -79,6 +79,7 @@ fn p_g_weighs_guides_by_their_selection_probability() {
                 n: light.1,
                 ns: glam::Vec3::ZERO,
                 uv: glam::Vec2::ZERO,
+                tangent: glam::Vec3::ZERO,
                 kind: lodestar::path::VertexKind::Emitter {
                     light: 0,
                     delta: false,

@@ -103,6 +103,7 @@ fn path_vertex(p: Vec3, n: Vec3) -> PathVertex {
         n,
         ns: Vec3::ZERO,
         uv: glam::Vec2::ZERO,
+        tangent: Vec3::ZERO,
         kind: VertexKind::Medium { medium: 0 },
     }
 }

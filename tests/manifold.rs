@@ -287,6 +287,7 @@ fn surface(p: DVec3, n: DVec3, material: u32, shape: u32, delta: bool) -> PathVe
         n: n.as_vec3(),
         ns: n.as_vec3(),
         uv: glam::Vec2::ZERO,
+        tangent: Vec3::ZERO,
         kind: VertexKind::Surface {
             material,
             shape,
@@ -318,6 +319,7 @@ fn two_spheres_cache(scene: &Scene, xa: DVec3, settings: ManifoldSettings) -> Gu
             n: Vec3::ZERO,
             ns: Vec3::ZERO,
             uv: glam::Vec2::ZERO,
+            tangent: Vec3::ZERO,
             kind: VertexKind::Camera,
         },
         surface(xa, DVec3::Y, 0, 0, false),
@@ -328,6 +330,7 @@ fn two_spheres_cache(scene: &Scene, xa: DVec3, settings: ManifoldSettings) -> Gu
             n: w.as_vec3(),
             ns: Vec3::ZERO,
             uv: glam::Vec2::ZERO,
+            tangent: Vec3::ZERO,
             kind: VertexKind::Emitter {
                 light: 0,
                 delta: false,

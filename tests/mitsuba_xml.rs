@@ -1495,3 +1495,44 @@ fn shapegroups_are_drawn_by_their_instances() {
     ));
     assert!(e.contains("a shape in group 'h' cannot emit"), "{e}");
 }
+
+/// `alpha_u` and `alpha_v` give roughconductor and roughdielectric anisotropic roughness
+/// (equal ones an isotropic `alpha`); roughplastic, isotropic in Mitsuba, refuses them, and
+/// one of the two alone is an error naming the line.
+#[test]
+fn anisotropic_roughness_is_read_where_mitsuba_has_it() {
+    let alpha = |plugin: &str, uv: (f32, f32)| {
+        let text = wrap(&format!(
+            r#"<shape type="sphere"><bsdf type="{plugin}"><float name="alpha_u" value="{}"/><float name="alpha_v" value="{}"/></bsdf></shape>"#,
+            uv.0, uv.1
+        ));
+        match &xml(&text).unwrap().materials[0].bsdf {
+            Bsdf::RoughConductor { alpha, .. } | Bsdf::RoughDielectric { alpha, .. } => {
+                alpha.clone()
+            }
+            other => panic!("{other:?}"),
+        }
+    };
+    for plugin in ["roughconductor", "roughdielectric"] {
+        assert_eq!(
+            alpha(plugin, (0.05, 0.3)),
+            Alpha::Anisotropic { u: 0.05, v: 0.3 },
+            "{plugin}"
+        );
+        assert_eq!(alpha(plugin, (0.2, 0.2)), Alpha::Constant(0.2), "{plugin}");
+    }
+    let err = xml_err(&wrap(
+        "<shape type=\"sphere\">\n<bsdf type=\"roughplastic\"><float name=\"alpha_u\" value=\"0.1\"/><float name=\"alpha_v\" value=\"0.3\"/></bsdf></shape>",
+    ));
+    assert!(
+        err.contains("test.xml:") && err.contains("roughplastic") && err.contains("'alpha'"),
+        "{err}"
+    );
+    let err = xml_err(&wrap(
+        "<shape type=\"sphere\">\n<bsdf type=\"roughconductor\"><float name=\"alpha_u\" value=\"0.1\"/></bsdf></shape>",
+    ));
+    assert!(
+        err.contains("test.xml:") && err.contains("'alpha_u' and 'alpha_v'"),
+        "{err}"
+    );
+}

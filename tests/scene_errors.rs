@@ -1358,3 +1358,41 @@ intensity = [3, 3, 3]
     ));
     assert!(e.contains("a shape in group 'pair' cannot emit"), "{e}");
 }
+
+/// `alpha_u` and `alpha_v` (anisotropic roughness): both or neither, each in (0, 1], and not
+/// beside `alpha`.
+#[test]
+fn anisotropic_roughness_keys() {
+    let material = |keys: &str| {
+        with(&format!(
+            "[[material]]\nname = \"m\"\ntype = \"roughconductor\"\n{keys}\nreflectance = [1, 1, 1]\n"
+        ))
+    };
+    let s = load_str(
+        &material("alpha_u = 0.05\nalpha_v = 0.3"),
+        "aniso.toml",
+        None,
+    )
+    .unwrap();
+    match &s.materials.last().unwrap().bsdf {
+        lodestar::bsdf::Bsdf::RoughConductor { alpha, .. } => assert_eq!(
+            *alpha,
+            lodestar::bsdf::Alpha::Anisotropic { u: 0.05, v: 0.3 }
+        ),
+        other => panic!("{other:?}"),
+    }
+    check(
+        &material(&format!("alpha_u = 0.05 {MARK}")),
+        &["'alpha_u' and 'alpha_v'", "expected both"],
+    );
+    check(
+        &material(&format!(
+            "alpha_u = 0.05 {MARK}\nalpha_v = 0.3\nalpha = 0.1"
+        )),
+        &["'alpha_u' and 'alpha_v'", "expected one roughness"],
+    );
+    check(
+        &material(&format!("alpha_u = 0.05\nalpha_v = 1.5 {MARK}")),
+        &["'alpha_v'", "(0, 1]", "1.5"],
+    );
+}

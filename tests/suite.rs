@@ -15,6 +15,7 @@ mod bench_page_browser;
 mod bench_parts;
 mod bsdf_energy;
 mod check;
+mod chi2_anisotropic;
 mod chi2_bsdf;
 mod chi2_lights;
 mod chi2_lights_spot;

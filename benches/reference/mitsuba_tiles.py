@@ -58,6 +58,8 @@ SCENES = {
                               (512, 512, 64, 64), {}, LAJOLLA_EDITS, 1024),
     # lodestar's own test scene of textured shading (scenes/mitsuba/, CC0).
     "shading": ("scenes/mitsuba/shading.xml", None, {"res": "64"}, [], 1024),
+    # lodestar's own test scene of anisotropic roughness (scenes/mitsuba/, CC0).
+    "anisotropic": ("scenes/mitsuba/anisotropic.xml", None, {"res": "64"}, [], 1024),
 }
 
 

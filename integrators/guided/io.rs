@@ -7,8 +7,9 @@
 //! the guided share the learning run chose (f64 ratio n_g / n_u, -1 for none; since version
 //! 3), the number of guide paths (u32), then per guide path: vertex count (u8),
 //! age (u16), f (f64 since version 4, f32 before), p_u (f64), weight (f64) and its vertices (position, normal, shading
-//! normal as 9 f32, texture coordinates as 2 f32 since version 6, kind tag u8, two u32 ids,
-//! delta flag u8). Kernels, neighbours and the
+//! normal as 9 f32, then the shading frame's tangent of an anisotropic surface, zero
+//! otherwise, as 3 f32 since version 7, texture coordinates as 2 f32 since version 6, kind tag
+//! u8, two u32 ids, delta flag u8). Kernels, neighbours and the
 //! pruning BVH are rebuilt on load, deterministically, so a loaded cache renders exactly like
 //! the one that was saved. A wrong magic or version, a truncated file, a cache learned on
 //! another scene, ids out of range, non-finite numbers, a guide path that is not a complete
@@ -24,7 +25,7 @@ use std::path::Path;
 
 const MAGIC: &[u8; 8] = b"LSGUIDES";
 /// The file format version this build writes and reads.
-pub const VERSION: u32 = 6;
+pub const VERSION: u32 = 7;
 
 /// A hash of what a cache depends on in the scene.
 pub fn scene_fingerprint(scene: &Scene) -> u64 {
@@ -73,7 +74,7 @@ pub fn save(scene: &Scene, cache: &GuideCache, file: &Path) -> Result<()> {
         b.extend_from_slice(&g.weight.to_le_bytes());
         for v in 1..g.len as usize {
             let pv = cache.vertex(scene, l, v);
-            for x in [pv.p, pv.n, pv.ns] {
+            for x in [pv.p, pv.n, pv.ns, pv.tangent] {
                 for c in x.to_array() {
                     b.extend_from_slice(&c.to_le_bytes());
                 }
@@ -217,10 +218,11 @@ pub fn load(scene: &Scene, file: &Path) -> Result<GuideCache> {
             n: Vec3::ZERO,
             ns: Vec3::ZERO,
             uv: glam::Vec2::ZERO,
+            tangent: Vec3::ZERO,
             kind: VertexKind::Camera,
         }];
         for v in 1..len {
-            let (p, n, ns) = (r.vec3()?, r.vec3()?, r.vec3()?);
+            let (p, n, ns, tangent) = (r.vec3()?, r.vec3()?, r.vec3()?, r.vec3()?);
             let uv = glam::Vec2::new(r.f32()?, r.f32()?);
             let (tag, a, c, d) = (r.u8()?, r.u32()?, r.u32()?, r.u8()? != 0);
             let vertex = |what: String| bad(format!("guide path {i}, vertex {v}: {what}"));
@@ -251,13 +253,25 @@ pub fn load(scene: &Scene, file: &Path) -> Result<GuideCache> {
                     )));
                 }
             };
-            if !(p.is_finite() && n.is_finite() && ns.is_finite() && uv.is_finite()) {
+            if !(p.is_finite()
+                && n.is_finite()
+                && ns.is_finite()
+                && tangent.is_finite()
+                && uv.is_finite())
+            {
                 return Err(vertex(format!(
-                    "position {p}, normal {n}, shading normal {ns}, texture coordinates {uv} \
-                     (expected finite numbers)"
+                    "position {p}, normal {n}, shading normal {ns}, tangent {tangent}, texture \
+                     coordinates {uv} (expected finite numbers)"
                 )));
             }
-            vertices.push(PathVertex { p, n, ns, uv, kind });
+            vertices.push(PathVertex {
+                p,
+                n,
+                ns,
+                uv,
+                tangent,
+                kind,
+            });
         }
         if !(f.is_finite() && p_u.is_finite() && weight.is_finite() && weight >= 0.0) {
             return Err(bad(format!(

@@ -109,6 +109,7 @@ mod tests {
             n: Vec3::Y,
             ns: Vec3::Y,
             uv: glam::Vec2::ZERO,
+            tangent: Vec3::ZERO,
             kind: VertexKind::Surface {
                 material: 0,
                 shape: 0,

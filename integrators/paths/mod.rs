@@ -230,7 +230,9 @@ pub fn from_path<'a>(scene: &'a Scene, path: &Path) -> Option<Vec<Vertex<'a>>> {
             } => {
                 let info = &scene.shape_info[shape as usize];
                 let ns = if pv.ns == Vec3::ZERO { pv.n } else { pv.ns };
-                let frame = crate::bsdf::ShadingFrame::new(ns, pv.n).with_uv(pv.uv);
+                let frame = crate::bsdf::ShadingFrame::new(ns, pv.n)
+                    .with_uv(pv.uv)
+                    .with_stored_tangent(pv.tangent);
                 (
                     Kind::Surface {
                         bsdf: &scene.materials[material as usize].bsdf,
@@ -326,13 +328,13 @@ pub fn to_path_into(vertices: &[Vertex], f: Spectrum, pixel: u32, path: &mut Pat
 
 /// One vertex of a [`Path`] from a BDPT vertex.
 pub fn path_vertex(v: &Vertex) -> crate::path::Vertex {
-    let (kind, ns, uv) = match v.kind {
-        Kind::Camera => (VertexKind::Camera, Vec3::ZERO, Vec2::ZERO),
+    let (kind, ns, uv, tangent) = match v.kind {
+        Kind::Camera => (VertexKind::Camera, Vec3::ZERO, Vec2::ZERO, Vec3::ZERO),
         Kind::Surface {
+            bsdf,
             frame,
             info,
             material,
-            ..
         } => (
             VertexKind::Surface {
                 material,
@@ -341,8 +343,14 @@ pub fn path_vertex(v: &Vertex) -> crate::path::Vertex {
             },
             frame.frame.n,
             frame.uv,
+            crate::path::Vertex::tangent_of(bsdf, &frame),
         ),
-        Kind::Medium { medium } => (VertexKind::Medium { medium }, Vec3::ZERO, Vec2::ZERO),
+        Kind::Medium { medium } => (
+            VertexKind::Medium { medium },
+            Vec3::ZERO,
+            Vec2::ZERO,
+            Vec3::ZERO,
+        ),
         Kind::Light { light } => (
             VertexKind::Emitter {
                 light: light as u32,
@@ -350,6 +358,7 @@ pub fn path_vertex(v: &Vertex) -> crate::path::Vertex {
             },
             Vec3::ZERO,
             Vec2::ZERO,
+            Vec3::ZERO,
         ),
     };
     crate::path::Vertex {
@@ -357,6 +366,7 @@ pub fn path_vertex(v: &Vertex) -> crate::path::Vertex {
         n: v.n,
         ns,
         uv,
+        tangent,
         kind,
     }
 }

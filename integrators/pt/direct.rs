@@ -66,6 +66,7 @@ impl PathTracer {
                 n,
                 ns: Vec3::ZERO,
                 uv: glam::Vec2::ZERO,
+                tangent: Vec3::ZERO,
                 kind: VertexKind::Emitter {
                     light: light_id as u32,
                     delta: l.is_delta(),

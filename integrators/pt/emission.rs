@@ -53,6 +53,7 @@ impl PathTracer {
                 n,
                 ns: Vec3::ZERO,
                 uv: glam::Vec2::ZERO,
+                tangent: Vec3::ZERO,
                 kind: VertexKind::Emitter {
                     light: li as u32,
                     delta: false,

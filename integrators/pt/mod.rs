@@ -287,6 +287,7 @@ impl PathTracer {
                         n: Vec3::ZERO,
                         ns: Vec3::ZERO,
                         uv: glam::Vec2::ZERO,
+                        tangent: Vec3::ZERO,
                         kind: VertexKind::Medium { medium: mi },
                     };
                     r.arrive(scene, v, path.pass * flight.pdf);
@@ -359,6 +360,7 @@ impl PathTracer {
                 n: hit.ng,
                 ns: hit.ns,
                 uv: sp.frame.uv,
+                tangent: PathVertex::tangent_of(sp.bsdf, &sp.frame),
                 kind,
             };
             r.arrive(scene, v, path.pass);

@@ -39,6 +39,7 @@ impl<'r> Recording<'r> {
             n: Vec3::ZERO,
             ns: Vec3::ZERO,
             uv: glam::Vec2::ZERO,
+            tangent: Vec3::ZERO,
             kind: VertexKind::Camera,
         });
         path.pixel = pixel;

@@ -114,6 +114,7 @@ impl<'a, 'p> CameraTracer<'a, 'p> {
                 n: Vec3::ZERO,
                 ns: Vec3::ZERO,
                 uv: glam::Vec2::ZERO,
+                tangent: Vec3::ZERO,
                 kind: VertexKind::Camera,
             });
             if self.claims.is_some() {
@@ -573,6 +574,7 @@ fn emitter_vertex(li: usize, p: Vec3, n: Vec3, delta: bool) -> PathVertex {
         n,
         ns: Vec3::ZERO,
         uv: glam::Vec2::ZERO,
+        tangent: Vec3::ZERO,
         kind: VertexKind::Emitter {
             light: li as u32,
             delta,

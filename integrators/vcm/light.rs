@@ -136,6 +136,7 @@ impl<'a> LightTracer<'a, '_> {
             n: n0,
             ns: Vec3::ZERO,
             uv: glam::Vec2::ZERO,
+            tangent: Vec3::ZERO,
             kind: VertexKind::Emitter {
                 light: li as u32,
                 delta: l.is_delta(),

@@ -1,7 +1,6 @@
 //! [`Bsdf::eval_pdfs`]: a BSDF's value and its densities in both directions in one call, what
 //! a connection between two subpaths needs at each end.
 
-use super::microfacet::Microfacet;
 use super::{
     Bsdf, ShadingFrame, TransportMode, diffuse, geometry_agrees, plastic, rough_conductor,
     rough_dielectric, rough_diffuse, rough_plastic, shading_correction,
@@ -113,14 +112,14 @@ impl Bsdf {
                 distribution,
             } => {
                 let (f, pdf_fwd) = rough_conductor::eval_pdf(
-                    Microfacet::new(*distribution, alpha.at(sf.uv)),
+                    alpha.microfacet(*distribution, sf.uv),
                     Some(fresnel),
                     wo_l,
                     wi_l,
                 );
                 let pdf_rev = if reverse {
                     rough_conductor::eval_pdf(
-                        Microfacet::new(*distribution, alpha.at(sf.uv)),
+                        alpha.microfacet(*distribution, sf.uv),
                         None,
                         wi_l,
                         wo_l,
@@ -138,7 +137,7 @@ impl Bsdf {
             } => {
                 let (f, pdf_fwd) = rough_dielectric::eval_pdf(
                     *eta,
-                    Microfacet::new(*distribution, alpha.at(sf.uv)),
+                    alpha.microfacet(*distribution, sf.uv),
                     wo_l,
                     wi_l,
                     mode,
@@ -146,7 +145,7 @@ impl Bsdf {
                 let pdf_rev = if reverse {
                     rough_dielectric::eval_pdf(
                         *eta,
-                        Microfacet::new(*distribution, alpha.at(sf.uv)),
+                        alpha.microfacet(*distribution, sf.uv),
                         wi_l,
                         wo_l,
                         TransportMode::Radiance,

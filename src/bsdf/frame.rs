@@ -31,6 +31,45 @@ impl ShadingFrame {
     pub fn with_uv(self, uv: Vec2) -> ShadingFrame {
         ShadingFrame { uv, ..self }
     }
+
+    /// The frame with first tangent `s` as a stored path vertex keeps it
+    /// ([`crate::path::Vertex::tangent`]: a frame's `s` axis, unit and across the normal, or
+    /// zero for the frame around the normal): the frame the vertex was evaluated in, bit for
+    /// bit.
+    pub fn with_stored_tangent(self, s: Vec3) -> ShadingFrame {
+        if s == Vec3::ZERO {
+            return self;
+        }
+        let n = self.frame.n;
+        ShadingFrame {
+            frame: Frame {
+                s,
+                t: n.cross(s),
+                n,
+            },
+            ..self
+        }
+    }
+
+    /// The frame turned about its normal so that its `s` axis follows tangent `dp_du` (the
+    /// surface's derivative by `u`), as Mitsuba's shading frame does: `dp_du` without its
+    /// part along the normal, normalised, and `t = n x s`. Unchanged where `dp_du` has no
+    /// part across the normal (a degenerate parameterisation, a pole).
+    pub fn with_tangent(self, dp_du: Vec3) -> ShadingFrame {
+        let n = self.frame.n;
+        let s = (dp_du - n * n.dot(dp_du)).normalize_or_zero();
+        if s == Vec3::ZERO {
+            return self;
+        }
+        ShadingFrame {
+            frame: Frame {
+                s,
+                t: n.cross(s),
+                n,
+            },
+            ..self
+        }
+    }
 }
 
 /// Reflection needs `wo`, `wi` on one side of `ng`; transmission on opposite sides.

@@ -1,5 +1,16 @@
-//! Isotropic microfacet distributions: GGX / Trowbridge-Reitz ([`Ggx`]) and Beckmann
-//! ([`Beckmann`]), and [`Microfacet`], the one a rough BSDF was given ([`Distribution`]).
+//! Microfacet distributions: GGX / Trowbridge-Reitz ([`Ggx`]) and Beckmann ([`Beckmann`]),
+//! isotropic or anisotropic, and [`Microfacet`], the one a rough BSDF was given
+//! ([`Distribution`]); a BSDF's roughness, perhaps textured or anisotropic, is an [`super::Alpha`]
+//! (`roughness.rs`).
+//!
+//! Anisotropic distributions have roughness `alpha_x` along the shading frame's `s` axis
+//! (Mitsuba's `alpha_u`, along the surface's `dp/du`) and `alpha_y` along `t` (`alpha_v`).
+//! Every formula below is the isotropic one of the stretched configuration: a slope (x, y)
+//! of the distribution is (x / alpha_x, y / alpha_y) of the one with alpha = 1 (Heitz 2014),
+//! so `tan^2(theta_m) / alpha^2` reads `tan^2(theta_m) (cos^2 phi / alpha_x^2 + sin^2 phi /
+//! alpha_y^2)`, the `alpha^2` before it `alpha_x alpha_y`, and Smith's `alpha tan(theta)`
+//! `tan(theta) sqrt(alpha_x^2 cos^2 phi + alpha_y^2 sin^2 phi)`. With equal roughnesses the
+//! code computes the isotropic expressions bit for bit.
 //!
 //! GGX:
 //! Everything here works in the local shading frame (`z` = macro-surface normal) with the
@@ -36,65 +47,39 @@ pub fn clamp_alpha(alpha: f32) -> f32 {
     alpha.max(MIN_ALPHA)
 }
 
-/// A microfacet BSDF's roughness: a number, or a texture looked up at the point (Mitsuba's
-/// textured `alpha`: the texture's luminance), either raised to at least [`MIN_ALPHA`].
-#[derive(Debug, Clone, PartialEq)]
-pub enum Alpha {
-    /// The same roughness everywhere (already clamped).
-    Constant(f32),
-    /// The roughness at texture coordinates `uv` is the texture's luminance there.
-    Texture(std::sync::Arc<crate::texture::Texture>),
-}
-
-impl From<f32> for Alpha {
-    /// A constant roughness, clamped.
-    fn from(alpha: f32) -> Alpha {
-        Alpha::Constant(clamp_alpha(alpha))
-    }
-}
-
-impl Alpha {
-    /// The roughness at texture coordinates `uv`.
-    #[inline]
-    pub fn at(&self, uv: Vec2) -> f32 {
-        match self {
-            Alpha::Constant(a) => *a,
-            Alpha::Texture(t) => clamp_alpha(crate::math::luminance(t.eval(uv))),
-        }
-    }
-
-    /// At most the smallest roughness anywhere (a texture's smallest channel value bounds its
-    /// luminance from below): how close to a mirror the surface can be.
-    pub fn smallest(&self) -> f32 {
-        match self {
-            Alpha::Constant(a) => *a,
-            Alpha::Texture(t) => clamp_alpha(t.range().0),
-        }
-    }
-
-    /// True if the roughness is looked up at the point's texture coordinates.
-    pub fn is_textured(&self) -> bool {
-        matches!(self, Alpha::Texture(_))
-    }
-}
-
-/// Isotropic GGX distribution of roughness `alpha` (the "alpha" of Walter et al.).
+/// GGX distribution of roughness `alpha_x` along x and `alpha_y` along y (the "alpha" of
+/// Walter et al.; isotropic when equal).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Ggx {
-    alpha: f32,
+    alpha_x: f32,
+    alpha_y: f32,
+}
+
+/// `(x^2 r + y^2 / r)` with `r` the ratio of the two roughnesses given: the stretched squared
+/// length of a tangent vector (x, y) times `alpha_x alpha_y` (or divided by it), which is
+/// `x^2 + y^2` exactly when the roughnesses are equal (`r` = 1).
+#[inline]
+fn stretched(x: f32, y: f32, r: f32, inv_r: f32) -> f32 {
+    x * x * r + y * y * inv_r
 }
 
 impl Ggx {
-    /// `alpha` is clamped with [`clamp_alpha`].
+    /// Isotropic; `alpha` is clamped with [`clamp_alpha`].
     pub fn new(alpha: f32) -> Ggx {
+        Ggx::anisotropic(alpha, alpha)
+    }
+
+    /// Roughness `alpha_x` along x and `alpha_y` along y, each clamped with [`clamp_alpha`].
+    pub fn anisotropic(alpha_x: f32, alpha_y: f32) -> Ggx {
         Ggx {
-            alpha: clamp_alpha(alpha),
+            alpha_x: clamp_alpha(alpha_x),
+            alpha_y: clamp_alpha(alpha_y),
         }
     }
 
-    /// The roughness alpha, as clamped.
+    /// The roughness along x, as clamped (the roughness of an isotropic distribution).
     pub fn alpha(&self) -> f32 {
-        self.alpha
+        self.alpha_x
     }
 
     /// Normal distribution `D(m)` for a unit `m`; zero for `m.z <= 0`.
@@ -103,9 +88,10 @@ impl Ggx {
         if m.z <= 0.0 {
             return 0.0;
         }
-        let a2 = self.alpha * self.alpha;
+        let (ax, ay) = (self.alpha_x, self.alpha_y);
+        let a2 = ax * ay;
         // cos^2 (1 + tan^2 / alpha^2) = cos^2 + sin^2 / alpha^2, without the tan.
-        let t = (m.x * m.x + m.y * m.y) / a2 + m.z * m.z;
+        let t = stretched(m.x, m.y, ay / ax, ax / ay) / a2 + m.z * m.z;
         1.0 / (PI * a2 * t * t)
     }
 
@@ -116,7 +102,8 @@ impl Ggx {
         if z2 == 0.0 {
             return f32::INFINITY;
         }
-        let a = self.alpha * self.alpha * (w.x * w.x + w.y * w.y) / z2;
+        let (ax, ay) = (self.alpha_x, self.alpha_y);
+        let a = ax * ay * stretched(w.x, w.y, ax / ay, ay / ax) / z2;
         if !a.is_finite() {
             return f32::INFINITY;
         }
@@ -128,16 +115,16 @@ impl Ggx {
     /// [`Smith::d_visible`]. `None` for the measure-zero draws where the construction
     /// degenerates.
     pub fn sample_visible(&self, wo: Vec3, u: Vec2) -> Option<Vec3> {
-        let a = self.alpha;
+        let (ax, ay) = (self.alpha_x, self.alpha_y);
         // Stretch to the configuration of alpha = 1, where the visible normals are uniform on
         // the spherical cap z >= -wo_std.z, shifted by wo_std.
-        let wo_std = Vec3::new(wo.x * a, wo.y * a, wo.z).normalize();
+        let wo_std = Vec3::new(wo.x * ax, wo.y * ay, wo.z).normalize();
         let z = (1.0 - u.y) * (1.0 + wo_std.z) - wo_std.z;
         let sin_t = (1.0 - z * z).max(0.0).sqrt();
         let (s, c) = crate::math::warp::sin_cos_turn(u.x);
         let h = Vec3::new(sin_t * c, sin_t * s, z) + wo_std;
         // Unstretch.
-        let m = Vec3::new(h.x * a, h.y * a, h.z.max(0.0));
+        let m = Vec3::new(h.x * ax, h.y * ay, h.z.max(0.0));
         let len = m.length();
         if !(len > 0.0 && len.is_finite()) {
             return None;
@@ -157,7 +144,8 @@ pub enum Distribution {
     Beckmann,
 }
 
-/// Isotropic Beckmann distribution of roughness `alpha` (the RMS slope times sqrt 2).
+/// Beckmann distribution of roughness `alpha_x` along x and `alpha_y` along y (the RMS
+/// slope times sqrt 2; isotropic when equal).
 ///
 /// * `D(m) = exp(-tan^2(theta_m) / alpha^2) / (pi alpha^2 cos^4(theta_m))`.
 /// * Smith `Lambda(w) = (erf(a) - 1) / 2 + exp(-a^2) / (2 a sqrt(pi))`, `a = 1 / (alpha
@@ -171,20 +159,27 @@ pub enum Distribution {
 ///   unstretched.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Beckmann {
-    alpha: f32,
+    alpha_x: f32,
+    alpha_y: f32,
 }
 
 impl Beckmann {
-    /// `alpha` is clamped with [`clamp_alpha`].
+    /// Isotropic; `alpha` is clamped with [`clamp_alpha`].
     pub fn new(alpha: f32) -> Beckmann {
+        Beckmann::anisotropic(alpha, alpha)
+    }
+
+    /// Roughness `alpha_x` along x and `alpha_y` along y, each clamped with [`clamp_alpha`].
+    pub fn anisotropic(alpha_x: f32, alpha_y: f32) -> Beckmann {
         Beckmann {
-            alpha: clamp_alpha(alpha),
+            alpha_x: clamp_alpha(alpha_x),
+            alpha_y: clamp_alpha(alpha_y),
         }
     }
 
-    /// The roughness alpha, as clamped.
+    /// The roughness along x, as clamped (the roughness of an isotropic distribution).
     pub fn alpha(&self) -> f32 {
-        self.alpha
+        self.alpha_x
     }
 
     /// Normal distribution `D(m)` for a unit `m`; zero for `m.z <= 0`.
@@ -193,9 +188,12 @@ impl Beckmann {
         if m.z <= 0.0 {
             return 0.0;
         }
-        let a2 = (self.alpha as f64).powi(2);
+        let (ax, ay) = (self.alpha_x as f64, self.alpha_y as f64);
+        let a2 = ax * ay;
         let cos2 = (m.z as f64).powi(2);
-        let tan2 = ((m.x as f64).powi(2) + (m.y as f64).powi(2)) / cos2;
+        // tan^2 / alpha^2 with the stretch: (x^2 / alpha_x^2 + y^2 / alpha_y^2) / cos^2.
+        let (r, inv_r) = (ay / ax, ax / ay);
+        let tan2 = ((m.x as f64).powi(2) * r + (m.y as f64).powi(2) * inv_r) / cos2;
         let e = (-tan2 / a2).exp();
         if e == 0.0 {
             return 0.0;
@@ -211,11 +209,19 @@ impl Beckmann {
         if z == 0.0 {
             return f32::INFINITY;
         }
-        let tan = ((w.x as f64).powi(2) + (w.y as f64).powi(2)).sqrt() / z;
+        let (x2, y2) = ((w.x as f64).powi(2), (w.y as f64).powi(2));
+        let tan = (x2 + y2).sqrt() / z;
         if tan == 0.0 {
             return 0.0;
         }
-        let a = 1.0 / (self.alpha as f64 * tan);
+        // The roughness in w's azimuth: sqrt(alpha_x^2 cos^2 phi + alpha_y^2 sin^2 phi).
+        let alpha = if self.alpha_x == self.alpha_y {
+            self.alpha_x as f64
+        } else {
+            let (ax, ay) = (self.alpha_x as f64, self.alpha_y as f64);
+            ((ax * ax * x2 + ay * ay * y2) / (x2 + y2)).sqrt()
+        };
+        let a = 1.0 / (alpha * tan);
         if a > 6.0 {
             // Lambda < 1e-17.
             return 0.0;
@@ -287,9 +293,9 @@ impl Beckmann {
     /// [`Self::sample_visible`] as a function of the second number alone, the slope search
     /// done once (quadratures over the unit square call it once per row).
     pub fn visible_row(&self, wo: Vec3, u1: f32) -> BeckmannRow {
-        let a = self.alpha as f64;
+        let (ax, ay) = (self.alpha_x as f64, self.alpha_y as f64);
         // Stretch to alpha = 1.
-        let (sx, sy, sz) = (wo.x as f64 * a, wo.y as f64 * a, wo.z as f64);
+        let (sx, sy, sz) = (wo.x as f64 * ax, wo.y as f64 * ay, wo.z as f64);
         let len = (sx * sx + sy * sy + sz * sz).sqrt();
         let (sx, sy, sz) = (sx / len, sy / len, sz / len);
         let sin_t = (sx * sx + sy * sy).sqrt();
@@ -299,7 +305,8 @@ impl Beckmann {
             (1.0, 0.0)
         };
         BeckmannRow {
-            a,
+            ax,
+            ay,
             cos_phi,
             sin_phi,
             first: Self::slope_from_first(sz, u1),
@@ -325,7 +332,8 @@ enum FirstSlope {
 /// [`Beckmann::visible_row`]: `wo`'s azimuth and stretch, and the slope's first part.
 #[derive(Debug, Clone, Copy)]
 pub struct BeckmannRow {
-    a: f64,
+    ax: f64,
+    ay: f64,
     cos_phi: f64,
     sin_phi: f64,
     first: FirstSlope,
@@ -335,10 +343,10 @@ impl BeckmannRow {
     /// The visible normal for second number `u2`.
     pub fn sample(&self, u2: f32) -> Option<Vec3> {
         let (x, y) = Beckmann::slope_from_second(self.first, u2);
-        let (a, cos_phi, sin_phi) = (self.a, self.cos_phi, self.sin_phi);
+        let (cos_phi, sin_phi) = (self.cos_phi, self.sin_phi);
         // Rotate to wo's azimuth, unstretch; the normal of slope (x, y) is (-x, -y, 1).
         let (rx, ry) = (cos_phi * x - sin_phi * y, sin_phi * x + cos_phi * y);
-        let m = glam::DVec3::new(-rx * a, -ry * a, 1.0);
+        let m = glam::DVec3::new(-rx * self.ax, -ry * self.ay, 1.0);
         let m = m / m.length();
         let m = Vec3::new(m.x as f32, m.y as f32, m.z as f32);
         (m.is_finite() && m.z > 0.0).then_some(m)
@@ -357,9 +365,14 @@ pub enum Microfacet {
 impl Microfacet {
     /// The distribution `kind` of roughness `alpha` (clamped with [`clamp_alpha`]).
     pub fn new(kind: Distribution, alpha: f32) -> Microfacet {
+        Microfacet::anisotropic(kind, alpha, alpha)
+    }
+
+    /// The distribution `kind` of roughness `alpha_x` along x and `alpha_y` along y.
+    pub fn anisotropic(kind: Distribution, alpha_x: f32, alpha_y: f32) -> Microfacet {
         match kind {
-            Distribution::Ggx => Microfacet::Ggx(Ggx::new(alpha)),
-            Distribution::Beckmann => Microfacet::Beckmann(Beckmann::new(alpha)),
+            Distribution::Ggx => Microfacet::Ggx(Ggx::anisotropic(alpha_x, alpha_y)),
+            Distribution::Beckmann => Microfacet::Beckmann(Beckmann::anisotropic(alpha_x, alpha_y)),
         }
     }
 

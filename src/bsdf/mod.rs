@@ -38,6 +38,7 @@ mod rough_conductor;
 mod rough_dielectric;
 mod rough_diffuse;
 mod rough_plastic;
+mod roughness;
 mod tinted;
 
 use crate::math::Spectrum;
@@ -47,10 +48,10 @@ use frame::{geometry_agrees, shading_correction};
 pub use fresnel::ConductorFresnel;
 use glam::{Vec2, Vec3};
 pub use mask::{Mask, Opacity};
-use microfacet::Microfacet;
-pub use microfacet::{Alpha, Distribution};
+pub use microfacet::Distribution;
 pub use plastic::Plastic;
 pub use rough_plastic::RoughPlastic;
+pub use roughness::Alpha;
 
 /// Lowest Russian-roulette continuation probability (caps the weight boost at 20x).
 pub const MIN_CONTINUATION: f32 = 0.05;
@@ -270,6 +271,21 @@ impl Bsdf {
         }
     }
 
+    /// True if the BSDF's roughness differs between the two tangent directions: it is then
+    /// evaluated in a shading frame whose `s` axis follows the surface's `dp/du`
+    /// ([`ShadingFrame::with_tangent`]), as Mitsuba's are.
+    #[inline]
+    pub fn is_anisotropic(&self) -> bool {
+        match self {
+            Bsdf::RoughConductor { alpha, .. } | Bsdf::RoughDielectric { alpha, .. } => {
+                alpha.is_anisotropic()
+            }
+            Bsdf::Tinted { base, .. } => base.is_anisotropic(),
+            Bsdf::Mask(m) => m.inner.is_anisotropic(),
+            _ => false,
+        }
+    }
+
     /// True if the BSDF scatters no light at all.
     pub fn is_black(&self) -> bool {
         matches!(self, Bsdf::Black)
@@ -365,19 +381,14 @@ impl Bsdf {
                 alpha,
                 fresnel,
                 distribution,
-            } => rough_conductor::sample(
-                Microfacet::new(*distribution, alpha.at(sf.uv)),
-                fresnel,
-                wo_l,
-                u,
-            )?,
+            } => rough_conductor::sample(alpha.microfacet(*distribution, sf.uv), fresnel, wo_l, u)?,
             Bsdf::RoughDielectric {
                 eta,
                 alpha,
                 distribution,
             } => rough_dielectric::sample(
                 *eta,
-                Microfacet::new(*distribution, alpha.at(sf.uv)),
+                alpha.microfacet(*distribution, sf.uv),
                 wo_l,
                 u_lobe,
                 u,
@@ -432,7 +443,7 @@ impl Bsdf {
                 distribution,
             } => {
                 rough_conductor::eval_pdf(
-                    Microfacet::new(*distribution, alpha.at(sf.uv)),
+                    alpha.microfacet(*distribution, sf.uv),
                     Some(fresnel),
                     wo_l,
                     wi_l,
@@ -446,7 +457,7 @@ impl Bsdf {
             } => Spectrum::splat(
                 rough_dielectric::eval_pdf(
                     *eta,
-                    Microfacet::new(*distribution, alpha.at(sf.uv)),
+                    alpha.microfacet(*distribution, sf.uv),
                     wo_l,
                     wi_l,
                     mode,
@@ -482,13 +493,8 @@ impl Bsdf {
                 distribution,
                 ..
             } => {
-                rough_conductor::eval_pdf(
-                    Microfacet::new(*distribution, alpha.at(sf.uv)),
-                    None,
-                    wo_l,
-                    wi_l,
-                )
-                .1
+                rough_conductor::eval_pdf(alpha.microfacet(*distribution, sf.uv), None, wo_l, wi_l)
+                    .1
             }
             Bsdf::RoughDielectric {
                 eta,
@@ -497,7 +503,7 @@ impl Bsdf {
             } => {
                 rough_dielectric::eval_pdf(
                     *eta,
-                    Microfacet::new(*distribution, alpha.at(sf.uv)),
+                    alpha.microfacet(*distribution, sf.uv),
                     wo_l,
                     wi_l,
                     mode,

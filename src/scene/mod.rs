@@ -340,7 +340,10 @@ impl Scene {
             // stored paths) sees the frame the BSDF is evaluated in.
             hit.ns = map.shading_normal(uv, hit.ns, hit.ng, shape.dp_duv(&hit));
         }
-        let frame = ShadingFrame::new(hit.ns, hit.ng).with_uv(uv);
+        let mut frame = ShadingFrame::new(hit.ns, hit.ng).with_uv(uv);
+        if material.bsdf.is_anisotropic() {
+            frame = frame.with_tangent(shape.dp_duv(&hit)[0]);
+        }
         SurfacePoint {
             bsdf: if back { &BLACK } else { &material.bsdf },
             frame,

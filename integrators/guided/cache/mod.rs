@@ -332,6 +332,7 @@ impl GuideCache {
                 n: Vec3::ZERO,
                 ns: Vec3::ZERO,
                 uv: glam::Vec2::ZERO,
+                tangent: Vec3::ZERO,
                 kind: VertexKind::Camera,
             };
         }

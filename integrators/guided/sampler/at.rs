@@ -24,6 +24,7 @@ impl<'s> At<'s> {
                 n: Vec3::ZERO,
                 ns: Vec3::ZERO,
                 uv: glam::Vec2::ZERO,
+                tangent: Vec3::ZERO,
                 kind: VertexKind::Medium { medium },
             },
             sp: None,
@@ -40,6 +41,7 @@ impl<'s> At<'s> {
                 n,
                 ns: Vec3::ZERO,
                 uv: glam::Vec2::ZERO,
+                tangent: Vec3::ZERO,
                 kind: VertexKind::Emitter {
                     light,
                     delta: false,
@@ -115,6 +117,7 @@ pub(super) fn surface_vertex(sp: &SurfacePoint) -> PathVertex {
         n: sp.hit.ng,
         ns: sp.hit.ns,
         uv: sp.frame.uv,
+        tangent: PathVertex::tangent_of(sp.bsdf, &sp.frame),
         kind: VertexKind::Surface {
             material: sp.material,
             shape: sp.info.index,

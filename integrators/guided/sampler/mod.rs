@@ -217,6 +217,7 @@ pub fn sample_path_into(
                 n,
                 ns: Vec3::ZERO,
                 uv: glam::Vec2::ZERO,
+                tangent: Vec3::ZERO,
                 kind: VertexKind::Emitter { light, delta: true },
             });
             break;

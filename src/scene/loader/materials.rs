@@ -17,6 +17,11 @@ pub(super) struct MaterialDesc {
     /// `roughconductor`, `roughdielectric`: the roughness as a texture's luminance, in place of
     /// `alpha`.
     pub(super) alpha_texture: Option<Spanned<TextureDesc>>,
+    /// `roughconductor`, `roughdielectric`: anisotropic roughness, in place of `alpha`: along
+    /// the shading frame's first tangent, which follows the surface's `dp/du` (Mitsuba's
+    /// `alpha_u`), and along the second (`alpha_v`); both or neither.
+    pub(super) alpha_u: Option<Spanned<f32>>,
+    pub(super) alpha_v: Option<Spanned<f32>>,
     /// Microfacet distribution of the rough materials: `ggx` (default) or `beckmann`.
     pub(super) distribution: Option<Spanned<String>>,
     pub(super) eta: Option<V3>,
@@ -92,6 +97,8 @@ impl Builder<'_> {
             ("ior", at(&d.ior)),
             ("alpha", at(&d.alpha)),
             ("alpha_texture", at(&d.alpha_texture)),
+            ("alpha_u", at(&d.alpha_u)),
+            ("alpha_v", at(&d.alpha_v)),
             ("distribution", at(&d.distribution)),
             ("eta", at(&d.eta)),
             ("k", at(&d.k)),
@@ -112,8 +119,21 @@ impl Builder<'_> {
             "conductor" => CONDUCTOR_KEYS,
             "dielectric" | "thindielectric" => &["ior"],
             // A conductor's keys, added below.
-            "roughconductor" => &["alpha", "alpha_texture", "distribution"],
-            "roughdielectric" => &["alpha", "alpha_texture", "distribution", "ior"],
+            "roughconductor" => &[
+                "alpha",
+                "alpha_texture",
+                "alpha_u",
+                "alpha_v",
+                "distribution",
+            ],
+            "roughdielectric" => &[
+                "alpha",
+                "alpha_texture",
+                "alpha_u",
+                "alpha_v",
+                "distribution",
+                "ior",
+            ],
             "roughplastic" => &[
                 "albedo",
                 "albedo_texture",
@@ -170,19 +190,46 @@ impl Builder<'_> {
             }
             Ok(eta)
         };
-        let alpha = || -> Result<f32> {
-            let a = src.required(&d.alpha, span.clone(), "alpha", &what)?;
+        let roughness = |key: &str, a: &Spanned<f32>| -> Result<f32> {
             let v = *a.get_ref();
             if !(v > 0.0 && v <= 1.0) {
                 return src.err(
                     a.span(),
-                    format!("'alpha' (microfacet roughness) must be in (0, 1], got {v}"),
+                    format!("'{key}' (microfacet roughness) must be in (0, 1], got {v}"),
                 );
             }
             Ok(v)
         };
-        // A rough conductor's or dielectric's roughness: `alpha` or `alpha_texture`.
+        let alpha = || -> Result<f32> {
+            roughness(
+                "alpha",
+                src.required(&d.alpha, span.clone(), "alpha", &what)?,
+            )
+        };
+        // A rough conductor's or dielectric's roughness: `alpha`, `alpha_texture`, or
+        // `alpha_u` with `alpha_v`.
         let textured_alpha = || -> Result<Alpha> {
+            if let Some(u) = d.alpha_u.as_ref().or(d.alpha_v.as_ref()) {
+                let (Some(au), Some(av)) = (&d.alpha_u, &d.alpha_v) else {
+                    return src.err(
+                        u.span(),
+                        format!("{what} has one of 'alpha_u' and 'alpha_v' (expected both)"),
+                    );
+                };
+                if d.alpha.is_some() || d.alpha_texture.is_some() {
+                    return src.err(
+                        u.span(),
+                        format!(
+                            "{what} has 'alpha_u' and 'alpha_v' beside 'alpha' or \
+                             'alpha_texture' (expected one roughness)"
+                        ),
+                    );
+                }
+                return Ok(Alpha::anisotropic(
+                    roughness("alpha_u", au)?,
+                    roughness("alpha_v", av)?,
+                ));
+            }
             let Some(t) = &d.alpha_texture else {
                 return Ok(Alpha::from(alpha()?));
             };

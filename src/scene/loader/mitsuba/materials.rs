@@ -19,6 +19,8 @@ pub(super) fn material_desc(n: Node, name: String, kind: &str) -> MaterialDesc {
         ior: None,
         alpha: None,
         alpha_texture: None,
+        alpha_u: None,
+        alpha_v: None,
         distribution: None,
         eta: None,
         k: None,
@@ -186,11 +188,12 @@ fn bsdf_desc<'a, 'i>(
         Ok(())
     };
     // The microfacet distribution (Mitsuba's default: Beckmann) and roughness.
-    // The roughness, a number (`alpha`, or equal `alpha_u` and `alpha_v`) or, where
-    // `textured`, a texture (`alpha`, kept in `alpha_texture`; `None` returned).
+    // The roughness, a number (`alpha`, or equal `alpha_u` and `alpha_v`) or, where `full`
+    // (roughconductor, roughdielectric), a texture (`alpha`, kept in `alpha_texture`) or two
+    // numbers (`alpha_u` and `alpha_v`, kept in the material's); `None` returned for those.
     let rough = |p: &mut Props<'a, 'i>,
                  d: &mut MaterialDesc,
-                 textured: bool|
+                 full: bool|
      -> Result<Option<Spanned<f32>>> {
         d.distribution = Some(match p.string(xml, "distribution")? {
             Some((at, dist)) if dist == "ggx" || dist == "beckmann" => s(at, dist),
@@ -205,7 +208,7 @@ fn bsdf_desc<'a, 'i>(
         // Both are sampled by their visible normals.
         p.boolean(xml, "sample_visible")?;
         if let Some(t) = p.texture(xml, "alpha")? {
-            if !textured {
+            if !full {
                 return xml.err(t, format!("{k}: a textured 'alpha' is not supported here (Mitsuba 3 takes a number; roughconductor and roughdielectric take a texture)"));
             }
             d.alpha_texture = Some(s(t, scalar_texture_desc(xml, t)?));
@@ -216,8 +219,14 @@ fn bsdf_desc<'a, 'i>(
         match (a, au, av) {
             (Some((at, a)), None, None) => Ok(Some(s(at, a))),
             (None, Some((at, u)), Some((_, v))) if u == v => Ok(Some(s(at, u))),
+            (None, Some((at_u, u)), Some((at_v, v))) if full => {
+                d.alpha_u = Some(s(at_u, u));
+                d.alpha_v = Some(s(at_v, v));
+                Ok(None)
+            }
+            (None, Some(_), Some(_)) => xml.err(n, format!("{k}: anisotropic roughness is not supported here (Mitsuba's {k} takes one 'alpha'; roughconductor and roughdielectric take 'alpha_u' and 'alpha_v')")),
             (None, None, None) => Ok(Some(s(n, 0.1))),
-            _ => xml.err(n, "anisotropic roughness is not supported ('alpha', or equal 'alpha_u' and 'alpha_v')"),
+            _ => xml.err(n, "expected one roughness: 'alpha', or both 'alpha_u' and 'alpha_v'"),
         }
     };
     match k {

@@ -35,7 +35,8 @@
 //!   Mitsuba's RGB values), or `eta` and `k`, both scaled by `specular_reflectance` (1, or a
 //!   texture: `Bsdf::Tinted`);
 //!   rough: `distribution` "beckmann"
-//!   (Mitsuba's default) or "ggx", `alpha` 0.1 or equal `alpha_u`/`alpha_v`,
+//!   (Mitsuba's default) or "ggx", `alpha` 0.1 (a number or a texture) or `alpha_u` along
+//!   the surface's `dp/du` and `alpha_v` (numbers; roughplastic takes `alpha` only),
 //!   `sample_visible` read: both are sampled by visible normals), `dielectric`, `thindielectric` and `roughdielectric` (`int_ior` 1.5046 "bk7",
 //!   `ext_ior` 1.000277 "air", numbers or Mitsuba's named media), `twosided` around one
 //!   BSDF, and `null` on a medium boundary. `roughplastic`: `distribution` and `alpha` as

@@ -24,7 +24,7 @@
 //!
 //! Hypothesis tests in this file: 13 chi-square cases (each a shape test and a mass check:
 //! 26) and 3 z-tests, 29 in all, plus 3 power controls (6) that must reject. Each runs at the
-//! harness's Sidak-corrected `chi2::alpha()` (1.9e-5 with `SUITE_TESTS` = 520, an upper bound
+//! harness's Sidak-corrected `chi2::alpha()` (1.9e-5 with `SUITE_TESTS` = 530, an upper bound
 //! on the suite's hypothesis tests, `common/chi2.rs`), so a correct implementation makes
 //! *any* test of the whole suite fail with probability at most 1 %; this file's share of that
 //! is at most 29 alpha = 5.6e-4. Seeds are fixed, so a run is reproducible. The power controls

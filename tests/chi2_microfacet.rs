@@ -105,7 +105,7 @@ pub(crate) fn bsdf_case(
 
 /// [`bsdf_case`]; `weight_at_most_one`: whether importance-mode weights are bounded by 1
 /// (single-lobe BSDFs; a mixture's are not).
-fn bsdf_case_weights(
+pub(crate) fn bsdf_case_weights(
     name: &str,
     bsdf: &Bsdf,
     sf: &ShadingFrame,

@@ -345,6 +345,54 @@ fn every_integrator_renders_anisotropic_roughness_alike() {
     );
 }
 
+/// A blend (`type = "blend"`) of a diffuse and a rough conductor on the Cornell box's back
+/// wall, its weight a checkerboard: bdpt, vcm, guided-bdpt (guiding kept on) and mmlt render
+/// pt's image tile by tile. Control: the weight's two colours swapped must change pt's image.
+#[test]
+fn every_integrator_renders_blends_alike() {
+    let with = |(c0, c1): (f32, f32)| {
+        cornell(|text| {
+            let text = text
+                .replacen(
+                    "[[material]]",
+                    &format!(
+                        "[[material]]\nname = \"matte\"\ntype = \"diffuse\"\nalbedo = [0.2, 0.5, 0.8]\n\n\
+                         [[material]]\nname = \"metal\"\ntype = \"roughconductor\"\nalpha = 0.15\n\
+                         eta = [0.2, 0.9, 1.1]\nk = [3.9, 2.4, 2.1]\n\n[[material]]\nname = \"mix\"\n\
+                         type = \"blend\"\nfirst = \"matte\"\nsecond = \"metal\"\nweight_texture = \
+                         {{ type = \"checkerboard\", color0 = [{c0}, {c0}, {c0}], color1 = [{c1}, {c1}, \
+                         {c1}], scale = [3, 3] }}\n\n[[material]]"
+                    ),
+                    1,
+                )
+                .replacen(
+                    "edge_v = [0, 2, 0]\nmaterial = \"white\"",
+                    "edge_v = [0, 2, 0]\nmaterial = \"mix\"",
+                    1,
+                );
+            assert_eq!(text.matches("material = \"mix\"").count(), 1);
+            text
+        })
+    };
+    let scene = with((0.1, 0.9));
+    let pt = seeded_renders(&scene, "pt", 6, &[], 256, 5, 10);
+    let guided = &["learn_fraction=0.25", "share=fixed", "alpha=0.5"][..];
+    for (name, options, spp) in [
+        ("bdpt", &[][..], 64),
+        ("vcm", &[][..], 64),
+        ("guided-bdpt", guided, 64),
+        ("mmlt", &[][..], 256),
+    ] {
+        let other = seeded_renders(&scene, name, 6, options, spp, 5, 20);
+        assert_same_image(&pt, &other, 4, &format!("{name} vs pt on a blend"));
+    }
+    let swapped = seeded_renders(&with((0.9, 0.1)), "pt", 6, &[], 256, 5, 30);
+    assert!(
+        differs(&pt, &swapped, 1),
+        "swapping the weight's colours changes nothing"
+    );
+}
+
 /// A path vertex on an anisotropic surface keeps the shading frame it was evaluated in: laid
 /// out as a stored path (`paths::path_vertex`) and rebuilt (`paths::from_path`, what the
 /// guided estimators evaluate stored paths with), its frame is the walk's, bit for bit, and

@@ -1536,3 +1536,47 @@ fn anisotropic_roughness_is_read_where_mitsuba_has_it() {
         "{err}"
     );
 }
+
+/// `blendbsdf` mixes its two nested BSDFs (each a material of its own, named after the blend)
+/// by `weight`, a number or a texture; it needs two BSDFs and a weight, and refuses one with
+/// a delta lobe, naming the line.
+#[test]
+fn blendbsdf_mixes_two_bsdfs() {
+    let text = wrap(
+        r#"<shape type="sphere"><bsdf type="blendbsdf" id="mix"><float name="weight" value="0.25"/><bsdf type="diffuse"/><bsdf type="roughconductor"><float name="alpha" value="0.2"/></bsdf></bsdf></shape>"#,
+    );
+    let scene = xml(&text).unwrap();
+    let m = scene.materials.iter().find(|m| m.name == "mix").unwrap();
+    let Bsdf::Blend(b) = &m.bsdf else {
+        panic!("{:?}", m.bsdf)
+    };
+    assert!(matches!(b.first, Bsdf::Diffuse { .. }), "{:?}", b.first);
+    assert!(
+        matches!(b.second, Bsdf::RoughConductor { .. }),
+        "{:?}",
+        b.second
+    );
+    assert_eq!(b.weight, lodestar::bsdf::Opacity::Constant(0.25));
+    assert!(m.one_sided);
+    let err = xml_err(&wrap(
+        "<shape type=\"sphere\">\n<bsdf type=\"blendbsdf\"><float name=\"weight\" value=\"0.5\"/><bsdf type=\"diffuse\"/><bsdf type=\"dielectric\"/></bsdf></shape>",
+    ));
+    assert!(
+        err.contains("test.xml:") && err.contains("delta lobe"),
+        "{err}"
+    );
+    let err = xml_err(&wrap(
+        "<shape type=\"sphere\">\n<bsdf type=\"blendbsdf\"><bsdf type=\"diffuse\"/><bsdf type=\"diffuse\"/></bsdf></shape>",
+    ));
+    assert!(
+        err.contains("test.xml:") && err.contains("'weight'"),
+        "{err}"
+    );
+    let err = xml_err(&wrap(
+        "<shape type=\"sphere\">\n<bsdf type=\"blendbsdf\"><float name=\"weight\" value=\"0.5\"/><bsdf type=\"diffuse\"/></bsdf></shape>",
+    ));
+    assert!(
+        err.contains("test.xml:") && err.contains("two nested"),
+        "{err}"
+    );
+}

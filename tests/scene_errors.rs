@@ -1396,3 +1396,47 @@ fn anisotropic_roughness_keys() {
         &["'alpha_v'", "(0, 1]", "1.5"],
     );
 }
+
+/// `blend`: `first` and `second` name materials defined before it, smooth (no delta lobe),
+/// sided alike; `weight` in [0, 1] or `weight_texture`, one of them.
+#[test]
+fn blend_material_keys() {
+    let parts = "[[material]]\nname = \"matte\"\ntype = \"diffuse\"\nalbedo = [0.5, 0.5, 0.5]\n\
+                 [[material]]\nname = \"metal\"\ntype = \"roughconductor\"\nalpha = 0.2\nreflectance = [0.9, 0.9, 0.9]\n\
+                 [[material]]\nname = \"mirror\"\ntype = \"conductor\"\nreflectance = [1, 1, 1]\n";
+    let blend = |keys: &str| {
+        with(&format!(
+            "{parts}[[material]]\nname = \"mix\"\ntype = \"blend\"\n{keys}\n"
+        ))
+    };
+    let s = load_str(
+        &blend("first = \"matte\"\nsecond = \"metal\"\nweight = 0.3"),
+        "blend.toml",
+        None,
+    )
+    .unwrap();
+    let mix = s.materials.iter().find(|m| m.name == "mix").unwrap();
+    assert!(
+        matches!(mix.bsdf, lodestar::bsdf::Bsdf::Blend(_)),
+        "{:?}",
+        mix.bsdf
+    );
+    check(
+        &blend(&format!(
+            "first = \"matte\"\nsecond = \"mirror\" {MARK}\nweight = 0.3"
+        )),
+        &["'second'", "'mirror'", "delta lobe"],
+    );
+    check(
+        &blend(&format!(
+            "first = \"later\" {MARK}\nsecond = \"metal\"\nweight = 0.3"
+        )),
+        &["'first'", "'later'", "not defined before it"],
+    );
+    check(
+        &blend(&format!(
+            "first = \"matte\"\nsecond = \"metal\"\nweight = 1.5 {MARK}"
+        )),
+        &["'weight'", "[0, 1]", "1.5"],
+    );
+}

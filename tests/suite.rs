@@ -16,6 +16,7 @@ mod bench_parts;
 mod bsdf_energy;
 mod check;
 mod chi2_anisotropic;
+mod chi2_blend;
 mod chi2_bsdf;
 mod chi2_lights;
 mod chi2_lights_spot;

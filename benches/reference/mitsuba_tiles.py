@@ -60,6 +60,8 @@ SCENES = {
     "shading": ("scenes/mitsuba/shading.xml", None, {"res": "64"}, [], 1024),
     # lodestar's own test scene of anisotropic roughness (scenes/mitsuba/, CC0).
     "anisotropic": ("scenes/mitsuba/anisotropic.xml", None, {"res": "64"}, [], 1024),
+    # lodestar's own test scene of blended BSDFs (scenes/mitsuba/, CC0).
+    "blend": ("scenes/mitsuba/blend.xml", None, {"res": "64"}, [], 1024),
 }
 
 

@@ -79,6 +79,7 @@ impl Bsdf {
                 return super::tinted::eval_pdfs(base, tint, sf, wo, wi, mode);
             }
             Bsdf::Mask(m) => return super::mask::eval_pdfs(m, sf, wo, wi, mode),
+            Bsdf::Blend(b) => return super::blend::eval_pdfs(b, sf, wo, wi, mode),
             Bsdf::TexturedDiffuse { albedo } => (
                 diffuse::eval(albedo.eval(sf.uv), wo_l, wi_l),
                 diffuse::pdf(wo_l, wi_l),

@@ -25,6 +25,7 @@
 //!   what `eval` and `pdf` return for its direction. Samples that a lobe scatters to the wrong
 //!   side of the macro surface are dropped (`None`), and `eval`/`pdf` give them no density.
 
+mod blend;
 mod delta;
 mod dielectric;
 mod diffuse;
@@ -42,6 +43,7 @@ mod roughness;
 mod tinted;
 
 use crate::math::Spectrum;
+pub use blend::Blend;
 pub use eval_pdfs::EvalPdfs;
 pub use frame::ShadingFrame;
 use frame::{geometry_agrees, shading_correction};
@@ -169,6 +171,9 @@ pub enum Bsdf {
     /// opacity beside a null lobe that lets the rest of the light through unchanged
     /// ([`Mask`]); delta on the null lobe, like smooth plastic's coating.
     Mask(Box<Mask>),
+    /// Two BSDFs without delta lobes mixed by a weight, a number or a texture (Mitsuba's
+    /// `blendbsdf`, [`Blend`]).
+    Blend(Box<Blend>),
     /// A conductor (smooth or rough) whose value is multiplied per channel by a texture at
     /// the point's texture coordinates (Mitsuba's textured `specular_reflectance`): sampling
     /// and densities are the conductor's. Build with [`Bsdf::tinted`].
@@ -267,6 +272,11 @@ impl Bsdf {
             }
             Bsdf::Plastic(p) => p.diffuse_texture.is_some(),
             Bsdf::Mask(m) => m.textured,
+            Bsdf::Blend(b) => {
+                matches!(b.weight, Opacity::Texture(_))
+                    || b.first.is_textured()
+                    || b.second.is_textured()
+            }
             _ => false,
         }
     }
@@ -282,6 +292,7 @@ impl Bsdf {
             }
             Bsdf::Tinted { base, .. } => base.is_anisotropic(),
             Bsdf::Mask(m) => m.inner.is_anisotropic(),
+            Bsdf::Blend(b) => b.first.is_anisotropic() || b.second.is_anisotropic(),
             _ => false,
         }
     }
@@ -315,6 +326,8 @@ impl Bsdf {
             // The base is a conductor, smooth or rough.
             Bsdf::Tinted { base, .. } => base.roughness(),
             Bsdf::Mask(m) => m.inner.roughness(),
+            // The smoother of the two.
+            Bsdf::Blend(b) => b.first.roughness().min(b.second.roughness()),
         }
     }
 
@@ -343,6 +356,7 @@ impl Bsdf {
             // The base's largest reflectance (at most 1) times the texture's largest texel.
             Bsdf::Tinted { base, tint } => tinted::continuation(base, tint),
             Bsdf::Mask(m) => mask::continuation(m),
+            Bsdf::Blend(b) => blend::continuation(b),
             Bsdf::Dielectric { .. }
             | Bsdf::ThinDielectric { .. }
             | Bsdf::RoughDielectric { .. } => 1.0,
@@ -400,6 +414,7 @@ impl Bsdf {
                 return tinted::sample(base, tint, sf, wo, u_lobe, u, mode);
             }
             Bsdf::Mask(m) => return mask::sample(m, sf, wo, u_lobe, u, mode),
+            Bsdf::Blend(b) => return blend::sample(b, sf, wo, u_lobe, u, mode),
         };
         let wi = sf.frame.to_world(s.wi);
         if !geometry_agrees(sf, wo, wi, s.transmission) {
@@ -432,6 +447,7 @@ impl Bsdf {
         let f = match self {
             Bsdf::Tinted { base, tint } => return tinted::eval(base, tint, sf, wo, wi, mode),
             Bsdf::Mask(m) => return mask::eval(m, sf, wo, wi, mode),
+            Bsdf::Blend(b) => return blend::eval(b, sf, wo, wi, mode),
             Bsdf::Diffuse { albedo } => diffuse::eval(*albedo, wo_l, wi_l),
             Bsdf::TexturedDiffuse { albedo } => diffuse::eval(albedo.eval(sf.uv), wo_l, wi_l),
             Bsdf::RoughDiffuse { albedo, alpha } => {
@@ -514,6 +530,7 @@ impl Bsdf {
             Bsdf::Plastic(p) => plastic::eval_pdf(p, wo_l, wi_l, false, sf.uv).1,
             Bsdf::Tinted { base, .. } => tinted::pdf(base, sf, wo, wi, mode),
             Bsdf::Mask(m) => mask::pdf(m, sf, wo, wi, mode),
+            Bsdf::Blend(b) => blend::pdf(b, sf, wo, wi, mode),
             Bsdf::Black
             | Bsdf::Conductor { .. }
             | Bsdf::FresnelConductor { .. }

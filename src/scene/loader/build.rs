@@ -22,7 +22,7 @@ impl Builder<'_> {
                     format!("material '{name}' is defined twice"),
                 );
             }
-            let (bsdf, one_sided) = self.material(m)?;
+            let (bsdf, one_sided) = self.material(m, &materials)?;
             let normal_map = self.normal_map(m.get_ref(), &format!("material '{name}'"))?;
             by_name.insert(name.clone(), materials.len() as u32);
             materials.push(Material {

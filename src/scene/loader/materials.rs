@@ -49,6 +49,13 @@ pub(super) struct MaterialDesc {
     /// Any material but `black`: the opacity as a texture's luminance, in place of
     /// `opacity`.
     pub(super) opacity_texture: Option<Spanned<TextureDesc>>,
+    /// `blend`: the names of the two materials mixed (defined before it).
+    pub(super) first: Option<Spanned<String>>,
+    pub(super) second: Option<Spanned<String>>,
+    /// `blend`: the second material's weight in [0, 1] ...
+    pub(super) weight: Option<Spanned<f32>>,
+    /// ... or a texture's luminance, clipped to [0, 1].
+    pub(super) weight_texture: Option<Spanned<TextureDesc>>,
 }
 
 /// A texture (`src/texture.rs`): `type = "bitmap"` with `filename` and optionally `raw`,
@@ -85,7 +92,11 @@ const CONDUCTOR_KEYS: &[&str] = &[
 
 impl Builder<'_> {
     /// The BSDF of a material, and whether it is one-sided (black seen from the back).
-    pub(super) fn material(&self, m: &Spanned<MaterialDesc>) -> Result<(Bsdf, bool)> {
+    pub(super) fn material(
+        &self,
+        m: &Spanned<MaterialDesc>,
+        earlier: &[Material],
+    ) -> Result<(Bsdf, bool)> {
         let src = self.src;
         let d = m.get_ref();
         let kind = d.kind.get_ref().as_str();
@@ -112,6 +123,10 @@ impl Builder<'_> {
             ("bump_scale", at(&d.bump_scale)),
             ("opacity", at(&d.opacity)),
             ("opacity_texture", at(&d.opacity_texture)),
+            ("first", at(&d.first)),
+            ("second", at(&d.second)),
+            ("weight", at(&d.weight)),
+            ("weight_texture", at(&d.weight_texture)),
         ];
         let allowed: &[&str] = match kind {
             "diffuse" => &["albedo", "albedo_texture", "one_sided"],
@@ -152,9 +167,10 @@ impl Builder<'_> {
                 "nonlinear",
                 "one_sided",
             ],
+            "blend" => &["first", "second", "weight", "weight_texture"],
             "black" => &[],
             other => {
-                return src.err(d.kind.span(), format!("unknown material type '{other}' (expected diffuse, roughdiffuse, conductor, dielectric, thindielectric, roughconductor, roughdielectric, plastic, roughplastic or black)"));
+                return src.err(d.kind.span(), format!("unknown material type '{other}' (expected diffuse, roughdiffuse, conductor, dielectric, thindielectric, roughconductor, roughdielectric, plastic, roughplastic, blend or black)"));
             }
         };
         // A normal or bump map and an opacity go with every material that scatters.
@@ -262,7 +278,7 @@ impl Builder<'_> {
                 }
             },
         };
-        let one_sided = d.one_sided.as_ref().is_some_and(|o| *o.get_ref());
+        let mut one_sided = d.one_sided.as_ref().is_some_and(|o| *o.get_ref());
         let bsdf = match kind {
             "diffuse" => match self.albedo_texture(d, &what)? {
                 Some(albedo) => Bsdf::TexturedDiffuse { albedo },
@@ -374,6 +390,11 @@ impl Builder<'_> {
                 }
             }
             "black" => Bsdf::Black,
+            "blend" => {
+                let (bsdf, sided) = self.blend(m, earlier, &what)?;
+                one_sided = sided;
+                bsdf
+            }
             _ => unreachable!("material types are checked above"),
         };
         let bsdf = bsdf.with_distribution(distribution);

@@ -98,6 +98,7 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 use toml::Spanned;
 
+mod blend;
 mod build;
 mod camera;
 mod groups;

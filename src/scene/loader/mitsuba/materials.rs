@@ -34,6 +34,10 @@ pub(super) fn material_desc(n: Node, name: String, kind: &str) -> MaterialDesc {
         bump_scale: None,
         opacity: None,
         opacity_texture: None,
+        first: None,
+        second: None,
+        weight: None,
+        weight_texture: None,
     }
 }
 
@@ -143,7 +147,7 @@ pub(super) fn bsdf(xml: &Xml, n: Node, out: &mut Out) -> Result<Option<String>> 
         Some(id) => id,
         None => format!("{} (line {})", kind(xml, n)?, xml.src.line(n.range().start)),
     };
-    let desc = bsdf_desc(xml, n, name.clone(), true)?;
+    let desc = bsdf_desc(xml, n, name.clone(), true, out)?;
     let result = desc.map(|d| {
         out.desc.material.push(s(n, d));
         name
@@ -152,12 +156,14 @@ pub(super) fn bsdf(xml: &Xml, n: Node, out: &mut Out) -> Result<Option<String>> 
     Ok(result)
 }
 
-/// A material description; `one_sided` unless inside `twosided`.
+/// A material description; `one_sided` unless inside `twosided`. Materials it refers to
+/// (a `blendbsdf`'s two) go to `out` first.
 fn bsdf_desc<'a, 'i>(
     xml: &Xml<'a, 'i>,
     n: Node<'a, 'i>,
     name: String,
     one_sided: bool,
+    out: &mut Out,
 ) -> Result<Option<MaterialDesc>> {
     let k = kind(xml, n)?;
     let k = k.as_str();
@@ -330,7 +336,7 @@ fn bsdf_desc<'a, 'i>(
             let [b] = inner.as_slice() else {
                 return xml.err(n, format!("{k} needs one nested <bsdf>"));
             };
-            let Some(mut desc) = bsdf_desc(xml, *b, d.name.into_inner(), one_sided)? else {
+            let Some(mut desc) = bsdf_desc(xml, *b, d.name.into_inner(), one_sided, out)? else {
                 return xml.err(*b, format!("{k} cannot wrap a 'null' BSDF"));
             };
             if desc.normal_map.is_some() || desc.bump_map.is_some() {
@@ -359,7 +365,7 @@ fn bsdf_desc<'a, 'i>(
             let [b] = inner.as_slice() else {
                 return xml.err(n, "mask needs one nested <bsdf>");
             };
-            let Some(mut desc) = bsdf_desc(xml, *b, d.name.into_inner(), one_sided)? else {
+            let Some(mut desc) = bsdf_desc(xml, *b, d.name.into_inner(), one_sided, out)? else {
                 return xml.err(*b, "mask cannot wrap a 'null' BSDF");
             };
             if desc.opacity.is_some() || desc.opacity_texture.is_some() {
@@ -376,7 +382,7 @@ fn bsdf_desc<'a, 'i>(
             p.finish(xml)?;
             return match inner.as_slice() {
                 [b] if matches!(kind(xml, *b)?.as_str(), "dielectric" | "roughdielectric" | "thindielectric" | "twosided" | "null") => xml.err(*b, format!("twosided cannot wrap '{}'", kind(xml, *b)?)),
-                [b] => bsdf_desc(xml, *b, d.name.into_inner(), false),
+                [b] => bsdf_desc(xml, *b, d.name.into_inner(), false, out),
                 [] => xml.err(n, "twosided needs one nested <bsdf>"),
                 _ => xml.err(inner[1], "twosided with a different BSDF per side is not supported"),
             };
@@ -384,6 +390,37 @@ fn bsdf_desc<'a, 'i>(
         "null" => {
             p.finish(xml)?;
             return Ok(None);
+        }
+        "blendbsdf" => {
+            // The two nested BSDFs as materials of their own, named after the blend
+            // (`bsdf/blend.rs`); `weight` the second's share, as in Mitsuba 3.
+            d.kind = s(n, "blend".to_string());
+            match p.texture(xml, "weight")? {
+                Some(t) => d.weight_texture = Some(s(t, scalar_texture_desc(xml, t)?)),
+                None => match p.float(xml, "weight")? {
+                    Some((at, w)) => d.weight = Some(s(at, w)),
+                    None => return xml.err(n, "blendbsdf needs a 'weight' (a number or a texture)"),
+                },
+            }
+            let inner = p.nested(xml, "bsdf")?;
+            p.finish(xml)?;
+            let [b0, b1] = inner.as_slice() else {
+                return xml.err(n, format!("blendbsdf needs two nested <bsdf>, it has {}", inner.len()));
+            };
+            for (b, key) in [(*b0, "first"), (*b1, "second")] {
+                let part = format!("{}/{key}", d.name.get_ref());
+                let Some(desc) = bsdf_desc(xml, b, part.clone(), one_sided, out)? else {
+                    return xml.err(b, "blendbsdf cannot blend a 'null' BSDF");
+                };
+                out.desc.material.push(s(b, desc));
+                let name = Some(s(b, part));
+                if key == "first" {
+                    d.first = name;
+                } else {
+                    d.second = name;
+                }
+            }
+            return Ok(Some(d));
         }
         // Smooth or rough: the same coating and base.
         "roughplastic" | "plastic" => {
@@ -404,7 +441,7 @@ fn bsdf_desc<'a, 'i>(
             d.nonlinear = Some(s(n, p.boolean(xml, "nonlinear")?.unwrap_or(false)));
             d.one_sided = Some(s(n, one_sided));
         }
-        other => return xml.err(n, format!("bsdf '{other}' is not supported (diffuse, roughdiffuse, conductor, roughconductor, dielectric, thindielectric, roughdielectric, plastic, roughplastic, twosided, normalmap, bumpmap, mask, null)")),
+        other => return xml.err(n, format!("bsdf '{other}' is not supported (diffuse, roughdiffuse, conductor, roughconductor, dielectric, thindielectric, roughdielectric, plastic, roughplastic, twosided, normalmap, bumpmap, mask, blendbsdf, null)")),
     }
     p.finish(xml)?;
     Ok(Some(d))

@@ -39,7 +39,8 @@
 //!   the surface's `dp/du` and `alpha_v` (numbers; roughplastic takes `alpha` only),
 //!   `sample_visible` read: both are sampled by visible normals), `dielectric`, `thindielectric` and `roughdielectric` (`int_ior` 1.5046 "bk7",
 //!   `ext_ior` 1.000277 "air", numbers or Mitsuba's named media), `twosided` around one
-//!   BSDF, and `null` on a medium boundary. `roughplastic`: `distribution` and `alpha` as
+//!   BSDF, `blendbsdf` (`weight` a number or a texture; two nested BSDFs without delta lobes,
+//!   each a material of its own), and `null` on a medium boundary. `roughplastic`: `distribution` and `alpha` as
 //!   above, `int_ior` 1.49 "polypropylene", `ext_ior` "air", `diffuse_reflectance` 0.5,
 //!   `specular_reflectance` 1, `nonlinear` false (Mitsuba 3's model, `bsdf/rough_plastic.rs`);
 //!   `plastic`, its smooth form, with the same properties but the roughness

@@ -16,7 +16,7 @@
 //! What the render test adds (`mitsuba_tiles.rs`, `scenes/mitsuba/anisotropic.xml`): the
 //! tangent the roughnesses follow is the surface's `dp/du`, as in Mitsuba.
 
-use crate::chi2_microfacet::{N, PHIS, RINGS, bsdf_case, gold, warp_for};
+use crate::chi2_microfacet::{bsdf_case, gold, visible_normal_case, warp_for};
 use crate::common;
 
 use common::chi2::{self, LobeDomain};
@@ -87,26 +87,8 @@ fn anisotropic_visible_normal_sampling() {
             Distribution::Beckmann => &[(50.0, 60.0), (80.0, 10.0)],
         };
         for &(theta, phi) in angles {
-            let wo = local_dir(theta, phi);
             let name = format!("{dist:?} VNDF ({ax}, {ay}), wo ({theta}, {phi})");
-            let domain = LobeDomain::new(Vec3::Z, Vec3::Z, -Vec3::Z, warp_for(ax.min(ay)))
-                .with_res(RINGS, PHIS);
-            let mut fails = Failures::new();
-            chi2::lobe_spherical(
-                &name,
-                N,
-                &domain,
-                |s| {
-                    let m = mf.sample_visible(wo, s.next_2d())?;
-                    fails.check((m.length() - 1.0).abs() < 1e-4 && m.z > 0.0, || {
-                        format!("m = {m}")
-                    });
-                    Some(m)
-                },
-                |m| mf.d_visible(wo, m) as f64,
-            )
-            .assert_ok();
-            fails.assert_none(&name);
+            visible_normal_case(&name, &mf, local_dir(theta, phi), ax.min(ay));
         }
     }
 }

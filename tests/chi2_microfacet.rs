@@ -253,26 +253,31 @@ fn visible_normal_sampling(dist: Distribution, alphas: &[f32]) {
         for theta in [0.0f32, 60.0, 85.0] {
             let wo = dir_around(Vec3::Z, theta, 20.0);
             let name = format!("{dist:?} VNDF alpha {alpha}, theta_o {theta}");
-            let domain =
-                LobeDomain::new(Vec3::Z, Vec3::Z, -Vec3::Z, warp_for(alpha)).with_res(RINGS, PHIS);
-            let mut fails = Failures::new();
-            chi2::lobe_spherical(
-                &name,
-                N,
-                &domain,
-                |s| {
-                    let m = mf.sample_visible(wo, s.next_2d())?;
-                    fails.check((m.length() - 1.0).abs() < 1e-4 && m.z > 0.0, || {
-                        format!("m = {m}")
-                    });
-                    Some(m)
-                },
-                |m| mf.d_visible(wo, m) as f64,
-            )
-            .assert_ok();
-            fails.assert_none(&name);
+            visible_normal_case(&name, &mf, wo, alpha);
         }
     }
+}
+
+/// Chi-square of `mf`'s visible normals for `wo` (local frame) against `D_wo`, on a lobe
+/// domain warped for roughness `alpha`; every normal must be unit and above the surface.
+pub(crate) fn visible_normal_case(name: &str, mf: &Microfacet, wo: Vec3, alpha: f32) {
+    let domain = LobeDomain::new(Vec3::Z, Vec3::Z, -Vec3::Z, warp_for(alpha)).with_res(RINGS, PHIS);
+    let mut fails = Failures::new();
+    chi2::lobe_spherical(
+        name,
+        N,
+        &domain,
+        |s| {
+            let m = mf.sample_visible(wo, s.next_2d())?;
+            fails.check((m.length() - 1.0).abs() < 1e-4 && m.z > 0.0, || {
+                format!("m = {m}")
+            });
+            Some(m)
+        },
+        |m| mf.d_visible(wo, m) as f64,
+    )
+    .assert_ok();
+    fails.assert_none(name);
 }
 
 #[test]

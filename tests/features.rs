@@ -36,6 +36,28 @@ fn every_integrator_agrees(scene: &lodestar::scene::Scene, what: &str) {
     assert!(differs(&pt, &mirrored, 4), "{what}: mirrored pt passes");
 }
 
+/// [`every_integrator_agrees`] with guided-bdpt's guiding kept on (its `auto` share turns it
+/// off where it does not pay), so that guided paths rebuilt from the cache evaluate their
+/// vertices as the walks did (textures looked up, tangents kept); returns pt's renders for
+/// the caller's controls.
+fn every_integrator_agrees_guiding_on(
+    scene: &lodestar::scene::Scene,
+    what: &str,
+) -> Vec<lodestar::film::Image> {
+    let pt = seeded_renders(scene, "pt", 6, &[], 256, 5, 10);
+    let guided = &["learn_fraction=0.25", "share=fixed", "alpha=0.5"][..];
+    for (name, options, spp) in [
+        ("bdpt", &[][..], 64),
+        ("vcm", &[][..], 64),
+        ("guided-bdpt", guided, 64),
+        ("mmlt", &[][..], 256),
+    ] {
+        let other = seeded_renders(scene, name, 6, options, spp, 5, 20);
+        assert_same_image(&pt, &other, 4, &format!("{name} vs pt on {what}"));
+    }
+    pt
+}
+
 /// The Cornell box with its white walls and boxes in rough plastic (GGX 0.15, eta 1.5), its
 /// red and green sides in smooth plastic (eta 1.5: the light and the sphere mirrored in the
 /// coating, paths that take the coating's delta lobe at some vertices and the base's diffuse
@@ -265,19 +287,7 @@ fn every_integrator_renders_textures_alike() {
         })
     };
     let scene = with(2, true, true);
-    let pt = seeded_renders(&scene, "pt", 6, &[], 256, 5, 10);
-    // guided-bdpt with guiding kept on (its `auto` share turns it off where it does not pay,
-    // as here), so that guided paths rebuilt from the cache look their textures up too.
-    let guided = &["learn_fraction=0.25", "share=fixed", "alpha=0.5"][..];
-    for (name, options, spp) in [
-        ("bdpt", &[][..], 64),
-        ("vcm", &[][..], 64),
-        ("guided-bdpt", guided, 64),
-        ("mmlt", &[][..], 256),
-    ] {
-        let other = seeded_renders(&scene, name, 6, options, spp, 5, 20);
-        assert_same_image(&pt, &other, 4, &format!("{name} vs pt on textures"));
-    }
+    let pt = every_integrator_agrees_guiding_on(&scene, "textures");
     let other = seeded_renders(&with(3, true, true), "pt", 6, &[], 256, 5, 30);
     assert!(
         differs(&pt, &other, 1),
@@ -322,22 +332,7 @@ fn every_integrator_renders_anisotropic_roughness_alike() {
         })
     };
     let scene = with((0.05, 0.5));
-    let pt = seeded_renders(&scene, "pt", 6, &[], 256, 5, 10);
-    let guided = &["learn_fraction=0.25", "share=fixed", "alpha=0.5"][..];
-    for (name, options, spp) in [
-        ("bdpt", &[][..], 64),
-        ("vcm", &[][..], 64),
-        ("guided-bdpt", guided, 64),
-        ("mmlt", &[][..], 256),
-    ] {
-        let other = seeded_renders(&scene, name, 6, options, spp, 5, 20);
-        assert_same_image(
-            &pt,
-            &other,
-            4,
-            &format!("{name} vs pt on anisotropic roughness"),
-        );
-    }
+    let pt = every_integrator_agrees_guiding_on(&scene, "anisotropic roughness");
     let swapped = seeded_renders(&with((0.5, 0.05)), "pt", 6, &[], 256, 5, 30);
     assert!(
         differs(&pt, &swapped, 1),
@@ -375,17 +370,7 @@ fn every_integrator_renders_blends_alike() {
         })
     };
     let scene = with((0.1, 0.9));
-    let pt = seeded_renders(&scene, "pt", 6, &[], 256, 5, 10);
-    let guided = &["learn_fraction=0.25", "share=fixed", "alpha=0.5"][..];
-    for (name, options, spp) in [
-        ("bdpt", &[][..], 64),
-        ("vcm", &[][..], 64),
-        ("guided-bdpt", guided, 64),
-        ("mmlt", &[][..], 256),
-    ] {
-        let other = seeded_renders(&scene, name, 6, options, spp, 5, 20);
-        assert_same_image(&pt, &other, 4, &format!("{name} vs pt on a blend"));
-    }
+    let pt = every_integrator_agrees_guiding_on(&scene, "a blend");
     let swapped = seeded_renders(&with((0.9, 0.1)), "pt", 6, &[], 256, 5, 30);
     assert!(
         differs(&pt, &swapped, 1),

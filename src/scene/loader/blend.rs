@@ -2,7 +2,6 @@
 //! (`bsdf/blend.rs`).
 
 use super::*;
-use crate::bsdf::Opacity;
 
 impl Builder<'_> {
     /// A `blend` material's BSDF and sidedness: its `first` and `second` materials, defined
@@ -59,27 +58,11 @@ impl Builder<'_> {
                 ),
             );
         }
-        let weight = match (&d.weight, &d.weight_texture) {
-            (Some(_), Some(t)) => {
-                return src.err(
-                    t.span(),
-                    format!("{what} has both 'weight' and 'weight_texture' (expected one)"),
-                );
-            }
-            (Some(w), None) => {
-                let v = *w.get_ref();
-                if !(0.0..=1.0).contains(&v) {
-                    return src.err(w.span(), format!("'weight' must be in [0, 1], got {v}"));
-                }
-                Opacity::Constant(v)
-            }
-            (None, Some(t)) => Opacity::Texture(std::sync::Arc::new(self.texture(t, false)?)),
-            (None, None) => {
-                return src.err(
-                    m.span(),
-                    format!("{what} needs 'weight' or 'weight_texture'"),
-                );
-            }
+        let Some(weight) = self.fraction(("weight", &d.weight), &d.weight_texture, what)? else {
+            return src.err(
+                m.span(),
+                format!("{what} needs 'weight' or 'weight_texture'"),
+            );
         };
         let blend = crate::bsdf::Blend::new(first.bsdf.clone(), second.bsdf.clone(), weight)
             .expect("both parts were checked to be without delta lobes");

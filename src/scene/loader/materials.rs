@@ -439,20 +439,31 @@ impl Builder<'_> {
 
     /// A material's `opacity` or `opacity_texture`, if it has one (not both).
     fn opacity(&self, d: &MaterialDesc, what: &str) -> Result<Option<Opacity>> {
+        self.fraction(("opacity", &d.opacity), &d.opacity_texture, what)
+    }
+
+    /// A fraction in [0, 1] given as the number `key` or as the texture `{key}_texture` (its
+    /// luminance, clipped to [0, 1] where it is read, as in Mitsuba), if either is given (not
+    /// both): a mask's opacity, a blend's weight.
+    pub(super) fn fraction(
+        &self,
+        (key, value): (&str, &Option<Spanned<f32>>),
+        texture: &Option<Spanned<TextureDesc>>,
+        what: &str,
+    ) -> Result<Option<Opacity>> {
         let src = self.src;
-        match (&d.opacity, &d.opacity_texture) {
+        match (value, texture) {
             (Some(_), Some(t)) => src.err(
                 t.span(),
-                format!("{what} has both 'opacity' and 'opacity_texture' (expected one)"),
+                format!("{what} has both '{key}' and '{key}_texture' (expected one)"),
             ),
             (Some(a), None) => {
                 let v = *a.get_ref();
                 if !(0.0..=1.0).contains(&v) {
-                    return src.err(a.span(), format!("'opacity' must be in [0, 1], got {v}"));
+                    return src.err(a.span(), format!("'{key}' must be in [0, 1], got {v}"));
                 }
                 Ok(Some(Opacity::Constant(v)))
             }
-            // Values outside [0, 1] are clipped where they are read, as in Mitsuba.
             (None, Some(t)) => Ok(Some(Opacity::Texture(std::sync::Arc::new(
                 self.texture(t, false)?,
             )))),

@@ -629,9 +629,8 @@ fn spot_projects_its_texture_in_the_transforms_frame() {
 }
 
 /// An area emitter's `radiance` as a texture (Mitsuba 3 allows it): the light's radiance is
-/// the texture at the point (a checkerboard's colours as its colour lookup has them); a
-/// textured emitter on a mesh of more triangles than lodestar looks through is an error
-/// naming the line.
+/// the texture at the point (a checkerboard's colours as its colour lookup has them), on a
+/// rectangle and on a disk (a mesh of many triangles).
 #[test]
 fn area_emitters_take_a_textured_radiance() {
     let s = xml(&wrap(
@@ -647,12 +646,31 @@ fn area_emitters_take_a_textured_radiance() {
     let le = |x: f32, y: f32| l.le_at(Vec3::new(x, y, 0.0), Vec3::Z, Vec3::Z).x;
     assert_eq!(le(-0.5, -0.5), 4.0);
     assert_eq!(le(0.5, -0.5), 1.0);
-    let e = xml_err(&wrap(
+    let s = xml(&wrap(
         r#"<shape type="disk"><emitter type="area"><texture name="radiance" type="checkerboard"/></emitter></shape>"#,
-    ));
+    ))
+    .unwrap();
+    let lodestar::light::Light::Area(l) = &s.lights[0] else {
+        panic!("not an area light")
+    };
+    // Mitsuba's checkerboard: 0.4 and 0.2; both over the disk.
+    let values: Vec<f32> = [
+        (0.2, 0.1),
+        (-0.5, 0.3),
+        (0.1, -0.7),
+        (0.6, 0.6),
+        (-0.2, -0.2),
+    ]
+    .iter()
+    .map(|&(x, y)| l.le_at(Vec3::new(x, y, 0.0), Vec3::Z, Vec3::Z).x)
+    .collect();
     assert!(
-        e.contains("a textured emitter must be a sphere or a mesh of at most"),
-        "{e}"
+        values
+            .iter()
+            .all(|v| (*v - 0.4).abs() < 1e-6 || (*v - 0.2).abs() < 1e-6)
+            && values.iter().any(|v| (*v - 0.4).abs() < 1e-6)
+            && values.iter().any(|v| (*v - 0.2).abs() < 1e-6),
+        "{values:?}"
     );
 }
 

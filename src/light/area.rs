@@ -8,6 +8,7 @@
 //! cosine-weighted within the profile's cone instead of over the hemisphere.
 
 use super::cone::one_minus_cos;
+use super::locate::TriangleLocator;
 use super::{EmissionSample, LightSample, SpotProfile};
 use crate::geometry::{Sphere, TriangleMesh, mesh::MeshSampler};
 use crate::math::{Frame, PI, Spectrum, luminance, warp};
@@ -42,11 +43,9 @@ pub struct AreaLight {
     /// A texture multiplying the radiance over the surface (Mitsuba's textured `radiance`),
     /// looked up at the texture coordinates of the point ([`AreaLight::uv_at`]).
     pub texture: Option<std::sync::Arc<crate::texture::Texture>>,
+    /// A textured mesh's triangle search, for the texture coordinates at a point.
+    locator: Option<Box<TriangleLocator>>,
 }
-
-/// Largest mesh a textured area light may be: its texture coordinates at a point are found by
-/// testing every triangle.
-pub const TEXTURED_MESH_MAX_TRIANGLES: usize = 64;
 
 impl AreaLight {
     /// A plain (Lambertian) emitter of shape `shape`.
@@ -57,48 +56,32 @@ impl AreaLight {
             geometry,
             spot: None,
             texture: None,
+            locator: None,
         }
     }
 
-    /// This light with its radiance multiplied by `texture` over the surface; `None` for a
-    /// mesh of more than [`TEXTURED_MESH_MAX_TRIANGLES`] triangles.
-    pub fn with_texture(self, texture: std::sync::Arc<crate::texture::Texture>) -> Option<Self> {
-        if let AreaShape::Mesh { mesh, .. } = &self.geometry
-            && mesh.indices.len() > TEXTURED_MESH_MAX_TRIANGLES
-        {
-            return None;
-        }
-        Some(AreaLight {
+    /// This light with its radiance multiplied by `texture` over the surface (a mesh gets
+    /// the triangle search its texture coordinates need, `locate.rs`).
+    pub fn with_texture(self, texture: std::sync::Arc<crate::texture::Texture>) -> Self {
+        let locator = match &self.geometry {
+            AreaShape::Mesh { mesh, .. } => Some(Box::new(TriangleLocator::new(mesh))),
+            AreaShape::Sphere(_) => None,
+        };
+        AreaLight {
             texture: Some(texture),
+            locator,
             ..self
-        })
+        }
     }
 
     /// The texture coordinates of point `p` of the surface: a sphere's (φ / 2π, θ / π), or
-    /// those of the mesh triangle whose plane and edges lie nearest `p`.
+    /// those of the mesh triangle that contains `p` (`TriangleLocator`; a light without a
+    /// texture has no search and gets zero).
     pub fn uv_at(&self, p: Vec3) -> Vec2 {
-        match &self.geometry {
-            AreaShape::Sphere(s) => s.tex_coords(p),
-            AreaShape::Mesh { mesh, .. } => {
-                let mut best = (f32::NEG_INFINITY, Vec2::ZERO);
-                for i in 0..mesh.indices.len() {
-                    let [a, b, c] = mesh.triangle(i);
-                    let (e1, e2, d) = (b - a, c - a, p - a);
-                    let (d11, d12, d22) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
-                    let det = d11 * d22 - d12 * d12;
-                    if det <= 0.0 {
-                        continue;
-                    }
-                    let (d1, d2) = (d.dot(e1), d.dot(e2));
-                    let bary = Vec2::new(d22 * d1 - d12 * d2, d11 * d2 - d12 * d1) / det;
-                    // How far inside the triangle (negative: outside by that much).
-                    let inside = bary.x.min(bary.y).min(1.0 - bary.x - bary.y);
-                    if inside > best.0 {
-                        best = (inside, mesh.tex_coords(i, bary));
-                    }
-                }
-                best.1
-            }
+        match (&self.geometry, &self.locator) {
+            (AreaShape::Sphere(s), _) => s.tex_coords(p),
+            (AreaShape::Mesh { mesh, .. }, Some(locator)) => locator.uv_at(mesh, p),
+            (AreaShape::Mesh { .. }, None) => Vec2::ZERO,
         }
     }
 

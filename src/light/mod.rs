@@ -24,11 +24,12 @@ mod cone;
 mod directional;
 mod environment;
 mod envmap;
+pub mod locate;
 mod point;
 mod spot;
 mod sun;
 
-pub use area::{AreaLight, AreaShape, TEXTURED_MESH_MAX_TRIANGLES};
+pub use area::{AreaLight, AreaShape};
 pub use directional::DirectionalLight;
 pub use environment::EnvironmentLight;
 pub use envmap::EnvMapLight;

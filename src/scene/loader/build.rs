@@ -2,7 +2,6 @@
 //! accelerator and the features every integrator asks about, with cross-checks between them.
 
 use super::*;
-use crate::light::TEXTURED_MESH_MAX_TRIANGLES;
 use crate::scene::Checker;
 
 impl Builder<'_> {
@@ -217,12 +216,7 @@ impl Builder<'_> {
                                         ),
                                     );
                                 }
-                                match light.with_texture(std::sync::Arc::new(texture)) {
-                                    Some(l) => l,
-                                    None => {
-                                        return src.err(t.span(), format!("{label}: a textured emitter must be a sphere or a mesh of at most {TEXTURED_MESH_MAX_TRIANGLES} triangles"));
-                                    }
-                                }
+                                light.with_texture(std::sync::Arc::new(texture))
                             }
                         };
                         let power = light.power();

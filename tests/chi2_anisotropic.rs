@@ -31,12 +31,6 @@ const ROUGHNESSES: [(Distribution, f32, f32); 2] = [
     (Distribution::Beckmann, 0.4, 0.1),
 ];
 
-/// A direction at `theta` degrees from +z, `phi` degrees from +x (local frame).
-fn local_dir(theta: f32, phi: f32) -> Vec3 {
-    let (t, p) = (theta.to_radians(), phi.to_radians());
-    Vec3::new(t.sin() * p.cos(), t.sin() * p.sin(), t.cos())
-}
-
 #[test]
 fn anisotropic_distributions_integrate_to_one() {
     let mut fails = Failures::new();
@@ -49,7 +43,7 @@ fn anisotropic_distributions_integrate_to_one() {
             format!("{dist:?} ({ax}, {ay}): ∫ D(m) cos = {projected}")
         });
         for (theta, phi) in [(60.0f32, 0.0f32), (60.0, 90.0), (70.0, 35.0), (85.0, 120.0)] {
-            let wo = local_dir(theta, phi);
+            let wo = dir_around(Vec3::Z, theta, phi);
             let vis = chi2::integrate_lobe(&domain, |m| mf.d_visible(wo, m) as f64);
             println!("{dist:?} ({ax}, {ay}), wo ({theta}, {phi}): ∫ D_wo = {vis:.6}");
             fails.check(close(vis, 1.0, 0.0, 1e-3), || {
@@ -67,7 +61,7 @@ fn lambda_in_the_principal_planes_is_that_planes_isotropic_lambda() {
         let mf = Microfacet::anisotropic(dist, ax, ay);
         for theta in [10.0f32, 45.0, 75.0, 88.0] {
             for (phi, alpha) in [(0.0f32, ax), (90.0, ay), (180.0, ax), (270.0, ay)] {
-                let w = local_dir(theta, phi);
+                let w = dir_around(Vec3::Z, theta, phi);
                 let (got, want) = (mf.lambda(w), Microfacet::new(dist, alpha).lambda(w));
                 fails.check(close(got as f64, want as f64, 1e-4, 1e-7), || {
                     format!("{dist:?} ({ax}, {ay}) at ({theta}, {phi}): Lambda {got}, isotropic {alpha}: {want}")
@@ -88,7 +82,7 @@ fn anisotropic_visible_normal_sampling() {
         };
         for &(theta, phi) in angles {
             let name = format!("{dist:?} VNDF ({ax}, {ay}), wo ({theta}, {phi})");
-            visible_normal_case(&name, &mf, local_dir(theta, phi), ax.min(ay));
+            visible_normal_case(&name, &mf, dir_around(Vec3::Z, theta, phi), ax.min(ay));
         }
     }
 }

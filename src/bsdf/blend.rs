@@ -117,8 +117,15 @@ pub(super) fn sample(
     } else {
         b.first.sample(sf, wo, (u_lobe - s1) / s0, u, mode)?
     };
-    let f = eval(b, sf, wo, s.wi, mode);
-    let pdf = pdf(b, sf, wo, s.wi, mode);
+    // Each BSDF's value and density at the direction, in one evaluation each.
+    let (mut f, mut pdf) = (Spectrum::ZERO, 0.0);
+    for (bsdf, share) in [(&b.first, s0), (&b.second, s1)] {
+        if share > 0.0 {
+            let (fi, pi) = bsdf.eval_pdf(sf, wo, s.wi, mode);
+            f += fi * share;
+            pdf += pi * share;
+        }
+    }
     let weight = f * (s.wi.dot(sf.frame.n).abs() / pdf);
     if !(weight.is_finite() && pdf > 0.0) || weight == Spectrum::ZERO {
         return None;

@@ -57,18 +57,7 @@ impl ShadingFrame {
     /// part across the normal (a degenerate parameterisation, a pole).
     pub fn with_tangent(self, dp_du: Vec3) -> ShadingFrame {
         let n = self.frame.n;
-        let s = (dp_du - n * n.dot(dp_du)).normalize_or_zero();
-        if s == Vec3::ZERO {
-            return self;
-        }
-        ShadingFrame {
-            frame: Frame {
-                s,
-                t: n.cross(s),
-                n,
-            },
-            ..self
-        }
+        self.with_stored_tangent((dp_du - n * n.dot(dp_du)).normalize_or_zero())
     }
 }
 

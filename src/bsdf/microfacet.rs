@@ -53,6 +53,8 @@ pub fn clamp_alpha(alpha: f32) -> f32 {
 pub struct Ggx {
     alpha_x: f32,
     alpha_y: f32,
+    /// `alpha_y / alpha_x` and its inverse (exactly 1 when isotropic), for [`stretched`].
+    ratio: (f32, f32),
 }
 
 /// `(x^2 r + y^2 / r)` with `r` the ratio of the two roughnesses given: the stretched squared
@@ -71,9 +73,11 @@ impl Ggx {
 
     /// Roughness `alpha_x` along x and `alpha_y` along y, each clamped with [`clamp_alpha`].
     pub fn anisotropic(alpha_x: f32, alpha_y: f32) -> Ggx {
+        let (alpha_x, alpha_y) = (clamp_alpha(alpha_x), clamp_alpha(alpha_y));
         Ggx {
-            alpha_x: clamp_alpha(alpha_x),
-            alpha_y: clamp_alpha(alpha_y),
+            alpha_x,
+            alpha_y,
+            ratio: (alpha_y / alpha_x, alpha_x / alpha_y),
         }
     }
 
@@ -91,7 +95,7 @@ impl Ggx {
         let (ax, ay) = (self.alpha_x, self.alpha_y);
         let a2 = ax * ay;
         // cos^2 (1 + tan^2 / alpha^2) = cos^2 + sin^2 / alpha^2, without the tan.
-        let t = stretched(m.x, m.y, ay / ax, ax / ay) / a2 + m.z * m.z;
+        let t = stretched(m.x, m.y, self.ratio.0, self.ratio.1) / a2 + m.z * m.z;
         1.0 / (PI * a2 * t * t)
     }
 
@@ -103,7 +107,7 @@ impl Ggx {
             return f32::INFINITY;
         }
         let (ax, ay) = (self.alpha_x, self.alpha_y);
-        let a = ax * ay * stretched(w.x, w.y, ax / ay, ay / ax) / z2;
+        let a = ax * ay * stretched(w.x, w.y, self.ratio.1, self.ratio.0) / z2;
         if !a.is_finite() {
             return f32::INFINITY;
         }
@@ -161,6 +165,8 @@ pub enum Distribution {
 pub struct Beckmann {
     alpha_x: f32,
     alpha_y: f32,
+    /// `alpha_y / alpha_x` and its inverse in f64 (exactly 1 when isotropic).
+    ratio: (f64, f64),
 }
 
 impl Beckmann {
@@ -171,9 +177,12 @@ impl Beckmann {
 
     /// Roughness `alpha_x` along x and `alpha_y` along y, each clamped with [`clamp_alpha`].
     pub fn anisotropic(alpha_x: f32, alpha_y: f32) -> Beckmann {
+        let (alpha_x, alpha_y) = (clamp_alpha(alpha_x), clamp_alpha(alpha_y));
+        let (x, y) = (alpha_x as f64, alpha_y as f64);
         Beckmann {
-            alpha_x: clamp_alpha(alpha_x),
-            alpha_y: clamp_alpha(alpha_y),
+            alpha_x,
+            alpha_y,
+            ratio: (y / x, x / y),
         }
     }
 
@@ -192,7 +201,7 @@ impl Beckmann {
         let a2 = ax * ay;
         let cos2 = (m.z as f64).powi(2);
         // tan^2 / alpha^2 with the stretch: (x^2 / alpha_x^2 + y^2 / alpha_y^2) / cos^2.
-        let (r, inv_r) = (ay / ax, ax / ay);
+        let (r, inv_r) = self.ratio;
         let tan2 = ((m.x as f64).powi(2) * r + (m.y as f64).powi(2) * inv_r) / cos2;
         let e = (-tan2 / a2).exp();
         if e == 0.0 {

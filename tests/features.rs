@@ -1,6 +1,7 @@
 //! Scene features every integrator family must handle alike: rough plastic, smooth plastic
 //! (a delta lobe beside a diffuse one), the smooth conductor of complex index, the thin
-//! dielectric, the rough diffuse BSDF, textures and normal maps, and the tent and Gaussian
+//! dielectric, the rough diffuse BSDF, textures and normal maps, anisotropic roughness,
+//! blended BSDFs, and the tent and Gaussian
 //! pixel filters (the environment map's is in `envmap.rs`). Each renders a 16 x 16 Cornell
 //! box with the feature by pt, bdpt, vcm, guided-bdpt and mmlt, tile by tile within noise of
 //! pt's image (`util::assert_same_image`, 5 renders a side, family-wise false-failure rate

@@ -102,7 +102,7 @@ fn batch_option_errors_name_the_option() {
     };
     let e = err("pt", &["batch=sometimes"]);
     assert!(
-        e.contains("'batch'") && e.contains("auto, wavefront, on, off"),
+        e.contains("'batch'") && e.contains("auto, wavefront, wavefront-avx2, on, off"),
         "{e}"
     );
     let e = err("pt", &["batch=on", "guiding=sdtree"]);
@@ -198,13 +198,19 @@ fn wavefront_pt_is_pt_bit_for_bit() {
     let pt = PathTracer {
         settings: PtSettings::default(),
     };
-    let Some(isa) = wavefront::Isa::detect() else {
+    let Some(widest) = wavefront::Isa::detect() else {
         eprintln!(
-            "wavefront_pt_is_pt_bit_for_bit: skipped: this CPU has no AVX-512, so the wavefront \
-             cannot run"
+            "wavefront_pt_is_pt_bit_for_bit: skipped: this CPU has neither AVX-512 nor AVX2, so \
+             the wavefront cannot run"
         );
         return;
     };
+    // Each kernel the CPU can run: the widest through `batch=wavefront`, and the AVX2 one
+    // through `batch=wavefront-avx2` where that is not the same.
+    let mut kernels = vec![("batch=wavefront", widest)];
+    if widest != wavefront::Isa::Avx2 && wavefront::Isa::Avx2.on_this_cpu() {
+        kernels.push(("batch=wavefront-avx2", wavefront::Isa::Avx2));
+    }
     for (name, scene) in [
         ("cornell-box", shipped("cornell-box")),
         ("wavefront box", wavefront_box()),
@@ -234,49 +240,38 @@ fn wavefront_pt_is_pt_bit_for_bit() {
         assert!(wavefront::supports(&pt, &scene), "{name}");
         assert_eq!(
             BatchMode::Auto.tracing(&pt, &scene),
-            Tracing::Wavefront(isa),
-            "{name}: auto takes the wavefront"
+            Tracing::Wavefront(widest),
+            "{name}: auto takes the widest wavefront"
         );
         for (max_depth, sampler) in [(8, "independent"), (3, "independent"), (8, "sobol")] {
             let sampler = format!("sampler={sampler}");
             let one = render(&scene, "pt", max_depth, &["batch=off", &sampler], 4, 9, 2);
-            let wave = render(
-                &scene,
-                "pt",
-                max_depth,
-                &["batch=wavefront", &sampler],
-                4,
-                9,
-                2,
-            );
             assert!(
                 one.image.pixels.iter().any(|p| p.max_element() > 0.0),
                 "{name}: a black image proves nothing"
             );
-            let differ = one
-                .image
-                .pixels
-                .iter()
-                .zip(&wave.image.pixels)
-                .filter(|(a, b)| a.to_array().map(f32::to_bits) != b.to_array().map(f32::to_bits))
-                .count();
-            assert_eq!(
-                differ, 0,
-                "{name}, max_depth {max_depth}, {sampler}: {differ} pixels differ from pt's"
-            );
-            let one_thread = render(
-                &scene,
-                "pt",
-                max_depth,
-                &["batch=wavefront", &sampler],
-                4,
-                9,
-                1,
-            );
-            assert!(
-                one_thread.image == wave.image,
-                "{name}: thread count matters"
-            );
+            for &(option, isa) in &kernels {
+                let wave = render(&scene, "pt", max_depth, &[option, &sampler], 4, 9, 2);
+                let differ = one
+                    .image
+                    .pixels
+                    .iter()
+                    .zip(&wave.image.pixels)
+                    .filter(|(a, b)| {
+                        a.to_array().map(f32::to_bits) != b.to_array().map(f32::to_bits)
+                    })
+                    .count();
+                assert_eq!(
+                    differ, 0,
+                    "{name}, {isa:?}, max_depth {max_depth}, {sampler}: {differ} pixels differ \
+                     from pt's"
+                );
+                let one_thread = render(&scene, "pt", max_depth, &[option, &sampler], 4, 9, 1);
+                assert!(
+                    one_thread.image == wave.image,
+                    "{name}, {isa:?}: thread count matters"
+                );
+            }
         }
     }
 }
@@ -295,7 +290,7 @@ fn the_wavefront_applies_where_its_lanes_shade() {
         let scene = shipped(name);
         assert!(!wavefront::supports(&pt, &scene), "{name}");
         assert!(!matches!(
-            BatchMode::Wavefront.tracing(&pt, &scene),
+            BatchMode::Wavefront(None).tracing(&pt, &scene),
             Tracing::Wavefront(_)
         ));
     }
@@ -315,7 +310,7 @@ fn the_wavefront_applies_where_its_lanes_shade() {
 /// The guider's render passes with guiding off trace pt's rows as pt does
 /// (`Unguided::estimate_row`: as a wavefront on the Cornell box and the glossy box, whose
 /// rough vertices pt's own code advances in the rounds, one path after the other in fog, or
-/// batched where the CPU has no AVX-512); each value must be the pixel's own
+/// batched where the CPU has neither AVX-512 nor AVX2); each value must be the pixel's own
 /// `Unguided::estimate` bit for bit, for both samplers, or guided-pt's image would depend on
 /// which tracer ran.
 #[test]

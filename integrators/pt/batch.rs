@@ -15,7 +15,7 @@
 //!
 //! | option | values               | default | meaning |
 //! |--------|----------------------|---------|---------|
-//! | batch  | `auto` / `wavefront` / `on` / `off` | `auto`  | `auto`: the wavefront (`wavefront/`: vertices shaded sixteen at a time) where it applies, else batched where the accelerator says batches pay (`Accel::batches_pay`: a BVH of at least 16 MB, `BATCH_MIN_BYTES`, or a flat list of primitives on a CPU with AVX); `wavefront`: the wavefront where it applies, else as `on`; `on`: batched wherever it applies; `off`: one path at a time |
+//! | batch  | `auto` / `wavefront` / `wavefront-avx2` / `on` / `off` | `auto`  | `auto`: the wavefront (`wavefront/`: vertices shaded sixteen at a time, in AVX-512 or AVX2 registers) where it applies, else batched where the accelerator says batches pay (`Accel::batches_pay`: a BVH of at least 16 MB, `BATCH_MIN_BYTES`, or a flat list of primitives on a CPU with AVX); `wavefront`: the wavefront where it applies, else as `on`; `wavefront-avx2`: the same on AVX2 instructions even where the CPU has AVX-512; `on`: batched wherever it applies; `off`: one path at a time |
 //!
 //! It applies to plain pt in scenes without media (a shadow ray through media crosses its
 //! boundaries one segment at a time) and not under `--check` (which inspects each
@@ -40,8 +40,9 @@ use glam::Vec2;
 pub enum BatchMode {
     /// The wavefront where it applies, else batches where they pay (default).
     Auto,
-    /// The wavefront where it applies, else batches.
-    Wavefront,
+    /// The wavefront where it applies, else batches: on the given instructions where the CPU
+    /// has them (`None`: the widest it has, [`Isa::detect`]).
+    Wavefront(Option<Isa>),
     /// Batches wherever they apply.
     On,
     /// One path at a time.
@@ -62,13 +63,15 @@ pub enum Tracing {
 /// Option `batch` of pt.
 pub const BATCH_OPTION: Spec = Spec {
     name: "batch",
-    kind: Kind::Choice(&["auto", "wavefront", "on", "off"]),
+    kind: Kind::Choice(&["auto", "wavefront", "wavefront-avx2", "on", "off"]),
     default: DefaultValue::Word("auto"),
     doc: "trace a row's paths together, segment by segment: `wavefront` shades them sixteen at \
-          a time in AVX-512 registers (scenes without media; vertices of rough, plastic, \
-          masked or normal-mapped materials by the scalar code, `pt/wavefront/`), `on` \
-          traces their rays together so that misses in a large BVH overlap (`pt/batch.rs`), `auto` takes the wavefront where it applies and batches \
-          where that pays; the same image bit for bit in every mode",
+          a time in vector registers, AVX-512 or else AVX2 (scenes without media; vertices of \
+          rough, plastic, masked or normal-mapped materials by the scalar code, \
+          `pt/wavefront/`), `wavefront-avx2` the same in AVX2 registers on any CPU that has \
+          them, `on` traces their rays together so that misses in a large BVH overlap \
+          (`pt/batch.rs`), `auto` takes the wavefront where it applies and batches where that \
+          pays; the same image bit for bit in every mode",
 };
 
 impl BatchMode {
@@ -76,7 +79,8 @@ impl BatchMode {
     pub fn parse(params: &IntegratorParams) -> Result<BatchMode> {
         Ok(
             match params.options.declared(&[&[BATCH_OPTION]]).word("batch")? {
-                "wavefront" => BatchMode::Wavefront,
+                "wavefront" => BatchMode::Wavefront(None),
+                "wavefront-avx2" => BatchMode::Wavefront(Some(Isa::Avx2)),
                 "on" => BatchMode::On,
                 "off" => BatchMode::Off,
                 _ => BatchMode::Auto,
@@ -90,23 +94,27 @@ impl BatchMode {
         possible
             && match self {
                 BatchMode::Auto => scene.accel.batches_pay(),
-                BatchMode::Wavefront | BatchMode::On => true,
+                BatchMode::Wavefront(_) | BatchMode::On => true,
                 BatchMode::Off => false,
             }
     }
 
     /// How `pt` traces `scene` under this mode: `auto` and `wavefront` take the wavefront
-    /// where it applies (`wavefront::supports`, a CPU with AVX2), then fall back as `auto`
-    /// and `on` do.
+    /// where it applies (`wavefront::supports`, a CPU with the instructions), then fall back
+    /// as `auto` and `on` do.
     pub fn tracing(self, pt: &PathTracer, scene: &Scene) -> Tracing {
-        if matches!(self, BatchMode::Auto | BatchMode::Wavefront)
+        let isa = match self {
+            BatchMode::Auto | BatchMode::Wavefront(None) => Isa::detect(),
+            BatchMode::Wavefront(Some(isa)) => Some(isa).filter(|isa| isa.on_this_cpu()),
+            BatchMode::On | BatchMode::Off => None,
+        };
+        if let Some(isa) = isa
             && wavefront::supports(pt, scene)
-            && let Some(isa) = Isa::detect()
         {
             return Tracing::Wavefront(isa);
         }
         let fallback = match self {
-            BatchMode::Wavefront => BatchMode::On,
+            BatchMode::Wavefront(_) => BatchMode::On,
             m => m,
         };
         if fallback.applies(scene) {

@@ -5,7 +5,7 @@
 //! Here each round's closest hits come from [`Scene::intersect_many`] as there, and then the
 //! round's paths are shaded in groups of sixteen (`shade.rs`): what a path does at a vertex
 //! (next-event estimation, the continuation, roulette, the spawned ray) runs as sixteen-lane
-//! operations (`lanes.rs`, AVX-512), with only the table look-ups (material, light, the point
+//! operations (`lanes.rs`), with only the table look-ups (material, light, the point
 //! on a light), emission and the random numbers done path by path. The round's shadow rays
 //! then go through [`Scene::unoccluded_many`] together. The lanes repeat scalar pt's
 //! arithmetic operation for operation (`math.rs`) and each path draws from its own sampler in
@@ -19,39 +19,56 @@
 //! normal or bump maps, null surfaces) is advanced in the gather step by pt's own code,
 //! its shadow ray joining the round's batch, and its lane stays idle. The wavefront applies
 //! ([`supports`]) to scenes without media, with the `mis` strategy and no `--check`, on
-//! x86-64 CPUs with AVX-512. `pt -O batch=auto` (the default) takes it there; elsewhere pt is
+//! x86-64 CPUs with AVX2. `pt -O batch=auto` (the default) takes it there; elsewhere pt is
 //! batched or traced one path at a time as `batch.rs` says.
+//!
+//! **Two instruction sets, one kernel.** `lanes.rs`, `math.rs` and `shade.rs` are compiled
+//! twice, into [`avx512`] (sixteen lanes in one register) and [`avx2`] (two registers of
+//! eight), each over its own `simd` module (`simd_avx512.rs`, `simd_avx2.rs`) that supplies
+//! the lanes' primitive operations. Both repeat the scalar arithmetic, so they give the same
+//! image bit for bit; [`Isa::detect`] picks the widest the CPU has, and
+//! `pt -O batch=wavefront-avx2` takes the AVX2 kernel on any CPU with AVX2.
 
-#[cfg(target_arch = "x86_64")]
-mod lanes;
-#[cfg(target_arch = "x86_64")]
-mod math;
-#[cfg(target_arch = "x86_64")]
-mod shade;
-#[cfg(all(test, target_arch = "x86_64"))]
-mod tests;
-
-use super::round::{ROUND, Round};
+use super::round::ROUND;
 use super::{PathState, PathTracer, Strategy};
 use crate::math::{Sampler, Spectrum};
 use crate::scene::Scene;
 use glam::Vec2;
 
-/// The vector instructions the kernel is compiled for.
+#[cfg(target_arch = "x86_64")]
+pub(crate) mod avx2;
+#[cfg(target_arch = "x86_64")]
+pub(crate) mod avx512;
+
+/// Paths per kernel call: the lanes of both kernels.
+pub const W: usize = 16;
+
+/// The vector instructions a wavefront kernel is compiled for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Isa {
-    /// AVX-512: sixteen f32 lanes per register.
+    /// AVX-512F: sixteen f32 lanes per register.
     Avx512,
+    /// AVX2: eight f32 lanes per register, two registers per sixteen lanes.
+    Avx2,
 }
 
 impl Isa {
-    /// What the CPU has, `None` without AVX-512.
+    /// The widest instruction set the CPU has, `None` without AVX2.
     pub fn detect() -> Option<Isa> {
+        [Isa::Avx512, Isa::Avx2]
+            .into_iter()
+            .find(|isa| isa.on_this_cpu())
+    }
+
+    /// Whether the CPU has these instructions.
+    pub fn on_this_cpu(self) -> bool {
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            return Some(Isa::Avx512);
-        }
-        None
+        return match self {
+            Isa::Avx512 => std::arch::is_x86_feature_detected!("avx512f"),
+            Isa::Avx2 => std::arch::is_x86_feature_detected!("avx2"),
+        };
+        #[cfg(not(target_arch = "x86_64"))]
+        false
     }
 }
 
@@ -74,17 +91,14 @@ impl PathTracer {
         isa: Isa,
     ) {
         assert!(supports(self, scene), "the wavefront does not apply here");
-        assert_eq!(
-            Isa::detect(),
-            Some(isa),
-            "{isa:?} instructions are not available"
-        );
+        assert!(isa.on_this_cpu(), "{isa:?} instructions are not available");
         let paths = PathState::row(scene, rasters);
         ROUND.with_borrow_mut(|b| {
             #[cfg(target_arch = "x86_64")]
             match isa {
-                // SAFETY: the CPU has AVX-512F (checked above); nothing else is required.
-                Isa::Avx512 => unsafe { self.rounds_avx512(scene, paths, samplers, out, b) },
+                // SAFETY: the CPU has the instructions (checked above).
+                Isa::Avx512 => unsafe { avx512::rounds(self, scene, paths, samplers, out, b) },
+                Isa::Avx2 => unsafe { avx2::rounds(self, scene, paths, samplers, out, b) },
             }
             #[cfg(not(target_arch = "x86_64"))]
             unreachable!(
@@ -95,51 +109,5 @@ impl PathTracer {
                 b.rays.len()
             );
         });
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx512f")]
-    fn rounds_avx512<S: Sampler>(
-        &self,
-        scene: &Scene,
-        paths: Vec<(usize, PathState)>,
-        samplers: &mut [S],
-        out: &mut [Spectrum],
-        b: &mut Round,
-    ) {
-        self.wavefront_rounds(scene, paths, samplers, out, b);
-    }
-
-    /// The rounds of [`Self::li_row_wavefront`] until every path of `paths` has ended.
-    #[cfg(target_arch = "x86_64")]
-    #[inline(always)]
-    fn wavefront_rounds<S: Sampler>(
-        &self,
-        scene: &Scene,
-        mut paths: Vec<(usize, PathState)>,
-        samplers: &mut [S],
-        out: &mut [Spectrum],
-        b: &mut Round,
-    ) {
-        while !paths.is_empty() {
-            b.trace(scene, &paths);
-            for (c, (group, hits)) in paths
-                .chunks_mut(lanes::W)
-                .zip(b.hits.chunks_mut(lanes::W))
-                .enumerate()
-            {
-                self.shade_lanes(
-                    scene,
-                    group,
-                    hits,
-                    samplers,
-                    c * lanes::W,
-                    &mut b.alive,
-                    &mut b.deferred,
-                    &mut b.owner,
-                );
-            }
-            b.settle(scene, &mut paths, out);
-        }
     }
 }

@@ -23,10 +23,11 @@ use super::math::{
 };
 use crate::bsdf::Bsdf;
 use crate::geometry::{Hit, Ray, gamma};
+use crate::integrators::pt::round::Round;
 use crate::integrators::pt::{Deferred, Extras, PathState, PathTracer, Scattered};
 use crate::light::Light;
 use crate::light::{AreaLight, AreaShape};
-use crate::math::{INV_PI, Sampler};
+use crate::math::{INV_PI, Sampler, Spectrum};
 use crate::scene::{Material, Scene, ShapeInfo};
 
 /// The lanes of one call, filled by the gather step (lanes past the chunk's length stay at
@@ -107,201 +108,230 @@ fn m(a: &[bool; W]) -> M {
     M::from_bools(a)
 }
 
-impl PathTracer {
-    /// One vertex of each path of `paths` (at most [`W`]) whose ray found `hits[k]`: the
-    /// paths' radiance, throughput and next ray updated as `advance` would, `alive` pushed
-    /// for each, and each next-event sample pushed to `deferred` with its path's index in
-    /// the round (`base + k`) in `owner`. Scenes that `super::supports` accepts only.
-    #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn shade_lanes<S: Sampler>(
-        &self,
-        scene: &Scene,
-        paths: &mut [(usize, PathState)],
-        hits: &mut [Option<Hit>],
-        samplers: &mut [S],
-        base: usize,
-        alive: &mut Vec<bool>,
-        deferred: &mut Vec<Deferred>,
-        owner: &mut Vec<usize>,
-    ) {
-        debug_assert!(paths.len() <= W && hits.len() == paths.len());
-        let g = self.gather(scene, paths, hits, samplers, base, deferred, owner);
-        let s = shade(&g);
-        let (l, nee_value, query_o, query_d, query_len) = (
-            s.l.store(),
-            s.nee_value.store(),
-            s.query_o.store(),
-            s.query_d.store(),
-            s.query_len.to_array(),
-        );
-        let (beta, pdf, wi, origin) = (
-            s.beta.store(),
-            s.pdf.to_array(),
-            s.wi.store(),
-            s.origin.store(),
-        );
-        for (k, (i, path)) in paths.iter_mut().enumerate() {
-            if let Some(goes_on) = g.scalar[k] {
-                alive.push(goes_on);
-                continue;
-            }
-            if g.nee[k] {
-                deferred.push(Deferred {
-                    beta: path.beta,
-                    value: nee_value.get(k),
-                    query: s.nee_query.lane(k).then_some((
-                        query_o.get(k),
-                        query_d.get(k),
-                        query_len[k],
-                    )),
-                });
-                owner.push(base + k);
-            }
-            path.l = l.get(k);
-            if !s.cont.lane(k) {
+/// The rounds of `PathTracer::li_row_wavefront` until every path of `paths` has ended:
+/// each round traces the paths' rays together, shades them sixteen at a time
+/// ([`shade_lanes`]), then settles the round (shadow rays, ended paths).
+#[inline(always)]
+pub(super) fn rounds<S: Sampler>(
+    pt: &PathTracer,
+    scene: &Scene,
+    mut paths: Vec<(usize, PathState)>,
+    samplers: &mut [S],
+    out: &mut [Spectrum],
+    b: &mut Round,
+) {
+    while !paths.is_empty() {
+        b.trace(scene, &paths);
+        for (c, (group, hits)) in paths.chunks_mut(W).zip(b.hits.chunks_mut(W)).enumerate() {
+            shade_lanes(
+                pt,
+                scene,
+                group,
+                hits,
+                samplers,
+                c * W,
+                &mut b.alive,
+                &mut b.deferred,
+                &mut b.owner,
+            );
+        }
+        b.settle(scene, &mut paths, out);
+    }
+}
+
+/// One vertex of each path of `paths` (at most [`W`]) whose ray found `hits[k]`: the
+/// paths' radiance, throughput and next ray updated as `advance` would, `alive` pushed
+/// for each, and each next-event sample pushed to `deferred` with its path's index in
+/// the round (`base + k`) in `owner`. Scenes that `super::supports` accepts only.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn shade_lanes<S: Sampler>(
+    pt: &PathTracer,
+    scene: &Scene,
+    paths: &mut [(usize, PathState)],
+    hits: &mut [Option<Hit>],
+    samplers: &mut [S],
+    base: usize,
+    alive: &mut Vec<bool>,
+    deferred: &mut Vec<Deferred>,
+    owner: &mut Vec<usize>,
+) {
+    debug_assert!(paths.len() <= W && hits.len() == paths.len());
+    let g = gather(pt, scene, paths, hits, samplers, base, deferred, owner);
+    let s = shade(&g);
+    let (l, nee_value, query_o, query_d, query_len) = (
+        s.l.store(),
+        s.nee_value.store(),
+        s.query_o.store(),
+        s.query_d.store(),
+        s.query_len.to_array(),
+    );
+    let (beta, pdf, wi, origin) = (
+        s.beta.store(),
+        s.pdf.to_array(),
+        s.wi.store(),
+        s.origin.store(),
+    );
+    for (k, (i, path)) in paths.iter_mut().enumerate() {
+        if let Some(goes_on) = g.scalar[k] {
+            alive.push(goes_on);
+            continue;
+        }
+        if g.nee[k] {
+            deferred.push(Deferred {
+                beta: path.beta,
+                value: nee_value.get(k),
+                query: s.nee_query.lane(k).then_some((
+                    query_o.get(k),
+                    query_d.get(k),
+                    query_len[k],
+                )),
+            });
+            owner.push(base + k);
+        }
+        path.l = l.get(k);
+        if !s.cont.lane(k) {
+            alive.push(false);
+            continue;
+        }
+        path.beta = beta.get(k);
+        path.prev = Scattered {
+            delta: s.delta.lane(k),
+            pdf: pdf[k],
+            p: g.p.get(k),
+        };
+        path.pass = 1.0;
+        // Roulette (`PathTracer::roulette`), with the path's own next number.
+        let q = g.q[k];
+        if q < 1.0 {
+            if samplers[*i].next_1d() >= q {
                 alive.push(false);
                 continue;
             }
-            path.beta = beta.get(k);
-            path.prev = Scattered {
-                delta: s.delta.lane(k),
-                pdf: pdf[k],
-                p: g.p.get(k),
-            };
-            path.pass = 1.0;
-            // Roulette (`PathTracer::roulette`), with the path's own next number.
-            let q = g.q[k];
-            if q < 1.0 {
-                if samplers[*i].next_1d() >= q {
-                    alive.push(false);
-                    continue;
-                }
-                path.beta /= q;
-            }
-            path.ray = Ray::new(origin.get(k), wi.get(k));
-            path.depth += 1;
-            alive.push(true);
+            path.beta /= q;
         }
+        path.ray = Ray::new(origin.get(k), wi.get(k));
+        path.depth += 1;
+        alive.push(true);
     }
+}
 
-    /// Step 1 (module doc): the lanes' inputs, and the paths' random numbers up to the
-    /// roulette. Emission (of a hit emitter, or of the lights at infinity for a ray that
-    /// escaped) is added to the path here, by pt's own code: few lanes need it. A vertex
-    /// the lanes do not shade ([`in_lanes`]) is advanced here by pt's own code, its
-    /// next-event sample pushed to `deferred` (owned by `base + k`).
-    #[inline(always)]
-    #[allow(clippy::too_many_arguments)]
-    fn gather<S: Sampler>(
-        &self,
-        scene: &Scene,
-        paths: &mut [(usize, PathState)],
-        hits: &mut [Option<Hit>],
-        samplers: &mut [S],
-        base: usize,
-        deferred: &mut Vec<Deferred>,
-        owner: &mut Vec<usize>,
-    ) -> Gathered {
-        let mut g = Gathered::default();
-        let mut no_extras = Extras {
-            rec: None,
-            guide: None,
-            trail: None,
-            deferred: None,
-            direct: None,
-        };
-        for (k, ((i, path), hit)) in paths.iter_mut().zip(hits.iter_mut()).enumerate() {
-            let Some(h) = hit.take() else {
-                self.escape(scene, path, &mut no_extras);
-                g.l.set(k, path.l);
-                continue;
-            };
-            let info = &scene.shape_info[h.shape as usize];
-            let material = &scene.materials[info.material_at(h.p) as usize];
-            if !in_lanes(material, info) {
-                let sampler = &mut samplers[*i];
-                let goes_on =
-                    self.advance_in_round(scene, path, Some(h), sampler, deferred, owner, base + k);
-                g.scalar[k] = Some(goes_on);
-                continue;
-            }
-            if let Some(li) = info.light {
-                self.hit_emitter(scene, path, &mut no_extras, li as usize, &h);
-            }
-            g.d.set(k, path.ray.d);
-            g.beta.set(k, path.beta);
+/// Step 1 (module doc): the lanes' inputs, and the paths' random numbers up to the
+/// roulette. Emission (of a hit emitter, or of the lights at infinity for a ray that
+/// escaped) is added to the path here, by pt's own code: few lanes need it. A vertex
+/// the lanes do not shade ([`in_lanes`]) is advanced here by pt's own code, its
+/// next-event sample pushed to `deferred` (owned by `base + k`).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn gather<S: Sampler>(
+    pt: &PathTracer,
+    scene: &Scene,
+    paths: &mut [(usize, PathState)],
+    hits: &mut [Option<Hit>],
+    samplers: &mut [S],
+    base: usize,
+    deferred: &mut Vec<Deferred>,
+    owner: &mut Vec<usize>,
+) -> Gathered {
+    let mut g = Gathered::default();
+    let mut no_extras = Extras {
+        rec: None,
+        guide: None,
+        trail: None,
+        deferred: None,
+        direct: None,
+    };
+    for (k, ((i, path), hit)) in paths.iter_mut().zip(hits.iter_mut()).enumerate() {
+        let Some(h) = hit.take() else {
+            pt.escape(scene, path, &mut no_extras);
             g.l.set(k, path.l);
-            g.p.set(k, h.p);
-            g.p_err.set(k, h.p_err);
-            g.ng.set(k, h.ng);
-            g.ns.set(k, h.ns);
-            let back = material.one_sided && path.ray.d.dot(h.ng) > 0.0;
-            let bsdf = if back { &Bsdf::Black } else { &material.bsdf };
-            match *bsdf {
-                Bsdf::Diffuse { albedo } => {
-                    g.diffuse[k] = true;
-                    g.albedo.set(k, albedo);
-                }
-                // The albedo at the hit's texture coordinates, as `Scene::surface_point`.
-                Bsdf::TexturedDiffuse { ref albedo } => {
-                    g.diffuse[k] = true;
-                    let uv = scene.shapes[h.shape as usize].tex_coords(&h);
-                    g.albedo.set(k, albedo.eval(uv));
-                }
-                Bsdf::Conductor { reflectance } => {
-                    g.conductor[k] = true;
-                    g.reflectance.set(k, reflectance);
-                }
-                Bsdf::Dielectric { eta } => g.eta[k] = eta,
-                _ => {}
-            }
-            g.scatter[k] = !bsdf.is_black() && path.depth != self.settings.max_depth;
-            if !g.scatter[k] {
-                continue;
-            }
-            g.q[k] = self.roulette_probability(path.depth, bsdf.continuation());
+            continue;
+        };
+        let info = &scene.shape_info[h.shape as usize];
+        let material = &scene.materials[info.material_at(h.p) as usize];
+        if !in_lanes(material, info) {
             let sampler = &mut samplers[*i];
-            if g.diffuse[k] {
-                g.nee[k] = true;
-                let u_light = sampler.next_1d();
-                let u = sampler.next_2d();
-                if let Some((light, pmf)) = scene.light_sampler.sample(u_light) {
-                    g.pmf_l[k] = pmf;
-                    match &scene.lights[light] {
-                        Light::Area(
-                            a @ AreaLight {
-                                spot: None,
-                                texture: None,
-                                ..
-                            },
-                        ) if let AreaShape::Mesh { mesh, sampler } = &a.geometry => {
-                            let (p_l, n_l) = sampler.sample(mesh, u);
-                            g.p_l.set(k, p_l);
-                            g.n_l.set(k, n_l);
-                            g.li.set(k, a.radiance);
-                            g.area_l[k] = sampler.area;
-                            (g.on_mesh[k], g.nee_found[k]) = (true, true);
-                        }
-                        l => {
-                            if let Some(ls) = l.sample_li(h.p, u) {
-                                g.p_l.set(k, ls.p);
-                                g.n_l.set(k, ls.n);
-                                g.li.set(k, ls.li);
-                                g.wi_l.set(k, ls.wi);
-                                (g.pdf_l[k], g.delta_l[k]) = (ls.pdf, ls.delta);
-                                g.finite_l[k] = ls.dist.is_finite();
-                                g.nee_found[k] = true;
-                            }
+            let goes_on =
+                pt.advance_in_round(scene, path, Some(h), sampler, deferred, owner, base + k);
+            g.scalar[k] = Some(goes_on);
+            continue;
+        }
+        if let Some(li) = info.light {
+            pt.hit_emitter(scene, path, &mut no_extras, li as usize, &h);
+        }
+        g.d.set(k, path.ray.d);
+        g.beta.set(k, path.beta);
+        g.l.set(k, path.l);
+        g.p.set(k, h.p);
+        g.p_err.set(k, h.p_err);
+        g.ng.set(k, h.ng);
+        g.ns.set(k, h.ns);
+        let back = material.one_sided && path.ray.d.dot(h.ng) > 0.0;
+        let bsdf = if back { &Bsdf::Black } else { &material.bsdf };
+        match *bsdf {
+            Bsdf::Diffuse { albedo } => {
+                g.diffuse[k] = true;
+                g.albedo.set(k, albedo);
+            }
+            // The albedo at the hit's texture coordinates, as `Scene::surface_point`.
+            Bsdf::TexturedDiffuse { ref albedo } => {
+                g.diffuse[k] = true;
+                let uv = scene.shapes[h.shape as usize].tex_coords(&h);
+                g.albedo.set(k, albedo.eval(uv));
+            }
+            Bsdf::Conductor { reflectance } => {
+                g.conductor[k] = true;
+                g.reflectance.set(k, reflectance);
+            }
+            Bsdf::Dielectric { eta } => g.eta[k] = eta,
+            _ => {}
+        }
+        g.scatter[k] = !bsdf.is_black() && path.depth != pt.settings.max_depth;
+        if !g.scatter[k] {
+            continue;
+        }
+        g.q[k] = pt.roulette_probability(path.depth, bsdf.continuation());
+        let sampler = &mut samplers[*i];
+        if g.diffuse[k] {
+            g.nee[k] = true;
+            let u_light = sampler.next_1d();
+            let u = sampler.next_2d();
+            if let Some((light, pmf)) = scene.light_sampler.sample(u_light) {
+                g.pmf_l[k] = pmf;
+                match &scene.lights[light] {
+                    Light::Area(
+                        a @ AreaLight {
+                            spot: None,
+                            texture: None,
+                            ..
+                        },
+                    ) if let AreaShape::Mesh { mesh, sampler } = &a.geometry => {
+                        let (p_l, n_l) = sampler.sample(mesh, u);
+                        g.p_l.set(k, p_l);
+                        g.n_l.set(k, n_l);
+                        g.li.set(k, a.radiance);
+                        g.area_l[k] = sampler.area;
+                        (g.on_mesh[k], g.nee_found[k]) = (true, true);
+                    }
+                    l => {
+                        if let Some(ls) = l.sample_li(h.p, u) {
+                            g.p_l.set(k, ls.p);
+                            g.n_l.set(k, ls.n);
+                            g.li.set(k, ls.li);
+                            g.wi_l.set(k, ls.wi);
+                            (g.pdf_l[k], g.delta_l[k]) = (ls.pdf, ls.delta);
+                            g.finite_l[k] = ls.dist.is_finite();
+                            g.nee_found[k] = true;
                         }
                     }
                 }
             }
-            g.u_lobe[k] = sampler.next_1d();
-            let u = sampler.next_2d();
-            (g.u_x[k], g.u_y[k]) = (u.x, u.y);
         }
-        g
+        g.u_lobe[k] = sampler.next_1d();
+        let u = sampler.next_2d();
+        (g.u_x[k], g.u_y[k]) = (u.x, u.y);
     }
+    g
 }
 
 /// Whether the lanes shade a vertex on a surface of `material` (and `info`): a diffuse

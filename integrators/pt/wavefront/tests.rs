@@ -1,4 +1,5 @@
-//! The lanes against their scalar twins on the values a render rarely meets: signed zeros,
+//! The lanes against their scalar twins (compiled once per instruction set, beside each
+//! kernel: `avx512::tests`, `avx2::tests`) on the values a render rarely meets: signed zeros,
 //! NaN, infinities, subnormals, grazing and total-internal-reflection angles. The image test
 //! (`tests/pt_batch.rs`) covers typical values; here every lane must give its twin's bits.
 
@@ -36,12 +37,15 @@ fn same(a: f32, b: f32) -> bool {
     a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan())
 }
 
-/// Whether the CPU has AVX-512, which the lanes need; when it has not, says that `test` was
-/// skipped.
-fn avx512(test: &str) -> bool {
-    let has = super::Isa::detect().is_some();
+/// Whether the CPU has the instructions of the lanes under test (`super::ISA`); when it has
+/// not, says that `test` was skipped.
+fn available(test: &str) -> bool {
+    let has = super::ISA.on_this_cpu();
     if !has {
-        eprintln!("{test}: skipped: this CPU has no AVX-512, so the lanes cannot run");
+        eprintln!(
+            "{test}: skipped: this CPU has no {:?}, so these lanes cannot run",
+            super::ISA
+        );
     }
     has
 }
@@ -49,7 +53,7 @@ fn avx512(test: &str) -> bool {
 /// Every pair of special values through each two-argument operation.
 #[test]
 fn operations_are_their_scalar_twins_lane_by_lane() {
-    if !avx512("operations_are_their_scalar_twins_lane_by_lane") {
+    if !available("operations_are_their_scalar_twins_lane_by_lane") {
         return;
     }
     type Lane = fn(F, F) -> F;
@@ -153,7 +157,7 @@ fn same3(a: Vec3, b: Vec3) -> bool {
 /// The helpers of `math.rs` against the scalar functions they mirror.
 #[test]
 fn helpers_are_their_scalar_twins_lane_by_lane() {
-    if !avx512("helpers_are_their_scalar_twins_lane_by_lane") {
+    if !available("helpers_are_their_scalar_twins_lane_by_lane") {
         return;
     }
     for shift in 0..SPECIAL.len() {

@@ -1,0 +1,46 @@
+//! The wavefront kernel over sixteen lanes in one AVX-512 register: the shared kernel
+//! files compiled over `simd_avx512.rs` (module doc of `wavefront`).
+
+// The kernel's files are compiled once per instruction set on purpose (module doc of
+// `wavefront`), hence `duplicate_mod`.
+#[allow(clippy::duplicate_mod)]
+#[path = "lanes.rs"]
+mod lanes;
+#[allow(clippy::duplicate_mod)]
+#[path = "math.rs"]
+mod math;
+#[allow(clippy::duplicate_mod)]
+#[path = "shade.rs"]
+mod shade;
+#[path = "simd_avx512.rs"]
+mod simd;
+#[cfg(test)]
+#[allow(clippy::duplicate_mod)]
+#[path = "tests.rs"]
+mod tests;
+
+use super::Isa;
+use crate::integrators::pt::round::Round;
+use crate::integrators::pt::{PathState, PathTracer};
+use crate::math::{Sampler, Spectrum};
+use crate::scene::Scene;
+
+/// The instruction set of this kernel.
+#[cfg_attr(not(test), allow(dead_code))]
+const ISA: Isa = Isa::Avx512;
+
+/// [`shade::rounds`] compiled for `avx512f`.
+///
+/// # Safety
+/// The CPU must have `avx512f` ([`Isa::on_this_cpu`]).
+#[target_feature(enable = "avx512f")]
+pub(super) unsafe fn rounds<S: Sampler>(
+    pt: &PathTracer,
+    scene: &Scene,
+    paths: Vec<(usize, PathState)>,
+    samplers: &mut [S],
+    out: &mut [Spectrum],
+    b: &mut Round,
+) {
+    shade::rounds(pt, scene, paths, samplers, out, b);
+}

@@ -60,6 +60,10 @@ pub struct Filter {
     cdf: Box<[f64]>,
     /// The spacing of those points (0 for the box).
     segment: f64,
+    /// `1 / segment` (0 for the box): [`Filter::eval_1d`] multiplies by it rather than
+    /// divide by `segment`, the same number where the spacing is a power of two (Mitsuba's
+    /// default tent and Gaussian: 1 and 1/64 px).
+    inv_segment: f64,
 }
 
 impl Default for Filter {
@@ -109,6 +113,7 @@ impl Filter {
             values: values.into(),
             cdf: cdf.into(),
             segment,
+            inv_segment: if segment > 0.0 { 1.0 / segment } else { 0.0 },
         }
     }
 
@@ -137,7 +142,7 @@ impl Filter {
         if self.is_box() {
             return if x.abs() <= 0.5 { 1.0 } else { 0.0 };
         }
-        let t = (x + self.radius) / self.segment;
+        let t = (x + self.radius) * self.inv_segment;
         if !(0.0..(self.values.len() - 1) as f64).contains(&t) {
             return 0.0;
         }

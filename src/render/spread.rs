@@ -103,11 +103,13 @@ pub(super) fn spread_samples(film: &mut Film, radius: f32, rows: &mut [SpreadRow
                     }
                     let wy = row.weights[s.off + s.nx + (y - s.y0)];
                     let wx = &row.weights[s.off..s.off + s.nx];
-                    for (i, &w) in wx.iter().enumerate() {
+                    let columns = s.x0..s.x0 + s.nx;
+                    let pixels = sums[columns.clone()].iter_mut().zip(&mut weights[columns]);
+                    for ((sum, weight), &w) in pixels.zip(wx) {
                         let wt = wy * w;
                         if wt > 0.0 {
-                            sums[s.x0 + i] += s.l * wt;
-                            weights[s.x0 + i] += wt;
+                            *sum += s.l * wt;
+                            *weight += wt;
                         }
                     }
                 }

@@ -23,7 +23,7 @@
 //! batched or traced one path at a time as `batch.rs` says.
 //!
 //! **Two instruction sets, one kernel.** `lanes.rs`, `math.rs` and `shade.rs` are compiled
-//! twice, into [`avx512`] (sixteen lanes in one register) and [`avx2`] (two registers of
+//! twice, into `avx512` (sixteen lanes in one register) and `avx2` (two registers of
 //! eight), each over its own `simd` module (`simd_avx512.rs`, `simd_avx2.rs`) that supplies
 //! the lanes' primitive operations. Both repeat the scalar arithmetic, so they give the same
 //! image bit for bit; [`Isa::detect`] picks the widest the CPU has, and

@@ -19,20 +19,21 @@ mod simd;
 #[path = "tests.rs"]
 mod tests;
 
+#[cfg(test)]
 use super::Isa;
 use crate::integrators::pt::round::Round;
 use crate::integrators::pt::{PathState, PathTracer};
 use crate::math::{Sampler, Spectrum};
 use crate::scene::Scene;
 
-/// The instruction set of this kernel.
-#[cfg_attr(not(test), allow(dead_code))]
+/// The instruction set of this kernel (its lane tests run where the CPU has it).
+#[cfg(test)]
 const ISA: Isa = Isa::Avx2;
 
 /// [`shade::rounds`] compiled for `avx2`.
 ///
 /// # Safety
-/// The CPU must have `avx2` ([`Isa::on_this_cpu`]).
+/// The CPU must have `avx2` ([`super::Isa::on_this_cpu`]).
 #[target_feature(enable = "avx2")]
 pub(super) unsafe fn rounds<S: Sampler>(
     pt: &PathTracer,

@@ -19,7 +19,7 @@
 //! instruction's: the second operand where either is NaN), `copysign`, `lt` `le` `gt` `ge`
 //! `eq` (ordered), `select` (`m ? a : b`), `next_away` (`geometry::next_away`: `x` moved one
 //! ulp in the direction of `dir`, unchanged for `dir == 0`, the smallest subnormal with
-//! `dir`'s sign for `x == 0`), `+ - * /` and negation of `F`; `M::from_bools`, `lane`, and
+//! `dir`'s sign for `x == 0`), `+ - * /` and negation of `F`; `M::from_bools`, `bits` (bit `i` for lane `i`), and
 //! `& | ^ !` of `M`.
 
 pub use super::simd::{F, M};
@@ -89,6 +89,14 @@ impl F {
     #[inline(always)]
     pub fn is_finite(self) -> M {
         self.abs().lt(F::splat(f32::INFINITY))
+    }
+}
+
+impl M {
+    /// Whether lane `i` holds.
+    #[inline(always)]
+    pub fn lane(self, i: usize) -> bool {
+        self.bits() >> i & 1 != 0
     }
 }
 

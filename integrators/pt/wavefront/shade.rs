@@ -172,6 +172,9 @@ fn shade_lanes<S: Sampler>(
         s.wi.store(),
         s.origin.store(),
     );
+    // The masks as bits, read once (lane `k` is bit `k`).
+    let (nee_query, cont, delta) = (s.nee_query.bits(), s.cont.bits(), s.delta.bits());
+    let on = |bits: u16, k: usize| bits >> k & 1 != 0;
     for (k, (i, path)) in paths.iter_mut().enumerate() {
         if let Some(goes_on) = g.scalar[k] {
             alive.push(goes_on);
@@ -181,22 +184,18 @@ fn shade_lanes<S: Sampler>(
             deferred.push(Deferred {
                 beta: path.beta,
                 value: nee_value.get(k),
-                query: s.nee_query.lane(k).then_some((
-                    query_o.get(k),
-                    query_d.get(k),
-                    query_len[k],
-                )),
+                query: on(nee_query, k).then_some((query_o.get(k), query_d.get(k), query_len[k])),
             });
             owner.push(base + k);
         }
         path.l = l.get(k);
-        if !s.cont.lane(k) {
+        if !on(cont, k) {
             alive.push(false);
             continue;
         }
         path.beta = beta.get(k);
         path.prev = Scattered {
-            delta: s.delta.lane(k),
+            delta: on(delta, k),
             pdf: pdf[k],
             p: g.p.get(k),
         };

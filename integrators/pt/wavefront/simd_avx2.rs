@@ -263,10 +263,11 @@ impl M {
         })
     }
 
+    /// Bit `i` set where lane `i` holds.
     #[inline(always)]
-    pub fn lane(self, i: usize) -> bool {
-        let half = if i < 8 { self.lo } else { self.hi };
-        simd!(_mm256_movemask_ps(half)) >> (i % 8) & 1 != 0
+    pub fn bits(self) -> u16 {
+        let (lo, hi) = simd!((_mm256_movemask_ps(self.lo), _mm256_movemask_ps(self.hi)));
+        (lo as u16) | (hi as u16) << 8
     }
 }
 

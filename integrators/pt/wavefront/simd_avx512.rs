@@ -188,9 +188,10 @@ impl M {
             .fold(0, |m, (i, &b)| m | ((b as u16) << i)))
     }
 
+    /// Bit `i` set where lane `i` holds.
     #[inline(always)]
-    pub fn lane(self, i: usize) -> bool {
-        self.0 >> i & 1 != 0
+    pub fn bits(self) -> u16 {
+        self.0
     }
 }
 

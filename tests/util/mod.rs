@@ -194,6 +194,15 @@ pub fn welch_p((ma, va, da): (f64, f64, f64), (mb, vb, db): (f64, f64, f64)) -> 
     2.0 * st.cdf(-t.abs())
 }
 
+/// With `LODESTAR_TEST_MARGINS` set, print a comparison's smallest p-value against its
+/// threshold (run the tests with `--nocapture`): how far a test passes, and how far its controls
+/// fail, when resizing it.
+pub fn report_margin(what: &str, p: f64, alpha: f64) {
+    if std::env::var_os("LODESTAR_TEST_MARGINS").is_some() {
+        eprintln!("margin: {what}: p = {p:.2e}, threshold {alpha:.2e}");
+    }
+}
+
 /// Assert that two sets of independently seeded renders have the same expected image, tile by
 /// tile: for every `block` x `block` tile and channel, Welch's t of the renders' tile means
 /// (pixels within one render may be correlated, as in lt and vcm whose light paths splat
@@ -227,6 +236,7 @@ pub fn assert_same_image(a: &[Image], b: &[Image], block: u32, what: &str) {
         }
     }
     let (p, i, c, ma, mb) = worst;
+    report_margin(what, p, alpha);
     assert!(
         p >= alpha,
         "{what}: tile {i} channel {c} differs: means {ma} vs {mb}, p = {p:.2e} < {alpha:.2e}"

@@ -107,7 +107,11 @@ fn every_literal_default_is_the_default_used() {
             };
             let base = render(&scene, e.name, &context(spec.name)).unwrap();
             let given = format!("{}={value}", spec.name);
-            let mut verdict = match render(&scene, e.name, &with(spec.name, &[given.clone()])) {
+            let mut verdict = match render(
+                &scene,
+                e.name,
+                &with(spec.name, std::slice::from_ref(&given)),
+            ) {
                 Ok(r) => Some(r == base),
                 // Read only under a switch.
                 Err(msg)

@@ -161,9 +161,10 @@ fn guided_densities_match_their_evaluation_fog() {
 fn first_vertex_kernels_narrow_where_guides_are_dense() {
     let scene = scene("cornell-box.toml", 32, |t| t);
     let cache = cache_of_pt_paths(&scene, 6, 6000);
+    let bounds = SpacingBounds::new(&scene, &cache);
     let (mut at_bound, mut dense) = (0usize, 0usize);
     for l in 0..cache.len() {
-        let Some(bound) = spacing_bound(&scene, &cache, l) else {
+        let Some(bound) = bounds.bound(&scene, l) else {
             continue;
         };
         dense += 1;
@@ -218,19 +219,40 @@ fn guided_pt_is_unbiased_on_the_glass_cornell_box() {
     assert!(z.abs().max_element() < 4.5, "z {z:?}");
 }
 
-/// Renders per side of the per-tile tests on the caustic.
+/// Renders per side of the per-tile tests on the caustic (the reference's, and guided-pt's and
+/// guided-bdpt's with a correct cache).
 const TILE_SEEDS: u64 = 24;
 
-/// `TILE_SEEDS` renders of the caustic scene at 24 x 24 by guided-pt (`bdpt` false) or
-/// guided-bdpt with a frozen copy of `cache` (α = 0.05: 19 guided paths per pixel and pass),
-/// `edit` applied to each copy (the controls' faults).
+/// The caustic scene at 24 x 24, the size of the per-tile tests on it (here and in
+/// `guided_vcm.rs`).
+pub(crate) fn caustic_tile_scene() -> Scene {
+    util::scene(&CAUSTIC.replace("resolution = [48, 48]", "resolution = [24, 24]"))
+}
+
+/// The reference of the per-tile tests on the caustic here and in `guided_vcm.rs`:
+/// `TILE_SEEDS` renders of [`caustic_tile_scene`] by bdpt (max_depth 6, 64 passes, seeds 100,
+/// 101, ...), rendered once for all of them.
+pub(crate) fn caustic_reference() -> &'static [lodestar::film::Image] {
+    static REFERENCE: std::sync::OnceLock<Vec<lodestar::film::Image>> = std::sync::OnceLock::new();
+    REFERENCE.get_or_init(|| {
+        let scene = caustic_tile_scene();
+        (0..TILE_SEEDS)
+            .map(|s| util::render(&scene, "bdpt", 6, &[], 64, 100 + s, 2).image)
+            .collect()
+    })
+}
+
+/// `seeds` renders (seeds 0, 1, ...) of the caustic scene at 24 x 24 by guided-pt (`bdpt`
+/// false) or guided-bdpt with a frozen copy of `cache` (α = 0.05: 19 guided paths per pixel
+/// and pass), 16 passes each, `edit` applied to each copy (the controls' faults).
 fn guided_caustic_renders(
     scene: &Scene,
     cache: &GuideCache,
     bdpt: bool,
+    seeds: u64,
     edit: impl Fn(&mut GuideCache),
 ) -> Vec<lodestar::film::Image> {
-    (0..TILE_SEEDS)
+    (0..seeds)
         .map(|seed| {
             let mut c = GuideCache::default();
             c.install(scene, installs_of(scene, cache), 10_000);
@@ -263,38 +285,38 @@ fn guided_caustic_renders(
 /// Per tile (4 x 4 pixels of 24 x 24, Welch's t over `TILE_SEEDS` renders a side, Bonferroni
 /// over tiles and channels, family-wise false-failure rate 1e-4), guided-pt and guided-bdpt
 /// with a cache that carries the caustic (one caustic path twice, weights 1/2, most samples
-/// guided) render bdpt's image. Three wrong weights fail the same test: p_g without the path
-/// (a cache of that path alone, left out of the evaluation: p_g = 0 for its samples), p_g
-/// scaled by 1.5 and n_g / n_u scaled by 2 where paths are weighed.
+/// guided) render bdpt's image ([`caustic_reference`]). Three wrong weights fail the same test
+/// against the same reference, each with guided-pt renders: p_g without the path (a cache of
+/// that path alone, left out of the evaluation: p_g = 0 for its samples; 8 renders, the
+/// caustic's tiles about 1,400 times too bright), p_g scaled by 1.5 where paths are weighed
+/// (`TILE_SEEDS` renders) and n_g / n_u scaled by 2 there (12 renders).
 #[test]
 fn guided_renders_bdpt_image_on_a_caustic_tile_by_tile_and_wrong_weights_do_not() {
-    let scene = util::scene(&CAUSTIC.replace("resolution = [48, 48]", "resolution = [24, 24]"));
-    let reference: Vec<_> = (0..TILE_SEEDS)
-        .map(|s| util::render(&scene, "bdpt", 6, &[], 64, 100 + s, 2).image)
-        .collect();
+    let scene = caustic_tile_scene();
+    let reference = caustic_reference();
     let twin = twin_caustic_cache(&scene, false);
     for bdpt in [false, true] {
         let name = if bdpt { "guided-bdpt" } else { "guided-pt" };
-        let ok = guided_caustic_renders(&scene, &twin, bdpt, |_| {});
-        util::assert_same_image(&ok, &reference, 4, name);
+        let ok = guided_caustic_renders(&scene, &twin, bdpt, TILE_SEEDS, |_| {});
+        util::assert_same_image(&ok, reference, 4, name);
     }
     let single = twin_caustic_cache(&scene, true);
-    type Control<'c> = (&'c str, &'c GuideCache, &'c dyn Fn(&mut GuideCache));
+    type Control<'c> = (&'c str, &'c GuideCache, u64, &'c dyn Fn(&mut GuideCache));
     let controls: [Control; 3] = [
-        ("p_g without the path", &single, &|c| {
+        ("p_g without the path", &single, 8, &|c| {
             c.skip_in_pdf = Some(0)
         }),
-        ("p_g x 1.5 in the weights", &twin, &|c| {
+        ("p_g x 1.5 in the weights", &twin, TILE_SEEDS, &|c| {
             c.weight_faults.p_g = 1.5
         }),
-        ("n_g / n_u x 2 in the weights", &twin, &|c| {
+        ("n_g / n_u x 2 in the weights", &twin, 12, &|c| {
             c.weight_faults.ratio = 2.0
         }),
     ];
-    for (what, cache, edit) in controls {
-        let wrong = guided_caustic_renders(&scene, cache, false, edit);
+    for (what, cache, seeds, edit) in controls {
+        let wrong = guided_caustic_renders(&scene, cache, false, seeds, edit);
         let caught = std::panic::catch_unwind(|| {
-            util::assert_same_image(&wrong, &reference, 4, &format!("control: {what}"))
+            util::assert_same_image(&wrong, reference, 4, &format!("control: {what}"))
         });
         assert!(caught.is_err(), "control '{what}' passed the per-tile test");
     }
@@ -444,27 +466,69 @@ fn saved_caches_render_identically_and_bad_files_are_errors() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// The bound on guide `l`'s first-vertex width where first vertices are dense: the distance to
-/// the `SPACING_RANK`-th nearest other first vertex of its structure in `l`'s kernel plane
-/// (brute force), never below a pixel footprint; `None` where fewer guide paths share the
-/// structure.
-fn spacing_bound(scene: &Scene, cache: &GuideCache, l: usize) -> Option<f64> {
-    let o = scene.camera.position.as_dvec3();
-    let g1 = cache.vertex(scene, l, 1).p.as_dvec3();
-    let (dist, w) = ((g1 - o).length(), (g1 - o).normalize());
-    let mut gaps: Vec<f64> = (0..cache.len())
-        .filter(|&j| j != l && cache.nodes_of(j) == cache.nodes_of(l))
-        .map(|j| {
-            let wj = (cache.vertex(scene, j, 1).p.as_dvec3() - o).normalize();
-            (o + wj * (dist / wj.dot(w)) - g1).length()
-        })
-        .collect();
-    if gaps.len() < cache::SPACING_RANK {
-        return None;
+/// The first vertices of a cache's guide paths grouped by structure, for the bound on each
+/// guide's first-vertex width where first vertices are dense ([`SpacingBounds::bound`]).
+struct SpacingBounds {
+    /// The camera position.
+    o: glam::DVec3,
+    /// g_1 of every guide path and the unit direction to it from the camera.
+    first: Vec<(glam::DVec3, glam::DVec3)>,
+    /// The guide paths of every structure (in index order), and the structure of each.
+    groups: Vec<Vec<usize>>,
+    group_of: Vec<usize>,
+}
+
+impl SpacingBounds {
+    fn new(scene: &Scene, cache: &GuideCache) -> SpacingBounds {
+        let o = scene.camera.position.as_dvec3();
+        let first = (0..cache.len())
+            .map(|l| {
+                let g1 = cache.vertex(scene, l, 1).p.as_dvec3();
+                (g1, (g1 - o).normalize())
+            })
+            .collect();
+        let mut index = std::collections::HashMap::new();
+        let mut groups: Vec<Vec<usize>> = Vec::new();
+        let group_of = (0..cache.len())
+            .map(|l| {
+                let g = *index.entry(cache.nodes_of(l)).or_insert_with(|| {
+                    groups.push(Vec::new());
+                    groups.len() - 1
+                });
+                groups[g].push(l);
+                g
+            })
+            .collect();
+        SpacingBounds {
+            o,
+            first,
+            groups,
+            group_of,
+        }
     }
-    gaps.sort_by(f64::total_cmp);
-    let footprint = dist * scene.camera.pixel_angle() as f64;
-    Some(gaps[cache::SPACING_RANK - 1].max(footprint))
+
+    /// The bound on guide `l`'s first-vertex width where first vertices are dense: the
+    /// distance to the `SPACING_RANK`-th nearest other first vertex of its structure in `l`'s
+    /// kernel plane (brute force over the structure's guide paths), never below a pixel
+    /// footprint; `None` where fewer guide paths share the structure.
+    fn bound(&self, scene: &Scene, l: usize) -> Option<f64> {
+        let (o, g1) = (self.o, self.first[l].0);
+        let (dist, w) = ((g1 - o).length(), (g1 - o).normalize());
+        let mut gaps: Vec<f64> = self.groups[self.group_of[l]]
+            .iter()
+            .filter(|&&j| j != l)
+            .map(|&j| {
+                let wj = self.first[j].1;
+                (o + wj * (dist / wj.dot(w)) - g1).length()
+            })
+            .collect();
+        if gaps.len() < cache::SPACING_RANK {
+            return None;
+        }
+        let (_, nth, _) = gaps.select_nth_unstable_by(cache::SPACING_RANK - 1, f64::total_cmp);
+        let footprint = dist * scene.camera.pixel_angle() as f64;
+        Some(nth.max(footprint))
+    }
 }
 
 /// `first_width_specular` widens the first-vertex kernels of guide paths whose g_1 is specular
@@ -498,6 +562,7 @@ fn specular_first_vertex_width_applies_to_specular_first_vertices_only() {
     let mut wide_cache = GuideCache::with_widths(wide);
     wide_cache.install(&scene, paths, 10_000);
     assert_eq!(narrow_cache.len(), wide_cache.len());
+    let wide_bounds = SpacingBounds::new(&scene, &wide_cache);
     let (mut specular, mut tripled, mut widened, mut rough) = (0usize, 0usize, 0usize, 0usize);
     for l in 0..narrow_cache.len() {
         let (a, b) = (
@@ -515,7 +580,7 @@ fn specular_first_vertex_width_applies_to_specular_first_vertices_only() {
             specular += 1;
             // Unless the spacing bound held the narrow kernel, the wide one is three times
             // as wide, or held by the bound itself.
-            let bound = spacing_bound(&scene, &wide_cache, l).unwrap_or(f64::INFINITY);
+            let bound = wide_bounds.bound(&scene, l).unwrap_or(f64::INFINITY);
             let expect = if a >= bound * (1.0 - 1e-4) {
                 a
             } else {

@@ -130,10 +130,13 @@ fn guided_continuation_matches_the_mixture_density(what: &str, target: Vec3, rou
             Some(bs.wi)
         },
         |wi| {
-            if sp.bsdf.eval(&sp.frame, wo, wi, mode) == Vec3::ZERO {
+            // The BSDF's value and density in one call (bit-identical to `eval` and `pdf`):
+            // the integration over the sphere evaluates this density millions of times.
+            let (f, pdf_bsdf) = sp.bsdf.eval_pdf(&sp.frame, wo, wi, mode);
+            if f == Vec3::ZERO {
                 0.0
             } else {
-                mix.pdf(sp.bsdf.pdf(&sp.frame, wo, wi, mode), wi) as f64
+                mix.pdf(pdf_bsdf, wi) as f64
             }
         },
     );

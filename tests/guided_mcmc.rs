@@ -88,18 +88,16 @@ enum Broken {
     Alone,
 }
 
-/// Renders per side of the per-tile tests.
-const SEEDS: u64 = 24;
-
-/// `SEEDS` renders a side of `spp` samples: guided (frozen copy of `cache`, α = 0.05, p_g
-/// broken as `broken` says) and U.
-fn renders_against_unguided(
+/// `seeds` renders of `spp` samples with the guided integrator over `unguided` (frozen copy
+/// of `cache`, α = 0.05, p_g broken as `broken` says), seeds 1, 2, ...
+fn guided_renders(
     scene: &Scene,
     unguided: &str,
     cache: &GuideCache,
     broken: Broken,
-    spp: (u64, u64),
-) -> (Vec<Image>, Vec<Image>) {
+    spp: u64,
+    seeds: u64,
+) -> Vec<Image> {
     let heaviest = (0..cache.len())
         .max_by(|&a, &b| cache.guides[a].weight.total_cmp(&cache.guides[b].weight))
         .expect("non-empty cache");
@@ -108,41 +106,75 @@ fn renders_against_unguided(
         installs = vec![installs.swap_remove(heaviest)];
         installs[0].3 = 1.0;
     }
-    let (mut g, mut r) = (Vec::new(), Vec::new());
-    for seed in 1..=SEEDS {
-        let mut c = GuideCache::default();
-        c.install(scene, installs.clone(), 100_000);
-        c.skip_in_pdf = match broken {
-            Broken::No => None,
-            Broken::Heaviest => Some(heaviest),
-            Broken::Alone => Some(0),
-        };
-        let settings = GuidedSettings {
-            alpha: 0.05,
-            share: lodestar::integrators::guided::Share::Fixed,
-            learn_fraction: 0.0,
-            ..GuidedSettings::default()
-        };
-        let seeder = Mcmc::new(settings.intake, ChainSettings::default());
-        let mut integ = guided(unguided, settings, seeder, Some(c));
-        let ctx = RenderContext::new(scene, seed, false);
-        g.push(integ.render(&ctx, Budget::Spp(spp.0)).image);
-        r.push(util::render(scene, unguided, MAX_DEPTH, &[], spp.1, 100 + seed, 2).image);
-    }
-    (g, r)
+    (1..=seeds)
+        .map(|seed| {
+            let mut c = GuideCache::default();
+            c.install(scene, installs.clone(), 100_000);
+            c.skip_in_pdf = match broken {
+                Broken::No => None,
+                Broken::Heaviest => Some(heaviest),
+                Broken::Alone => Some(0),
+            };
+            let settings = GuidedSettings {
+                alpha: 0.05,
+                share: lodestar::integrators::guided::Share::Fixed,
+                learn_fraction: 0.0,
+                ..GuidedSettings::default()
+            };
+            let seeder = Mcmc::new(settings.intake, ChainSettings::default());
+            let mut integ = guided(unguided, settings, seeder, Some(c));
+            let ctx = RenderContext::new(scene, seed, false);
+            integ.render(&ctx, Budget::Spp(spp)).image
+        })
+        .collect()
+}
+
+/// One side of a per-tile comparison: renders and samples per pixel.
+struct Side {
+    renders: u64,
+    spp: u64,
 }
 
 /// With a cache the chain seeder learned on a caustic (24 x 24), guided-pt and guided-bdpt
-/// render pt's and bdpt's images tile by tile (4 x 4 tiles, Welch's t over `SEEDS` renders a
-/// side, Bonferroni over tiles and channels, family-wise false-failure rate 1e-4), and a
-/// broken p_g fails the same test (guided-pt: the heaviest guide path left out; guided-bdpt:
-/// see [`Broken::Alone`]).
+/// render pt's and bdpt's images tile by tile (4 x 4 tiles, Welch's t over independently
+/// seeded renders, Bonferroni over tiles and channels, family-wise false-failure rate 1e-4),
+/// and a broken p_g fails the same test against the same unguided renders (guided-pt: the
+/// heaviest guide path left out; guided-bdpt: see [`Broken::Alone`]).
+///
+/// guided-pt: 16 renders of 24 spp against 48 of pt at 64 spp (pt's side carries much of the
+/// variance there, so its cheap renders buy power: with 16 broken renders against 48 of pt
+/// the control fails at p = 3e-38, with 24 against 24 at p = 1e-30). guided-bdpt: 24 renders
+/// of 8 spp against 24 of bdpt at 16 spp (the variance there is guided-bdpt's). Each control
+/// renders 8 seeds; measured against the bound 9.3e-7: guided-pt p = 3.5e-14, guided-bdpt
+/// p = 1.9e-14.
 #[test]
 fn mcmc_seeded_guiding_is_unbiased_and_a_broken_pg_is_caught() {
     let scene = util::scene(&CAUSTIC.replace("resolution = [48, 48]", "resolution = [24, 24]"));
-    for (unguided, broken, spp) in [
-        ("pt", Broken::Heaviest, (24, 64)),
-        ("bdpt", Broken::Alone, (8, 16)),
+    for (unguided, broken, guided_side, unguided_side) in [
+        (
+            "pt",
+            Broken::Heaviest,
+            Side {
+                renders: 16,
+                spp: 24,
+            },
+            Side {
+                renders: 48,
+                spp: 64,
+            },
+        ),
+        (
+            "bdpt",
+            Broken::Alone,
+            Side {
+                renders: 24,
+                spp: 8,
+            },
+            Side {
+                renders: 24,
+                spp: 16,
+            },
+        ),
     ] {
         let (cache, learned) = learn_with_chains(&scene, unguided);
         let chain_guides: u64 = stat(&learned, "seeder_chain_guides").parse().unwrap();
@@ -152,13 +184,34 @@ fn mcmc_seeded_guiding_is_unbiased_and_a_broken_pg_is_caught() {
             "{unguided}: the chains added no guide path ({} guides)",
             cache.len()
         );
-        let (g, r) = renders_against_unguided(&scene, unguided, &cache, Broken::No, spp);
-        util::assert_same_image(&g, &r, 4, &format!("guided-{unguided}"));
-        let (g, r) = renders_against_unguided(&scene, unguided, &cache, broken, spp);
+        let u: Vec<Image> = (1..=unguided_side.renders)
+            .map(|seed| {
+                util::render(
+                    &scene,
+                    unguided,
+                    MAX_DEPTH,
+                    &[],
+                    unguided_side.spp,
+                    100 + seed,
+                    2,
+                )
+                .image
+            })
+            .collect();
+        let g = guided_renders(
+            &scene,
+            unguided,
+            &cache,
+            Broken::No,
+            guided_side.spp,
+            guided_side.renders,
+        );
+        util::assert_same_image(&g, &u, 4, &format!("guided-{unguided}"));
+        let g = guided_renders(&scene, unguided, &cache, broken, guided_side.spp, 8);
         let caught = std::panic::catch_unwind(|| {
             util::assert_same_image(
                 &g,
-                &r,
+                &u,
                 4,
                 &format!("guided-{unguided}, broken p_g (control)"),
             )

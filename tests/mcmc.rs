@@ -24,8 +24,9 @@ use crate::util;
 
 use glam::DVec3;
 use glam::Vec2;
+use lodestar::clock::Clock;
 use lodestar::film::Image;
-use lodestar::integrators::mcmc::bootstrap::{bootstrap, bootstrap_key};
+use lodestar::integrators::mcmc::bootstrap::{Bootstrap, bootstrap, bootstrap_key};
 use lodestar::integrators::mcmc::chains::{Counters, advance, start_chains};
 use lodestar::integrators::mcmc::faults::Faults;
 use lodestar::integrators::mcmc::mmlt::mmlt_bdpt_settings;
@@ -35,13 +36,16 @@ use lodestar::integrators::mcmc::{
 };
 use lodestar::integrators::paths::Heuristic;
 use lodestar::integrators::pt::{PathTracer, PtSettings};
-use lodestar::integrators::{self, IntegratorParams, Options};
+use lodestar::integrators::{self, IntegratorParams, Options, RunSettings};
 use lodestar::math::{IndependentSampler, Sampler, luminance, stream_seed};
-use lodestar::render::RenderResult;
+use lodestar::render::{Budget, Control, RenderResult};
 use lodestar::scene::Scene;
+use lodestar::snapshot::{Snapshot, Snapshots};
 use rayon::prelude::*;
 use std::path::Path;
+use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Duration;
 
 /// `scenes/NAME` at resolution `width` x `height` (the mean of an image does not depend on
 /// its resolution, so low-resolution renders compare with the stored references' means).
@@ -408,11 +412,11 @@ impl Target for TwoRegions {
     }
 }
 
-/// The share of the splat weight in region A of [`TwoRegions`] after 40k mutations of each of
-/// 256 chains (started by importance, so stationary) through the driver's `advance` (and so
-/// the Metropolis step every chain shares, `PrimarySampler::metropolis`), and its z against
-/// the truth (standard error across chains).
-fn two_region_share(small: SmallStep, large_step: f64, faults: Faults) -> (f64, f64) {
+/// The share of the splat weight in region A of [`TwoRegions`] after `passes` thousand
+/// mutations of each of 256 chains (started by importance, so stationary) through the
+/// driver's `advance` (and so the Metropolis step every chain shares,
+/// `PrimarySampler::metropolis`), and its z against the truth (standard error across chains).
+fn two_region_share(small: SmallStep, large_step: f64, faults: Faults, passes: u32) -> (f64, f64) {
     let a = 0.5 * (0.02 * 50.0 + 0.98 * 0.01);
     let truth = a / (a + 0.5);
     let s = McmcSettings {
@@ -431,7 +435,7 @@ fn two_region_share(small: SmallStep, large_step: f64, faults: Faults) -> (f64, 
         .iter_mut()
         .map(|chain| {
             let mut sums = [0.0f64; 2];
-            for _ in 0..40 {
+            for _ in 0..passes {
                 splats.clear();
                 advance(
                     &TwoRegions,
@@ -460,21 +464,21 @@ fn two_region_share(small: SmallStep, large_step: f64, faults: Faults) -> (f64, 
 
 /// The chains keep the target's distribution: the share of the splat weight in region A is
 /// the share of f's integral there, (0.02 * 50 + 0.98 * 0.01) / 2 against 1 / 2 in B,
-/// 0.50244; tested at |z| < 4 (false failure about 6e-5 per case for a normal mean of 256
-/// bounded values; fixed seed). With small steps alone (`large_step = 0`, so nothing
-/// refreshes u1) this tests lazy mutation: measured, share 0.4962 (z = -0.33) with Kelemen
+/// 0.50244; tested at |z| < 4 over 40k mutations a chain (false failure about 6e-5 per case
+/// for a normal mean of 256 bounded values; fixed seed). With small steps alone
+/// (`large_step = 0`, so nothing refreshes u1) this tests lazy mutation: measured, share 0.4962 (z = -0.33) with Kelemen
 /// steps, 0.4976 (z = -0.35) with Gaussian ones, where a sampler that restores an unread
 /// dimension's value from before the steps it missed on every rejection (pbrt-v3's scheme)
 /// fails: Gaussian 0.7017 (z = 19.2); Kelemen 0.5193 (z = 0.60) with its missed steps capped
 /// at 16, 0.7546 (z = 19.0) without the cap. With large steps on (0.3) it tests the
 /// acceptance of both kinds of step (measured: 0.5029, z = 0.16, Kelemen; 0.5003, z = -0.77,
-/// Gaussian); the control that accepts every large step must fail (measured: 0.4201,
-/// z = -213; it must reach |z| > 8).
+/// Gaussian); the control that accepts every large step must fail, over 10k mutations a chain
+/// (measured: 0.4200, z = -110; it must reach |z| > 8).
 #[test]
 fn the_chains_keep_the_target_distribution() {
     for small in [SmallStep::default(), SmallStep::Gaussian { sigma: 0.01 }] {
         for large_step in [0.0, 0.3] {
-            let (mean, z) = two_region_share(small, large_step, Faults::default());
+            let (mean, z) = two_region_share(small, large_step, Faults::default(), 40);
             assert!(
                 z.abs() < 4.0,
                 "{small:?}, large steps {large_step}: the chains spend {mean:.4} of their \
@@ -486,7 +490,7 @@ fn the_chains_keep_the_target_distribution() {
         accept_large: true,
         ..Faults::default()
     };
-    let (mean, z) = two_region_share(SmallStep::default(), 0.3, wrong);
+    let (mean, z) = two_region_share(SmallStep::default(), 0.3, wrong, 10);
     assert!(
         z.abs() > 8.0,
         "control (every large step accepted): share {mean:.4}, z = {z:.2}, passed"
@@ -516,6 +520,65 @@ fn mse(a: &Image, reference: &Image) -> (f64, f64) {
     (all / n, rest / n)
 }
 
+/// The clock of a render of `.1` passes: one second per pass done, read from the progress its
+/// pass driver reports to `.0`.
+struct PassClock<'a>(&'a Control, u64);
+
+impl Clock for PassClock<'_> {
+    fn now(&self) -> Duration {
+        Duration::from_secs_f64(self.0.progress() * self.1 as f64)
+    }
+}
+
+/// `int`'s images after `low` and after `high` mutations per pixel, both from one render of
+/// `high` passes: a snapshot after every pass (on [`PassClock`]), the one after `low` passes
+/// kept. Passes do not depend on the budget (the chains and their mutations per pass are
+/// fixed after the bootstrap), so it is the image a render of `low` gives, bootstrap included
+/// (measured: the same MSE to the last digit).
+fn low_and_high(
+    scene: &Scene,
+    int: &str,
+    options: &[&str],
+    seed: u64,
+    (low, high): (u64, u64),
+) -> (Image, Image) {
+    let kept = Mutex::new(None);
+    let sink = |s: &Snapshot| {
+        if s.passes == low {
+            *kept.lock().unwrap() = Some(s.image.clone());
+        }
+        Ok(())
+    };
+    let control = Control::default();
+    let clock = PassClock(&control, high);
+    let times: Vec<f64> = (1..high).map(|t| t as f64).collect();
+    let snapshots = Snapshots::with_clock(&times, &sink, &clock).unwrap();
+    let params = IntegratorParams {
+        max_depth: 8,
+        options: Options::parse(&options.iter().map(|s| s.to_string()).collect::<Vec<_>>())
+            .unwrap(),
+    };
+    let run = RunSettings {
+        seed,
+        threads: 2,
+        progress: false,
+        snapshots: Some(&snapshots),
+        dbor: false,
+        first_pass: 0,
+        control: Some(&control),
+        clock: Some(&clock),
+    };
+    let high_image = integrators::render_named_with(scene, int, &params, Budget::Spp(high), &run)
+        .unwrap()
+        .result
+        .image;
+    let low_image = kept.into_inner().unwrap();
+    (
+        low_image.unwrap_or_else(|| panic!("{int}: no snapshot after {low} passes")),
+        high_image,
+    )
+}
+
 /// MSE ratios (256 mutations per pixel over 8, same seed) against a 1024-spp pt render, per
 /// integrator and box: (all pixels, pixels that do not see the light).
 fn mse_ratios(seed: u64) -> Vec<(String, f64, f64)> {
@@ -524,12 +587,8 @@ fn mse_ratios(seed: u64) -> Vec<(String, f64, f64)> {
         let scene = scene_file(&format!("{name}.toml"), 32, 32);
         let reference = util::render(&scene, "pt", 8, &[], 1024, 1000, 2).image;
         for (int, bootstrap) in [("pssmlt", "bootstrap=100000"), ("mmlt", "bootstrap=30000")] {
-            let [low, high] = [8, 256].map(|spp| {
-                mse(
-                    &util::render(&scene, int, 8, &[bootstrap], spp, seed, 2).image,
-                    &reference,
-                )
-            });
+            let (low, high) = low_and_high(&scene, int, &[bootstrap], seed, (8, 256));
+            let (low, high) = (mse(&low, &reference), mse(&high, &reference));
             let (all, rest) = (high.0 / low.0, high.1 / low.1);
             eprintln!(
                 "{int} {name} seed {seed}: MSE {low:?} -> {high:?}, ratios {all:.3} {rest:.3}"
@@ -606,21 +665,28 @@ fn stratified_mean_se(xs: &[f64], strata: usize) -> (f64, f64) {
 /// 1. The per-pixel estimate (`Target::direct`: one camera walk, every length at once) and
 ///    the s = 0 technique of every length on its own (`Tracer::sample_technique`, kept where
 ///    `camera_unconnectible`, which is what the chains leave out) are two estimates of one
-///    integral, both stratified by pixel on `pool` at 80 x 60 (the light seen in the water's
-///    surface, directly and after refractions, and the caustics on the pool's floor seen
-///    through the water: about half of the image). They agree within
-///    `Z` standard errors (from the variance within each pixel), and the
-///    share is at least 2 `Z` of them, so a direct part that missed a class of those paths,
-///    counted one twice, or weighed it differently from the technique would fail.
+///    integral, here on `pool` at 80 x 60 (the light seen in the water's surface, directly
+///    and after refractions, and the caustics on the pool's floor seen through the water:
+///    about half of the image). They are paired on common numbers: each technique of a
+///    sample reads the numbers (the same sampler stream) that sample's per-pixel walk read,
+///    and `camera_unconnectible_subpath` is `camera_subpath` cut short for the same numbers,
+///    so where both find a path it is the same path, and the paired difference is zero unless
+///    the two select or weigh a path differently. Over 48 samples per pixel (measured: 56
+///    thousand of them non-zero, every difference zero) the difference's mean, stratified by
+///    pixel, is zero or within `Z` of its standard errors. The share (the per-pixel estimate
+///    over 192 samples per pixel) is at least 2 `Z` standard errors of the two estimates
+///    compared unpaired (the technique's over its 48), so even without the pairing a direct
+///    part that missed a class of those paths, counted one twice, or weighed it differently
+///    from the technique would fail.
 /// 2. On the chains' side, sample by sample on the same primary samples (the bootstrap of
 ///    every length), the split only zeroes states: each state's importance is the unsplit
-///    one or 0, never another value; and the importance it removes agrees with 1. within `Z`
-///    standard errors (a weak check: the chains' single-technique estimate is heavy-tailed
-///    here, which is why the split exists).
+///    one or 0, never another value; and the importance it removes agrees with 1.'s
+///    per-pixel estimate within `Z` standard errors (a weak check: the chains'
+///    single-technique estimate is heavy-tailed here, which is why the split exists).
 #[test]
 fn mmlt_specular_split_adds_up() {
     const Z: f64 = 4.5; // two-sided false failure about 7e-6 per comparison for a normal z
-    let (w, h, spp, depth) = (80u32, 60u32, 192u32, 8u32);
+    let (w, h, spp, paired_spp, depth) = (80u32, 60u32, 192u32, 48u32, 8u32);
     let scene = scene_file("pool.toml", w, h);
     let bdpt = mmlt_bdpt_settings(depth, Heuristic::Balance);
     let split = MmltTarget {
@@ -631,8 +697,10 @@ fn mmlt_specular_split_adds_up() {
         let pixel = i % (w * h);
         Vec2::new((pixel % w) as f32, (pixel / w) as f32) + sampler.next_2d()
     };
-    // Sample i draws from its own streams: the same values on any number of threads.
-    let (direct, technique): (Vec<f64>, Vec<f64>) = (0..w * h * spp)
+    // Sample i draws from its own stream: the same values on any number of threads. The
+    // first `paired_spp` samples of every pixel also take the techniques, on the same numbers.
+    let paired = w * h * paired_spp;
+    let (direct, technique): (Vec<f64>, Vec<Option<f64>>) = (0..w * h * spp)
         .into_par_iter()
         .map_init(
             || split.scratch(),
@@ -640,42 +708,57 @@ fn mmlt_specular_split_adds_up() {
                 let mut sampler = IndependentSampler::new(3, i as u64, 0);
                 let r = raster(i, &mut sampler);
                 let direct = luminance(split.direct(tracer, r, &mut sampler).as_vec3()) as f64;
-                let mut sum = 0.0;
-                for t in 2..=depth as usize + 1 {
-                    let mut sampler = IndependentSampler::new(4, i as u64, t as u64);
-                    let r = raster(i, &mut sampler);
-                    if let Some((_, c)) = tracer.sample_technique(r, 0, t, &mut sampler)
-                        && tracer.camera_unconnectible()
-                    {
-                        sum += luminance(c) as f64;
+                let technique = (i < paired).then(|| {
+                    let mut sum = 0.0;
+                    for t in 2..=depth as usize + 1 {
+                        let mut sampler = IndependentSampler::new(3, i as u64, 0);
+                        let r = raster(i, &mut sampler);
+                        if let Some((_, c)) = tracer.sample_technique(r, 0, t, &mut sampler)
+                            && tracer.camera_unconnectible()
+                        {
+                            sum += luminance(c) as f64;
+                        }
                     }
-                }
-                (direct, sum)
+                    sum
+                });
+                (direct, technique)
             },
         )
         .unzip();
     let pixels = (w * h) as usize;
-    let ((direct, direct_se), (technique, technique_se)) = (
-        stratified_mean_se(&direct, pixels),
-        stratified_mean_se(&technique, pixels),
-    );
+    let technique: Vec<f64> = technique.into_iter().flatten().collect();
+    let differences: Vec<f64> = direct.iter().zip(&technique).map(|(d, t)| d - t).collect();
+    let nonzero = technique.iter().filter(|t| **t != 0.0).count();
+    let (diff, diff_se) = stratified_mean_se(&differences, pixels);
+    let (technique, technique_se) = stratified_mean_se(&technique, pixels);
+    let (direct, direct_se) = stratified_mean_se(&direct, pixels);
+    // The standard error of the two estimates compared unpaired.
     let se = (direct_se * direct_se + technique_se * technique_se).sqrt();
     eprintln!(
-        "split: direct {direct:.5e} +- {direct_se:.2e}, technique {technique:.5e} +- {technique_se:.2e}"
+        "split: direct {direct:.5e} +- {direct_se:.2e}, technique {technique:.5e} +- \
+         {technique_se:.2e} ({nonzero} of {paired} non-zero), paired difference {diff:.3e} +- \
+         {diff_se:.2e}"
     );
     assert!(
-        direct > 2.0 * Z * se,
-        "the share is not visible: {direct} +- {se}"
+        direct > 2.0 * Z * se.max(diff_se),
+        "the share is not visible: {direct} +- {se} (paired: +- {diff_se})"
     );
     assert!(
-        (direct - technique).abs() < Z * se,
-        "direct {direct} +- {direct_se}, technique {technique} +- {technique_se}"
+        diff == 0.0 || diff.abs() < Z * diff_se,
+        "direct - technique = {diff} +- {diff_se} (direct {direct}, technique {technique})"
     );
 
     let settings = McmcSettings::default();
     let n = 100_000;
     let all = bootstrap(&split, 7, n, &settings);
-    let mut chains = bootstrap(&split, 7, n, &settings);
+    let mut chains: Vec<Bootstrap> = all
+        .iter()
+        .map(|g| Bootstrap {
+            b: g.b,
+            importance: g.importance.clone(),
+            rest: g.rest.clone(),
+        })
+        .collect();
     chains.iter_mut().for_each(|g| g.without_direct());
     let mut lost = vec![0.0; n as usize];
     for (a, c) in all.iter().zip(&chains) {
@@ -702,7 +785,9 @@ fn mmlt_specular_split_adds_up() {
 /// `fog-dragon` (the caustics and the light seen through the glass bunny) the bootstrap holds
 /// none of them and they go per pixel; on `pool` it holds them on more than 16 samples' worth,
 /// agreeing with the first pass's per-pixel estimate, and they stay in the chains. `true` and
-/// `false` force either side. (Deterministic: fixed seeds, and the decision reads sums taken
+/// `false` force either side: `true` on `pool`, `false` on `fog-dragon` with 2000 bootstrap
+/// samples (the first tenth of the 20000 that hold none of those paths, so that `auto` would
+/// split them off there too). (Deterministic: fixed seeds, and the decision reads sums taken
 /// in a fixed order.)
 #[test]
 fn mmlt_splits_off_what_its_bootstrap_misses() {
@@ -725,7 +810,7 @@ fn mmlt_splits_off_what_its_bootstrap_misses() {
     assert!(pool.starts_with("chains"), "{pool}");
     let forced = decision("pool", "bootstrap=100000", "separate_specular=true");
     assert!(forced.starts_with("per pixel"), "{forced}");
-    let forced = decision("fog-dragon", "bootstrap=20000", "separate_specular=false");
+    let forced = decision("fog-dragon", "bootstrap=2000", "separate_specular=false");
     assert!(forced.starts_with("chains"), "{forced}");
 }
 

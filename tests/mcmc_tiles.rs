@@ -6,10 +6,13 @@
 //!
 //! Unlike a test of the image mean (which a chain meets by construction: each mutation splats
 //! b's worth of luminance wherever it lands), the per-tile test sees where the chains put
-//! their splats. Each side is `SEEDS` independently seeded renders of a 16 x 16 Cornell box;
-//! `util::assert_same_image` compares every 4 x 4 tile and channel by Welch's t with a
-//! Bonferroni bound, family-wise false-failure rate 1e-4 per comparison (fixed seeds), and
-//! then the whole image as one tile (the renders' means, each with its own estimate of b).
+//! their splats. A chain side is `SEEDS` independently seeded renders of a 16 x 16 Cornell
+//! box, a control's side as many as its margin needs (each states it); pt's side is the 40
+//! renders [`pt_renders`] makes once for all three tests (one of the two sets of
+//! [`the_tile_test_sees_a_ten_percent_change_in_any_tile`]). `util::assert_same_image`
+//! compares every 4 x 4 tile and channel by Welch's t with a Bonferroni bound, family-wise
+//! false-failure rate 1e-4 per comparison (fixed seeds), and then the whole image as one tile
+//! (the renders' means, each with its own estimate of b).
 
 use crate::util;
 
@@ -21,6 +24,7 @@ use lodestar::integrators::paths::Heuristic;
 use lodestar::integrators::pt::{PathTracer, PtSettings};
 use lodestar::render::{Budget, Integrator, RenderContext};
 use lodestar::scene::Scene;
+use std::sync::OnceLock;
 
 const SEEDS: u64 = 20;
 const BLOCK: u32 = 4;
@@ -82,16 +86,31 @@ fn mmlt(faults: Faults) -> Box<dyn Integrator> {
     })
 }
 
-fn renders(scene: &Scene, make: &dyn Fn() -> Box<dyn Integrator>, first_seed: u64) -> Vec<Image> {
-    (0..SEEDS)
+/// `n` renders, seeds `first_seed`, `first_seed + 1`, ...
+fn renders(
+    scene: &Scene,
+    make: &dyn Fn() -> Box<dyn Integrator>,
+    first_seed: u64,
+    n: u64,
+) -> Vec<Image> {
+    (0..n)
         .map(|s| render_with(scene, make, first_seed + s))
         .collect()
 }
 
-fn pt_renders(scene: &Scene) -> Vec<Image> {
-    (0..SEEDS)
-        .map(|s| util::render(scene, "pt", MAX_DEPTH, &[], PT_SPP, 1000 + s, 2).image)
+/// `n` pt renders of [`scene`], seeds `first_seed`, `first_seed + 1`, ...
+fn pt_set(first_seed: u64, n: u64) -> Vec<Image> {
+    let scene = scene();
+    (0..n)
+        .map(|s| util::render(&scene, "pt", MAX_DEPTH, &[], PT_SPP, first_seed + s, 2).image)
         .collect()
+}
+
+/// pt's side of every comparison in this file: 40 renders (seeds 3000 to 3039), made once by
+/// whichever test needs them first.
+fn pt_renders() -> &'static [Image] {
+    static PT: OnceLock<Vec<Image>> = OnceLock::new();
+    PT.get_or_init(|| pt_set(3000, 40))
 }
 
 /// Whether `util::assert_same_image` rejects `a` against `b`.
@@ -99,32 +118,36 @@ fn rejected(a: &[Image], b: &[Image], what: &str) -> bool {
     std::panic::catch_unwind(|| util::assert_same_image(a, b, BLOCK, what)).is_err()
 }
 
+/// Each control renders as many seeds as its margin needs; measured against the bound 2.1e-6:
+/// every large step accepted, 20 renders, p = 4.4e-12; splats one pixel off, 10 renders,
+/// p = 1.5e-10.
 #[test]
 fn pssmlt_renders_pt_image_and_its_faults_do_not() {
     let scene = scene();
-    let pt = pt_renders(&scene);
-    let ok = renders(&scene, &|| pssmlt(Faults::default()), 0);
-    util::assert_same_image(&ok, &pt, BLOCK, "pssmlt against pt");
+    let pt = pt_renders();
+    let ok = renders(&scene, &|| pssmlt(Faults::default()), 0, SEEDS);
+    util::assert_same_image(&ok, pt, BLOCK, "pssmlt against pt");
     // The whole image as one tile: the renders' means (b's estimate included) agree.
-    util::assert_same_image(&ok, &pt, 16, "pssmlt against pt, image means");
+    util::assert_same_image(&ok, pt, 16, "pssmlt against pt, image means");
     // With the paths only a continued walk finds (through the glass sphere, the light seen
     // directly) split off to the per-pixel estimate, and kept in the chains.
     for split in [Split::Always, Split::Never] {
-        let other = renders(&scene, &|| pssmlt_split(Faults::default(), split), 100);
-        util::assert_same_image(
-            &other,
-            &pt,
-            BLOCK,
-            &format!("pssmlt ({split:?}) against pt"),
+        let other = renders(
+            &scene,
+            &|| pssmlt_split(Faults::default(), split),
+            100,
+            SEEDS,
         );
+        util::assert_same_image(&other, pt, BLOCK, &format!("pssmlt ({split:?}) against pt"));
     }
-    for (what, faults) in [
+    for (what, faults, n) in [
         (
             "pssmlt, every large step accepted (control)",
             Faults {
                 accept_large: true,
                 ..Faults::default()
             },
+            20,
         ),
         (
             "pssmlt, splats one pixel off (control)",
@@ -132,27 +155,32 @@ fn pssmlt_renders_pt_image_and_its_faults_do_not() {
                 shift_splats: true,
                 ..Faults::default()
             },
+            10,
         ),
     ] {
-        let wrong = renders(&scene, &|| pssmlt(faults), 0);
-        assert!(rejected(&wrong, &pt, what), "{what}: passed");
+        let wrong = renders(&scene, &|| pssmlt(faults), 0, n);
+        assert!(rejected(&wrong, pt, what), "{what}: passed");
     }
 }
 
+/// Each control renders as many seeds as its margin needs; measured against the bound 2.1e-6:
+/// every large step accepted, 10 renders, p = 1.0e-11; b of one length doubled, 16 renders,
+/// p = 8.8e-12; splats one pixel off, 6 renders, p = 9.0e-19.
 #[test]
 fn mmlt_renders_pt_image_and_its_faults_do_not() {
     let scene = scene();
-    let pt = pt_renders(&scene);
-    let ok = renders(&scene, &|| mmlt(Faults::default()), 0);
-    util::assert_same_image(&ok, &pt, BLOCK, "mmlt against pt");
-    util::assert_same_image(&ok, &pt, 16, "mmlt against pt, image means");
-    for (what, faults) in [
+    let pt = pt_renders();
+    let ok = renders(&scene, &|| mmlt(Faults::default()), 0, SEEDS);
+    util::assert_same_image(&ok, pt, BLOCK, "mmlt against pt");
+    util::assert_same_image(&ok, pt, 16, "mmlt against pt, image means");
+    for (what, faults, n) in [
         (
             "mmlt, every large step accepted (control)",
             Faults {
                 accept_large: true,
                 ..Faults::default()
             },
+            10,
         ),
         (
             // Group 1: paths of two segments (direct light).
@@ -161,6 +189,7 @@ fn mmlt_renders_pt_image_and_its_faults_do_not() {
                 double_b: Some(1),
                 ..Faults::default()
             },
+            16,
         ),
         (
             "mmlt, splats one pixel off (control)",
@@ -168,28 +197,23 @@ fn mmlt_renders_pt_image_and_its_faults_do_not() {
                 shift_splats: true,
                 ..Faults::default()
             },
+            6,
         ),
     ] {
-        let wrong = renders(&scene, &|| mmlt(faults), 0);
-        assert!(rejected(&wrong, &pt, what), "{what}: passed");
+        let wrong = renders(&scene, &|| mmlt(faults), 0, n);
+        assert!(rejected(&wrong, pt, what), "{what}: passed");
     }
 }
 
 /// `util::assert_same_image` can see a 10 % change in any one tile: two sets of 40 pt renders
-/// (512 spp, 16 x 16, 4 x 4 tiles) pass it, and scaling any one tile of one set by 1.1 fails
-/// it (measured: the weakest tile's p = 1.3e-11 against the bound 2.1e-6). With the 20
-/// renders a side of the tests above, tiles on the light's edge and one on the floor need
-/// 1.2; their controls fail by far more.
+/// (512 spp, 16 x 16, 4 x 4 tiles; one of them [`pt_renders`]) pass it, and scaling any one
+/// tile of one set by 1.1 fails it (measured: the weakest tile's p = 1.3e-11 against the bound
+/// 2.1e-6). With 20 renders a side, tiles on the light's edge and one on the floor need 1.2;
+/// the controls above fail by far more.
 #[test]
 fn the_tile_test_sees_a_ten_percent_change_in_any_tile() {
-    let scene = scene();
-    let set = |first: u64| -> Vec<Image> {
-        (0..40)
-            .map(|s| util::render(&scene, "pt", MAX_DEPTH, &[], PT_SPP, first + s, 2).image)
-            .collect()
-    };
-    let (a, b) = (set(3000), set(4000));
-    util::assert_same_image(&a, &b, BLOCK, "pt against pt");
+    let (a, b) = (pt_renders(), pt_set(4000, 40));
+    util::assert_same_image(a, &b, BLOCK, "pt against pt");
     let (w, h) = (a[0].width, a[0].height);
     for ty in 0..h / BLOCK {
         for tx in 0..w / BLOCK {

@@ -20,8 +20,11 @@
 //! Statistics (see `common/chi2.rs`): every chi-square test and mass check runs at the
 //! suite's Sidak-corrected level `chi2::alpha()`; this file has 162 of them (70 cases and 2
 //! power controls, x 2; Beckmann: the visible-normal sampler at 3 angles, the conductor and
-//! the dielectric in 4 and 3 configurations; rough plastic: 9 cases, x 2). Samples per case: [`N`] = 200,000 on 20 x 32 bins per chart (a few
-//! hundred to a couple of thousand expected per bin where the lobe is).
+//! the dielectric in 4 and 3 configurations; rough plastic: 9 cases, x 2). Samples per case:
+//! 75,000 (`CASE_N`) on 16 x 24 bins per chart (a few hundred expected per bin where the lobe
+//! is), which the power controls reject by far (chi2 about 29,000 on 290 degrees of freedom
+//! for `D` instead of `D_wo`, about 2,400 on 536 for the Jacobian without `eta^2`); the cases
+//! that `chi2_anisotropic.rs` and `chi2_blend.rs` run through [`bsdf_case`] draw [`N`].
 
 use crate::common;
 
@@ -33,8 +36,12 @@ use lodestar::bsdf::microfacet::{Ggx, Microfacet, Smith};
 use lodestar::bsdf::{Bsdf, ConductorFresnel, RoughPlastic, ShadingFrame, TransportMode, fresnel};
 use lodestar::math::Sampler;
 
-/// Samples per chi-square case.
+/// Samples per chi-square case of [`bsdf_case`], [`bsdf_case_weights`] and
+/// [`visible_normal_case`], as `chi2_anisotropic.rs` and `chi2_blend.rs` run them.
 pub(crate) const N: usize = 150_000;
+
+/// Samples per chi-square case of this file's tests.
+const CASE_N: usize = 75_000;
 
 const ALPHAS: [f32; 5] = [0.05, 0.1, 0.3, 0.7, 1.0];
 
@@ -114,13 +121,35 @@ pub(crate) fn bsdf_case_weights(
     alpha: f32,
     weight_at_most_one: bool,
 ) {
+    sized_case(N, name, bsdf, sf, wo, eta_r, alpha, weight_at_most_one)
+}
+
+/// [`bsdf_case`] with this file's [`CASE_N`] samples.
+fn case(name: &str, bsdf: &Bsdf, sf: &ShadingFrame, wo: Vec3, eta_r: f32, alpha: f32) {
+    sized_case(CASE_N, name, bsdf, sf, wo, eta_r, alpha, true)
+}
+
+/// [`bsdf_case_weights`] with `samples` samples.
+#[allow(clippy::too_many_arguments)]
+fn sized_case(
+    samples: usize,
+    name: &str,
+    bsdf: &Bsdf,
+    sf: &ShadingFrame,
+    wo: Vec3,
+    eta_r: f32,
+    alpha: f32,
+    weight_at_most_one: bool,
+) {
     let ns = sf.frame.n;
     let aligned = ns == sf.ng;
     let domain = lobe_domain(ns, wo, eta_r, alpha);
     let mut fails = Failures::new();
+    // The radiance-mode pdf of the last sample's direction, which the harness asks for next.
+    let last = std::cell::Cell::new(None::<(Vec3, f32)>);
     let report = chi2::lobe_spherical(
         name,
-        N,
+        samples,
         &domain,
         |s: &mut dyn Sampler| {
             let (ul, u) = (s.next_1d(), s.next_2d());
@@ -139,6 +168,9 @@ pub(crate) fn bsdf_case_weights(
                     format!("modes chose {} and {}", wi, smp.wi)
                 });
                 let pdf = bsdf.pdf(sf, wo, wi, mode);
+                if mode == TransportMode::Radiance {
+                    last.set(Some((wi, pdf)));
+                }
                 let f = bsdf.eval(sf, wo, wi, mode);
                 let tol = value_tolerance(ns, wo, wi, eta_r);
                 fails.check(close(smp.pdf as f64, pdf as f64, tol, 0.0), || {
@@ -201,7 +233,10 @@ pub(crate) fn bsdf_case_weights(
             }
             Some(wi)
         },
-        |wi| bsdf.pdf(sf, wo, wi, TransportMode::Radiance) as f64,
+        |wi| match last.get() {
+            Some((w, pdf)) if w == wi => pdf as f64,
+            _ => bsdf.pdf(sf, wo, wi, TransportMode::Radiance) as f64,
+        },
     );
     report.assert_ok();
     fails.assert_none(name);
@@ -253,7 +288,7 @@ fn visible_normal_sampling(dist: Distribution, alphas: &[f32]) {
         for theta in [0.0f32, 60.0, 85.0] {
             let wo = dir_around(Vec3::Z, theta, 20.0);
             let name = format!("{dist:?} VNDF alpha {alpha}, theta_o {theta}");
-            visible_normal_case(&name, &mf, wo, alpha);
+            visible_normal_sized(CASE_N, &name, &mf, wo, alpha);
         }
     }
 }
@@ -261,11 +296,16 @@ fn visible_normal_sampling(dist: Distribution, alphas: &[f32]) {
 /// Chi-square of `mf`'s visible normals for `wo` (local frame) against `D_wo`, on a lobe
 /// domain warped for roughness `alpha`; every normal must be unit and above the surface.
 pub(crate) fn visible_normal_case(name: &str, mf: &Microfacet, wo: Vec3, alpha: f32) {
+    visible_normal_sized(N, name, mf, wo, alpha)
+}
+
+/// [`visible_normal_case`] with `samples` samples.
+fn visible_normal_sized(samples: usize, name: &str, mf: &Microfacet, wo: Vec3, alpha: f32) {
     let domain = LobeDomain::new(Vec3::Z, Vec3::Z, -Vec3::Z, warp_for(alpha)).with_res(RINGS, PHIS);
     let mut fails = Failures::new();
     chi2::lobe_spherical(
         name,
-        N,
+        samples,
         &domain,
         |s| {
             let m = mf.sample_visible(wo, s.next_2d())?;
@@ -309,7 +349,7 @@ fn beckmann_rough_bsdfs_sampling_matches_pdf() {
         for theta in [45.0f32, 85.0] {
             let wo = dir_around(ng, theta, 40.0);
             let name = format!("Beckmann rough conductor alpha {alpha}, wo at {theta} deg");
-            bsdf_case(&name, &bsdf, &sf, wo, 1.0, alpha);
+            case(&name, &bsdf, &sf, wo, 1.0, alpha);
         }
     }
     let (eta, alpha) = (1.5f32, 0.3f32);
@@ -318,7 +358,7 @@ fn beckmann_rough_bsdfs_sampling_matches_pdf() {
         let wo = dir_around(ng, theta, 70.0);
         let eta_r = if wo.dot(ng) > 0.0 { eta } else { 1.0 / eta };
         let name = format!("Beckmann rough dielectric alpha {alpha}, wo at {theta} deg");
-        bsdf_case(&name, &bsdf, &sf, wo, eta_r, alpha);
+        case(&name, &bsdf, &sf, wo, eta_r, alpha);
     }
 }
 
@@ -342,7 +382,7 @@ fn rough_conductor_sampling_matches_pdf() {
         for theta in [0.0f32, 45.0, 85.0, 130.0] {
             let wo = dir_around(ng, theta, 40.0);
             let name = format!("rough conductor alpha {alpha}, wo at {theta} deg");
-            bsdf_case(&name, &bsdf, &sf, wo, 1.0, alpha);
+            case(&name, &bsdf, &sf, wo, 1.0, alpha);
         }
     }
 }
@@ -365,7 +405,7 @@ fn rough_dielectric_cases(alphas: &[f32]) {
             let wo = dir_around(ng, theta, 70.0);
             let eta_r = if wo.dot(ng) > 0.0 { eta } else { 1.0 / eta };
             let name = format!("rough dielectric alpha {alpha}, wo at {theta} deg");
-            bsdf_case(&name, &bsdf, &sf, wo, eta_r, alpha);
+            case(&name, &bsdf, &sf, wo, eta_r, alpha);
         }
     }
 }
@@ -391,7 +431,7 @@ fn rough_bsdfs_with_tilted_shading_normal() {
     for (theta, phi) in [(60.0f32, 180.0f32), (120.0, 0.0)] {
         let wo = dir_around(ng, theta, phi);
         let conductor = Bsdf::rough_conductor(alpha, gold());
-        bsdf_case(
+        case(
             &format!("rough conductor tilted ns, wo at ({theta}, {phi})"),
             &conductor,
             &sf,
@@ -401,7 +441,7 @@ fn rough_bsdfs_with_tilted_shading_normal() {
         );
         let eta = 1.5;
         let eta_r = if wo.dot(ns) > 0.0 { eta } else { 1.0 / eta };
-        bsdf_case(
+        case(
             &format!("rough dielectric tilted ns, wo at ({theta}, {phi})"),
             &Bsdf::rough_dielectric(eta, alpha),
             &sf,
@@ -431,10 +471,10 @@ fn harness_rejects_wrong_microfacet_pdfs() {
     let domain = lobe_domain(ns, wo, 1.0, alpha);
     let sample =
         |s: &mut dyn Sampler| Some(bsdf.sample(&sf, wo, s.next_1d(), s.next_2d(), mode)?.wi);
-    chi2::lobe_spherical("power: VNDF control", N, &domain, sample, |wi| {
+    let control = chi2::lobe_spherical("power: VNDF control", CASE_N, &domain, sample, |wi| {
         bsdf.pdf(&sf, wo, wi, mode) as f64
-    })
-    .assert_ok();
+    });
+    control.assert_ok();
     let wrong = |wi: Vec3| {
         if wi.z <= 0.0 {
             return 0.0;
@@ -442,16 +482,16 @@ fn harness_rejects_wrong_microfacet_pdfs() {
         let m = (wo + wi).normalize();
         (ggx.d(m) * m.z / (4.0 * wo.dot(m))) as f64
     };
-    let r = chi2::lobe_spherical("power: D instead of D_wo", N, &domain, sample, wrong);
+    let r = chi2::lobe_spherical("power: D instead of D_wo", CASE_N, &domain, sample, wrong);
     println!("{r}");
     assert!(r.chi2_rejects(), "harness missed D instead of D_wo: {r}");
 
-    // The same error, normalised over the successful share so only the shape differs.
-    let mass = chi2::integrate_lobe(&domain, wrong);
-    let share = chi2::integrate_lobe(&domain, |wi| bsdf.pdf(&sf, wo, wi, mode) as f64);
+    // The same error, normalised over the successful share so only the shape differs (the
+    // two pdfs' integrals are the two runs' masses).
+    let (mass, share) = (r.mass, control.mass);
     let r = chi2::lobe_spherical(
         "power: D instead of D_wo, normalised",
-        N,
+        CASE_N,
         &domain,
         sample,
         |wi| wrong(wi) * share / mass,
@@ -470,7 +510,14 @@ fn harness_rejects_wrong_microfacet_pdfs() {
     let sample =
         |s: &mut dyn Sampler| Some(bsdf.sample(&sf, wo, s.next_1d(), s.next_2d(), mode)?.wi);
     let right = |wi: Vec3| bsdf.pdf(&sf, wo, wi, mode) as f64;
-    chi2::lobe_spherical("power: transmission control", N, &domain, sample, right).assert_ok();
+    let control = chi2::lobe_spherical(
+        "power: transmission control",
+        CASE_N,
+        &domain,
+        sample,
+        right,
+    );
+    control.assert_ok();
     let wrong = |wi: Vec3| {
         if wi.z >= 0.0 {
             return right(wi);
@@ -486,27 +533,28 @@ fn harness_rejects_wrong_microfacet_pdfs() {
         let t = 1.0 - fresnel::dielectric(co, eta).0;
         (t * ggx.d_visible(wo, m) * -ci / ((eta * ci + co) * (eta * ci + co))) as f64
     };
-    let mass = chi2::integrate_lobe(&domain, wrong);
-    let share = chi2::integrate_lobe(&domain, right);
-    let r = chi2::lobe_spherical(
-        "power: transmission Jacobian without eta^2",
-        N,
-        &domain,
-        sample,
-        |wi| wrong(wi) * share / mass,
-    );
-    println!("{r}");
-    assert!(r.chi2_rejects(), "harness missed the wrong Jacobian: {r}");
-    // Unnormalised, the mass check sees it too.
+    // Unnormalised, the mass check sees it.
     let r = chi2::lobe_spherical(
         "power: transmission Jacobian without eta^2, unnormalised",
-        N,
+        CASE_N,
         &domain,
         sample,
         wrong,
     );
     println!("{r}");
     assert!(r.mass_mismatch(), "{r}");
+    // Normalised to the right mass (the two pdfs' integrals are the two runs' masses), the
+    // shape test sees it.
+    let (mass, share) = (r.mass, control.mass);
+    let r = chi2::lobe_spherical(
+        "power: transmission Jacobian without eta^2",
+        CASE_N,
+        &domain,
+        sample,
+        |wi| wrong(wi) * share / mass,
+    );
+    println!("{r}");
+    assert!(r.chi2_rejects(), "harness missed the wrong Jacobian: {r}");
 
     // The warped domain itself: a direction maps back to itself.
     let d = lobe_domain(ns, wo, eta, alpha);
@@ -549,7 +597,7 @@ fn rough_plastic_sampling_matches_pdf() {
         for theta in [0.0f32, 70.0, 130.0] {
             let wo = dir_around(ng, theta, 40.0);
             let name = format!("rough plastic {dist:?} alpha {alpha}, wo at {theta} deg");
-            bsdf_case_weights(&name, &bsdf, &sf, wo, 1.0, alpha, false);
+            sized_case(CASE_N, &name, &bsdf, &sf, wo, 1.0, alpha, false);
         }
     }
 }

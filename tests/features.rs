@@ -4,16 +4,25 @@
 //! blended BSDFs, and the tent and Gaussian
 //! pixel filters (the environment map's is in `envmap.rs`). Each renders a 16 x 16 Cornell
 //! box with the feature by pt, bdpt, vcm, guided-bdpt and mmlt, tile by tile within noise of
-//! pt's image (`util::assert_same_image`, 5 renders a side, family-wise false-failure rate
-//! 1e-4; vcm's merging bias at its default radius is below these renders' noise); pt's images
-//! mirrored must fail.
+//! pt's image (`util::assert_same_image`, family-wise false-failure rate 1e-4; vcm's merging
+//! bias at its default radius is below these renders' noise); pt's images mirrored must fail.
+//! Every comparison takes 10 renders a side, many short renders rather than a few long ones
+//! (more degrees of freedom make Welch's test sharper for the same work): pt at 64 samples
+//! per pixel, bdpt and vcm at 16, guided-bdpt at 32 and mmlt at 128 mutations per pixel
+//! after a bootstrap of 10,000 samples per path length. The comparisons pixel by pixel
+//! through the filters take 5 renders a side of 4 times the samples: the pixels that the
+//! filter's tail reaches the light from get rare bright samples in pt (camera rays sent onto
+//! the light), and Welch's test needs renders of many samples each for their means to be
+//! near normal.
 
 use crate::util;
 
+use lodestar::film::Image;
+use lodestar::scene::Scene;
 use util::{assert_same_image, differs, seeded_renders};
 
 /// The Cornell box at 16 x 16 with `edit` applied to its text.
-fn cornell(edit: impl Fn(String) -> String) -> lodestar::scene::Scene {
+fn cornell(edit: impl Fn(String) -> String) -> Scene {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/cornell-box.toml");
     let text = std::fs::read_to_string(path)
         .unwrap()
@@ -21,42 +30,63 @@ fn cornell(edit: impl Fn(String) -> String) -> lodestar::scene::Scene {
     util::scene(&edit(text))
 }
 
-/// Every integrator family renders `scene` as pt does (see the module docs).
-fn every_integrator_agrees(scene: &lodestar::scene::Scene, what: &str) {
-    let pt = seeded_renders(scene, "pt", 6, &[], 256, 5, 10);
+/// Renders a side of the comparisons tile by tile.
+const RENDERS: u64 = 10;
+
+/// Renders a side of the comparisons pixel by pixel (see the module docs).
+const PIXEL_RENDERS: u64 = 5;
+
+/// [`RENDERS`] renders of `name` at depth 6, seeds from `seed0`.
+fn renders(scene: &Scene, name: &str, options: &[&str], spp: u64, seed0: u64) -> Vec<Image> {
+    seeded_renders(scene, name, 6, options, spp, RENDERS, seed0)
+}
+
+/// [`PIXEL_RENDERS`] renders of `name` at depth 6, seeds from `seed0`.
+fn pixel_renders(scene: &Scene, name: &str, spp: u64, seed0: u64) -> Vec<Image> {
+    seeded_renders(scene, name, 6, &[], spp, PIXEL_RENDERS, seed0)
+}
+
+/// pt's renders of `scene` at 64 samples per pixel, the reference of the comparisons tile by
+/// tile and of the controls.
+fn pt_renders(scene: &Scene, seed0: u64) -> Vec<Image> {
+    renders(scene, "pt", &[], 64, seed0)
+}
+
+/// bdpt, vcm, guided-bdpt (with `guided` its options) and mmlt render pt's image of `scene`
+/// tile by tile (see the module docs); pt's renders.
+fn others_agree(scene: &Scene, what: &str, guided: &[&str]) -> Vec<Image> {
+    let pt = pt_renders(scene, 10);
     for (name, options, spp) in [
-        ("bdpt", &[][..], 64),
-        ("vcm", &[][..], 64),
-        ("guided-bdpt", &["learn_fraction=0.25"][..], 64),
-        ("mmlt", &[][..], 256),
+        ("bdpt", &[][..], 16),
+        ("vcm", &[][..], 16),
+        ("guided-bdpt", guided, 32),
+        ("mmlt", &["bootstrap=10000"][..], 128),
     ] {
-        let other = seeded_renders(scene, name, 6, options, spp, 5, 20);
+        let other = renders(scene, name, options, spp, 20);
         assert_same_image(&pt, &other, 4, &format!("{name} vs pt on {what}"));
     }
+    pt
+}
+
+/// Every integrator family renders `scene` as pt does (see the module docs); pt's renders,
+/// for the caller's controls.
+fn every_integrator_agrees(scene: &Scene, what: &str) -> Vec<Image> {
+    let pt = others_agree(scene, what, &["learn_fraction=0.25"]);
     let mirrored: Vec<_> = pt.iter().map(util::mirrored).collect();
     assert!(differs(&pt, &mirrored, 4), "{what}: mirrored pt passes");
+    pt
 }
 
 /// [`every_integrator_agrees`] with guided-bdpt's guiding kept on (its `auto` share turns it
 /// off where it does not pay), so that guided paths rebuilt from the cache evaluate their
 /// vertices as the walks did (textures looked up, tangents kept); returns pt's renders for
 /// the caller's controls.
-fn every_integrator_agrees_guiding_on(
-    scene: &lodestar::scene::Scene,
-    what: &str,
-) -> Vec<lodestar::film::Image> {
-    let pt = seeded_renders(scene, "pt", 6, &[], 256, 5, 10);
-    let guided = &["learn_fraction=0.25", "share=fixed", "alpha=0.5"][..];
-    for (name, options, spp) in [
-        ("bdpt", &[][..], 64),
-        ("vcm", &[][..], 64),
-        ("guided-bdpt", guided, 64),
-        ("mmlt", &[][..], 256),
-    ] {
-        let other = seeded_renders(scene, name, 6, options, spp, 5, 20);
-        assert_same_image(&pt, &other, 4, &format!("{name} vs pt on {what}"));
-    }
-    pt
+fn every_integrator_agrees_guiding_on(scene: &Scene, what: &str) -> Vec<Image> {
+    others_agree(
+        scene,
+        what,
+        &["learn_fraction=0.25", "share=fixed", "alpha=0.5"],
+    )
 }
 
 /// The Cornell box with its white walls and boxes in rough plastic (GGX 0.15, eta 1.5), its
@@ -169,26 +199,23 @@ fn every_integrator_renders_through_tent_and_gaussian_filters_alike() {
         })
     };
     let tent = with("{ type = \"tent\", radius = 1.5 }", false);
-    every_integrator_agrees(&tent, "a tent filter");
-    let boxed = cornell(|text| text);
-    let pt_box = seeded_renders(&boxed, "pt", 6, &[], 256, 5, 10);
-    let pt_tent = seeded_renders(&tent, "pt", 6, &[], 256, 5, 30);
+    let pt_tent = every_integrator_agrees(&tent, "a tent filter");
+    let pt_box = pt_renders(&cornell(|text| text), 30);
     assert!(
         differs(&pt_box, &pt_tent, 1),
         "the tent filter changes nothing"
     );
+    // Control: splats that ignore the filter (lt on the same box without it) must fail.
+    let lt_box = pixel_renders(&with("{ type = \"box\" }", true), "lt", 256, 20);
     for (filter, what) in [
         ("{ type = \"tent\", radius = 1.5 }", "a tent filter"),
         ("{ type = \"gaussian\", stddev = 0.9 }", "a Gaussian filter"),
     ] {
         let scene = with(filter, true);
-        let pt = seeded_renders(&scene, "pt", 6, &[], 256, 5, 10);
-        // Control: splats that ignore the filter (lt on the same box without it) must fail.
-        let unfiltered = with("{ type = \"box\" }", true);
-        let lt_box = seeded_renders(&unfiltered, "lt", 6, &[], 256, 5, 20);
+        let pt = pixel_renders(&scene, "pt", 256, 10);
         assert!(differs(&pt, &lt_box, 1), "{what}: unfiltered splats pass");
         for (name, spp) in [("lt", 256), ("bdpt", 64), ("vcm", 64)] {
-            let other = seeded_renders(&scene, name, 6, &[], spp, 5, 20);
+            let other = pixel_renders(&scene, name, spp, 20);
             assert_same_image(&pt, &other, 1, &format!("{name} vs pt through {what}"));
         }
         // Mitsuba's film: camera samples spread over the pixels their filter covers, each
@@ -197,7 +224,7 @@ fn every_integrator_renders_through_tent_and_gaussian_filters_alike() {
         let mut splatted = with(filter, true);
         splatted.camera.splat_samples = true;
         for (name, spp) in [("pt", 256), ("bdpt", 64)] {
-            let other = seeded_renders(&splatted, name, 6, &[], spp, 5, 40);
+            let other = pixel_renders(&splatted, name, spp, 40);
             assert_same_image(
                 &pt,
                 &other,
@@ -289,14 +316,14 @@ fn every_integrator_renders_textures_alike() {
     };
     let scene = with(2, true, true);
     let pt = every_integrator_agrees_guiding_on(&scene, "textures");
-    let other = seeded_renders(&with(3, true, true), "pt", 6, &[], 256, 5, 30);
+    let other = pt_renders(&with(3, true, true), 30);
     assert!(
         differs(&pt, &other, 1),
         "the checkerboard's scale changes nothing"
     );
-    let flat = seeded_renders(&with(2, false, true), "pt", 6, &[], 256, 5, 40);
+    let flat = pt_renders(&with(2, false, true), 40);
     assert!(differs(&pt, &flat, 1), "the normal map changes nothing");
-    let flat = seeded_renders(&with(2, true, false), "pt", 6, &[], 256, 5, 50);
+    let flat = pt_renders(&with(2, true, false), 50);
     assert!(differs(&pt, &flat, 1), "the bump map changes nothing");
     std::fs::remove_dir_all(png.parent().unwrap()).ok();
 }
@@ -334,7 +361,7 @@ fn every_integrator_renders_anisotropic_roughness_alike() {
     };
     let scene = with((0.05, 0.5));
     let pt = every_integrator_agrees_guiding_on(&scene, "anisotropic roughness");
-    let swapped = seeded_renders(&with((0.5, 0.05)), "pt", 6, &[], 256, 5, 30);
+    let swapped = pt_renders(&with((0.5, 0.05)), 30);
     assert!(
         differs(&pt, &swapped, 1),
         "swapping alpha_u and alpha_v changes nothing"
@@ -372,7 +399,7 @@ fn every_integrator_renders_blends_alike() {
     };
     let scene = with((0.1, 0.9));
     let pt = every_integrator_agrees_guiding_on(&scene, "a blend");
-    let swapped = seeded_renders(&with((0.9, 0.1)), "pt", 6, &[], 256, 5, 30);
+    let swapped = pt_renders(&with((0.9, 0.1)), 30);
     assert!(
         differs(&pt, &swapped, 1),
         "swapping the weight's colours changes nothing"

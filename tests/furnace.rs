@@ -157,7 +157,7 @@ fn closed_furnace_every_integrator_without_a_depth_limit() {
     let truncated = le * (1.0 - rho.powi(8)) / (1.0 - rho);
     // (integrator, options, spp, seeds): many short renders rather than a few long ones,
     // as more degrees of freedom make the t test sharper for the same work (the critical
-    // value is 17.6 at 7 degrees of freedom, 10.4 at 11, 8.4 at 15, 5.8 at 47 and 5.6 at
+    // value is 17.6 at 7 degrees of freedom, 10.5 at 11, 8.4 at 15, 5.8 at 47 and 5.6 at
     // 63); bpm varies most and gets the most seeds. Each is sized so the control's t
     // statistic (the mean's distance from the depth-8 value in standard errors) is at least
     // about 1.5 times the critical value; measured with seeds from 40: pt 38, lt 14,

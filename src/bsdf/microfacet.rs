@@ -270,7 +270,7 @@ impl Beckmann {
             let value = norm * (1.0 + b + inv_sqrt_pi * tan_theta * (-x * x).exp()) - u1;
             let derivative = norm * (1.0 - x * tan_theta);
             if value.abs() < 1e-6 {
-                break;
+                return FirstSlope::X(x);
             }
             if value > 0.0 {
                 hi = b;

@@ -302,17 +302,19 @@ impl Film {
         }
     }
 
-    /// Rows of the per-pixel sums and weight sums, for parallel accumulation of splatted
-    /// camera samples (one task per row); a weighted film only.
-    pub fn par_weighted_rows_mut(
+    /// Blocks of `rows` rows (the last may have fewer) of the per-pixel sums and weight sums,
+    /// for parallel accumulation of splatted camera samples (one task per block); a weighted
+    /// film only.
+    pub fn par_weighted_blocks_mut(
         &mut self,
+        rows: usize,
     ) -> impl IndexedParallelIterator<Item = (&mut [DVec3], &mut [f64])> {
         use rayon::prelude::*;
         assert!(!self.weight.is_empty(), "not a weighted film");
-        let w = self.width as usize;
+        let n = self.width as usize * rows;
         self.sum
-            .par_chunks_mut(w)
-            .zip(self.weight.par_chunks_mut(w))
+            .par_chunks_mut(n)
+            .zip(self.weight.par_chunks_mut(n))
     }
 
     /// Rows of the per-pixel sums, for parallel accumulation (one task per row).

@@ -22,13 +22,14 @@ pub(super) fn film(w: u32, h: u32, spread: bool) -> Film {
 
 /// A camera sample to spread over the pixels its filter covers, with its filter weights: the
 /// `nx` columns from `x0` and the `ny` rows from `y0` (`weights[off..]`: columns, then rows).
+/// Kept small (32 bytes): every film row within the filter's reach reads it again.
 struct Spread {
-    l: glam::DVec3,
-    x0: usize,
-    y0: usize,
-    nx: usize,
-    ny: usize,
-    off: usize,
+    l: Spectrum,
+    x0: u32,
+    y0: u32,
+    nx: u32,
+    ny: u32,
+    off: u32,
 }
 
 /// One row's camera samples to spread ([`spread_samples`]): each sample and its weights.
@@ -69,47 +70,56 @@ impl SpreadRow {
         let (x0, nx) = axis(r.x as f64, w);
         let (y0, ny) = axis(r.y as f64, h);
         self.samples.push(Spread {
-            l: l.as_dvec3(),
-            x0,
-            y0,
-            nx,
-            ny,
-            off,
+            l,
+            x0: x0 as u32,
+            y0: y0 as u32,
+            nx: nx as u32,
+            ny: ny as u32,
+            off: off as u32,
         });
     }
 }
 
+/// Film rows per accumulation task: each task reads the samples of the rows its filter
+/// reaches once for all of its rows (a sample header and its weights are read once per
+/// block rather than once per film row).
+const BLOCK: usize = 8;
+
 /// Splat one pass's camera samples (`rows[y]`: row y's samples) into a weighted film: pixel c
 /// gains `f(r - c) L` and weight `f(r - c)` from the sample at `r` for every pixel whose
-/// filter reaches it (Mitsuba's film; `Camera::splat_samples`). One task per film row, which
-/// takes the rows its filter reaches in order, so the sums do not depend on the number of
+/// filter reaches it (Mitsuba's film; `Camera::splat_samples`). One task per block of
+/// [`BLOCK`] film rows, which takes the sample rows its filter reaches in order, so every
+/// pixel adds its samples in the same order (sample row, then sample) whatever the number of
 /// threads. The rows are emptied (their memory kept for the next pass): each sample counts
 /// once.
 pub(super) fn spread_samples(film: &mut Film, radius: f32, rows: &mut [SpreadRow]) {
-    let h = film.height as i64;
+    let (w, h) = (film.width as usize, film.height as usize);
     // A sample in row `yi` lies in [yi, yi + 1): it reaches pixel row y when
     // y - 1/2 - radius < yi < y + 1/2 + radius.
     let radius = radius as f64;
-    film.par_weighted_rows_mut()
+    let first_reaching = |y: usize| ((y as f64 - 0.5 - radius).floor() as i64 + 1).max(0) as usize;
+    let last_reaching =
+        |y: usize| (((y as f64 + 0.5 + radius).ceil() as i64) - 1).min(h as i64 - 1) as usize;
+    film.par_weighted_blocks_mut(BLOCK)
         .enumerate()
-        .for_each(|(y, (sums, weights))| {
-            let cy = y as f64 + 0.5;
-            let first = ((cy - 1.0 - radius).floor() as i64 + 1).max(0) as usize;
-            let last = (((cy + radius).ceil() as i64) - 1).min(h - 1) as usize;
-            for row in &rows[first..=last] {
+        .for_each(|(b, (sums, weights))| {
+            let (top, n) = (b * BLOCK, sums.len() / w);
+            for row in &rows[first_reaching(top)..=last_reaching(top + n - 1)] {
                 for s in &row.samples {
-                    if !(s.y0..s.y0 + s.ny).contains(&y) {
-                        continue;
-                    }
-                    let wy = row.weights[s.off + s.nx + (y - s.y0)];
-                    let wx = &row.weights[s.off..s.off + s.nx];
-                    let columns = s.x0..s.x0 + s.nx;
-                    let pixels = sums[columns.clone()].iter_mut().zip(&mut weights[columns]);
-                    for ((sum, weight), &w) in pixels.zip(wx) {
-                        let wt = wy * w;
-                        if wt > 0.0 {
-                            *sum += s.l * wt;
-                            *weight += wt;
+                    let (y0, ny) = (s.y0 as usize, s.ny as usize);
+                    let (off, x0, nx) = (s.off as usize, s.x0 as usize, s.nx as usize);
+                    let l = s.l.as_dvec3();
+                    let wx = &row.weights[off..off + nx];
+                    for y in y0.max(top)..(y0 + ny).min(top + n) {
+                        let wy = row.weights[off + nx + (y - y0)];
+                        let columns = (y - top) * w + x0..(y - top) * w + x0 + nx;
+                        let pixels = sums[columns.clone()].iter_mut().zip(&mut weights[columns]);
+                        for ((sum, weight), &w) in pixels.zip(wx) {
+                            let wt = wy * w;
+                            if wt > 0.0 {
+                                *sum += l * wt;
+                                *weight += wt;
+                            }
                         }
                     }
                 }

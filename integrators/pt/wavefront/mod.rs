@@ -22,6 +22,18 @@
 //! x86-64 CPUs with AVX2. `pt -O batch=auto` (the default) takes it there; elsewhere pt is
 //! batched or traced one path at a time as `batch.rs` says.
 //!
+//! **Why the rough BSDFs are not in the lanes.** The lanes' contract is scalar pt's image bit
+//! for bit. Beckmann's visible-normal sampler (Mitsuba's default microfacet distribution) is
+//! a Newton-bisection search, data-dependent and up to 100 steps, over `erf_inv` and `exp`;
+//! `exp` and `ln` come from the system's libm, whose results the lanes cannot repeat bit for
+//! bit (glibc picks its FMA variants by CPU), so lanes would first need those functions
+//! replaced by polynomials shared with the scalar code, changing every image with a Beckmann
+//! surface. GGX samples and evaluates in closed form and could be written in lanes as it is;
+//! rough plastic adds its coating tables and lobe choice, and the conductors their complex
+//! Fresnel term. What lanes would buy is bounded by the share of this scalar code in a
+//! render, measured in `docs/results.md` ("Against Mitsuba 3") beside the shares of the
+//! spherical lights' sampling and the splatted film, which run path by path too.
+//!
 //! **Two instruction sets, one kernel.** `lanes.rs`, `math.rs` and `shade.rs` are compiled
 //! twice, into `avx512` (sixteen lanes in one register) and `avx2` (two registers of
 //! eight), each over its own `simd` module (`simd_avx512.rs`, `simd_avx2.rs`) that supplies

@@ -114,6 +114,75 @@ pub fn cosine_hemisphere(ux: F, uy: F) -> (V3, F) {
     (V3::new(dx, dy, z), pdf)
 }
 
+/// `warp::sin_cos_turn`: `(sin 2 pi u, cos 2 pi u)`, the quadrant `q as i32 & 3` taken as `q`
+/// mod 4 in f32 (exact for every integer `q` below 2^31), 3 where the conversion saturates
+/// (`q` >= 2^31, infinity) and 0 for NaN as it does.
+#[inline(always)]
+pub fn sin_cos_turn(u: F) -> (F, F) {
+    let q = (4.0 * u + 0.5).floor();
+    let (s, c) = sin_cos_quarter((2.0 * PI) * (u - 0.25 * q));
+    let r = q - 4.0 * (q * 0.25).floor();
+    let saturated = q.ge(F::splat(2_147_483_648.0));
+    let (one, two) = (r.eq(F::one()), r.eq(F::splat(2.0)));
+    let three = r.eq(F::splat(3.0)) | saturated;
+    let sin = F::select(one, c, F::select(two, -s, F::select(three, -c, s)));
+    let cos = F::select(one, -s, F::select(two, -c, F::select(three, s, c)));
+    (sin, cos)
+}
+
+/// `geometry::Sphere::intersect` of the sphere (`center`, `radius`) along `d` from `o`, with
+/// no far limit: the nearest positive distance, infinite on a miss.
+#[inline(always)]
+pub fn sphere_intersect(center: V3, radius: F, o: V3, d: V3) -> F {
+    let f = o - center;
+    let b = -f.dot(d);
+    let r2 = radius * radius;
+    let l = f + d * b;
+    let disc = r2 - l.length_squared();
+    let c = f.length_squared() - r2;
+    let q = b + b.signum() * disc.sqrt();
+    let q_zero = q.eq(F::zero());
+    let (t0, t1) = (
+        F::select(q_zero, F::zero(), c / q),
+        F::select(q_zero, F::zero(), q),
+    );
+    let ordered = t0.le(t1);
+    let (t0, t1) = (F::select(ordered, t0, t1), F::select(ordered, t1, t0));
+    let inf = F::splat(f32::INFINITY);
+    let t = F::select(
+        t0.gt(F::zero()) & t0.lt(inf),
+        t0,
+        F::select(t1.gt(F::zero()) & t1.lt(inf), t1, inf),
+    );
+    F::select(disc.lt(F::zero()), inf, t)
+}
+
+/// `light::area::sphere_sample_li` from a point `p` outside the sphere (`center`, `radius`)
+/// with the numbers (`ux`, `uy`): a direction uniform in the cone the sphere subtends, the
+/// point it sees (the tangent point on a miss), its normal, and the direction's density.
+#[inline(always)]
+pub fn sphere_sample_li(center: V3, radius: F, p: V3, ux: F, uy: F) -> (V3, V3, F) {
+    let dc2 = (center - p).length_squared();
+    // `cone_of`: 1 - cos and cos of the cone's half-angle.
+    let sin2 = (radius * radius / dc2).min(F::one());
+    let cos_max = (1.0 - sin2).max(F::zero()).sqrt();
+    let one_minus_cos = sin2 / (1.0 + cos_max);
+    let dc = dc2.sqrt();
+    let axis = (center - p) / dc;
+    // `cone::sample_uniform_cone`.
+    let z = ux * one_minus_cos;
+    let sin_theta = (z * (2.0 - z)).max(F::zero()).sqrt();
+    let (sin, cos) = sin_cos_turn(uy);
+    let local = V3::new(sin_theta * cos, sin_theta * sin, 1.0 - z);
+    let wi = Frame::from_z(axis).to_world(local);
+    let t = sphere_intersect(center, radius, p, wi);
+    let t = F::select(t.is_finite(), t, dc * cos_max);
+    let v = p + wi * t - center;
+    // glam's `normalize`: times the reciprocal of the length.
+    let n = v * (1.0 / v.length());
+    (center + n * radius, n, 1.0 / ((2.0 * PI) * one_minus_cos))
+}
+
 /// `bsdf::geometry_agrees`: `wo` and `wi` on the sides of the geometric normal that the
 /// lobe (`transmission` or not) needs.
 #[inline(always)]

@@ -15,7 +15,8 @@
 //! The lanes shade surfaces of diffuse (plain or textured: the albedo is looked up path by
 //! path), smooth conductor (mirror), smooth dielectric or black materials (checkerboards and
 //! one-sided materials included) without normal maps (`shade::in_lanes`), with next-event
-//! samples of any light. A vertex on any other surface (rough and plastic BSDFs, masks,
+//! samples of any light (points on mesh lights and the cone samples of spherical lights
+//! computed in the lanes, other lights' samples path by path). A vertex on any other surface (rough and plastic BSDFs, masks,
 //! normal or bump maps, null surfaces) is advanced in the gather step by pt's own code,
 //! its shadow ray joining the round's batch, and its lane stays idle. The wavefront applies
 //! ([`supports`]) to scenes without media, with the `mis` strategy and no `--check`, on
@@ -31,8 +32,8 @@
 //! surface. GGX samples and evaluates in closed form and could be written in lanes as it is;
 //! rough plastic adds its coating tables and lobe choice, and the conductors their complex
 //! Fresnel term. What lanes would buy is bounded by the share of this scalar code in a
-//! render, measured in `docs/results.md` ("Against Mitsuba 3") beside the shares of the
-//! spherical lights' sampling and the splatted film, which run path by path too.
+//! render, measured in `docs/results.md` ("Against Mitsuba 3") beside the share of the
+//! splatted film, which runs path by path too.
 //!
 //! **Two instruction sets, one kernel.** `lanes.rs`, `math.rs` and `shade.rs` are compiled
 //! twice, into `avx512` (sixteen lanes in one register) and `avx2` (two registers of

@@ -6,10 +6,12 @@
 //!    normals, its material (checkerboard and one-sided backs resolved as
 //!    `Scene::surface_point` does), and the path's random numbers, drawn in `advance`'s order
 //!    from the path's own sampler: for a diffuse vertex the light's index and point (table
-//!    look-ups: a point on a mesh light here, whole `Light::sample_li` for other lights),
-//!    then the BSDF's three numbers.
+//!    look-ups: a point on a mesh light here; a spherical light's centre, radius and numbers,
+//!    seen from outside it, are handed to the lanes; whole `Light::sample_li` for other
+//!    lights), then the BSDF's three numbers.
 //! 2. **Shade** (sixteen lanes): next-event estimation (a mesh light's density and
-//!    direction, the BSDF's value and density, the power heuristic, the shadow segment) and
+//!    direction, a spherical light's whole cone sample, the BSDF's value and density, the
+//!    power heuristic, the shadow segment) and
 //!    the continuation (cosine-weighted, mirror or Fresnel-weighted specular sampling, its
 //!    weight, the spawned ray), as lane operations (`lanes.rs`) that repeat the scalar code's
 //!    arithmetic (`math.rs`).
@@ -19,7 +21,7 @@
 use super::lanes::{F, M, Soa3, V3, W};
 use super::math::{
     Frame, cosine_hemisphere, fresnel_dielectric, geometry_agrees, offset_origin, power_heuristic,
-    shadow_segment,
+    shadow_segment, sphere_sample_li,
 };
 use crate::bsdf::Bsdf;
 use crate::geometry::{Hit, Ray, gamma};
@@ -58,6 +60,13 @@ struct Gathered {
     /// direction are left to the lanes); otherwise `Light::sample_li` gave `wi`, `pdf_l`,
     /// `delta` and `finite` below.
     on_mesh: [bool; W],
+    /// The light is a sphere without spot profile or texture and the vertex lies outside it:
+    /// the lanes sample it (`math::sphere_sample_li`) from its centre, radius and numbers.
+    on_sphere: [bool; W],
+    sphere_c: Soa3,
+    sphere_r: [f32; W],
+    ul_x: [f32; W],
+    ul_y: [f32; W],
     p_l: Soa3,
     n_l: Soa3,
     li: Soa3,
@@ -312,6 +321,22 @@ fn gather<S: Sampler>(
                         g.area_l[k] = sampler.area;
                         (g.on_mesh[k], g.nee_found[k]) = (true, true);
                     }
+                    Light::Area(
+                        a @ AreaLight {
+                            spot: None,
+                            texture: None,
+                            ..
+                        },
+                    ) if let AreaShape::Sphere(sphere) = &a.geometry
+                        && (sphere.center - h.p).length_squared()
+                            > sphere.radius * sphere.radius =>
+                    {
+                        g.sphere_c.set(k, sphere.center);
+                        g.sphere_r[k] = sphere.radius;
+                        (g.ul_x[k], g.ul_y[k]) = (u.x, u.y);
+                        g.li.set(k, a.radiance);
+                        (g.on_sphere[k], g.nee_found[k]) = (true, true);
+                    }
                     l => {
                         if let Some(ls) = l.sample_li(h.p, u) {
                             g.p_l.set(k, ls.p);
@@ -364,25 +389,36 @@ fn shade(g: &Gathered) -> Shaded {
     let albedo = v3(&g.albedo);
     let diffuse = m(&g.diffuse);
 
-    // ---- Next-event estimation (`direct`; `AreaLight::sample_li` on a mesh in lanes) ----
-    let (p_l, n_l) = (v3(&g.p_l), v3(&g.n_l));
-    let on_mesh = m(&g.on_mesh);
+    // ---- Next-event estimation (`direct`; `AreaLight::sample_li` on a mesh or a sphere in
+    // lanes) ----
+    let (on_mesh, on_sphere) = (m(&g.on_mesh), m(&g.on_sphere));
+    let (p_s, n_s, pdf_sphere) =
+        sphere_sample_li(v3(&g.sphere_c), f(&g.sphere_r), p, f(&g.ul_x), f(&g.ul_y));
+    let p_l = V3::select(on_sphere, p_s, v3(&g.p_l));
+    let n_l = V3::select(on_sphere, n_s, v3(&g.n_l));
     let v = p_l - p;
     let d2 = v.length_squared();
     let dist = d2.sqrt();
     let cos_l = n_l.dot(-v) / dist;
     let pdf_mesh = d2 / (cos_l * f(&g.area_l));
-    let li = v3(&g.li);
-    let mesh_ok = cos_l.gt(F::zero())
-        & !dist.eq(F::zero())
-        & pdf_mesh.is_finite()
-        & pdf_mesh.gt(F::zero())
-        & !li.is_zero();
-    let found = m(&g.nee_found) & (mesh_ok | !on_mesh);
-    let wi = V3::select(on_mesh, v / dist, v3(&g.wi_l));
-    let pdf_l = F::select(on_mesh, pdf_mesh, f(&g.pdf_l));
-    let delta_l = m(&g.delta_l) & !on_mesh;
-    let finite_l = m(&g.finite_l) | on_mesh;
+    let in_lanes = on_mesh | on_sphere;
+    let wi = V3::select(in_lanes, v / dist, v3(&g.wi_l));
+    // A sphere's radiance leaves its front side only (`AreaLight::le`).
+    let li = V3::select(
+        on_sphere & !n_l.dot(-wi).gt(F::zero()),
+        V3::zero(),
+        v3(&g.li),
+    );
+    let pdf_l = F::select(
+        on_mesh,
+        pdf_mesh,
+        F::select(on_sphere, pdf_sphere, f(&g.pdf_l)),
+    );
+    let density_ok = !dist.eq(F::zero()) & pdf_l.is_finite() & pdf_l.gt(F::zero()) & !li.is_zero();
+    let lanes_ok = density_ok & (cos_l.gt(F::zero()) | !on_mesh);
+    let found = m(&g.nee_found) & (lanes_ok | !in_lanes);
+    let delta_l = m(&g.delta_l) & !in_lanes;
+    let finite_l = m(&g.finite_l) | on_mesh | (on_sphere & dist.is_finite());
     // `Bsdf::eval_pdf` of the diffuse BSDF, times |cos| at the shading normal.
     let wi_l = frame.to_local(wi);
     let transmission = (wo_l.z * wi_l.z).lt(F::zero());

@@ -113,6 +113,12 @@ impl F {
         halves!(F, |h| simd!(_mm256_sqrt_ps(self.half(h))))
     }
 
+    /// `f32::floor` per lane.
+    #[inline(always)]
+    pub fn floor(self) -> F {
+        halves!(F, |h| simd!(_mm256_floor_ps(self.half(h))))
+    }
+
     #[inline(always)]
     pub fn abs(self) -> F {
         halves!(F, |h| simd!(_mm256_andnot_ps(sign(), self.half(h))))

@@ -74,6 +74,14 @@ impl F {
         simd!(F(_mm512_abs_ps(self.0)))
     }
 
+    /// `f32::floor` per lane.
+    #[inline(always)]
+    pub fn floor(self) -> F {
+        simd!(F(_mm512_roundscale_ps::<
+            { _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC },
+        >(self.0)))
+    }
+
     #[inline(always)]
     pub fn is_nan(self) -> M {
         simd!(M(_mm512_cmp_ps_mask::<_CMP_UNORD_Q>(self.0, self.0)))

@@ -256,3 +256,94 @@ fn helpers_are_their_scalar_twins_lane_by_lane() {
         }
     }
 }
+
+/// The spherical light's sampler: `sin_cos_turn` over the unit interval's ends, quarter
+/// turns and special values; the sphere's intersection from outside, inside, on it and with
+/// special directions; and the whole cone sample (`AreaLight::sample_li` of a sphere light,
+/// from points outside it, near its tangent cone and far away, with numbers at the unit
+/// square's edges) must give the scalar code's bits in every lane.
+#[test]
+fn sphere_light_samplers_are_their_scalar_twins_lane_by_lane() {
+    use crate::geometry::Sphere;
+    use crate::light::{AreaLight, AreaShape};
+    use crate::math::Spectrum;
+    if !available("sphere_light_samplers_are_their_scalar_twins_lane_by_lane") {
+        return;
+    }
+    let grid = |k: usize| {
+        let g = [
+            0.0,
+            0.25,
+            0.5,
+            0.75,
+            1.0 - f32::EPSILON / 2.0,
+            1e-9,
+            0.125,
+            0.6,
+            0.999,
+            1.0,
+        ];
+        g[k % g.len()]
+    };
+    for shift in 0..SPECIAL.len() {
+        for u in [std::array::from_fn(|i| grid(i + shift)), lanes(shift)] {
+            let (s, c) = math::sin_cos_turn(F::from_array(&u));
+            let (s, c) = (s.to_array(), c.to_array());
+            for i in 0..W {
+                let want = warp::sin_cos_turn(u[i]);
+                assert!(
+                    same(s[i], want.0) && same(c[i], want.1),
+                    "sin_cos_turn({})",
+                    u[i]
+                );
+            }
+        }
+        let sphere = Sphere {
+            center: Vec3::new(0.3, -10.0, 2.0),
+            radius: [0.1, 1.0, 2.5][shift % 3],
+        };
+        let (c, r) = (soa(&[sphere.center; W]), F::from_array(&[sphere.radius; W]));
+        // Origins: far, near the surface, on it, inside, and special ones.
+        let o: [Vec3; W] = std::array::from_fn(|i| match i % 4 {
+            0 => Vec3::new(0.0, 0.0, 0.0),
+            1 => sphere.center + Vec3::new(sphere.radius * 1.001, 0.0, 0.0),
+            2 => sphere.center + Vec3::new(0.0, 0.0, sphere.radius * 0.5),
+            _ => Vec3::splat(SPECIAL[(i + shift) % SPECIAL.len()]),
+        });
+        let d = vectors(shift + 3, true);
+        let t = math::sphere_intersect(c, r, soa(&o), soa(&d)).to_array();
+        for i in 0..W {
+            let want = sphere.intersect(o[i], d[i], f32::INFINITY);
+            assert!(same(t[i], want), "intersect from {} along {}", o[i], d[i]);
+        }
+        // Shading points outside the sphere (the lanes' case), at several distances.
+        let p: [Vec3; W] = std::array::from_fn(|i| {
+            let dir = Vec3::new(0.3 + i as f32, -1.0, 0.7 * shift as f32 - 2.0).normalize();
+            sphere.center + dir * sphere.radius * [1.0001, 1.5, 40.0, 1e4][i % 4]
+        });
+        let ux: [f32; W] = std::array::from_fn(|i| grid(i + shift));
+        let uy: [f32; W] = std::array::from_fn(|i| grid(i / 2 + 3 * shift));
+        let (p_l, n_l, pdf) =
+            math::sphere_sample_li(c, r, soa(&p), F::from_array(&ux), F::from_array(&uy));
+        let (p_l, n_l, pdf) = (p_l.store(), n_l.store(), pdf.to_array());
+        let light = AreaLight::new(0, Spectrum::ONE, AreaShape::Sphere(sphere));
+        let mut compared = 0;
+        for i in 0..W {
+            assert!((sphere.center - p[i]).length_squared() > sphere.radius * sphere.radius);
+            // `sample_li` returns the sampler's point, normal and density unchanged (None
+            // only where the point faces away, which then has zero radiance).
+            let Some(ls) = light.sample_li(p[i], glam::Vec2::new(ux[i], uy[i])) else {
+                continue;
+            };
+            assert!(
+                same3(p_l.get(i), ls.p) && same3(n_l.get(i), ls.n) && same(pdf[i], ls.pdf),
+                "sphere sample from {} with ({}, {})",
+                p[i],
+                ux[i],
+                uy[i]
+            );
+            compared += 1;
+        }
+        assert!(compared >= W - 2, "only {compared} samples compared");
+    }
+}

@@ -392,8 +392,12 @@ fn shade(g: &Gathered) -> Shaded {
     // ---- Next-event estimation (`direct`; `AreaLight::sample_li` on a mesh or a sphere in
     // lanes) ----
     let (on_mesh, on_sphere) = (m(&g.on_mesh), m(&g.on_sphere));
-    let (p_s, n_s, pdf_sphere) =
-        sphere_sample_li(v3(&g.sphere_c), f(&g.sphere_r), p, f(&g.ul_x), f(&g.ul_y));
+    // (Skipped where no lane has a spherical light: most scenes have none.)
+    let (p_s, n_s, pdf_sphere) = if on_sphere.bits() != 0 {
+        sphere_sample_li(v3(&g.sphere_c), f(&g.sphere_r), p, f(&g.ul_x), f(&g.ul_y))
+    } else {
+        (V3::zero(), V3::zero(), F::zero())
+    };
     let p_l = V3::select(on_sphere, p_s, v3(&g.p_l));
     let n_l = V3::select(on_sphere, n_s, v3(&g.n_l));
     let v = p_l - p;

@@ -16,7 +16,7 @@
 //! What the render test adds (`mitsuba_tiles.rs`, `scenes/mitsuba/anisotropic.xml`): the
 //! tangent the roughnesses follow is the surface's `dp/du`, as in Mitsuba.
 
-use crate::chi2_microfacet::{bsdf_case, gold, visible_normal_case, warp_for};
+use crate::chi2_microfacet::{N, bsdf_case, gold, visible_normal_case, warp_for};
 use crate::common;
 
 use common::chi2::{self, LobeDomain};
@@ -97,7 +97,7 @@ fn anisotropic_rough_bsdfs_sampling_matches_pdf() {
         let conductor = Bsdf::rough_conductor(alpha.clone(), gold()).with_distribution(dist);
         let wo = dir_around(ng, 60.0, 25.0);
         let name = format!("{dist:?} rough conductor ({ax}, {ay}), wo at 60 deg");
-        bsdf_case(&name, &conductor, &sf, wo, 1.0, ax.min(ay));
+        bsdf_case(N, &name, &conductor, &sf, wo, 1.0, ax.min(ay), true);
     }
     let (eta, (ax, ay)) = (1.5f32, (0.05f32, 0.3f32));
     let dielectric = Bsdf::rough_dielectric(eta, Alpha::anisotropic(ax, ay));
@@ -105,6 +105,6 @@ fn anisotropic_rough_bsdfs_sampling_matches_pdf() {
         let wo = dir_around(ng, theta, 70.0);
         let eta_r = if wo.dot(ng) > 0.0 { eta } else { 1.0 / eta };
         let name = format!("GGX rough dielectric ({ax}, {ay}), wo at {theta} deg");
-        bsdf_case(&name, &dielectric, &sf, wo, eta_r, ax.min(ay));
+        bsdf_case(N, &name, &dielectric, &sf, wo, eta_r, ax.min(ay), true);
     }
 }

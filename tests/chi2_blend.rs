@@ -1,6 +1,6 @@
 //! Statistical tests of blended BSDFs (Mitsuba's `blendbsdf`, `bsdf/blend.rs`): chi-square of
 //! `sample` against `pdf`, the mixture density, with the per-sample checks of
-//! `chi2_microfacet::bsdf_case_weights` (a sample's `f` and `pdf` are `eval()` and `pdf()` at
+//! `chi2_microfacet::bsdf_case` (a sample's `f` and `pdf` are `eval()` and `pdf()` at
 //! its direction, its weight `f |cos| / pdf`, its flags those of the lobe it took). Blends of
 //! a diffuse and a rough conductor (reflection only) and of a rough dielectric and a rough
 //! conductor (reflection and transmission), `wo` above and below the surface.
@@ -8,7 +8,7 @@
 //! Statistics (`common/chi2.rs`): 4 cases, each a chi-square test and a mass check, so 8 of
 //! the suite's Sidak-corrected hypothesis tests at level `chi2::alpha()`; fixed seeds.
 
-use crate::chi2_microfacet::{bsdf_case_weights, gold};
+use crate::chi2_microfacet::{N, bsdf_case, gold};
 use crate::common::{dir_around, ng_generic};
 use glam::Vec3;
 use lodestar::bsdf::{Blend, Bsdf, ConductorFresnel, Distribution, Opacity, ShadingFrame};
@@ -33,7 +33,7 @@ fn blends_sample_their_mixture_density() {
     for theta in [30.0f32, 75.0] {
         let wo = dir_around(ng, theta, 40.0);
         let name = format!("blend of diffuse and GGX gold, wo at {theta} deg");
-        bsdf_case_weights(&name, &diffuse_gold, &sf, wo, 1.0, 0.2, false);
+        bsdf_case(N, &name, &diffuse_gold, &sf, wo, 1.0, 0.2, false);
     }
     let eta = 1.5;
     let glass_metal = blend(
@@ -46,7 +46,7 @@ fn blends_sample_their_mixture_density() {
         let wo = dir_around(ng, theta, 70.0);
         let eta_r = if wo.dot(ng) > 0.0 { eta } else { 1.0 / eta };
         let name = format!("blend of rough glass and Beckmann metal, wo at {theta} deg");
-        bsdf_case_weights(&name, &glass_metal, &sf, wo, eta_r, 0.1, false);
+        bsdf_case(N, &name, &glass_metal, &sf, wo, eta_r, 0.1, false);
     }
 }
 

@@ -36,7 +36,7 @@ use lodestar::bsdf::microfacet::{Ggx, Microfacet, Smith};
 use lodestar::bsdf::{Bsdf, ConductorFresnel, RoughPlastic, ShadingFrame, TransportMode, fresnel};
 use lodestar::math::Sampler;
 
-/// Samples per chi-square case of [`bsdf_case`], [`bsdf_case_weights`] and
+/// Samples per chi-square case of [`bsdf_case`] and
 /// [`visible_normal_case`], as `chi2_anisotropic.rs` and `chi2_blend.rs` run them.
 pub(crate) const N: usize = 150_000;
 
@@ -97,41 +97,13 @@ fn value_tolerance(ns: Vec3, wo: Vec3, wi: Vec3, eta_r: f32) -> f64 {
     base + 1e-6 / (cos_t as f64 * cos_t as f64)
 }
 
-/// Chi-square of a rough BSDF's sampler against its pdf from `wo`, with every per-sample
-/// check in both modes. `eta_r` is the relative index a transmitted sample must report.
-pub(crate) fn bsdf_case(
-    name: &str,
-    bsdf: &Bsdf,
-    sf: &ShadingFrame,
-    wo: Vec3,
-    eta_r: f32,
-    alpha: f32,
-) {
-    bsdf_case_weights(name, bsdf, sf, wo, eta_r, alpha, true)
-}
-
-/// [`bsdf_case`]; `weight_at_most_one`: whether importance-mode weights are bounded by 1
-/// (single-lobe BSDFs; a mixture's are not).
-pub(crate) fn bsdf_case_weights(
-    name: &str,
-    bsdf: &Bsdf,
-    sf: &ShadingFrame,
-    wo: Vec3,
-    eta_r: f32,
-    alpha: f32,
-    weight_at_most_one: bool,
-) {
-    sized_case(N, name, bsdf, sf, wo, eta_r, alpha, weight_at_most_one)
-}
-
-/// [`bsdf_case`] with this file's [`CASE_N`] samples.
-fn case(name: &str, bsdf: &Bsdf, sf: &ShadingFrame, wo: Vec3, eta_r: f32, alpha: f32) {
-    sized_case(CASE_N, name, bsdf, sf, wo, eta_r, alpha, true)
-}
-
-/// [`bsdf_case_weights`] with `samples` samples.
+/// Chi-square of a rough BSDF's sampler against its pdf from `wo` with `samples` samples
+/// ([`N`] for the other files' cases, [`CASE_N`] for this file's), with every per-sample
+/// check in both modes. `eta_r` is the relative index a transmitted sample must report;
+/// `weight_at_most_one`: whether importance-mode weights are bounded by 1 (single-lobe
+/// BSDFs; a mixture's are not).
 #[allow(clippy::too_many_arguments)]
-fn sized_case(
+pub(crate) fn bsdf_case(
     samples: usize,
     name: &str,
     bsdf: &Bsdf,
@@ -349,7 +321,7 @@ fn beckmann_rough_bsdfs_sampling_matches_pdf() {
         for theta in [45.0f32, 85.0] {
             let wo = dir_around(ng, theta, 40.0);
             let name = format!("Beckmann rough conductor alpha {alpha}, wo at {theta} deg");
-            case(&name, &bsdf, &sf, wo, 1.0, alpha);
+            bsdf_case(CASE_N, &name, &bsdf, &sf, wo, 1.0, alpha, true);
         }
     }
     let (eta, alpha) = (1.5f32, 0.3f32);
@@ -358,7 +330,7 @@ fn beckmann_rough_bsdfs_sampling_matches_pdf() {
         let wo = dir_around(ng, theta, 70.0);
         let eta_r = if wo.dot(ng) > 0.0 { eta } else { 1.0 / eta };
         let name = format!("Beckmann rough dielectric alpha {alpha}, wo at {theta} deg");
-        case(&name, &bsdf, &sf, wo, eta_r, alpha);
+        bsdf_case(CASE_N, &name, &bsdf, &sf, wo, eta_r, alpha, true);
     }
 }
 
@@ -382,7 +354,7 @@ fn rough_conductor_sampling_matches_pdf() {
         for theta in [0.0f32, 45.0, 85.0, 130.0] {
             let wo = dir_around(ng, theta, 40.0);
             let name = format!("rough conductor alpha {alpha}, wo at {theta} deg");
-            case(&name, &bsdf, &sf, wo, 1.0, alpha);
+            bsdf_case(CASE_N, &name, &bsdf, &sf, wo, 1.0, alpha, true);
         }
     }
 }
@@ -405,7 +377,7 @@ fn rough_dielectric_cases(alphas: &[f32]) {
             let wo = dir_around(ng, theta, 70.0);
             let eta_r = if wo.dot(ng) > 0.0 { eta } else { 1.0 / eta };
             let name = format!("rough dielectric alpha {alpha}, wo at {theta} deg");
-            case(&name, &bsdf, &sf, wo, eta_r, alpha);
+            bsdf_case(CASE_N, &name, &bsdf, &sf, wo, eta_r, alpha, true);
         }
     }
 }
@@ -431,23 +403,27 @@ fn rough_bsdfs_with_tilted_shading_normal() {
     for (theta, phi) in [(60.0f32, 180.0f32), (120.0, 0.0)] {
         let wo = dir_around(ng, theta, phi);
         let conductor = Bsdf::rough_conductor(alpha, gold());
-        case(
+        bsdf_case(
+            CASE_N,
             &format!("rough conductor tilted ns, wo at ({theta}, {phi})"),
             &conductor,
             &sf,
             wo,
             1.0,
             alpha,
+            true,
         );
         let eta = 1.5;
         let eta_r = if wo.dot(ns) > 0.0 { eta } else { 1.0 / eta };
-        case(
+        bsdf_case(
+            CASE_N,
             &format!("rough dielectric tilted ns, wo at ({theta}, {phi})"),
             &Bsdf::rough_dielectric(eta, alpha),
             &sf,
             wo,
             eta_r,
             alpha,
+            true,
         );
     }
 }
@@ -597,7 +573,7 @@ fn rough_plastic_sampling_matches_pdf() {
         for theta in [0.0f32, 70.0, 130.0] {
             let wo = dir_around(ng, theta, 40.0);
             let name = format!("rough plastic {dist:?} alpha {alpha}, wo at {theta} deg");
-            sized_case(CASE_N, &name, &bsdf, &sf, wo, 1.0, alpha, false);
+            bsdf_case(CASE_N, &name, &bsdf, &sf, wo, 1.0, alpha, false);
         }
     }
 }

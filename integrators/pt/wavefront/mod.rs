@@ -16,9 +16,10 @@
 //! path), smooth conductor (mirror), smooth dielectric or black materials (checkerboards and
 //! one-sided materials included) without normal maps (`shade::in_lanes`), with next-event
 //! samples of any light (points on mesh lights and the cone samples of spherical lights
-//! computed in the lanes, other lights' samples path by path). A vertex on any other surface (rough and plastic BSDFs, masks,
-//! normal or bump maps, null surfaces) is advanced in the gather step by pt's own code,
-//! its shadow ray joining the round's batch, and its lane stays idle. The wavefront applies
+//! computed in the lanes, other lights' samples path by path). A vertex on any other
+//! surface (rough and plastic BSDFs, masks, normal or bump maps, null surfaces) is advanced
+//! in the gather step by pt's own code, its shadow ray joining the round's batch, and its
+//! lane stays idle. The wavefront applies
 //! ([`supports`]) to scenes without media, with the `mis` strategy and no `--check`, on
 //! x86-64 CPUs with AVX2. `pt -O batch=auto` (the default) takes it there; elsewhere pt is
 //! batched or traced one path at a time as `batch.rs` says.

@@ -306,14 +306,20 @@ fn gather<S: Sampler>(
             let u = sampler.next_2d();
             if let Some((light, pmf)) = scene.light_sampler.sample(u_light) {
                 g.pmf_l[k] = pmf;
-                match &scene.lights[light] {
+                // An area light without spot profile or texture: the lanes take a mesh's
+                // point, and a sphere's whole sample when the vertex lies outside it.
+                let plain = match &scene.lights[light] {
                     Light::Area(
                         a @ AreaLight {
                             spot: None,
                             texture: None,
                             ..
                         },
-                    ) if let AreaShape::Mesh { mesh, sampler } = &a.geometry => {
+                    ) => Some((a, &a.geometry)),
+                    _ => None,
+                };
+                match plain {
+                    Some((a, AreaShape::Mesh { mesh, sampler })) => {
                         let (p_l, n_l) = sampler.sample(mesh, u);
                         g.p_l.set(k, p_l);
                         g.n_l.set(k, n_l);
@@ -321,14 +327,8 @@ fn gather<S: Sampler>(
                         g.area_l[k] = sampler.area;
                         (g.on_mesh[k], g.nee_found[k]) = (true, true);
                     }
-                    Light::Area(
-                        a @ AreaLight {
-                            spot: None,
-                            texture: None,
-                            ..
-                        },
-                    ) if let AreaShape::Sphere(sphere) = &a.geometry
-                        && (sphere.center - h.p).length_squared()
+                    Some((a, AreaShape::Sphere(sphere)))
+                        if (sphere.center - h.p).length_squared()
                             > sphere.radius * sphere.radius =>
                     {
                         g.sphere_c.set(k, sphere.center);
@@ -337,8 +337,8 @@ fn gather<S: Sampler>(
                         g.li.set(k, a.radiance);
                         (g.on_sphere[k], g.nee_found[k]) = (true, true);
                     }
-                    l => {
-                        if let Some(ls) = l.sample_li(h.p, u) {
+                    _ => {
+                        if let Some(ls) = scene.lights[light].sample_li(h.p, u) {
                             g.p_l.set(k, ls.p);
                             g.n_l.set(k, ls.n);
                             g.li.set(k, ls.li);

@@ -114,8 +114,8 @@ pub(super) fn spread_samples(film: &mut Film, radius: f32, rows: &mut [SpreadRow
                         let wy = row.weights[off + nx + (y - y0)];
                         let columns = (y - top) * w + x0..(y - top) * w + x0 + nx;
                         let pixels = sums[columns.clone()].iter_mut().zip(&mut weights[columns]);
-                        for ((sum, weight), &w) in pixels.zip(wx) {
-                            let wt = wy * w;
+                        for ((sum, weight), &wx_i) in pixels.zip(wx) {
+                            let wt = wy * wx_i;
                             if wt > 0.0 {
                                 *sum += l * wt;
                                 *weight += wt;
